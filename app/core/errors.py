@@ -1,0 +1,41 @@
+"""The studio's error family: every failure the user can cause says what was wrong and what to do.
+
+The UI shows these as notifications, the CLI prints `str(error)` as one line and exits non-zero.
+Anything else escaping the core is a bug in the studio, not in the user's input.
+"""
+
+from __future__ import annotations
+
+
+class StudioError(Exception):
+    """Base of every error caused by input: a file, a value, a request."""
+
+
+class RobotLoadError(StudioError):
+    """A robot description could not be loaded; the previously loaded robot stays in place."""
+
+
+class UrdfSyntaxError(RobotLoadError):
+    """The file is not well-formed XML, or refuses to be parsed safely (entities, DTD)."""
+
+
+class UrdfStructureError(RobotLoadError):
+    """The XML is well formed but does not describe a kinematic tree (missing links, cycles…)."""
+
+
+class NoFeetFound(RobotLoadError):
+    """No pair of left/right foot frames could be found, and none was given."""
+
+
+class FrameNotFound(StudioError):
+    """A frame or link name that the robot does not have."""
+
+    def __init__(self, name: str, available: list[str]) -> None:
+        shown = ", ".join(available[:12]) + (" …" if len(available) > 12 else "")
+        super().__init__(f"no link or frame named {name!r}; the robot has: {shown}")
+        self.name = name
+        self.available = available
+
+
+class UploadError(StudioError):
+    """An uploaded file was refused (too large, wrong kind, unsafe archive)."""

@@ -1,0 +1,152 @@
+"""Load a robot from a built-in name or a URDF path into a RobotModel.
+
+Every failure raises a RobotLoadError whose message says what is wrong and what to do; a
+caller that holds a previously loaded robot simply keeps it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from app.core.errors import RobotLoadError, UrdfStructureError
+from app.core.feet import Foot, find_foot_links, sole_corners
+from app.core.limbs import limb_of_joints
+from app.core.meshes import load_link_meshes
+from app.core.model import ActuatedJoint, RobotModel, neutral_joint_positions
+from app.core.packages import PackageResolver
+from app.core.urdf_xml import MOVING_JOINT_TYPES, UrdfTree, canonical_urdf, parse_urdf
+from robots.catalogue import BUILTIN_ROBOTS
+
+MAX_URDF_BYTES = 20 * 1024 * 1024
+
+
+def resolve_source(source: str | Path) -> Path:
+    """The URDF file behind a built-in robot name or a path."""
+    if isinstance(source, str) and source in BUILTIN_ROBOTS:
+        return BUILTIN_ROBOTS[source].urdf_path
+    path = Path(source).expanduser()
+    if not path.exists():
+        names = ", ".join(BUILTIN_ROBOTS)
+        raise RobotLoadError(f"{source}: no such file, and not a built-in robot ({names})")
+    if path.is_dir():
+        urdfs = sorted(path.glob("*.urdf")) + sorted(path.glob("urdf/*.urdf"))
+        if len(urdfs) != 1:
+            raise RobotLoadError(f"{path}: a folder; give the .urdf file inside it ({len(urdfs)} found)")
+        path = urdfs[0]
+    if path.suffix.lower() == ".xacro":
+        raise RobotLoadError(f"{path.name}: a xacro file; expand it first (xacro {path.name} > robot.urdf)")
+    return path
+
+
+def load_robot(
+    source: str | Path,
+    *,
+    package_roots: tuple[Path, ...] = (),
+    feet: tuple[str, str] | None = None,
+    sandbox: Path | None = None,
+) -> RobotModel:
+    """Load and check a robot. `feet` names the (left, right) foot links to override detection;
+    `sandbox` confines mesh look-ups to a folder (uploads)."""
+    path = resolve_source(source)
+    size = path.stat().st_size
+    if size > MAX_URDF_BYTES:
+        raise RobotLoadError(
+            f"{path.name} is {size / 2**20:.1f} MB; a URDF over {MAX_URDF_BYTES // 2**20} MB is refused"
+        )
+    text = path.read_bytes()
+    tree = parse_urdf(text, source=path.name)
+    model, floating = _pinocchio_model(tree, path.name)
+    passive = tuple(joint for loop in tree.loops for joint in loop.passive_joints)
+
+    link_frame_ids = {}
+    for link in tree.links:
+        if model.existFrame(link, pin.BODY):
+            link_frame_ids[link] = model.getFrameId(link, pin.BODY)
+
+    resolver = PackageResolver(path.parent, package_roots, sandbox)
+    meshes, missing = load_link_meshes(tree.geometries, resolver)
+
+    q0 = neutral_joint_positions(model)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q0)
+    T_world = {link: data.oMf[fid].homogeneous for link, fid in link_frame_ids.items()}
+    left, right = find_foot_links(tree, T_world, feet)
+    rigid = {
+        foot: [
+            link
+            for link, fid in link_frame_ids.items()
+            if model.frames[fid].parentJoint == model.frames[link_frame_ids[foot]].parentJoint
+        ]
+        for foot in (left, right)
+    }
+    corners = {foot: sole_corners(foot, rigid[foot], meshes, T_world) for foot in (left, right)}
+    if floating:
+        lowest = min(
+            float((T_world[foot][:3, :3] @ corners[foot].T + T_world[foot][:3, 3:4])[2].min())
+            for foot in (left, right)
+        )
+        q0[2] -= lowest
+
+    limbs = limb_of_joints(tree, (left, right), T_world)
+    joints = tuple(
+        _actuated_joint(model, tree, name, limbs[name])
+        for name in model.names[1:]
+        if name in tree.joints and name not in passive
+    )
+    return RobotModel(
+        name=tree.name,
+        source=path,
+        tree=tree,
+        model=model,
+        floating_base=floating,
+        joints=joints,
+        passive_joints=passive,
+        feet=(Foot("left", left, corners[left]), Foot("right", right, corners[right])),
+        meshes=tuple(meshes),
+        missing_meshes=tuple(missing),
+        link_frame_ids=link_frame_ids,
+        q_neutral=q0,
+    )
+
+
+def _pinocchio_model(tree: UrdfTree, source: str) -> tuple[pin.Model, bool]:
+    floating = tree.root != "world"
+    xml = canonical_urdf(tree)
+    try:
+        model = pin.buildModelFromXML(xml, pin.JointModelFreeFlyer()) if floating else pin.buildModelFromXML(xml)
+    except (RuntimeError, ValueError) as exc:
+        raise RobotLoadError(f"{source}: pinocchio cannot build the model: {exc}") from None
+    mass = sum(inertia.mass for inertia in model.inertias)
+    if not mass > 0.0:
+        raise UrdfStructureError(f"{source}: the robot's total mass is {mass:g} kg; give its links masses")
+    return model, floating
+
+
+def _actuated_joint(model: pin.Model, tree: UrdfTree, name: str, limb: str) -> ActuatedJoint:
+    element = tree.joints[name]
+    jid = model.getJointId(name)
+    joint = model.joints[jid]
+    assert element.kind in MOVING_JOINT_TYPES
+    if element.kind == "continuous":
+        lower, upper = -np.pi, np.pi
+    else:
+        lower = element.lower if element.lower is not None else -np.pi
+        upper = element.upper if element.upper is not None else np.pi
+
+    def positive(value: float | None) -> float | None:
+        return value if value is not None and value > 0.0 else None
+
+    return ActuatedJoint(
+        name=name,
+        kind=element.kind,
+        idx_q=joint.idx_q,
+        idx_v=joint.idx_v,
+        lower=lower,
+        upper=upper,
+        effort=positive(element.effort),
+        velocity=positive(element.velocity),
+        limb=limb,
+    )

@@ -1,0 +1,91 @@
+"""Geometry of a robot's links as triangle meshes (trimesh), with missing files reported.
+
+Primitive shapes are tessellated; mesh files (STL, DAE, OBJ, …) are loaded through trimesh,
+scaled as the URDF says, and cached by path and scale within one load.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from app.core.packages import PackageResolver
+from app.core.urdf_xml import Geometry
+
+MAX_MESH_FILE_BYTES = 200 * 1024 * 1024
+
+
+@dataclasses.dataclass(frozen=True)
+class LinkMesh:
+    """A mesh to draw rigidly attached to a link."""
+
+    link: str
+    role: str
+    """"visual" or "collision"."""
+    T_link_mesh: np.ndarray
+    """Placement of the mesh in its link's frame, 4x4."""
+    mesh: trimesh.Trimesh
+    rgba: tuple[float, float, float, float] | None
+
+
+@dataclasses.dataclass(frozen=True)
+class MissingMesh:
+    link: str
+    role: str
+    uri: str
+    reason: str
+
+
+def load_link_meshes(
+    geometries: tuple[Geometry, ...], resolver: PackageResolver
+) -> tuple[list[LinkMesh], list[MissingMesh]]:
+    """Meshes of all visual and collision geometry; unreadable files are listed, not raised."""
+    meshes: list[LinkMesh] = []
+    missing: list[MissingMesh] = []
+    cache: dict[tuple[Path, tuple[float, ...]], trimesh.Trimesh | str] = {}
+    for geom in geometries:
+        if geom.kind != "mesh":
+            meshes.append(LinkMesh(geom.link, geom.role, geom.T_link_geom, primitive_mesh(geom), geom.rgba))
+            continue
+        resolution = resolver.resolve(geom.uri)
+        if resolution.path is None:
+            missing.append(MissingMesh(geom.link, geom.role, geom.uri, resolution.reason))
+            continue
+        key = (resolution.path, geom.size)
+        if key not in cache:
+            cache[key] = _load_file(resolution.path, np.array(geom.size))
+        loaded = cache[key]
+        if isinstance(loaded, str):
+            missing.append(MissingMesh(geom.link, geom.role, geom.uri, loaded))
+        else:
+            meshes.append(LinkMesh(geom.link, geom.role, geom.T_link_geom, loaded, geom.rgba))
+    return meshes, missing
+
+
+def primitive_mesh(geom: Geometry) -> trimesh.Trimesh:
+    if geom.kind == "box":
+        return trimesh.creation.box(extents=geom.size)
+    if geom.kind == "cylinder":
+        return trimesh.creation.cylinder(radius=geom.size[0], height=geom.size[1], sections=24)
+    return trimesh.creation.icosphere(subdivisions=2, radius=geom.size[0])
+
+
+def _load_file(path: Path, scale: np.ndarray) -> trimesh.Trimesh | str:
+    """The mesh in the file, scaled; or a one-line reason it cannot be used."""
+    size = path.stat().st_size
+    if size > MAX_MESH_FILE_BYTES:
+        return f"mesh file {path.name} is {size / 2**20:.0f} MB, over the {MAX_MESH_FILE_BYTES // 2**20} MB limit"
+    try:
+        loaded = trimesh.load(str(path), force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many types for corrupt files; report which file failed.
+        return f"cannot read mesh {path.name}: {type(exc).__name__}: {exc}"
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        return f"mesh {path.name} holds no triangles"
+    if not np.all(np.isfinite(loaded.vertices)):
+        return f"mesh {path.name} has non-finite vertices"
+    if not np.allclose(scale, 1.0):
+        loaded.apply_transform(np.diag([*scale, 1.0]))
+    return loaded

@@ -1,0 +1,416 @@
+"""Safe parsing of URDF text into a checked kinematic tree description.
+
+The XML is parsed with defusedxml, so entity declarations ("billion laughs"), external
+entities and DTDs are refused before anything is expanded. The tree is then checked the way a
+robotics engineer would check it by hand: every joint names links that exist, each link has at
+most one parent, there is exactly one root, there are no cycles, masses are not negative.
+Only then is the text handed to pinocchio.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import xml.etree.ElementTree as ET
+
+import defusedxml.ElementTree as SafeET
+import numpy as np
+from defusedxml import DefusedXmlException
+
+from app.core.errors import UrdfStructureError, UrdfSyntaxError
+
+MOVING_JOINT_TYPES = ("revolute", "continuous", "prismatic")
+SUPPORTED_JOINT_TYPES = (*MOVING_JOINT_TYPES, "fixed")
+
+
+@dataclasses.dataclass(frozen=True)
+class Geometry:
+    """One <visual> or <collision> element, in its link's frame."""
+
+    link: str
+    role: str
+    """"visual" or "collision"."""
+    kind: str
+    """"box", "cylinder", "sphere" or "mesh"."""
+    T_link_geom: np.ndarray
+    """Placement of the geometry in the link frame, 4x4 homogeneous."""
+    size: tuple[float, ...] = ()
+    """box: x y z [m]; cylinder: radius, length [m]; sphere: radius [m]; mesh: scale x y z."""
+    uri: str = ""
+    """mesh filename as written in the URDF (relative, package:// or file://)."""
+    rgba: tuple[float, float, float, float] | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Inertial:
+    mass_kg: float
+    com_m: np.ndarray
+    """Centre of mass in the link frame [m], shape (3,)."""
+    inertia_kgm2: np.ndarray
+    """Inertia about the centre of mass, in the inertial frame [kg·m²], shape (3, 3)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class JointElement:
+    name: str
+    kind: str
+    parent: str
+    child: str
+    T_parent_joint: np.ndarray
+    axis: np.ndarray
+    lower: float | None
+    upper: float | None
+    effort: float | None
+    velocity: float | None
+
+
+@dataclasses.dataclass(frozen=True)
+class LoopElement:
+    """A declared loop closure: the origins of link_a and link_b coincide."""
+
+    name: str
+    link_a: str
+    link_b: str
+    passive_joints: tuple[str, ...]
+
+
+@dataclasses.dataclass(frozen=True)
+class UrdfTree:
+    """A checked URDF: one root, a tree of links and joints, geometry, loops."""
+
+    name: str
+    root: str
+    links: tuple[str, ...]
+    joints: dict[str, JointElement]
+    inertials: dict[str, Inertial]
+    geometries: tuple[Geometry, ...]
+    loops: tuple[LoopElement, ...]
+
+    def children_of(self, link: str) -> list[JointElement]:
+        return [j for j in self.joints.values() if j.parent == link]
+
+    def parent_joint(self, link: str) -> JointElement | None:
+        for joint in self.joints.values():
+            if joint.child == link:
+                return joint
+        return None
+
+
+def parse_urdf(text: str | bytes, source: str = "URDF") -> UrdfTree:
+    """Parse and check URDF text; raise UrdfSyntaxError or UrdfStructureError with a reason."""
+    try:
+        root = SafeET.fromstring(text, forbid_dtd=True)
+    except DefusedXmlException as exc:
+        raise UrdfSyntaxError(
+            f"{source}: refused to parse: the file declares a DTD or XML entities ({type(exc).__name__}); "
+            "URDF needs neither, remove the <!DOCTYPE …> block"
+        ) from None
+    except ET.ParseError as exc:
+        raise UrdfSyntaxError(f"{source}: not well-formed XML: {exc}") from None
+    if root.tag != "robot":
+        raise UrdfStructureError(f"{source}: the top element is <{root.tag}>, a URDF starts with <robot>")
+    name = root.get("name") or "robot"
+    materials = _named_materials(root)
+
+    links: list[str] = []
+    inertials: dict[str, Inertial] = {}
+    geometries: list[Geometry] = []
+    for element in root.findall("link"):
+        link = _required(element, "name", "a <link>", source)
+        if link in links:
+            raise UrdfStructureError(f"{source}: two links are named {link!r}; link names must be unique")
+        links.append(link)
+        inertial = element.find("inertial")
+        if inertial is not None:
+            inertials[link] = _inertial(inertial, link, source)
+        for role in ("visual", "collision"):
+            for geom in element.findall(role):
+                parsed = _geometry(geom, link, role, materials, source)
+                if parsed is not None:
+                    geometries.append(parsed)
+    if not links:
+        raise UrdfStructureError(f"{source}: no <link> elements; a URDF describes at least one link")
+
+    joints: dict[str, JointElement] = {}
+    for element in root.findall("joint"):
+        joint = _joint(element, source)
+        if joint.name in joints:
+            raise UrdfStructureError(f"{source}: two joints are named {joint.name!r}; joint names must be unique")
+        for role, link in (("parent", joint.parent), ("child", joint.child)):
+            if link not in links:
+                raise UrdfStructureError(
+                    f"{source}: joint {joint.name!r} names {role} link {link!r}, which does not exist"
+                )
+        joints[joint.name] = joint
+
+    root_link = _check_tree(links, joints, source)
+    loops = tuple(_loop(element, links, joints, source) for element in root.findall("loop_closure"))
+    return UrdfTree(name, root_link, tuple(links), joints, inertials, tuple(geometries), loops)
+
+
+def _check_tree(links: list[str], joints: dict[str, JointElement], source: str) -> str:
+    parent_of: dict[str, str] = {}
+    for joint in joints.values():
+        if joint.child in parent_of:
+            raise UrdfStructureError(
+                f"{source}: link {joint.child!r} is the child of two joints "
+                f"({parent_of[joint.child]!r} and {joint.name!r}): this closes a kinematic loop, "
+                "which URDF cannot express; cut it and declare a <loop_closure> instead"
+            )
+        parent_of[joint.child] = joint.name
+    roots = [link for link in links if link not in parent_of]
+    for link in links:
+        seen = {link}
+        current = link
+        while current in parent_of:
+            current = joints[parent_of[current]].parent
+            if current in seen:
+                raise UrdfStructureError(
+                    f"{source}: kinematic cycle through link {current!r}; a URDF must be a tree"
+                )
+            seen.add(current)
+    if len(roots) != 1:
+        raise UrdfStructureError(
+            f"{source}: {len(roots)} root links ({', '.join(roots)}); a URDF has exactly one link "
+            "that is no joint's child: connect the others with joints"
+        )
+    return roots[0]
+
+
+def _joint(element: ET.Element, source: str) -> JointElement:
+    name = _required(element, "name", "a <joint>", source)
+    kind = element.get("type", "")
+    if kind not in SUPPORTED_JOINT_TYPES:
+        hint = " (the studio adds the floating base itself: remove this joint)" if kind == "floating" else ""
+        raise UrdfStructureError(
+            f"{source}: joint {name!r} has type {kind!r}; supported types are "
+            f"{', '.join(SUPPORTED_JOINT_TYPES)}{hint}"
+        )
+    parent, child = element.find("parent"), element.find("child")
+    if parent is None or child is None or not parent.get("link") or not child.get("link"):
+        raise UrdfStructureError(f"{source}: joint {name!r} needs <parent link=…> and <child link=…>")
+    axis = _floats(element.find("axis"), "xyz", (1.0, 0.0, 0.0), f"joint {name!r} axis", source)
+    limit = element.find("limit")
+
+    def limit_value(key: str) -> float | None:
+        if limit is None or limit.get(key) is None:
+            return None
+        return _float(limit.get(key, ""), f"joint {name!r} limit {key}", source)
+
+    return JointElement(
+        name=name,
+        kind=kind,
+        parent=parent.get("link", ""),
+        child=child.get("link", ""),
+        T_parent_joint=_origin(element, f"joint {name!r}", source),
+        axis=np.array(axis),
+        lower=limit_value("lower"),
+        upper=limit_value("upper"),
+        effort=limit_value("effort"),
+        velocity=limit_value("velocity"),
+    )
+
+
+def _inertial(element: ET.Element, link: str, source: str) -> Inertial:
+    mass_element = element.find("mass")
+    mass = _float(mass_element.get("value", "") if mass_element is not None else "", f"link {link!r} mass", source)
+    if mass < 0.0:
+        raise UrdfStructureError(
+            f"{source}: link {link!r} has negative mass {mass:g} kg; masses must be zero or positive"
+        )
+    inertia = element.find("inertia")
+    values = {key: 0.0 for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+    if inertia is not None:
+        for key in values:
+            values[key] = _float(inertia.get(key, "0"), f"link {link!r} inertia {key}", source)
+    matrix = np.array(
+        [
+            [values["ixx"], values["ixy"], values["ixz"]],
+            [values["ixy"], values["iyy"], values["iyz"]],
+            [values["ixz"], values["iyz"], values["izz"]],
+        ]
+    )
+    T = _origin(element, f"link {link!r} inertial", source)
+    rotated = T[:3, :3] @ matrix @ T[:3, :3].T
+    return Inertial(mass, T[:3, 3].copy(), rotated)
+
+
+def _geometry(
+    element: ET.Element, link: str, role: str, materials: dict[str, tuple], source: str
+) -> Geometry | None:
+    geometry = element.find("geometry")
+    if geometry is None or len(geometry) == 0:
+        return None
+    shape = geometry[0]
+    what = f"link {link!r} {role}"
+    T = _origin(element, what, source)
+    rgba = _rgba(element.find("material"), materials)
+    if shape.tag == "box":
+        return Geometry(link, role, "box", T, _floats(shape, "size", None, what, source), rgba=rgba)
+    if shape.tag == "cylinder":
+        size = (_float(shape.get("radius", ""), what, source), _float(shape.get("length", ""), what, source))
+        return Geometry(link, role, "cylinder", T, size, rgba=rgba)
+    if shape.tag == "sphere":
+        return Geometry(link, role, "sphere", T, (_float(shape.get("radius", ""), what, source),), rgba=rgba)
+    if shape.tag == "mesh":
+        uri = shape.get("filename", "")
+        if not uri:
+            raise UrdfStructureError(f"{source}: {what} has a <mesh> without filename")
+        scale = _floats(shape, "scale", (1.0, 1.0, 1.0), what, source)
+        if len(scale) == 1:
+            scale = scale * 3
+        return Geometry(link, role, "mesh", T, scale, uri=uri, rgba=rgba)
+    return None
+
+
+def _loop(element: ET.Element, links: list[str], joints: dict[str, JointElement], source: str) -> LoopElement:
+    name = element.get("name", "loop")
+    link_a, link_b = element.get("link_a", ""), element.get("link_b", "")
+    for link in (link_a, link_b):
+        if link not in links:
+            raise UrdfStructureError(f"{source}: loop_closure {name!r} names link {link!r}, which does not exist")
+    passive = tuple(element.get("passive_joints", "").split())
+    for joint in passive:
+        if joint not in joints or joints[joint].kind not in MOVING_JOINT_TYPES:
+            raise UrdfStructureError(
+                f"{source}: loop_closure {name!r} names passive joint {joint!r}, which is not a moving joint"
+            )
+    return LoopElement(name, link_a, link_b, passive)
+
+
+def _named_materials(root: ET.Element) -> dict[str, tuple]:
+    named = {}
+    for material in root.findall("material"):
+        rgba = _rgba(material, {})
+        if material.get("name") and rgba is not None:
+            named[material.get("name", "")] = rgba
+    return named
+
+
+def _rgba(material: ET.Element | None, named: dict[str, tuple]) -> tuple[float, float, float, float] | None:
+    if material is None:
+        return None
+    color = material.find("color")
+    if color is not None and color.get("rgba"):
+        try:
+            values = [float(v) for v in color.get("rgba", "").split()]
+        except ValueError:
+            return None
+        if len(values) == 4 and all(np.isfinite(values)):
+            return (values[0], values[1], values[2], values[3])
+    return named.get(material.get("name", ""))
+
+
+def _origin(element: ET.Element, what: str, source: str) -> np.ndarray:
+    origin = element.find("origin")
+    xyz = _floats(origin, "xyz", (0.0, 0.0, 0.0), what, source)
+    rpy = _floats(origin, "rpy", (0.0, 0.0, 0.0), what, source)
+    if len(xyz) != 3 or len(rpy) != 3:
+        raise UrdfStructureError(f"{source}: {what} origin needs three xyz and three rpy values")
+    T = np.eye(4)
+    T[:3, :3] = rpy_matrix(*rpy)
+    T[:3, 3] = xyz
+    return T
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """URDF fixed-axis roll, pitch, yaw [rad] -> rotation matrix Rz(yaw) Ry(pitch) Rx(roll)."""
+    cr, sr = np.cos(roll), np.sin(roll)
+    cp, sp = np.cos(pitch), np.sin(pitch)
+    cy, sy = np.cos(yaw), np.sin(yaw)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+def _required(element: ET.Element, key: str, what: str, source: str) -> str:
+    value = element.get(key)
+    if not value:
+        raise UrdfStructureError(f"{source}: {what} has no {key}")
+    return value
+
+
+def _floats(element: ET.Element | None, key: str, default, what: str, source: str) -> tuple[float, ...]:
+    if element is None or element.get(key) is None:
+        if default is None:
+            raise UrdfStructureError(f"{source}: {what} has no {key}")
+        return tuple(default)
+    return tuple(_float(v, what, source) for v in element.get(key, "").split())
+
+
+def _float(text: str, what: str, source: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise UrdfStructureError(f"{source}: {what}: {text!r} is not a number") from None
+    if not np.isfinite(value):
+        raise UrdfStructureError(f"{source}: {what} is {text!r}; it must be a finite number")
+    return value
+
+
+def canonical_urdf(tree: UrdfTree) -> str:
+    """The kinematics and inertia of a checked tree as strict URDF, without geometry.
+
+    Real URDFs often carry what pinocchio's urdfdom parser rejects although the robot is
+    perfectly defined (capsule geometry, limits without effort, numbers with trailing
+    spaces). pinocchio is given this re-written description, built from values already
+    checked here, so its semantics (frames, fixed-joint merging) stay pinocchio's own.
+    """
+    out = [f'<robot name="{_attr(tree.name)}">']
+    for link in tree.links:
+        out.append(f'<link name="{_attr(link)}">')
+        inertial = tree.inertials.get(link)
+        if inertial is not None:
+            i = inertial.inertia_kgm2
+            out.append(
+                f'<inertial><origin xyz="{_vec(inertial.com_m)}" rpy="0 0 0"/>'
+                f'<mass value="{_num(inertial.mass_kg)}"/>'
+                f'<inertia ixx="{_num(i[0, 0])}" ixy="{_num(i[0, 1])}" ixz="{_num(i[0, 2])}" '
+                f'iyy="{_num(i[1, 1])}" iyz="{_num(i[1, 2])}" izz="{_num(i[2, 2])}"/></inertial>'
+            )
+        out.append("</link>")
+    for joint in tree.joints.values():
+        T = joint.T_parent_joint
+        out.append(
+            f'<joint name="{_attr(joint.name)}" type="{joint.kind}">'
+            f'<origin xyz="{_vec(T[:3, 3])}" rpy="{_vec(matrix_rpy(T[:3, :3]))}"/>'
+            f'<parent link="{_attr(joint.parent)}"/><child link="{_attr(joint.child)}"/>'
+        )
+        if joint.kind != "fixed":
+            out.append(f'<axis xyz="{_vec(joint.axis)}"/>')
+            lower = joint.lower if joint.lower is not None else -np.pi
+            upper = joint.upper if joint.upper is not None else np.pi
+            out.append(
+                f'<limit lower="{_num(lower)}" upper="{_num(upper)}" '
+                f'effort="{_num(joint.effort or 0.0)}" velocity="{_num(joint.velocity or 0.0)}"/>'
+            )
+        out.append("</joint>")
+    out.append("</robot>")
+    return "\n".join(out)
+
+
+def matrix_rpy(rotation: np.ndarray) -> np.ndarray:
+    """URDF roll, pitch, yaw [rad] of a rotation matrix (inverse of rpy_matrix)."""
+    pitch = np.arcsin(-np.clip(rotation[2, 0], -1.0, 1.0))
+    if abs(rotation[2, 0]) < 1.0 - 1e-12:
+        roll = np.arctan2(rotation[2, 1], rotation[2, 2])
+        yaw = np.arctan2(rotation[1, 0], rotation[0, 0])
+    else:  # gimbal lock: put everything in yaw
+        roll = 0.0
+        yaw = np.arctan2(-rotation[0, 1], rotation[1, 1])
+    return np.array([roll, pitch, yaw])
+
+
+def _vec(values) -> str:
+    return " ".join(_num(v) for v in values)
+
+
+def _num(value: float) -> str:
+    return repr(float(value))
+
+
+def _attr(text: str) -> str:
+    return text.replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;")
