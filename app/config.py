@@ -1,0 +1,41 @@
+"""The studio's configuration: one frozen object, the single source for the CLI and the UI."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from pathlib import Path
+
+from app.core.uploads import MAX_UPLOAD_BYTES
+from robots.catalogue import DEFAULT_ROBOT
+
+LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
+
+
+def default_data_dir() -> Path:
+    """Where uploads live: $BIPED_STUDIO_DATA, else ~/.local/share/biped-studio."""
+    env = os.environ.get("BIPED_STUDIO_DATA")
+    return Path(env) if env else Path.home() / ".local" / "share" / "biped-studio"
+
+
+@dataclasses.dataclass(frozen=True)
+class StudioConfig:
+    robot: str = DEFAULT_ROBOT
+    """Built-in robot name or URDF path to open at start."""
+    host: str = "127.0.0.1"
+    """Interface to serve on. Local only unless the user asks; viser's own default is 0.0.0.0."""
+    port: int = 8080
+    package_roots: tuple[Path, ...] = ()
+    """Extra folders in which to look for package://NAME folders."""
+    feet: tuple[str, str] | None = None
+    """(left, right) foot links, overriding detection."""
+    data_dir: Path = dataclasses.field(default_factory=default_data_dir)
+    max_upload_bytes: int = MAX_UPLOAD_BYTES
+
+    @property
+    def uploads_dir(self) -> Path:
+        return self.data_dir / "uploads"
+
+    @property
+    def is_local(self) -> bool:
+        return self.host in LOCAL_HOSTS

@@ -1,0 +1,170 @@
+"""The studio: one viser server, the shared state of the loaded robot, and the panels.
+
+Panels collect input and call the methods here; this module owns the state (under one lock,
+since viser runs callbacks on a thread pool) and the scene. Computation lives in app.core.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from pathlib import Path
+
+import numpy as np
+import viser
+
+from app.config import StudioConfig
+from app.core.errors import StudioError
+from app.core.loading import load_robot
+from app.core.model import RobotModel
+from app.core.report import RobotReport, robot_report
+from app.core.uploads import store_upload
+from app.views.robot_view import RobotView
+from panels.display_panel import DisplayFlags, DisplayPanel
+from panels.joints_panel import JointsPanel
+from panels.robot_panel import RobotPanel
+
+log = logging.getLogger(__name__)
+
+
+class Studio:
+    """A running studio. All browser tabs share its state."""
+
+    def __init__(self, config: StudioConfig, robot: RobotModel | None = None) -> None:
+        self.config = config
+        self.server = viser.ViserServer(host=config.host, port=config.port, label="Biped Studio", verbose=False)
+        self._lock = threading.RLock()
+        self.server.gui.configure_theme(control_width="medium", dark_mode=False, show_logo=False)
+        self.server.scene.set_up_direction("+z")
+        self.server.scene.add_grid(
+            "/ground", width=4.0, height=4.0, cell_size=0.1, section_size=0.5, plane="xy", shadow_opacity=0.2
+        )
+        self.robot_panel = RobotPanel(self.server.gui, self, config.max_upload_bytes)
+        self.display_panel = DisplayPanel(self.server.gui, self._on_display)
+        self.robot: RobotModel | None = None
+        self.report: RobotReport | None = None
+        self.q = np.zeros(0)
+        self.view: RobotView | None = None
+        self.joints_panel: JointsPanel | None = None
+        self.last_error = ""
+        self._install(robot if robot is not None else load_robot(config.robot, **self._load_options()))
+
+    # --- loading -------------------------------------------------------------------------
+
+    def load(self, source: str | Path, client: viser.ClientHandle | None = None, sandbox: Path | None = None) -> bool:
+        """Load a robot; on failure tell the user and keep the current one. True on success."""
+        if not str(source):
+            self._fail("Nothing to open", "Type the path of a .urdf file first.", client)
+            return False
+        try:
+            options = self._load_options()
+            if sandbox is not None:
+                options = {**options, "sandbox": sandbox, "feet": None}
+            robot = load_robot(source, **options)
+        except StudioError as error:
+            self._fail("Could not load the robot", f"{error} — the previous robot is still loaded.", client)
+            return False
+        self._install(robot)
+        report = self.report
+        assert report is not None
+        warning = f", {len(report.problems)} problem(s) in the report" if report.problems else ""
+        self._notify(
+            "Robot loaded",
+            f"{robot.name}: {robot.n_actuated} actuated joints, {robot.mass_kg:.2f} kg{warning}.",
+            client,
+            color="green" if not report.problems else "yellow",
+        )
+        return True
+
+    def load_upload(self, filename: str, content: bytes, client: viser.ClientHandle | None = None) -> bool:
+        """Store an uploaded .urdf/.zip in its own folder and load it from there."""
+        try:
+            urdf = store_upload(filename, content, self.config.uploads_dir, self.config.max_upload_bytes)
+        except StudioError as error:
+            self._fail("Upload refused", f"{error} — the previous robot is still loaded.", client)
+            return False
+        return self.load(urdf, client=client, sandbox=urdf.parent)
+
+    def _install(self, robot: RobotModel) -> None:
+        report = robot_report(robot)
+        with self._lock, self.server.atomic():
+            if self.view is not None:
+                self.view.remove()
+            if self.joints_panel is not None:
+                self.joints_panel.remove()
+            self.robot, self.report = robot, report
+            self.q = robot.q_neutral.copy()
+            self.view = RobotView(self.server, robot)
+            self.view.set_visible(**vars_of(self.display_panel.flags()))
+            self.view.update(self.q)
+            self.joints_panel = JointsPanel(
+                self.server.gui, robot, robot.joint_angles(self.q), self.set_joint_angle, self.reset_pose
+            )
+            self.robot_panel.show_report(report)
+            self.robot_panel.show_status(f"**{robot.name}** — {robot.n_actuated} DOF, {robot.mass_kg:.2f} kg")
+            self._frame_camera(robot)
+
+    def _load_options(self) -> dict:
+        return {"package_roots": self.config.package_roots, "feet": self.config.feet}
+
+    # --- posing --------------------------------------------------------------------------
+
+    def set_joint_angle(self, index: int, value: float) -> None:
+        """Set one actuated joint [rad or m], clamped to its limits, and redraw."""
+        with self._lock:
+            robot, view = self.robot, self.view
+            if robot is None or view is None or not 0 <= index < robot.n_actuated or not np.isfinite(value):
+                return
+            joint = robot.joints[index]
+            angles = robot.joint_angles(self.q)
+            angles[index] = float(np.clip(value, joint.lower, joint.upper))
+            self.q = robot.with_joint_angles(self.q, angles)
+            with self.server.atomic():
+                view.update(self.q)
+
+    def reset_pose(self) -> None:
+        with self._lock:
+            if self.robot is None or self.view is None:
+                return
+            self.q = self.robot.q_neutral.copy()
+            with self.server.atomic():
+                self.view.update(self.q)
+            if self.joints_panel is not None:
+                self.joints_panel.set_angles(self.robot, self.robot.joint_angles(self.q))
+
+    def _on_display(self, flags: DisplayFlags) -> None:
+        with self._lock:
+            if self.view is not None:
+                self.view.set_visible(**vars_of(flags))
+                self.view.update(self.q)
+
+    # --- messages and camera -------------------------------------------------------------
+
+    def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
+        self.last_error = body
+        log.warning("%s: %s", title, body)
+        self.robot_panel.show_status(f"⚠️ {body}")
+        self._notify(title, body, client, color="red")
+
+    def _notify(self, title: str, body: str, client: viser.ClientHandle | None, color: str) -> None:
+        clients = [client] if client is not None else list(self.server.get_clients().values())
+        for target in clients:
+            target.add_notification(title, body, color=color, auto_close_seconds=8.0)  # type: ignore[arg-type]
+
+    def _frame_camera(self, robot: RobotModel) -> None:
+        height = float(robot.q_neutral[2]) * 1.3 if robot.floating_base else 1.0
+        height = max(height, 0.3)
+        look_at = (0.0, 0.0, 0.5 * height)
+        position = (1.5 * height, 1.1 * height, 0.85 * height)
+        self.server.initial_camera.position = position
+        self.server.initial_camera.look_at = look_at
+        for client in self.server.get_clients().values():
+            client.camera.position = position
+            client.camera.look_at = look_at
+
+    def stop(self) -> None:
+        self.server.stop()
+
+
+def vars_of(flags: DisplayFlags) -> dict[str, bool]:
+    return {"visual": flags.visual, "collision": flags.collision, "frames": flags.frames, "com": flags.com}

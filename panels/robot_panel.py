@@ -1,0 +1,55 @@
+"""Robot panel: pick a built-in, open a URDF path, upload a .urdf/.zip, read the robot report."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import viser
+
+from robots.catalogue import BUILTIN_ROBOTS
+
+if TYPE_CHECKING:
+    from app.core.report import RobotReport
+    from app.studio import Studio
+
+
+class RobotPanel:
+    """Owns the "Robot" folder. Callbacks only forward the request to the studio."""
+
+    def __init__(self, gui: viser.GuiApi, studio: Studio, max_upload_bytes: int) -> None:
+        self._studio = studio
+        with gui.add_folder("Robot", order=0):
+            self.builtin = gui.add_dropdown(
+                "Built-in", tuple(BUILTIN_ROBOTS), initial_value=next(iter(BUILTIN_ROBOTS)),
+                hint="Robots generated from the papers' numbers",
+            )
+            self.load_builtin = gui.add_button("Load built-in", icon=viser.Icon.ROBOT)
+            self.path = gui.add_text("URDF path", "", hint="A .urdf on the machine running the studio")
+            self.open_path = gui.add_button("Open path", icon=viser.Icon.FOLDER_OPEN)
+            self.upload = gui.add_upload_button(
+                "Upload .urdf or .zip", icon=viser.Icon.UPLOAD, mime_type=".urdf,.zip,application/zip",
+                hint=f"A URDF, or a zip with the URDF and its meshes (at most {max_upload_bytes // 2**20} MB)",
+            )
+            self.status = gui.add_markdown("")
+            with gui.add_folder("Report", expand_by_default=False):
+                self.report = gui.add_markdown("")
+
+        @self.load_builtin.on_click
+        def _(event: viser.GuiEvent) -> None:
+            studio.load(self.builtin.value, client=event.client)
+
+        @self.open_path.on_click
+        def _(event: viser.GuiEvent) -> None:
+            studio.load(self.path.value.strip(), client=event.client)
+
+        @self.upload.on_upload
+        def _(event: viser.GuiEvent) -> None:
+            uploaded = self.upload.value
+            studio.load_upload(uploaded.name, uploaded.content, client=event.client)
+
+    def show_report(self, report: RobotReport) -> None:
+        lines = report.lines()
+        self.report.content = "```\n" + "\n".join(lines) + "\n```"
+
+    def show_status(self, text: str) -> None:
+        self.status.content = text
