@@ -81,10 +81,10 @@ class Link:
         """Centre of mass [m] and inertia about it [kg·m²], both in the link frame."""
         volumes = np.array([_volume(s) for s in self.shapes])
         masses = self.mass_kg * volumes / volumes.sum()
-        com = sum(m * np.array(s.xyz) for m, s in zip(masses, self.shapes))
+        com = sum(m * np.array(s.xyz) for m, s in zip(masses, self.shapes, strict=True))
         com = np.asarray(com) / self.mass_kg
         inertia = np.zeros((3, 3))
-        for m, s in zip(masses, self.shapes):
+        for m, s in zip(masses, self.shapes, strict=True):
             rot = rpy_to_matrix(s.rpy)
             d = np.array(s.xyz) - com
             inertia += rot @ s.inertia_about_com(m) @ rot.T + m * (d @ d * np.eye(3) - np.outer(d, d))

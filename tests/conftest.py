@@ -1,0 +1,58 @@
+"""Shared test helpers: paths of the third-party robots and a tiny biped URDF to mutate."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED_ROBOTS = REPO.parent / "shared" / "robots"
+ROBAN_URDF = SHARED_ROBOTS / "roban_s14" / "urdf" / "robanS14.urdf"
+SIGMABAN_URDF = SHARED_ROBOTS / "sigmaban" / "robot.urdf"
+
+
+def _link(name: str, mass: float = 0.5, geometry: str = "") -> str:
+    inertial = (
+        f'<inertial><mass value="{mass}"/><inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>'
+        if mass is not None
+        else ""
+    )
+    visual = f"<visual><geometry>{geometry}</geometry></visual>" if geometry else ""
+    return f'<link name="{name}">{inertial}{visual}</link>'
+
+
+def _joint(name: str, parent: str, child: str, xyz: str, kind: str = "revolute", axis: str = "0 1 0") -> str:
+    limit = '<limit lower="-1.5" upper="1.5" effort="5" velocity="6"/>' if kind != "fixed" else ""
+    return (
+        f'<joint name="{name}" type="{kind}"><origin xyz="{xyz}"/><parent link="{parent}"/>'
+        f'<child link="{child}"/><axis xyz="{axis}"/>{limit}</joint>'
+    )
+
+
+def tiny_biped_urdf(extra: str = "", foot_geometry: str = '<box size="0.10 0.05 0.01"/>', pelvis_mass: float = 2.0) -> str:
+    """A 4-DOF biped: pelvis, per side a hip pitch and a knee, a foot box 5 mm below the ankle."""
+    parts = [_link("pelvis", pelvis_mass, '<box size="0.1 0.2 0.1"/>')]
+    for side, y in (("left", 0.05), ("right", -0.05)):
+        parts += [
+            _link(f"{side}_thigh", 0.4, '<cylinder radius="0.02" length="0.2"/>'),
+            _link(f"{side}_shin", 0.3),
+            _link(f"{side}_foot", 0.1, foot_geometry),
+            _joint(f"{side}_hip_pitch", "pelvis", f"{side}_thigh", f"0 {y} -0.05"),
+            _joint(f"{side}_knee", f"{side}_thigh", f"{side}_shin", "0 0 -0.2"),
+            _joint(f"{side}_ankle", f"{side}_shin", f"{side}_foot", "0 0 -0.2", kind="fixed"),
+        ]
+    return '<?xml version="1.0"?>\n<robot name="tiny">' + "".join(parts) + extra + "</robot>\n"
+
+
+@pytest.fixture
+def write_urdf(tmp_path: Path):
+    """Write URDF text to a file in the test's own folder and return its path."""
+
+    def write(text: str, name: str = "robot.urdf") -> Path:
+        path = tmp_path / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+        return path
+
+    return write
