@@ -38,6 +38,9 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:  # output piped into `head` and the like
+        sys.stderr.close()
+        return 0
     parser.error(f"unknown command {command}")
     return 2
 
@@ -47,7 +50,9 @@ def _parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command")
     serve = sub.add_parser("serve", help="start the studio (the default command)")
     serve.add_argument("--robot", default=DEFAULT_ROBOT, help="built-in name or URDF path")
-    serve.add_argument("--host", default="127.0.0.1", help="interface; 0.0.0.0 exposes the studio to the network")
+    serve.add_argument(
+        "--host", default="127.0.0.1", help="interface; 0.0.0.0 exposes the studio to the network"
+    )
     serve.add_argument("--port", type=int, default=8080)
     _robot_options(serve)
     robots = sub.add_parser("robots", help="list the built-in robots")
@@ -57,20 +62,29 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--json", action="store_true")
     _robot_options(check)
     bench = sub.add_parser("bench", help="measure the studio's speed targets")
-    bench.add_argument("--robot", default=None, help="URDF to time loading on (default: Roban S14 if found)")
+    bench.add_argument(
+        "--robot", default=None, help="URDF to time loading on (default: Roban S14 if found)"
+    )
     bench.add_argument("--repeats", type=int, default=200)
     bench.add_argument("--json", action="store_true")
     # Plain `biped-studio` serves the default robot.
-    parser.set_defaults(robot=DEFAULT_ROBOT, host="127.0.0.1", port=8080, package_root=[], feet=None)
+    parser.set_defaults(
+        robot=DEFAULT_ROBOT, host="127.0.0.1", port=8080, package_root=[], feet=None
+    )
     return parser
 
 
 def _robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "--package-root", action="append", default=[], type=Path,
+        "--package-root",
+        action="append",
+        default=[],
+        type=Path,
         help="folder holding package://NAME folders (repeatable)",
     )
-    parser.add_argument("--feet", default=None, help="LEFT,RIGHT foot link names, overriding detection")
+    parser.add_argument(
+        "--feet", default=None, help="LEFT,RIGHT foot link names, overriding detection"
+    )
 
 
 def _feet(value: str | None) -> tuple[str, str] | None:
@@ -87,8 +101,11 @@ def _serve(args: argparse.Namespace) -> int:
     from app.studio import Studio
 
     config = StudioConfig(
-        robot=args.robot, host=args.host, port=args.port,
-        package_roots=tuple(args.package_root), feet=_feet(args.feet),
+        robot=args.robot,
+        host=args.host,
+        port=args.port,
+        package_roots=tuple(args.package_root),
+        feet=_feet(args.feet),
     )
     robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)
     if not config.is_local:
@@ -99,7 +116,10 @@ def _serve(args: argparse.Namespace) -> int:
         )
     studio = Studio(config, robot)
     host = "127.0.0.1" if config.host in ("0.0.0.0", "::") else config.host
-    print(f"Biped Studio on http://{host}:{studio.server.get_port()} — {robot.name}. Ctrl+C stops it.", flush=True)
+    print(
+        f"Biped Studio on http://{host}:{studio.server.get_port()} — {robot.name}. Ctrl+C stops it.",
+        flush=True,
+    )
     try:
         studio.server.sleep_forever()
     finally:
@@ -114,15 +134,22 @@ def _robots(args: argparse.Namespace) -> int:
     for name, entry in BUILTIN_ROBOTS.items():
         robot = load_robot(name)
         rows.append(
-            {"name": name, "n_actuated": robot.n_actuated, "mass_kg": round(robot.mass_kg, 4),
-             "default": name == DEFAULT_ROBOT, "summary": entry.summary}
+            {
+                "name": name,
+                "n_actuated": robot.n_actuated,
+                "mass_kg": round(robot.mass_kg, 4),
+                "default": name == DEFAULT_ROBOT,
+                "summary": entry.summary,
+            }
         )
     if args.json:
         print(json.dumps(rows, indent=2))
     else:
         for row in rows:
             mark = " (default)" if row["default"] else ""
-            print(f"{row['name']:18s} {row['n_actuated']:3d} DOF {row['mass_kg']:8.3f} kg  {row['summary']}{mark}")
+            print(
+                f"{row['name']:18s} {row['n_actuated']:3d} DOF {row['mass_kg']:8.3f} kg  {row['summary']}{mark}"
+            )
     return 0
 
 

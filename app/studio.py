@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import threading
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import viser
@@ -32,12 +33,20 @@ class Studio:
 
     def __init__(self, config: StudioConfig, robot: RobotModel | None = None) -> None:
         self.config = config
-        self.server = viser.ViserServer(host=config.host, port=config.port, label="Biped Studio", verbose=False)
+        self.server = viser.ViserServer(
+            host=config.host, port=config.port, label="Biped Studio", verbose=False
+        )
         self._lock = threading.RLock()
         self.server.gui.configure_theme(control_width="medium", dark_mode=False, show_logo=False)
         self.server.scene.set_up_direction("+z")
         self.server.scene.add_grid(
-            "/ground", width=4.0, height=4.0, cell_size=0.1, section_size=0.5, plane="xy", shadow_opacity=0.2
+            "/ground",
+            width=4.0,
+            height=4.0,
+            cell_size=0.1,
+            section_size=0.5,
+            plane="xy",
+            shadow_opacity=0.2,
         )
         self.robot_panel = RobotPanel(self.server.gui, self, config.max_upload_bytes)
         self.display_panel = DisplayPanel(self.server.gui, self._on_display)
@@ -47,11 +56,18 @@ class Studio:
         self.view: RobotView | None = None
         self.joints_panel: JointsPanel | None = None
         self.last_error = ""
-        self._install(robot if robot is not None else load_robot(config.robot, **self._load_options()))
+        self._install(
+            robot if robot is not None else load_robot(config.robot, **self._load_options())
+        )
 
     # --- loading -------------------------------------------------------------------------
 
-    def load(self, source: str | Path, client: viser.ClientHandle | None = None, sandbox: Path | None = None) -> bool:
+    def load(
+        self,
+        source: str | Path,
+        client: viser.ClientHandle | None = None,
+        sandbox: Path | None = None,
+    ) -> bool:
         """Load a robot; on failure tell the user and keep the current one. True on success."""
         if not str(source):
             self._fail("Nothing to open", "Type the path of a .urdf file first.", client)
@@ -62,7 +78,9 @@ class Studio:
                 options = {**options, "sandbox": sandbox, "feet": None}
             robot = load_robot(source, **options)
         except StudioError as error:
-            self._fail("Could not load the robot", f"{error} — the previous robot is still loaded.", client)
+            self._fail(
+                "Could not load the robot", f"{error} — the previous robot is still loaded.", client
+            )
             return False
         self._install(robot)
         report = self.report
@@ -76,10 +94,14 @@ class Studio:
         )
         return True
 
-    def load_upload(self, filename: str, content: bytes, client: viser.ClientHandle | None = None) -> bool:
+    def load_upload(
+        self, filename: str, content: bytes, client: viser.ClientHandle | None = None
+    ) -> bool:
         """Store an uploaded .urdf/.zip in its own folder and load it from there."""
         try:
-            urdf = store_upload(filename, content, self.config.uploads_dir, self.config.max_upload_bytes)
+            urdf = store_upload(
+                filename, content, self.config.uploads_dir, self.config.max_upload_bytes
+            )
         except StudioError as error:
             self._fail("Upload refused", f"{error} — the previous robot is still loaded.", client)
             return False
@@ -98,10 +120,16 @@ class Studio:
             self.view.set_visible(**vars_of(self.display_panel.flags()))
             self.view.update(self.q)
             self.joints_panel = JointsPanel(
-                self.server.gui, robot, robot.joint_angles(self.q), self.set_joint_angle, self.reset_pose
+                self.server.gui,
+                robot,
+                robot.joint_angles(self.q),
+                self.set_joint_angle,
+                self.reset_pose,
             )
             self.robot_panel.show_report(report)
-            self.robot_panel.show_status(f"**{robot.name}** — {robot.n_actuated} DOF, {robot.mass_kg:.2f} kg")
+            self.robot_panel.show_status(
+                f"**{robot.name}** — {robot.n_actuated} DOF, {robot.mass_kg:.2f} kg"
+            )
             self._frame_camera(robot)
 
     def _load_options(self) -> dict:
@@ -113,7 +141,12 @@ class Studio:
         """Set one actuated joint [rad or m], clamped to its limits, and redraw."""
         with self._lock:
             robot, view = self.robot, self.view
-            if robot is None or view is None or not 0 <= index < robot.n_actuated or not np.isfinite(value):
+            if (
+                robot is None
+                or view is None
+                or not 0 <= index < robot.n_actuated
+                or not np.isfinite(value)
+            ):
                 return
             joint = robot.joints[index]
             angles = robot.joint_angles(self.q)
@@ -146,10 +179,16 @@ class Studio:
         self.robot_panel.show_status(f"⚠️ {body}")
         self._notify(title, body, client, color="red")
 
-    def _notify(self, title: str, body: str, client: viser.ClientHandle | None, color: str) -> None:
+    def _notify(
+        self,
+        title: str,
+        body: str,
+        client: viser.ClientHandle | None,
+        color: Literal["red", "green", "yellow"],
+    ) -> None:
         clients = [client] if client is not None else list(self.server.get_clients().values())
         for target in clients:
-            target.add_notification(title, body, color=color, auto_close_seconds=8.0)  # type: ignore[arg-type]
+            target.add_notification(title, body, color=color, auto_close_seconds=8.0)
 
     def _frame_camera(self, robot: RobotModel) -> None:
         height = float(robot.q_neutral[2]) * 1.3 if robot.floating_base else 1.0
@@ -167,4 +206,9 @@ class Studio:
 
 
 def vars_of(flags: DisplayFlags) -> dict[str, bool]:
-    return {"visual": flags.visual, "collision": flags.collision, "frames": flags.frames, "com": flags.com}
+    return {
+        "visual": flags.visual,
+        "collision": flags.collision,
+        "frames": flags.frames,
+        "com": flags.com,
+    }

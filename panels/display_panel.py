@@ -30,4 +30,6 @@ class DisplayPanel:
             handle.on_update(lambda _event: on_change(self.flags()))
 
     def flags(self) -> DisplayFlags:
-        return DisplayFlags(self.visual.value, self.collision.value, self.frames.value, self.com.value)
+        return DisplayFlags(
+            self.visual.value, self.collision.value, self.frames.value, self.com.value
+        )

@@ -11,7 +11,7 @@ from collections.abc import Callable
 import numpy as np
 import viser
 
-from app.core.model import RobotModel
+from app.core.model import ActuatedJoint, RobotModel
 
 LIMB_ORDER = ("Left leg", "Right leg", "Torso", "Left arm", "Right arm", "Head", "Other")
 
@@ -27,7 +27,7 @@ class JointsPanel:
         on_change: Callable[[int, float], None],
         on_reset: Callable[[], None],
     ) -> None:
-        self.sliders: dict[str, viser.GuiSliderHandle] = {}
+        self.sliders: dict[str, viser.GuiSliderHandle[float]] = {}
         self._scales: list[float] = []
         self._syncing = False
         self.folder = gui.add_folder("Joints", order=1)
@@ -39,9 +39,18 @@ class JointsPanel:
                 with gui.add_folder(limb, expand_by_default=limb.endswith("leg")):
                     for i, joint in enumerate(robot.joints):
                         if joint.limb == limb:
-                            self.sliders[joint.name] = self._slider(gui, i, joint, angles[i], on_change)
+                            self.sliders[joint.name] = self._slider(
+                                gui, i, joint, angles[i], on_change
+                            )
 
-    def _slider(self, gui: viser.GuiApi, index: int, joint, value: float, on_change) -> viser.GuiSliderHandle:
+    def _slider(
+        self,
+        gui: viser.GuiApi,
+        index: int,
+        joint: ActuatedJoint,
+        value: float,
+        on_change: Callable[[int, float], None],
+    ) -> viser.GuiSliderHandle[float]:
         scale = 1000.0 if joint.kind == "prismatic" else 180.0 / np.pi
         unit = "mm" if joint.kind == "prismatic" else "°"
         while len(self._scales) <= index:
@@ -49,7 +58,10 @@ class JointsPanel:
         self._scales[index] = scale
         lower, upper = joint.lower * scale, joint.upper * scale
         slider = gui.add_slider(
-            joint.name, min=round(lower, 1), max=round(upper, 1), step=0.1,
+            joint.name,
+            min=round(lower, 1),
+            max=round(upper, 1),
+            step=0.1,
             initial_value=float(np.clip(round(value * scale, 1), round(lower, 1), round(upper, 1))),
             hint=f"{joint.name} [{unit}], limits {lower:.1f} … {upper:.1f}",
         )
@@ -67,7 +79,9 @@ class JointsPanel:
         try:
             for i, joint in enumerate(robot.joints):
                 slider = self.sliders[joint.name]
-                slider.value = float(np.clip(round(angles[i] * self._scales[i], 1), slider.min, slider.max))
+                slider.value = float(
+                    np.clip(round(angles[i] * self._scales[i], 1), slider.min, slider.max)
+                )  # type: ignore[misc]  # viser types the setter on a generic base
         finally:
             self._syncing = False
 

@@ -20,14 +20,20 @@ class RobotPanel:
         self._studio = studio
         with gui.add_folder("Robot", order=0):
             self.builtin = gui.add_dropdown(
-                "Built-in", tuple(BUILTIN_ROBOTS), initial_value=next(iter(BUILTIN_ROBOTS)),
+                "Built-in",
+                tuple(BUILTIN_ROBOTS),
+                initial_value=next(iter(BUILTIN_ROBOTS)),
                 hint="Robots generated from the papers' numbers",
             )
             self.load_builtin = gui.add_button("Load built-in", icon=viser.Icon.ROBOT)
-            self.path = gui.add_text("URDF path", "", hint="A .urdf on the machine running the studio")
+            self.path = gui.add_text(
+                "URDF path", "", hint="A .urdf on the machine running the studio"
+            )
             self.open_path = gui.add_button("Open path", icon=viser.Icon.FOLDER_OPEN)
             self.upload = gui.add_upload_button(
-                "Upload .urdf or .zip", icon=viser.Icon.UPLOAD, mime_type=".urdf,.zip,application/zip",
+                "Upload .urdf or .zip",
+                icon=viser.Icon.UPLOAD,
+                mime_type=".urdf,.zip,application/zip",
                 hint=f"A URDF, or a zip with the URDF and its meshes (at most {max_upload_bytes // 2**20} MB)",
             )
             self.status = gui.add_markdown("")
@@ -44,8 +50,13 @@ class RobotPanel:
 
         @self.upload.on_upload
         def _(event: viser.GuiEvent) -> None:
-            uploaded = self.upload.value
-            studio.load_upload(uploaded.name, uploaded.content, client=event.client)
+            self.receive_upload(self.upload.value, event.client)
+
+    def receive_upload(
+        self, uploaded: viser.UploadedFile, client: viser.ClientHandle | None = None
+    ) -> None:
+        """What the upload button does with a file the browser sent."""
+        self._studio.load_upload(uploaded.name, uploaded.content, client=client)
 
     def show_report(self, report: RobotReport) -> None:
         lines = report.lines()

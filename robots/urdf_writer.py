@@ -87,7 +87,9 @@ class Link:
         for m, s in zip(masses, self.shapes, strict=True):
             rot = rpy_to_matrix(s.rpy)
             d = np.array(s.xyz) - com
-            inertia += rot @ s.inertia_about_com(m) @ rot.T + m * (d @ d * np.eye(3) - np.outer(d, d))
+            inertia += rot @ s.inertia_about_com(m) @ rot.T + m * (
+                d @ d * np.eye(3) - np.outer(d, d)
+            )
         return com, inertia
 
 
@@ -153,7 +155,9 @@ def write_urdf(
                 out.append(f'      <origin xyz="{_fmt(shape.xyz)}" rpy="{_fmt(shape.rpy)}"/>')
                 out.append(f"      <geometry>{shape.geometry_xml()}</geometry>")
                 if tag == "visual":
-                    out.append(f'      <material name=""><color rgba="{_fmt(shape.rgba)}"/></material>')
+                    out.append(
+                        f'      <material name=""><color rgba="{_fmt(shape.rgba)}"/></material>'
+                    )
                 out.append(f"    </{tag}>")
         out.append("  </link>")
     for joint in joints:

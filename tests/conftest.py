@@ -22,7 +22,9 @@ def _link(name: str, mass: float = 0.5, geometry: str = "") -> str:
     return f'<link name="{name}">{inertial}{visual}</link>'
 
 
-def _joint(name: str, parent: str, child: str, xyz: str, kind: str = "revolute", axis: str = "0 1 0") -> str:
+def _joint(
+    name: str, parent: str, child: str, xyz: str, kind: str = "revolute", axis: str = "0 1 0"
+) -> str:
     limit = '<limit lower="-1.5" upper="1.5" effort="5" velocity="6"/>' if kind != "fixed" else ""
     return (
         f'<joint name="{name}" type="{kind}"><origin xyz="{xyz}"/><parent link="{parent}"/>'
@@ -30,7 +32,9 @@ def _joint(name: str, parent: str, child: str, xyz: str, kind: str = "revolute",
     )
 
 
-def tiny_biped_urdf(extra: str = "", foot_geometry: str = '<box size="0.10 0.05 0.01"/>', pelvis_mass: float = 2.0) -> str:
+def tiny_biped_urdf(
+    extra: str = "", foot_geometry: str = '<box size="0.10 0.05 0.01"/>', pelvis_mass: float = 2.0
+) -> str:
     """A 4-DOF biped: pelvis, per side a hip pitch and a knee, a foot box 5 mm below the ankle."""
     parts = [_link("pelvis", pelvis_mass, '<box size="0.1 0.2 0.1"/>')]
     for side, y in (("left", 0.05), ("right", -0.05)):

@@ -9,6 +9,7 @@ always name the two foot links instead.
 from __future__ import annotations
 
 import dataclasses
+
 import numpy as np
 
 from app.core.errors import NoFeetFound, UrdfStructureError
@@ -57,10 +58,10 @@ def find_foot_links(
         ([link for link in tree.links if by_name(link) > 0.0], by_name),
         (leaves, lambda link: 0.0),
     ):
-        left = _best(pool, T_world_links, key, side=+1.0)
-        right = _best(pool, T_world_links, key, side=-1.0)
-        if left is not None and right is not None:
-            return left, right
+        best_left = _best(pool, T_world_links, key, side=+1.0)
+        best_right = _best(pool, T_world_links, key, side=-1.0)
+        if best_left is not None and best_right is not None:
+            return best_left, best_right
     raise NoFeetFound(
         f"no feet found in {tree.name!r}: no links named like sole/foot/ankle on both sides of "
         "the base, and no pair of lowest leaf links left and right of it; name the two foot "
@@ -73,7 +74,9 @@ def _best(pool: list[str], T_world_links: dict[str, np.ndarray], key, side: floa
     if not on_side:
         return None
     # Highest name score, then the lowest link (a sole below its ankle), then the longer name.
-    return max(on_side, key=lambda link: (key(link), -round(T_world_links[link][2, 3], 4), len(link)))
+    return max(
+        on_side, key=lambda link: (key(link), -round(T_world_links[link][2, 3], 4), len(link))
+    )
 
 
 def sole_corners(
@@ -120,4 +123,3 @@ def sole_corners(
     corners_world[:, 2] = z
     T_foot_world = np.linalg.inv(T_world_foot)
     return (T_foot_world[:3, :3] @ corners_world.T + T_foot_world[:3, 3:4]).T
-

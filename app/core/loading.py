@@ -34,10 +34,14 @@ def resolve_source(source: str | Path) -> Path:
     if path.is_dir():
         urdfs = sorted(path.glob("*.urdf")) + sorted(path.glob("urdf/*.urdf"))
         if len(urdfs) != 1:
-            raise RobotLoadError(f"{path}: a folder; give the .urdf file inside it ({len(urdfs)} found)")
+            raise RobotLoadError(
+                f"{path}: a folder; give the .urdf file inside it ({len(urdfs)} found)"
+            )
         path = urdfs[0]
     if path.suffix.lower() == ".xacro":
-        raise RobotLoadError(f"{path.name}: a xacro file; expand it first (xacro {path.name} > robot.urdf)")
+        raise RobotLoadError(
+            f"{path.name}: a xacro file; expand it first (xacro {path.name} > robot.urdf)"
+        )
     return path
 
 
@@ -116,12 +120,18 @@ def _pinocchio_model(tree: UrdfTree, source: str) -> tuple[pin.Model, bool]:
     floating = tree.root != "world"
     xml = canonical_urdf(tree)
     try:
-        model = pin.buildModelFromXML(xml, pin.JointModelFreeFlyer()) if floating else pin.buildModelFromXML(xml)
+        model = (
+            pin.buildModelFromXML(xml, pin.JointModelFreeFlyer())
+            if floating
+            else pin.buildModelFromXML(xml)
+        )
     except (RuntimeError, ValueError) as exc:
         raise RobotLoadError(f"{source}: pinocchio cannot build the model: {exc}") from None
     mass = sum(inertia.mass for inertia in model.inertias)
     if not mass > 0.0:
-        raise UrdfStructureError(f"{source}: the robot's total mass is {mass:g} kg; give its links masses")
+        raise UrdfStructureError(
+            f"{source}: the robot's total mass is {mass:g} kg; give its links masses"
+        )
     return model, floating
 
 

@@ -48,7 +48,9 @@ def load_link_meshes(
     cache: dict[tuple[Path, tuple[float, ...]], trimesh.Trimesh | str] = {}
     for geom in geometries:
         if geom.kind != "mesh":
-            meshes.append(LinkMesh(geom.link, geom.role, geom.T_link_geom, primitive_mesh(geom), geom.rgba))
+            meshes.append(
+                LinkMesh(geom.link, geom.role, geom.T_link_geom, primitive_mesh(geom), geom.rgba)
+            )
             continue
         resolution = resolver.resolve(geom.uri)
         if resolution.path is None:
@@ -80,7 +82,9 @@ def _load_file(path: Path, scale: np.ndarray) -> trimesh.Trimesh | str:
         return f"mesh file {path.name} is {size / 2**20:.0f} MB, over the {MAX_MESH_FILE_BYTES // 2**20} MB limit"
     try:
         loaded = trimesh.load(str(path), force="mesh", process=False)
-    except Exception as exc:  # trimesh raises many types for corrupt files; report which file failed.
+    except (
+        Exception
+    ) as exc:  # trimesh raises many types for corrupt files; report which file failed.
         return f"cannot read mesh {path.name}: {type(exc).__name__}: {exc}"
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         return f"mesh {path.name} holds no triangles"

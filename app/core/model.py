@@ -80,7 +80,7 @@ class RobotModel:
     def with_joint_angles(self, q: np.ndarray, angles: np.ndarray) -> np.ndarray:
         """A copy of q whose actuated joints are set to `angles` [rad or m]."""
         q = np.array(q, dtype=float)
-        for joint, angle in zip(self.joints, angles):
+        for joint, angle in zip(self.joints, angles, strict=True):
             if joint.kind == "continuous":
                 q[joint.idx_q : joint.idx_q + 2] = np.cos(angle), np.sin(angle)
             else:

@@ -31,7 +31,9 @@ class Resolution:
 class PackageResolver:
     """Finds the files behind mesh URIs of one URDF."""
 
-    def __init__(self, urdf_dir: Path, extra_roots: tuple[Path, ...] = (), sandbox: Path | None = None):
+    def __init__(
+        self, urdf_dir: Path, extra_roots: tuple[Path, ...] = (), sandbox: Path | None = None
+    ):
         self.urdf_dir = urdf_dir.resolve()
         self.extra_roots = tuple(Path(root).resolve() for root in extra_roots)
         self.sandbox = sandbox.resolve() if sandbox is not None else None
@@ -40,7 +42,9 @@ class PackageResolver:
         if uri.startswith("package://"):
             package, _, rest = uri[len("package://") :].partition("/")
             if not package or not rest:
-                return Resolution(uri, None, "malformed package:// path, expected package://NAME/path")
+                return Resolution(
+                    uri, None, "malformed package:// path, expected package://NAME/path"
+                )
             for folder in self._package_folders(package):
                 found = self._checked(folder / rest)
                 if found is not None:

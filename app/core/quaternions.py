@@ -26,7 +26,9 @@ def matrix_to_wxyz(rotation: np.ndarray) -> np.ndarray:
     trace = r[0, 0] + r[1, 1] + r[2, 2]
     if trace > 0.0:
         s = 2.0 * np.sqrt(trace + 1.0)
-        q = np.array([0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s])
+        q = np.array(
+            [0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s]
+        )
     else:
         i = int(np.argmax(np.diag(r)))
         j, k = (i + 1) % 3, (i + 2) % 3

@@ -65,7 +65,9 @@ class RobotReport:
             out.append(f"loops      {', '.join(self.loops)}")
         out.append(f"meshes     {len(self.missing_meshes)} missing")
         for missing in self.missing_meshes:
-            out.append(f"  missing  {missing['link']} {missing['role']}: {missing['uri']} — {missing['reason']}")
+            out.append(
+                f"  missing  {missing['link']} {missing['role']}: {missing['uri']} — {missing['reason']}"
+            )
         out.append(f"problems   {len(self.problems) or 'none'}")
         out.extend(f"  {p.kind:8s} {p.subject}: {p.message}" for p in self.problems)
         return out
@@ -84,11 +86,19 @@ def robot_report(robot: RobotModel) -> RobotReport:
             for key, value in (("lower", joint.lower), ("upper", joint.upper))
             if value is None and joint.kind != "continuous"
         ]
-        missing += [key for key, value in (("effort", joint.effort), ("velocity", joint.velocity)) if not value]
+        missing += [
+            key
+            for key, value in (("effort", joint.effort), ("velocity", joint.velocity))
+            if not value
+        ]
         if missing:
             problems.append(Problem("limits", joint.name, f"no {' / '.join(missing)} limit"))
         elif joint.lower is not None and joint.upper is not None and joint.lower > joint.upper:
-            problems.append(Problem("limits", joint.name, f"lower limit {joint.lower:g} above upper {joint.upper:g}"))
+            problems.append(
+                Problem(
+                    "limits", joint.name, f"lower limit {joint.lower:g} above upper {joint.upper:g}"
+                )
+            )
     for missing_mesh in robot.missing_meshes:
         problems.append(Problem("mesh", missing_mesh.uri, missing_mesh.reason))
 
@@ -100,7 +110,9 @@ def robot_report(robot: RobotModel) -> RobotReport:
             float(np.linalg.norm(corners[2] - corners[1])),
         )
         if sole_size[foot.side][0] < 1e-3:
-            problems.append(Problem("mesh", foot.link, "the foot has no geometry: its sole is a point"))
+            problems.append(
+                Problem("mesh", foot.link, "the foot has no geometry: its sole is a point")
+            )
 
     return RobotReport(
         name=robot.name,
@@ -117,7 +129,8 @@ def robot_report(robot: RobotModel) -> RobotReport:
         sole_size_m=sole_size,
         loops=tuple(loop.name for loop in tree.loops),
         missing_meshes=tuple(
-            {"link": m.link, "role": m.role, "uri": m.uri, "reason": m.reason} for m in robot.missing_meshes
+            {"link": m.link, "role": m.role, "uri": m.uri, "reason": m.reason}
+            for m in robot.missing_meshes
         ),
         problems=tuple(problems),
     )
@@ -126,14 +139,26 @@ def robot_report(robot: RobotModel) -> RobotReport:
 def _inertia_problems(link: str, mass_kg: float, inertia: np.ndarray) -> list[Problem]:
     if mass_kg < MASSLESS_KG:
         if mass_kg == 0.0:
-            return [Problem("mass", link, "zero mass: fine for a frame, wrong for a body that moves")]
+            return [
+                Problem("mass", link, "zero mass: fine for a frame, wrong for a body that moves")
+            ]
         return []
     moments = np.linalg.eigvalsh(inertia)
     if moments.min() <= 0.0:
-        return [Problem("inertia", link, f"principal moments {_fmt(moments)} kg·m²: not positive definite")]
+        return [
+            Problem(
+                "inertia", link, f"principal moments {_fmt(moments)} kg·m²: not positive definite"
+            )
+        ]
     a, b, c = moments
     if a + b < c * (1.0 - 1e-6):
-        return [Problem("inertia", link, f"principal moments {_fmt(moments)} kg·m² violate the triangle inequality")]
+        return [
+            Problem(
+                "inertia",
+                link,
+                f"principal moments {_fmt(moments)} kg·m² violate the triangle inequality",
+            )
+        ]
     return []
 
 

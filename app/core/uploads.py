@@ -22,7 +22,9 @@ MAX_UNPACKED_BYTES = 500 * 1024 * 1024
 MAX_ENTRIES = 5000
 
 
-def store_upload(filename: str, content: bytes, uploads_root: Path, max_bytes: int = MAX_UPLOAD_BYTES) -> Path:
+def store_upload(
+    filename: str, content: bytes, uploads_root: Path, max_bytes: int = MAX_UPLOAD_BYTES
+) -> Path:
     """Write an uploaded .urdf or unpack an uploaded .zip; return the URDF's path inside its folder."""
     if len(content) > max_bytes:
         raise UploadError(
@@ -31,7 +33,9 @@ def store_upload(filename: str, content: bytes, uploads_root: Path, max_bytes: i
         )
     suffix = Path(filename).suffix.lower()
     if suffix not in (".urdf", ".zip"):
-        raise UploadError(f"{filename}: upload a .urdf file, or a .zip holding the URDF and its meshes")
+        raise UploadError(
+            f"{filename}: upload a .urdf file, or a .zip holding the URDF and its meshes"
+        )
     digest = hashlib.sha256(content).hexdigest()[:16]
     folder = uploads_root.resolve() / digest
     if suffix == ".urdf":
@@ -50,7 +54,9 @@ def _unpack_zip(filename: str, content: bytes, folder: Path) -> Path:
     with archive:
         entries = archive.infolist()
         if len(entries) > MAX_ENTRIES:
-            raise UploadError(f"{filename}: {len(entries)} entries, over the limit of {MAX_ENTRIES}")
+            raise UploadError(
+                f"{filename}: {len(entries)} entries, over the limit of {MAX_ENTRIES}"
+            )
         unpacked = sum(entry.file_size for entry in entries)
         if unpacked > MAX_UNPACKED_BYTES:
             raise UploadError(
@@ -58,7 +64,9 @@ def _unpack_zip(filename: str, content: bytes, folder: Path) -> Path:
             )
         for entry in entries:
             _check_entry(filename, entry)
-        urdfs = [e.filename for e in entries if e.filename.lower().endswith(".urdf") and not e.is_dir()]
+        urdfs = [
+            e.filename for e in entries if e.filename.lower().endswith(".urdf") and not e.is_dir()
+        ]
         if not urdfs:
             raise UploadError(f"{filename}: the archive holds no .urdf file")
         folder.mkdir(parents=True, exist_ok=True)
@@ -83,7 +91,9 @@ def _check_entry(filename: str, entry: zipfile.ZipInfo) -> None:
         )
     mode = entry.external_attr >> 16
     if stat.S_ISLNK(mode):
-        raise UploadError(f"{filename}: entry {name!r} is a symbolic link; refused (nothing was unpacked)")
+        raise UploadError(
+            f"{filename}: entry {name!r} is a symbolic link; refused (nothing was unpacked)"
+        )
 
 
 def _copy_capped(source, sink, declared: int, filename: str) -> None:

@@ -107,7 +107,9 @@ def parse_urdf(text: str | bytes, source: str = "URDF") -> UrdfTree:
     except ET.ParseError as exc:
         raise UrdfSyntaxError(f"{source}: not well-formed XML: {exc}") from None
     if root.tag != "robot":
-        raise UrdfStructureError(f"{source}: the top element is <{root.tag}>, a URDF starts with <robot>")
+        raise UrdfStructureError(
+            f"{source}: the top element is <{root.tag}>, a URDF starts with <robot>"
+        )
     name = root.get("name") or "robot"
     materials = _named_materials(root)
 
@@ -117,7 +119,9 @@ def parse_urdf(text: str | bytes, source: str = "URDF") -> UrdfTree:
     for element in root.findall("link"):
         link = _required(element, "name", "a <link>", source)
         if link in links:
-            raise UrdfStructureError(f"{source}: two links are named {link!r}; link names must be unique")
+            raise UrdfStructureError(
+                f"{source}: two links are named {link!r}; link names must be unique"
+            )
         links.append(link)
         inertial = element.find("inertial")
         if inertial is not None:
@@ -128,13 +132,17 @@ def parse_urdf(text: str | bytes, source: str = "URDF") -> UrdfTree:
                 if parsed is not None:
                     geometries.append(parsed)
     if not links:
-        raise UrdfStructureError(f"{source}: no <link> elements; a URDF describes at least one link")
+        raise UrdfStructureError(
+            f"{source}: no <link> elements; a URDF describes at least one link"
+        )
 
     joints: dict[str, JointElement] = {}
     for element in root.findall("joint"):
         joint = _joint(element, source)
         if joint.name in joints:
-            raise UrdfStructureError(f"{source}: two joints are named {joint.name!r}; joint names must be unique")
+            raise UrdfStructureError(
+                f"{source}: two joints are named {joint.name!r}; joint names must be unique"
+            )
         for role, link in (("parent", joint.parent), ("child", joint.child)):
             if link not in links:
                 raise UrdfStructureError(
@@ -180,14 +188,20 @@ def _joint(element: ET.Element, source: str) -> JointElement:
     name = _required(element, "name", "a <joint>", source)
     kind = element.get("type", "")
     if kind not in SUPPORTED_JOINT_TYPES:
-        hint = " (the studio adds the floating base itself: remove this joint)" if kind == "floating" else ""
+        hint = (
+            " (the studio adds the floating base itself: remove this joint)"
+            if kind == "floating"
+            else ""
+        )
         raise UrdfStructureError(
             f"{source}: joint {name!r} has type {kind!r}; supported types are "
             f"{', '.join(SUPPORTED_JOINT_TYPES)}{hint}"
         )
     parent, child = element.find("parent"), element.find("child")
     if parent is None or child is None or not parent.get("link") or not child.get("link"):
-        raise UrdfStructureError(f"{source}: joint {name!r} needs <parent link=…> and <child link=…>")
+        raise UrdfStructureError(
+            f"{source}: joint {name!r} needs <parent link=…> and <child link=…>"
+        )
     axis = _floats(element.find("axis"), "xyz", (1.0, 0.0, 0.0), f"joint {name!r} axis", source)
     limit = element.find("limit")
 
@@ -212,7 +226,11 @@ def _joint(element: ET.Element, source: str) -> JointElement:
 
 def _inertial(element: ET.Element, link: str, source: str) -> Inertial:
     mass_element = element.find("mass")
-    mass = _float(mass_element.get("value", "") if mass_element is not None else "", f"link {link!r} mass", source)
+    mass = _float(
+        mass_element.get("value", "") if mass_element is not None else "",
+        f"link {link!r} mass",
+        source,
+    )
     if mass < 0.0:
         raise UrdfStructureError(
             f"{source}: link {link!r} has negative mass {mass:g} kg; masses must be zero or positive"
@@ -247,10 +265,15 @@ def _geometry(
     if shape.tag == "box":
         return Geometry(link, role, "box", T, _floats(shape, "size", None, what, source), rgba=rgba)
     if shape.tag == "cylinder":
-        size = (_float(shape.get("radius", ""), what, source), _float(shape.get("length", ""), what, source))
+        size = (
+            _float(shape.get("radius", ""), what, source),
+            _float(shape.get("length", ""), what, source),
+        )
         return Geometry(link, role, "cylinder", T, size, rgba=rgba)
     if shape.tag == "sphere":
-        return Geometry(link, role, "sphere", T, (_float(shape.get("radius", ""), what, source),), rgba=rgba)
+        return Geometry(
+            link, role, "sphere", T, (_float(shape.get("radius", ""), what, source),), rgba=rgba
+        )
     if shape.tag == "mesh":
         uri = shape.get("filename", "")
         if not uri:
@@ -262,12 +285,16 @@ def _geometry(
     return None
 
 
-def _loop(element: ET.Element, links: list[str], joints: dict[str, JointElement], source: str) -> LoopElement:
+def _loop(
+    element: ET.Element, links: list[str], joints: dict[str, JointElement], source: str
+) -> LoopElement:
     name = element.get("name", "loop")
     link_a, link_b = element.get("link_a", ""), element.get("link_b", "")
     for link in (link_a, link_b):
         if link not in links:
-            raise UrdfStructureError(f"{source}: loop_closure {name!r} names link {link!r}, which does not exist")
+            raise UrdfStructureError(
+                f"{source}: loop_closure {name!r} names link {link!r}, which does not exist"
+            )
     passive = tuple(element.get("passive_joints", "").split())
     for joint in passive:
         if joint not in joints or joints[joint].kind not in MOVING_JOINT_TYPES:
@@ -286,7 +313,9 @@ def _named_materials(root: ET.Element) -> dict[str, tuple]:
     return named
 
 
-def _rgba(material: ET.Element | None, named: dict[str, tuple]) -> tuple[float, float, float, float] | None:
+def _rgba(
+    material: ET.Element | None, named: dict[str, tuple]
+) -> tuple[float, float, float, float] | None:
     if material is None:
         return None
     color = material.find("color")
@@ -333,7 +362,9 @@ def _required(element: ET.Element, key: str, what: str, source: str) -> str:
     return value
 
 
-def _floats(element: ET.Element | None, key: str, default, what: str, source: str) -> tuple[float, ...]:
+def _floats(
+    element: ET.Element | None, key: str, default, what: str, source: str
+) -> tuple[float, ...]:
     if element is None or element.get(key) is None:
         if default is None:
             raise UrdfStructureError(f"{source}: {what} has no {key}")

@@ -56,24 +56,42 @@ class RobotView:
             position = mesh.T_link_mesh[:3, 3]
             if mesh.role == "collision":
                 handle = scene.add_mesh_simple(
-                    name, mesh.mesh.vertices, mesh.mesh.faces, color=COLLISION_RGB, opacity=0.45,
-                    wxyz=wxyz, position=position, visible=False,
+                    name,
+                    mesh.mesh.vertices,
+                    mesh.mesh.faces,
+                    color=COLLISION_RGB,
+                    opacity=0.45,
+                    wxyz=wxyz,
+                    position=position,
+                    visible=False,
                 )
                 self._collisions.append(handle)
                 continue
             if mesh.rgba is not None:
-                rgb = tuple(int(255 * c) for c in mesh.rgba[:3])
+                rgb = (int(255 * mesh.rgba[0]), int(255 * mesh.rgba[1]), int(255 * mesh.rgba[2]))
                 opacity = mesh.rgba[3] if mesh.rgba[3] < 1.0 else None
                 handle = scene.add_mesh_simple(
-                    name, mesh.mesh.vertices, mesh.mesh.faces, color=rgb, opacity=opacity,
-                    wxyz=wxyz, position=position,
+                    name,
+                    mesh.mesh.vertices,
+                    mesh.mesh.faces,
+                    color=rgb,
+                    opacity=opacity,
+                    wxyz=wxyz,
+                    position=position,
                 )
             else:
                 handle = scene.add_mesh_simple(
-                    name, mesh.mesh.vertices, mesh.mesh.faces, color=DEFAULT_RGB, wxyz=wxyz, position=position
+                    name,
+                    mesh.mesh.vertices,
+                    mesh.mesh.faces,
+                    color=DEFAULT_RGB,
+                    wxyz=wxyz,
+                    position=position,
                 )
             self._visuals.append(handle)
-        self._com = scene.add_icosphere(f"{self.root}/com", radius=0.02, color=COM_RGB, visible=False)
+        self._com = scene.add_icosphere(
+            f"{self.root}/com", radius=0.02, color=COM_RGB, visible=False
+        )
         self._com_ground = scene.add_icosphere(
             f"{self.root}/com_ground", radius=0.012, color=COM_RGB, opacity=0.6, visible=False
         )
@@ -94,6 +112,11 @@ class RobotView:
             self._com.position = com
             self._com_ground.position = (com[0], com[1], 0.0)
 
+    def link_pose(self, link: str) -> tuple[np.ndarray, np.ndarray]:
+        """(position, wxyz) of a link's node as last sent to the scene."""
+        frame = self._link_frames[link]
+        return np.asarray(frame.position), np.asarray(frame.wxyz)
+
     def set_visible(self, *, visual: bool, collision: bool, frames: bool, com: bool) -> None:
         for handle in self._visuals:
             handle.visible = visual
@@ -109,4 +132,3 @@ class RobotView:
             frame.remove()
         self._com.remove()
         self._com_ground.remove()
-

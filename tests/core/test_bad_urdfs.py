@@ -46,13 +46,17 @@ def test_external_entity_is_refused(write_urdf):
 
 def test_joint_with_missing_parent_link(write_urdf):
     text = tiny_biped_urdf().replace('<parent link="left_thigh"/>', '<parent link="left_thighh"/>')
-    with pytest.raises(UrdfStructureError, match="left_knee.*parent link 'left_thighh', which does not exist"):
+    with pytest.raises(
+        UrdfStructureError, match="left_knee.*parent link 'left_thighh', which does not exist"
+    ):
         load_robot(write_urdf(text))
 
 
 def test_kinematic_cycle(write_urdf):
     # pelvis -> thigh -> shin, and shin -> pelvis: the pelvis gets a parent, a cycle with no root.
-    extra = '<joint name="loop" type="fixed"><parent link="left_shin"/><child link="pelvis"/></joint>'
+    extra = (
+        '<joint name="loop" type="fixed"><parent link="left_shin"/><child link="pelvis"/></joint>'
+    )
     with pytest.raises(UrdfStructureError, match="kinematic cycle"):
         load_robot(write_urdf(tiny_biped_urdf(extra)))
 
@@ -79,7 +83,9 @@ def test_missing_mesh_loads_and_is_reported(write_urdf):
 
 
 def test_unresolvable_package_uri_is_reported(write_urdf):
-    path = write_urdf(tiny_biped_urdf(foot_geometry='<mesh filename="package://no_such_pkg/meshes/foot.stl"/>'))
+    path = write_urdf(
+        tiny_biped_urdf(foot_geometry='<mesh filename="package://no_such_pkg/meshes/foot.stl"/>')
+    )
     report = robot_report(load_robot(path))
     reasons = [m["reason"] for m in report.missing_meshes]
     assert len(reasons) == 2 and all("package 'no_such_pkg' not found" in r for r in reasons)
@@ -87,13 +93,19 @@ def test_unresolvable_package_uri_is_reported(write_urdf):
 
 @pytest.mark.parametrize("mass", ["-1.0", "-0.001"])
 def test_negative_mass_is_refused(write_urdf, mass):
-    text = tiny_biped_urdf().replace('<link name="left_shin"><inertial><mass value="0.3"/>', f'<link name="left_shin"><inertial><mass value="{mass}"/>')
+    text = tiny_biped_urdf().replace(
+        '<link name="left_shin"><inertial><mass value="0.3"/>',
+        f'<link name="left_shin"><inertial><mass value="{mass}"/>',
+    )
     with pytest.raises(UrdfStructureError, match=f"left_shin.*negative mass {float(mass):g} kg"):
         load_robot(write_urdf(text))
 
 
 def test_zero_mass_link_is_reported(write_urdf):
-    text = tiny_biped_urdf().replace('<link name="left_shin"><inertial><mass value="0.3"/>', '<link name="left_shin"><inertial><mass value="0"/>')
+    text = tiny_biped_urdf().replace(
+        '<link name="left_shin"><inertial><mass value="0.3"/>',
+        '<link name="left_shin"><inertial><mass value="0"/>',
+    )
     report = robot_report(load_robot(write_urdf(text)))
     assert [p.subject for p in report.problems if p.kind == "mass"] == ["left_shin"]
 
@@ -128,7 +140,10 @@ def test_no_feet_found(write_urdf):
 
 def test_feet_can_be_named_by_the_user(write_urdf):
     robot = load_robot(write_urdf(tiny_biped_urdf()), feet=("right_shin", "left_shin"))
-    assert [(f.side, f.link) for f in robot.feet] == [("left", "left_shin"), ("right", "right_shin")]
+    assert [(f.side, f.link) for f in robot.feet] == [
+        ("left", "left_shin"),
+        ("right", "right_shin"),
+    ]
 
 
 def test_unknown_foot_name(write_urdf):

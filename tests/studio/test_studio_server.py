@@ -1,0 +1,170 @@
+"""A real viser server in pytest: panels are driven by setting their handles' values."""
+
+from __future__ import annotations
+
+import socket
+import threading
+
+import numpy as np
+import pinocchio as pin
+import pytest
+import viser
+
+from app.config import StudioConfig
+from app.studio import Studio
+from tests.conftest import SIGMABAN_URDF, tiny_biped_urdf
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def studio(tmp_path):
+    studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path / "data"))
+    yield studio
+    studio.stop()
+
+
+def _world_position(studio: Studio, link: str) -> np.ndarray:
+    data = studio.robot.model.createData()
+    return studio.robot.link_placements(studio.q, data)[link][:3, 3]
+
+
+def test_serves_on_localhost_by_default(studio):
+    assert studio.server.get_host() == "127.0.0.1"
+    assert studio.robot.name == "servo_biped"
+
+
+def test_joint_slider_moves_the_robot_in_the_scene(studio):
+    slider = studio.joints_panel.sliders["left_knee"]
+    foot = studio.robot.feet[0].link
+    before = studio.view.link_pose(foot)[0].copy()
+    slider.value = 40.0
+    i = studio.robot.joint_names.index("left_knee")
+    assert studio.robot.joint_angles(studio.q)[i] == pytest.approx(np.deg2rad(40.0))
+    position, wxyz = studio.view.link_pose(foot)
+    # The scene node is where pinocchio puts the foot, independently recomputed here.
+    data = studio.robot.model.createData()
+    T = studio.robot.link_placements(studio.q, data)[foot]
+    np.testing.assert_allclose(position, T[:3, 3], atol=1e-9)
+    quat = pin.Quaternion(T[:3, :3])
+    np.testing.assert_allclose(np.abs(wxyz), np.abs([quat.w, quat.x, quat.y, quat.z]), atol=1e-9)
+    assert np.linalg.norm(position - before) > 0.01
+    # The other foot did not move.
+    right = studio.robot.feet[1].link
+    np.testing.assert_allclose(
+        studio.view.link_pose(right)[0], _world_position(studio, right), atol=1e-9
+    )
+
+
+def test_slider_values_outside_limits_are_clamped(studio):
+    joint = studio.robot.joints[0]
+    studio.set_joint_angle(0, joint.upper + 1.0)
+    assert studio.robot.joint_angles(studio.q)[0] == pytest.approx(joint.upper)
+    studio.set_joint_angle(0, float("nan"))
+    assert studio.robot.joint_angles(studio.q)[0] == pytest.approx(joint.upper)
+
+
+def test_reset_pose_button(studio):
+    studio.joints_panel.sliders["right_hip_pitch"].value = -30.0
+    assert not np.allclose(studio.q, studio.robot.q_neutral)
+    reset = next(h for h in _buttons(studio) if h.label == "Reset pose")
+    reset.value = True
+    np.testing.assert_allclose(studio.q, studio.robot.q_neutral)
+    assert studio.joints_panel.sliders["right_hip_pitch"].value == 0.0
+
+
+def _buttons(studio: Studio) -> list[viser.GuiButtonHandle]:
+    return [
+        h
+        for h in studio.joints_panel.folder._children.values()
+        if isinstance(h, viser.GuiButtonHandle)
+    ]
+
+
+def test_open_path_loads_a_third_party_robot_and_rebuilds_sliders(studio):
+    studio.robot_panel.path.value = str(SIGMABAN_URDF)
+    studio.robot_panel.open_path.value = True
+    assert studio.robot.n_actuated == 20
+    assert set(studio.joints_panel.sliders) == set(studio.robot.joint_names)
+    assert "onshape" in studio.robot_panel.report.content
+    assert studio.last_error == ""
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("<robot name='x'><link name='a'>", "not well-formed XML"),
+        (
+            tiny_biped_urdf().replace('<parent link="left_thigh"/>', '<parent link="ghost"/>'),
+            "ghost",
+        ),
+    ],
+)
+def test_bad_file_keeps_the_previous_robot(studio, tmp_path, text, message):
+    before_robot, before_q = studio.robot, studio.q.copy()
+    studio.joints_panel.sliders["left_knee"].value = 20.0
+    posed_q = studio.q.copy()
+    bad = tmp_path / "bad.urdf"
+    bad.write_text(text)
+    studio.robot_panel.path.value = str(bad)
+    studio.robot_panel.open_path.value = True
+    assert studio.robot is before_robot
+    np.testing.assert_allclose(studio.q, posed_q)
+    assert not np.allclose(posed_q, before_q)
+    assert message in studio.last_error and "previous robot is still loaded" in studio.last_error
+    assert "⚠️" in studio.robot_panel.status.content
+
+
+def test_upload_zip_through_the_panel_and_refused_upload(studio):
+    import io
+    import zipfile
+
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        archive.writestr("tiny/tiny.urdf", tiny_biped_urdf())
+    studio.robot_panel.receive_upload(viser.UploadedFile("tiny.zip", buffer.getvalue()))
+    assert studio.robot.name == "tiny"
+    assert studio.robot.source.is_relative_to(studio.config.uploads_dir.resolve())
+
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        archive.writestr("../../evil.urdf", tiny_biped_urdf())
+    studio.robot_panel.receive_upload(viser.UploadedFile("evil.zip", buffer.getvalue()))
+    assert studio.robot.name == "tiny"
+    assert "outside the archive" in studio.last_error
+
+
+def test_builtin_dropdown(studio):
+    studio.robot_panel.builtin.value = "dircon_biped"
+    studio.robot_panel.load_builtin.value = True
+    assert studio.robot.name == "dircon_biped"
+    assert studio.robot.n_actuated == 10
+
+
+def test_display_toggles(studio):
+    studio.display_panel.collision.value = True
+    studio.display_panel.frames.value = True
+    assert studio.display_panel.flags().collision and studio.display_panel.flags().frames
+
+
+def test_concurrent_slider_updates_leave_a_consistent_state(studio):
+    """Callbacks from two tabs overlap on viser's thread pool; the lock keeps q consistent."""
+    names = list(studio.joints_panel.sliders)
+
+    def drag(offset: int) -> None:
+        for k in range(50):
+            studio.set_joint_angle((k + offset) % len(names), 0.01 * k)
+
+    threads = [threading.Thread(target=drag, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for link in (studio.robot.feet[0].link, studio.robot.feet[1].link):
+        np.testing.assert_allclose(
+            studio.view.link_pose(link)[0], _world_position(studio, link), atol=1e-9
+        )
