@@ -79,9 +79,8 @@ class JointsPanel:
         try:
             for i, joint in enumerate(robot.joints):
                 slider = self.sliders[joint.name]
-                slider.value = float(
-                    np.clip(round(angles[i] * self._scales[i], 1), slider.min, slider.max)
-                )  # type: ignore[misc]  # viser types the setter on a generic base
+                value = float(np.clip(round(angles[i] * self._scales[i], 1), slider.min, slider.max))
+                slider.value = value  # type: ignore[misc]  # viser types the setter on a generic base
         finally:
             self._syncing = False
 

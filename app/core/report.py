@@ -86,11 +86,9 @@ def robot_report(robot: RobotModel) -> RobotReport:
             for key, value in (("lower", joint.lower), ("upper", joint.upper))
             if value is None and joint.kind != "continuous"
         ]
-        missing += [
-            key
-            for key, value in (("effort", joint.effort), ("velocity", joint.velocity))
-            if not value
-        ]
+        if joint.name not in robot.passive_joints:  # a passive joint has no motor to rate
+            rated = (("effort", joint.effort), ("velocity", joint.velocity))
+            missing += [key for key, value in rated if not value]
         if missing:
             problems.append(Problem("limits", joint.name, f"no {' / '.join(missing)} limit"))
         elif joint.lower is not None and joint.upper is not None and joint.lower > joint.upper:
