@@ -191,10 +191,11 @@ class Studio:
             target.add_notification(title, body, color=color, auto_close_seconds=8.0)
 
     def _frame_camera(self, robot: RobotModel) -> None:
-        height = float(robot.q_neutral[2]) * 1.3 if robot.floating_base else 1.0
-        height = max(height, 0.3)
-        look_at = (0.0, 0.0, 0.5 * height)
-        position = (1.5 * height, 1.1 * height, 0.85 * height)
+        lower, upper = robot.bounds_m(robot.q_neutral, robot.model.createData())
+        height = max(float(upper[2] - min(lower[2], 0.0)), 0.3)
+        centre = 0.5 * (lower + upper)
+        look_at = (float(centre[0]), float(centre[1]), 0.45 * height)
+        position = (centre[0] + 1.7 * height, centre[1] + 1.2 * height, 0.8 * height)
         self.server.initial_camera.position = position
         self.server.initial_camera.look_at = look_at
         for client in self.server.get_clients().values():

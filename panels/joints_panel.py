@@ -79,7 +79,9 @@ class JointsPanel:
         try:
             for i, joint in enumerate(robot.joints):
                 slider = self.sliders[joint.name]
-                value = float(np.clip(round(angles[i] * self._scales[i], 1), slider.min, slider.max))
+                value = float(
+                    np.clip(round(angles[i] * self._scales[i], 1), slider.min, slider.max)
+                )
                 slider.value = value  # type: ignore[misc]  # viser types the setter on a generic base
         finally:
             self._syncing = False

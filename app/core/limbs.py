@@ -30,8 +30,9 @@ def limb_of_joints(
         lowered = name.lower()
         y = T_world_links.get(joint.child, np.eye(4))[1, 3]
         side = "Left" if y > 0.0 else "Right"
-        if name in legs:
-            limbs[name] = legs[name]
+        leg = legs.get(name) or _leg_above(tree, joint.parent, legs)
+        if leg:
+            limbs[name] = leg
         elif any(word in lowered for word in ARM_WORDS):
             limbs[name] = f"{side} arm"
         elif any(word in lowered for word in HEAD_WORDS):
@@ -41,3 +42,12 @@ def limb_of_joints(
         else:
             limbs[name] = "Other"
     return limbs
+
+
+def _leg_above(tree: UrdfTree, link: str, legs: dict[str, str]) -> str:
+    """The leg a side branch hangs from (e.g. an ankle motor's crank on the shin), or ""."""
+    while (joint := tree.parent_joint(link)) is not None:
+        if joint.name in legs:
+            return legs[joint.name]
+        link = joint.parent
+    return ""

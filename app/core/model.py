@@ -96,6 +96,21 @@ class RobotModel:
         """Whole-body centre of mass in the world frame [m], shape (3,)."""
         return np.array(pin.centerOfMass(self.model, data, q))
 
+    def bounds_m(self, q: np.ndarray, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned (lower, upper) corners [m] of the visual geometry at configuration q."""
+        placements = self.link_placements(q, data)
+        points = [
+            (placements[m.link] @ m.T_link_mesh)[:3, :3] @ m.mesh.bounds.T
+            + (placements[m.link] @ m.T_link_mesh)[:3, 3:4]
+            for m in self.meshes
+            if m.role == "visual" and m.link in placements
+        ]
+        if not points:
+            origins = np.array([T[:3, 3] for T in placements.values()])
+            return origins.min(axis=0), origins.max(axis=0)
+        stacked = np.concatenate(points, axis=1)
+        return stacked.min(axis=1), stacked.max(axis=1)
+
     def foot(self, side: str) -> Foot:
         return self.feet[0] if side == "left" else self.feet[1]
 

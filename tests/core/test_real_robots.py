@@ -181,3 +181,24 @@ def test_package_uris_resolve_from_an_installed_share_folder():
     robot = load_robot(path)
     assert robot.missing_meshes == ()
     assert robot.meshes
+
+
+@pytest.mark.parametrize("name, height_m", [("servo_biped", 0.70), ("dircon_biped", 1.211)])
+def test_standing_height_matches_the_papers(name, height_m):
+    robot = load_robot(name)
+    lower, upper = robot.bounds_m(robot.q_neutral, robot.model.createData())
+    assert lower[2] == pytest.approx(0.0, abs=1e-9)
+    assert upper[2] == pytest.approx(height_m, abs=0.005)
+
+
+def test_every_leg_joint_is_grouped_with_its_leg():
+    # The hybrid leg's ankle motor drives a crank on the shin, off the chain to the foot.
+    robot = load_robot("hybrid_leg_biped")
+    for joint in robot.joints:
+        side = "Left" if joint.name.startswith("left_") else "Right"
+        assert joint.limb == f"{side} leg", joint.name
+    roban = load_robot(ROBAN_URDF)
+    limbs = {j.name: j.limb for j in roban.joints}
+    assert limbs["waist_yaw_joint"] == "Torso"
+    assert {limbs[f"leg_l{i}_joint"] for i in range(1, 7)} == {"Left leg"}
+    assert {limbs[f"zarm_r{i}_joint"] for i in range(1, 5)} == {"Right arm"}

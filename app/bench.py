@@ -1,0 +1,105 @@
+"""`biped-studio bench`: the studio's speed targets, measured on fixed work, server side.
+
+- load: time from "load this URDF" to its scene being queued for the browser (parse, meshes,
+  pinocchio model, scene nodes, panels), median of several loads; target ≤ 2 s for Roban S14.
+- slider: time from a joint slider's new value to the scene update being queued (forward
+  kinematics + node updates), p50 / p95 over many changes; target ≤ 5 ms.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import socket
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from app.config import StudioConfig
+from app.studio import Studio
+
+ROBAN_CANDIDATES = (
+    Path(__file__).resolve().parents[2]
+    / "shared"
+    / "robots"
+    / "roban_s14"
+    / "urdf"
+    / "robanS14.urdf",
+)
+LOAD_TARGET_S = 2.0
+SLIDER_TARGET_MS = 5.0
+
+
+def run_bench(args: argparse.Namespace) -> int:
+    robot = args.robot or next((str(p) for p in ROBAN_CANDIDATES if p.exists()), "servo_biped")
+    with tempfile.TemporaryDirectory() as data_dir:
+        studio = Studio(StudioConfig(port=_free_port(), data_dir=Path(data_dir)))
+        try:
+            results = {
+                "load": _bench_load(studio, robot),
+                "slider": {
+                    "servo_biped": _bench_slider(studio, "servo_biped", args.repeats),
+                    Path(robot).stem: _bench_slider(studio, robot, args.repeats),
+                },
+            }
+        finally:
+            studio.stop()
+    if args.json:
+        print(json.dumps(results, indent=2))
+        return 0
+    load = results["load"]
+    print(
+        f"load {load['robot']}: median {load['median_s']:.3f} s over {load['runs']} loads "
+        f"(target ≤ {LOAD_TARGET_S} s) {_mark(load['median_s'] <= LOAD_TARGET_S)}"
+    )
+    for name, row in results["slider"].items():
+        print(
+            f"slider → scene, {name}: p50 {row['p50_ms']:.2f} ms, p95 {row['p95_ms']:.2f} ms over "
+            f"{row['changes']} changes (target p95 ≤ {SLIDER_TARGET_MS} ms) {_mark(row['p95_ms'] <= SLIDER_TARGET_MS)}"
+        )
+    return 0
+
+
+def _bench_load(studio: Studio, robot: str, runs: int = 5) -> dict:
+    times = []
+    for _ in range(runs):
+        start = time.perf_counter()
+        ok = studio.load(robot)
+        studio.server.flush()
+        times.append(time.perf_counter() - start)
+        if not ok:
+            raise SystemExit(f"bench: cannot load {robot}: {studio.last_error}")
+    return {"robot": robot, "runs": runs, "median_s": statistics.median(times), "max_s": max(times)}
+
+
+def _bench_slider(studio: Studio, robot: str, repeats: int) -> dict:
+    studio.load(robot)
+    panel = studio.joints_panel
+    assert panel is not None and studio.robot is not None
+    names = list(panel.sliders)
+    times = []
+    for k in range(repeats):
+        slider = panel.sliders[names[k % len(names)]]
+        target = slider.min + (slider.max - slider.min) * (0.25 if (k // len(names)) % 2 else 0.75)
+        start = time.perf_counter()
+        slider.value = round(target, 1)
+        times.append(time.perf_counter() - start)
+    ms = np.array(times) * 1000.0
+    return {
+        "changes": repeats,
+        "p50_ms": float(np.percentile(ms, 50)),
+        "p95_ms": float(np.percentile(ms, 95)),
+    }
+
+
+def _mark(ok: bool) -> str:
+    return "ok" if ok else "OVER TARGET"
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
