@@ -17,6 +17,7 @@ import viser
 from app.config import StudioConfig
 from app.core.errors import StudioError
 from app.core.loading import load_robot
+from app.core.loops import close_loops
 from app.core.model import RobotModel
 from app.core.report import RobotReport, robot_report
 from app.core.uploads import store_upload
@@ -26,6 +27,9 @@ from panels.joints_panel import JointsPanel
 from panels.robot_panel import RobotPanel
 
 log = logging.getLogger(__name__)
+
+LOOP_TOLERANCE_M = 1e-6
+"""A pose whose loops cannot close to this gap is refused."""
 
 
 class Studio:
@@ -151,7 +155,17 @@ class Studio:
             joint = robot.joints[index]
             angles = robot.joint_angles(self.q)
             angles[index] = float(np.clip(value, joint.lower, joint.upper))
-            self.q = robot.with_joint_angles(self.q, angles)
+            q = robot.with_joint_angles(self.q, angles)
+            if robot.tree.loops:
+                closure = close_loops(robot, q, view.data)
+                if closure.residual_m > LOOP_TOLERANCE_M:
+                    self.robot_panel.show_status(
+                        f"⚠️ {joint.name} at {np.rad2deg(angles[index]):.1f}° cannot close the robot's "
+                        f"loops (gap {closure.residual_m * 1000:.1f} mm): pose kept."
+                    )
+                    return
+                q = closure.q
+            self.q = q
             with self.server.atomic():
                 view.update(self.q)
 

@@ -6,10 +6,13 @@ import dataclasses
 
 import numpy as np
 
+from app.core.loops import loop_residual
 from app.core.model import RobotModel
 
 MASSLESS_KG = 1e-6
 """Links lighter than this are treated as frames, not bodies (e.g. SigmaBan's 1e-9 kg tips)."""
+LOOP_OPEN_M = 1e-6
+"""A declared loop whose two sides are further apart than this at the neutral pose is reported."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -99,6 +102,18 @@ def robot_report(robot: RobotModel) -> RobotReport:
             )
     for missing_mesh in robot.missing_meshes:
         problems.append(Problem("mesh", missing_mesh.uri, missing_mesh.reason))
+
+    if tree.loops:
+        gaps = loop_residual(robot, robot.q_neutral, robot.model.createData()).reshape(-1, 3)
+        for loop, gap in zip(tree.loops, gaps, strict=True):
+            if np.linalg.norm(gap) > LOOP_OPEN_M:
+                problems.append(
+                    Problem(
+                        "loop",
+                        loop.name,
+                        f"open by {np.linalg.norm(gap) * 1000:.2f} mm at the neutral pose",
+                    )
+                )
 
     sole_size = {}
     for foot in robot.feet:

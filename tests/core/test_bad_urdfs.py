@@ -176,3 +176,18 @@ def test_missing_file_and_unknown_name():
 def test_xacro_is_explained(write_urdf):
     with pytest.raises(RobotLoadError, match="xacro"):
         load_robot(write_urdf(tiny_biped_urdf(), name="robot.urdf.xacro"))
+
+
+def test_declared_loop_that_does_not_close_is_reported(write_urdf):
+    # Tie the two feet together: they stand 0.10 m apart, so the loop is open by 100 mm.
+    extra = '<loop_closure name="feet_tie" link_a="left_foot" link_b="right_foot" passive_joints="left_knee"/>'
+    report = robot_report(load_robot(write_urdf(tiny_biped_urdf(extra))))
+    assert [(p.kind, p.subject) for p in report.problems] == [("loop", "feet_tie")]
+    assert "open by 100.00 mm" in report.problems[0].message
+    assert report.passive_joints == ("left_knee",) and report.n_actuated == 3
+
+
+def test_loop_naming_a_missing_link(write_urdf):
+    extra = '<loop_closure name="bad" link_a="left_foot" link_b="nowhere" passive_joints=""/>'
+    with pytest.raises(UrdfStructureError, match="loop_closure 'bad' names link 'nowhere'"):
+        load_robot(write_urdf(tiny_biped_urdf(extra)))

@@ -168,3 +168,21 @@ def test_concurrent_slider_updates_leave_a_consistent_state(studio):
         np.testing.assert_allclose(
             studio.view.link_pose(link)[0], _world_position(studio, link), atol=1e-9
         )
+
+
+def test_knee_slider_keeps_the_hybrid_legs_four_bars_closed(studio):
+    from app.core.loops import loop_residual
+
+    studio.robot_panel.builtin.value = "hybrid_leg_biped"
+    studio.robot_panel.load_builtin.value = True
+    studio.joints_panel.sliders["left_knee"].value = 20.0
+    studio.joints_panel.sliders["left_ankle"].value = -15.0
+    angles = studio.robot.joint_angles(studio.q)
+    assert angles[studio.robot.joint_names.index("left_knee")] == pytest.approx(np.deg2rad(20.0))
+    gap = loop_residual(studio.robot, studio.q, studio.robot.model.createData())
+    assert np.abs(gap).max() < 1e-9
+    # The passive joints really moved: the loop would be open with them at the neutral values.
+    opened = studio.q.copy()
+    for name in studio.robot.passive_joints:
+        opened[studio.robot.model.joints[studio.robot.model.getJointId(name)].idx_q] = 0.0
+    assert np.abs(loop_residual(studio.robot, opened, studio.robot.model.createData())).max() > 1e-3
