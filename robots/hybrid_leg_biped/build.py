@@ -134,7 +134,14 @@ def _offset(points: dict[str, np.ndarray], start: str, end: str) -> tuple[float,
 
 
 def _bar(
-    points, start: str, end: str, width_m: float, height_m: float, y_m: float, rgba, trim_end_m: float = 0.0
+    points,
+    start: str,
+    end: str,
+    width_m: float,
+    height_m: float,
+    y_m: float,
+    rgba,
+    trim_end_m: float = 0.0,
 ) -> Shape:
     """Box from point start to point end (less trim_end_m at the end), in the frame of the link
     whose origin is at start. The trim keeps a rod that ends at the sole line above the ground."""
@@ -143,7 +150,9 @@ def _bar(
     unit = np.array([dx, dz]) / math.hypot(dx, dz)
     cx, cz = unit * length_m / 2
     pitch_rad = math.atan2(-dz, dx)  # turns the box's x axis onto (dx, 0, dz)
-    return Shape("box", (length_m, width_m, height_m), (float(cx), y_m, float(cz)), (0, pitch_rad, 0), rgba)
+    return Shape(
+        "box", (length_m, width_m, height_m), (float(cx), y_m, float(cz)), (0, pitch_rad, 0), rgba
+    )
 
 
 def _motor(xyz, radius_m: float, length_m: float, axis: str) -> Shape:
