@@ -80,3 +80,15 @@ def test_corrupt_mesh_is_reported_not_raised(tmp_path, write_urdf):
     robot = load_robot(write_urdf(tiny_biped_urdf(foot_geometry='<mesh filename="foot.stl"/>')))
     assert len(robot.missing_meshes) == 2
     assert all(m.uri == "foot.stl" for m in robot.missing_meshes)
+
+
+@pytest.mark.parametrize("suffix", ["stl", "obj", "dae"])
+def test_mesh_formats_and_scale(tmp_path, write_urdf, suffix):
+    """STL, OBJ and COLLADA meshes load through trimesh; the URDF's scale is applied per axis."""
+    trimesh.creation.box(extents=(100.0, 50.0, 10.0)).export(tmp_path / f"foot.{suffix}")
+    geometry = f'<mesh filename="foot.{suffix}" scale="0.001 0.001 0.001"/>'
+    robot = load_robot(write_urdf(tiny_biped_urdf(foot_geometry=geometry)))
+    assert robot.missing_meshes == ()
+    corners = robot.feet[0].sole_corners_m
+    assert abs(corners[1, 0] - corners[0, 0]) == pytest.approx(0.10)
+    assert abs(corners[2, 1] - corners[1, 1]) == pytest.approx(0.05)
