@@ -2,7 +2,8 @@
 
 The built-in robots are generated from the papers' numbers by the builders in
 `robots/<name>/build.py`; this module holds what they share: solid-body inertias
-(closed form, about the body's centre of mass) and an XML writer that emits links,
+(closed form, about the body's centre of mass), serial leg chains with the right leg's
+limits mirrored from the left's, a total-mass check, and an XML writer that emits links,
 joints and the studio's loop-closure declarations.
 
 Frames follow REP 103: x forward, y left, z up. Lengths in metres, masses in kilograms,
@@ -12,6 +13,8 @@ angles in radians.
 from __future__ import annotations
 
 import dataclasses
+import math
+from collections.abc import Callable, Iterable, Mapping
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -79,6 +82,11 @@ class Link:
 
     def inertial(self) -> tuple[np.ndarray, np.ndarray]:
         """Centre of mass [m] and inertia about it [kg·m²], both in the link frame."""
+        if not self.shapes:
+            raise ValueError(
+                f"link {self.name!r} has mass {self.mass_kg:g} kg but no shapes to spread it over;"
+                " give it shapes, or mass 0 for a massless frame"
+            )
         volumes = np.array([_volume(s) for s in self.shapes])
         masses = self.mass_kg * volumes / volumes.sum()
         com = sum(m * np.array(s.xyz) for m, s in zip(masses, self.shapes, strict=True))
@@ -122,6 +130,80 @@ class LoopClosure:
     link_a: str
     link_b: str
     passive_joints: tuple[str, ...]
+
+
+def mirrored_limits(
+    axis: tuple[float, float, float], lower: float, upper: float
+) -> tuple[float, float]:
+    """Right-side limits of a left-side joint, mirrored through the sagittal (x-z) plane.
+
+    A mirror maps rotations about x and z to their opposites and keeps rotations about y.
+    """
+    if abs(axis[1]) > 0.5:
+        return lower, upper
+    return -upper, -lower
+
+
+def serial_chain(
+    side_name: str,
+    parent: str,
+    left_joints: Iterable[tuple[str, str, tuple[float, float, float], float, float, float]],
+    *,
+    origins: Mapping[str, tuple[float, float, float]],
+    link_masses_kg: Mapping[str, float],
+    link_shapes: Mapping[str, list[Shape]],
+    velocity_rad_s: float,
+    sole_drop_m: float,
+) -> tuple[list[Link], list[Joint]]:
+    """Links and joints of a serial leg hanging from `parent`, ending in a massless sole frame.
+
+    left_joints lists the chain of the left leg from the top: (joint, child link, axis,
+    lower [rad], upper [rad], effort [N·m]). Names get the prefix `<side_name>_`; any side
+    but "left" gets mirrored limits (mirrored_limits). origins maps each joint to its origin
+    in the parent link frame, link_masses_kg and link_shapes each link to its mass and shapes.
+    The last link carries a massless link `<side_name>_sole`, fixed sole_drop_m below it
+    (joint `<side_name>_sole_fixed`).
+    """
+    links, joints = [], []
+    for joint_name, link_name, axis, lower, upper, effort_Nm in left_joints:
+        if side_name != "left":
+            lower, upper = mirrored_limits(axis, lower, upper)
+        child = f"{side_name}_{link_name}"
+        links.append(Link(child, link_masses_kg[link_name], link_shapes[link_name]))
+        joints.append(
+            Joint(
+                f"{side_name}_{joint_name}",
+                parent,
+                child,
+                xyz=origins[joint_name],
+                axis=axis,
+                lower=lower,
+                upper=upper,
+                effort_Nm=effort_Nm,
+                velocity_rad_s=velocity_rad_s,
+            )
+        )
+        parent = child
+    sole = f"{side_name}_sole"
+    links.append(Link(sole, 0.0))
+    joints.append(Joint(f"{sole}_fixed", parent, sole, kind="fixed", xyz=(0.0, 0.0, -sole_drop_m)))
+    return links, joints
+
+
+def both_legs(
+    leg: Callable[[str], tuple[list[Link], list[Joint]]],
+) -> tuple[list[Link], list[Joint]]:
+    """Links and joints of leg("left") followed by those of leg("right")."""
+    links, joints = leg("left")
+    right_links, right_joints = leg("right")
+    return links + right_links, joints + right_joints
+
+
+def check_total_mass(links: Iterable[Link], expected_kg: float, source: str) -> None:
+    """Raise ValueError unless the link masses sum to expected_kg (the number given by source)."""
+    total_kg = sum(link.mass_kg for link in links)
+    if not math.isclose(total_kg, expected_kg, abs_tol=1e-9):
+        raise ValueError(f"link masses sum to {total_kg} kg, {source} says {expected_kg} kg")
 
 
 def write_urdf(

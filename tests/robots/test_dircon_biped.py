@@ -11,13 +11,20 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 
-import coal
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from robots.catalogue import BUILTIN_ROBOTS
 from robots.dircon_biped.build import build_urdf
+from tests.robots.urdf_facts import (
+    assert_every_inertia_physical,
+    assert_soles_flat_and_symmetric,
+    floating_model,
+    frame_placements,
+    geometry_bounds,
+    urdf_inertials,
+)
 
 URDF_PATH = BUILTIN_ROBOTS["dircon_biped"].urdf_path
 # Table 1 [deg] (left leg; the right hip roll is mirrored) and section 4 rated torques [N·m].
@@ -34,57 +41,7 @@ TABLE2_BASE_KG, TABLE2_HIP_ROLL_KG, TABLE2_TOTAL_KG = 7.624, 0.922, 18.532
 
 @pytest.fixture(scope="module")
 def model() -> pin.Model:
-    return pin.buildModelFromUrdf(str(URDF_PATH), pin.JointModelFreeFlyer())
-
-
-def placements(model: pin.Model, q: np.ndarray) -> pin.Data:
-    data = model.createData()
-    pin.framesForwardKinematics(model, data, q)
-    return data
-
-
-def geometry_bounds(model: pin.Model, q: np.ndarray, links: tuple[str, ...] = ()):
-    """World-axis bounds (min xyz, max xyz) [m] of the visual geometry, optionally of some links."""
-    geom = pin.buildGeomFromUrdf(model, str(URDF_PATH), pin.GeometryType.VISUAL)
-    data, geom_data = model.createData(), geom.createData()
-    pin.forwardKinematics(model, data, q)
-    pin.updateGeometryPlacements(model, data, geom, geom_data)
-    lows, highs = [], []
-    for obj, placement in zip(geom.geometryObjects, geom_data.oMg, strict=True):
-        if links and model.frames[obj.parentFrame].name not in links:
-            continue
-        shape, rot = obj.geometry, placement.rotation
-        if isinstance(shape, coal.Box):
-            reach = np.abs(rot) @ np.asarray(shape.halfSide)
-        elif isinstance(shape, coal.Cylinder):
-            axis = np.abs(rot[:, 2])
-            reach = axis * shape.halfLength + shape.radius * np.sqrt(np.clip(1 - axis**2, 0, 1))
-        elif isinstance(shape, coal.Sphere):
-            reach = np.full(3, shape.radius)
-        else:
-            raise AssertionError(f"unexpected geometry {type(shape).__name__}")
-        lows.append(placement.translation - reach)
-        highs.append(placement.translation + reach)
-    return np.min(lows, axis=0), np.max(highs, axis=0)
-
-
-def urdf_inertials() -> dict[str, tuple[float, np.ndarray]]:
-    """Mass [kg] and inertia matrix [kg·m²] of every massive link, read from the URDF text."""
-    out = {}
-    for link in ET.parse(URDF_PATH).getroot().iter("link"):
-        inertial = link.find("inertial")
-        if inertial is None:
-            continue
-        i = {k: float(v) for k, v in inertial.find("inertia").attrib.items()}
-        matrix = np.array(
-            [
-                [i["ixx"], i["ixy"], i["ixz"]],
-                [i["ixy"], i["iyy"], i["iyz"]],
-                [i["ixz"], i["iyz"], i["izz"]],
-            ]
-        )
-        out[link.get("name")] = (float(inertial.find("mass").get("value")), matrix)
-    return out
+    return floating_model(URDF_PATH)
 
 
 def test_committed_urdf_is_the_builder_output():
@@ -96,7 +53,7 @@ def test_total_mass_is_table_2(model):
 
 
 def test_link_masses_are_table_2(model):
-    masses = {name: mass for name, (mass, _) in urdf_inertials().items()}
+    masses = {name: mass for name, (mass, _) in urdf_inertials(URDF_PATH).items()}
     assert len(masses) == 13  # section 4: 13 links
     assert masses["base"] == pytest.approx(TABLE2_BASE_KG)
     # The hip roll links are fixed to the baselink, so pinocchio merges them into the base body.
@@ -148,9 +105,9 @@ def test_hip_roll_range_abducts_outward(model):
         )
         q = pin.neutral(model)
         q[j.idx_q] = outward
-        sole_y = placements(model, q).oMf[model.getFrameId(f"{side}_sole")].translation[1]
+        sole_y = frame_placements(model, q).oMf[model.getFrameId(f"{side}_sole")].translation[1]
         home_y = (
-            placements(model, pin.neutral(model))
+            frame_placements(model, pin.neutral(model))
             .oMf[model.getFrameId(f"{side}_sole")]
             .translation[1]
         )
@@ -160,14 +117,14 @@ def test_hip_roll_range_abducts_outward(model):
 
 def test_size_height_width_and_feet(model):
     q = pin.neutral(model)
-    data = placements(model, q)
+    data = frame_placements(model, q)
     sole_z = data.oMf[model.getFrameId("left_sole")].translation[2]
-    low, high = geometry_bounds(model, q)
+    low, high = geometry_bounds(model, URDF_PATH, q)
     assert low[2] == pytest.approx(sole_z, abs=1e-9)
     assert high[2] - sole_z == pytest.approx(1.211, abs=0.01)
     assert high[1] - low[1] == pytest.approx(0.275, abs=0.01)
     for side in ("left", "right"):
-        foot_low, foot_high = geometry_bounds(model, q, (f"{side}_foot",))
+        foot_low, foot_high = geometry_bounds(model, URDF_PATH, q, (f"{side}_foot",))
         assert foot_high[0] - foot_low[0] == pytest.approx(0.190, abs=1e-9)
         assert foot_high[1] - foot_low[1] == pytest.approx(0.075, abs=1e-9)
 
@@ -179,48 +136,30 @@ def test_leg_lengths_add_up_to_the_height(model, seed):
         q[7:] = np.random.default_rng(seed).uniform(
             model.lowerPositionLimit[7:], model.upperPositionLimit[7:]
         )
-    data = placements(model, q)
+    data = frame_placements(model, q)
     for side in ("left", "right"):
         at = {joint: data.oMi[model.getJointId(f"{side}_{joint}")].translation for joint, *_ in LEG}
         thigh_m = np.linalg.norm(at["knee"] - at["hip_pitch"])
         shank_m = np.linalg.norm(at["ankle_pitch"] - at["knee"])
         assert thigh_m == pytest.approx(shank_m, abs=1e-9)
     if not seed:
-        base_top_m = geometry_bounds(model, q, ("base",))[1][2]
+        base_top_m = geometry_bounds(model, URDF_PATH, q, ("base",))[1][2]
         sole_z = data.oMf[model.getFrameId("left_sole")].translation[2]
         assert base_top_m - sole_z == pytest.approx(1.211, abs=1e-9)
 
 
 def test_sole_frames_flat_and_symmetric(model):
-    data = placements(model, pin.neutral(model))
-    left = data.oMf[model.getFrameId("left_sole")]
-    right = data.oMf[model.getFrameId("right_sole")]
-    for sole in (left, right):
-        np.testing.assert_allclose(sole.rotation, np.eye(3), atol=1e-12)
-    assert left.translation[1] == pytest.approx(-right.translation[1], abs=1e-12)
-    assert left.translation[1] > 0.0
-    assert left.translation[[0, 2]] == pytest.approx(right.translation[[0, 2]], abs=1e-12)
+    assert_soles_flat_and_symmetric(model)
 
 
 def test_com_is_between_the_legs_and_high(model):
     q = pin.neutral(model)
     com = pin.centerOfMass(model, model.createData(), q)
-    data = placements(model, q)
+    data = frame_placements(model, q)
     sole_z = data.oMf[model.getFrameId("left_sole")].translation[2]
     assert abs(com[0]) < 1e-9 and abs(com[1]) < 1e-9
     assert (com[2] - sole_z) / 1.211 > 0.5  # "mid-top": upper half of the robot
 
 
-def assert_physical(name: str, inertia: np.ndarray) -> None:
-    moments = np.linalg.eigvalsh(inertia)
-    assert np.all(moments > 0.0), name
-    a, b, c = moments
-    assert a + b >= c * (1.0 - 1e-6), name  # triangle inequality of principal moments
-
-
 def test_every_inertia_is_physical(model):
-    for name, (mass, inertia) in urdf_inertials().items():
-        assert mass > 0.0, name
-        assert_physical(name, inertia)
-    for i in range(1, model.njoints):
-        assert_physical(model.names[i], model.inertias[i].inertia)
+    assert_every_inertia_physical(model, URDF_PATH)

@@ -20,6 +20,11 @@ from scipy.optimize import least_squares
 
 from robots.catalogue import BUILTIN_ROBOTS
 from robots.hybrid_leg_biped.build import build_urdf
+from tests.robots.urdf_facts import (
+    assert_every_inertia_physical,
+    floating_model,
+    frame_placements,
+)
 
 URDF_PATH = BUILTIN_ROBOTS["hybrid_leg_biped"].urdf_path
 LENGTH_m = {  # DESIGN.md, from the authors' code [mm] / 1000
@@ -44,14 +49,7 @@ LOOPS = [(f"{s}_knee_loop_thigh_b", f"{s}_knee_loop_shin_b") for s in SIDES] + [
 
 @pytest.fixture(scope="module")
 def model() -> pin.Model:
-    return pin.buildModelFromUrdf(str(URDF_PATH), pin.JointModelFreeFlyer())
-
-
-def kinematics(model: pin.Model, q: np.ndarray) -> pin.Data:
-    data = model.createData()
-    pin.forwardKinematics(model, data, q)
-    pin.updateFramePlacements(model, data)
-    return data
+    return floating_model(URDF_PATH)
 
 
 def leg_points(model: pin.Model, data: pin.Data, side: str) -> dict[str, np.ndarray]:
@@ -111,7 +109,7 @@ def q_index(model: pin.Model, name: str) -> int:
 
 
 def loop_residual_m(model: pin.Model, q: np.ndarray) -> np.ndarray:
-    data = kinematics(model, q)
+    data = frame_placements(model, q)
     return np.concatenate(
         [
             data.oMf[model.getFrameId(a)].translation - data.oMf[model.getFrameId(b)].translation
@@ -181,6 +179,10 @@ def test_loop_closures_parse_and_name_existing_links_and_passive_joints():
     assert sorted(declared_passive) == sorted(PASSIVE)
 
 
+def test_every_inertia_is_physical(model):
+    assert_every_inertia_physical(model, URDF_PATH)
+
+
 def test_ten_actuated_and_eight_passive_joints(model):
     revolute = [n for n, j in zip(model.names[1:], model.joints[1:], strict=True) if j.nq == 1]
     assert sorted(revolute) == sorted(ACTUATED + PASSIVE)
@@ -193,7 +195,7 @@ def test_ten_actuated_and_eight_passive_joints(model):
 
 @pytest.mark.parametrize("side", SIDES)
 def test_link_lengths_match_the_authors_code(model, side):
-    p = leg_points(model, kinematics(model, pin.neutral(model)), side)
+    p = leg_points(model, frame_placements(model, pin.neutral(model)), side)
     pairs = {
         "AO": ("A", "O"), "AD": ("A", "D"), "CD": ("C", "D"), "AB": ("A", "B_thigh"),
         "BC": ("B", "C"), "BE": ("B", "E"), "CE": ("C", "E"), "EG": ("E", "G"),
@@ -210,7 +212,7 @@ def test_link_lengths_match_the_authors_code(model, side):
 
 @pytest.mark.parametrize("side", SIDES)
 def test_zero_pose_is_the_authors_standing_pose(model, side):
-    data = kinematics(model, pin.neutral(model))
+    data = frame_placements(model, pin.neutral(model))
     p = leg_points(model, data, side)
     down = np.array([0.0, 0.0, -1.0])
     assert interior_angle(p["D"], p["A"], p["A"] + down) == pytest.approx(
@@ -255,7 +257,7 @@ CASES = [  # (knee, ankle) [rad] for the left leg; the right leg gets other valu
 def test_passive_joints_close_the_loops_as_the_closed_form_predicts(model, knee_rad, ankle_rad):
     rng = np.random.default_rng(CASES.index((knee_rad, ankle_rad)))
     q0 = pin.neutral(model)
-    p0 = {side: leg_points(model, kinematics(model, q0), side) for side in SIDES}
+    p0 = {side: leg_points(model, frame_placements(model, q0), side) for side in SIDES}
     # Lengths measured on the URDF (checked against the paper above, to the micrometre grid).
     L = {k: np.linalg.norm(p0["left"][k[0]] - p0["left"][k[1]]) for k in ("AD", "CD", "EG", "GH")}
     L |= {"AB": np.linalg.norm(p0["left"]["B_thigh"] - p0["left"]["A"])}
@@ -278,7 +280,7 @@ def test_passive_joints_close_the_loops_as_the_closed_form_predicts(model, knee_
     for name, value in actuated.items():  # the solve moved only passive joints
         assert solved[q_index(model, name)] == value
 
-    data = kinematics(model, solved)
+    data = frame_placements(model, solved)
     for side in SIDES:
         p, ref = leg_points(model, data, side), p0[side]
         knee, ankle, pitch = (actuated[f"{side}_{j}"] for j in ("knee", "ankle", "hip_pitch"))

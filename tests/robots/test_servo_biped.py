@@ -7,15 +7,20 @@ pose of Table 2 (q_des of the 12 leg servos).
 
 from __future__ import annotations
 
-import xml.etree.ElementTree as ET
-
-import coal
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from robots.catalogue import BUILTIN_ROBOTS
 from robots.servo_biped.build import build_urdf
+from tests.robots.urdf_facts import (
+    assert_every_inertia_physical,
+    assert_soles_flat_and_symmetric,
+    floating_model,
+    frame_placements,
+    geometry_bounds,
+    urdf_inertials,
+)
 
 URDF_PATH = BUILTIN_ROBOTS["servo_biped"].urdf_path
 LEG_JOINTS = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
@@ -37,36 +42,7 @@ TABLE2_Q_DES_DEG = {
 
 @pytest.fixture(scope="module")
 def model() -> pin.Model:
-    return pin.buildModelFromUrdf(str(URDF_PATH), pin.JointModelFreeFlyer())
-
-
-def frame_placements(model: pin.Model, q: np.ndarray) -> pin.Data:
-    data = model.createData()
-    pin.framesForwardKinematics(model, data, q)
-    return data
-
-
-def geometry_z_range(model: pin.Model, q: np.ndarray) -> tuple[float, float]:
-    """Lowest and highest z [m] of the visual geometry at q (pinocchio's own URDF geometry)."""
-    geom = pin.buildGeomFromUrdf(model, str(URDF_PATH), pin.GeometryType.VISUAL)
-    data, geom_data = model.createData(), geom.createData()
-    pin.forwardKinematics(model, data, q)
-    pin.updateGeometryPlacements(model, data, geom, geom_data)
-    lows, highs = [], []
-    for obj, placement in zip(geom.geometryObjects, geom_data.oMg, strict=True):
-        shape, rot, z = obj.geometry, placement.rotation, placement.translation[2]
-        if isinstance(shape, coal.Box):
-            reach = float(np.abs(rot[2]) @ np.asarray(shape.halfSide))
-        elif isinstance(shape, coal.Cylinder):
-            axis_z = abs(rot[2, 2])
-            reach = axis_z * shape.halfLength + shape.radius * np.sqrt(max(0.0, 1.0 - axis_z**2))
-        elif isinstance(shape, coal.Sphere):
-            reach = shape.radius
-        else:
-            raise AssertionError(f"unexpected geometry {type(shape).__name__}")
-        lows.append(z - reach)
-        highs.append(z + reach)
-    return min(lows), max(highs)
+    return floating_model(URDF_PATH)
 
 
 def leg_q(model: pin.Model, degrees: dict[str, tuple[float, ...]]) -> np.ndarray:
@@ -97,7 +73,8 @@ def test_twelve_leg_joints_in_order_from_the_pelvis(model):
 def test_standing_height_is_table_1(model):
     q = pin.neutral(model)
     sole_z = frame_placements(model, q).oMf[model.getFrameId("left_sole")].translation[2]
-    low_z, high_z = geometry_z_range(model, q)
+    low, high = geometry_bounds(model, URDF_PATH, q)
+    low_z, high_z = low[2], high[2]
     assert low_z == pytest.approx(sole_z, abs=1e-9)
     assert high_z - sole_z == pytest.approx(0.70, abs=0.01)
 
@@ -120,14 +97,7 @@ def test_leg_dimensions_are_roban(model, seed):
 
 
 def test_sole_frames_flat_and_symmetric(model):
-    data = frame_placements(model, pin.neutral(model))
-    left = data.oMf[model.getFrameId("left_sole")]
-    right = data.oMf[model.getFrameId("right_sole")]
-    for sole in (left, right):
-        np.testing.assert_allclose(sole.rotation, np.eye(3), atol=1e-12)
-    assert left.translation[1] == pytest.approx(-right.translation[1], abs=1e-12)
-    assert left.translation[1] > 0.0
-    assert left.translation[[0, 2]] == pytest.approx(right.translation[[0, 2]], abs=1e-12)
+    assert_soles_flat_and_symmetric(model)
 
 
 def test_table_2_standing_pose_is_within_limits_with_flat_feet(model):
@@ -170,27 +140,8 @@ def test_limits_efforts_and_speeds(model):
     assert (lo[left_roll], hi[left_roll]) == pytest.approx((-hi[right_roll], -lo[right_roll]))
 
 
-def urdf_inertials() -> dict[str, tuple[float, np.ndarray]]:
-    """Mass [kg] and inertia matrix [kg·m²] of every massive link, read from the URDF text."""
-    out = {}
-    for link in ET.parse(URDF_PATH).getroot().iter("link"):
-        inertial = link.find("inertial")
-        if inertial is None:
-            continue
-        i = {k: float(v) for k, v in inertial.find("inertia").attrib.items()}
-        matrix = np.array(
-            [
-                [i["ixx"], i["ixy"], i["ixz"]],
-                [i["ixy"], i["iyy"], i["iyz"]],
-                [i["ixz"], i["iyz"], i["izz"]],
-            ]
-        )
-        out[link.get("name")] = (float(inertial.find("mass").get("value")), matrix)
-    return out
-
-
 def test_pinocchio_bodies_carry_the_link_masses(model):
-    masses = {name: mass for name, (mass, _) in urdf_inertials().items()}
+    masses = {name: mass for name, (mass, _) in urdf_inertials(URDF_PATH).items()}
     assert sum(masses.values()) == pytest.approx(6.6, abs=1e-9)
     upper_body = ("base", "torso", "head", "left_arm", "right_arm")
     assert model.inertias[1].mass == pytest.approx(sum(masses[n] for n in upper_body), abs=1e-9)
@@ -200,16 +151,5 @@ def test_pinocchio_bodies_carry_the_link_masses(model):
             assert body.mass == pytest.approx(masses[f"{side}_{link}"], abs=1e-9)
 
 
-def assert_physical(name: str, inertia: np.ndarray) -> None:
-    moments = np.linalg.eigvalsh(inertia)
-    assert np.all(moments > 0.0), name
-    a, b, c = moments
-    assert a + b >= c * (1.0 - 1e-6), name  # triangle inequality of principal moments
-
-
 def test_every_inertia_is_physical(model):
-    for name, (mass, inertia) in urdf_inertials().items():
-        assert mass > 0.0, name
-        assert_physical(name, inertia)
-    for i in range(1, model.njoints):
-        assert_physical(model.names[i], model.inertias[i].inertia)
+    assert_every_inertia_physical(model, URDF_PATH)
