@@ -1,0 +1,257 @@
+"""Whole-body inverse kinematics of a biped: feet, pelvis, CoM in the support polygon.
+
+Built on placo's KinematicsSolver (a QP per step over the configuration increment):
+- stance feet are held where they are (they do not slide while the other foot moves) by
+  tasks of overwhelming weight (see STANCE_WEIGHT); the moving foot and the pelvis are soft frame tasks, so an unreachable target yields the
+  closest pose instead of a failure;
+- the CoM's ground projection is kept inside the support polygon (convex hull of the stance
+  soles' corners, shrunk by a margin), when that option is on: a hard inequality once inside,
+  a pull towards the polygon while outside (see COM_PULL_WEIGHT);
+- joint limits are hard; declared loop closures are heavily weighted relative-position tasks,
+  polished to numerical precision by app.core.loops;
+- a light posture task towards the standing pose keeps the redundancy from wandering.
+
+Each `solve` iterates the QP from the given configuration until the step vanishes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Literal
+
+import numpy as np
+import pinocchio as pin
+import placo
+from scipy.spatial import ConvexHull
+
+from app.core.loops import close_loops
+from app.core.model import RobotModel
+from app.core.urdf_xml import canonical_urdf
+
+Stance = Literal["left", "right", "both"]
+REACHED_M = 1e-3
+"""A target closer than this (and REACHED_RAD) counts as reached."""
+REACHED_RAD = np.deg2rad(0.5)
+NEAR_LIMIT_RAD = np.deg2rad(3.0)
+COM_PULL_WEIGHT = 10.0
+"""While the CoM is outside the support polygon (a hard constraint would make the QP
+infeasible), a CoM task this much heavier than the moving foot pulls it in; once inside, the
+polygon is a hard constraint."""
+LOOP_WEIGHT = 1e4
+OFF_POLYGON = np.array([[1e3, 1e3], [1e3, -1e3], [-1e3, -1e3], [-1e3, 1e3]])
+"""Clockwise square [m] that no CoM leaves: the polygon constraint's "off" state."""
+STANCE_WEIGHT = 1e9
+"""Stance feet are soft tasks of overwhelming weight rather than hard equalities: with both
+feet of a 5-DOF-leg robot (dircon_biped) held, hard 6-D equalities are rank-deficient and
+the QP fails, while a consistent soft target is still met to ~1e-9 m."""
+
+
+@dataclasses.dataclass(frozen=True)
+class IkTargets:
+    """Where the feet and pelvis should be. None leaves a frame free (pelvis) or where it is (feet)."""
+
+    T_world_left: np.ndarray | None = None
+    T_world_right: np.ndarray | None = None
+    T_world_pelvis: np.ndarray | None = None
+    stance: Stance = "both"
+    """Feet held fixed where they are (hard): the other foot follows its target (soft)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class IkResult:
+    q: np.ndarray
+    """The solved configuration (the start configuration if the solve failed)."""
+    reached: bool
+    """Every soft target within REACHED_M and REACHED_RAD."""
+    iterations: int
+    position_error_m: dict[str, float]
+    """Per target frame ("left", "right", "pelvis") distance to its target [m]."""
+    orientation_error_rad: dict[str, float]
+    com_margin_m: float
+    """Distance of the CoM's ground projection inside the support polygon [m] (negative: outside)."""
+    joints_near_limit: tuple[str, ...]
+    warnings: tuple[str, ...]
+
+
+class WholeBodyIK:
+    """An IK solver bound to one robot. Not thread-safe: one per user of the robot."""
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        *,
+        com_in_support: bool = True,
+        com_margin_m: float = 0.01,
+        posture_weight: float = 1e-5,
+    ) -> None:
+        self.robot = robot
+        self.com_in_support = com_in_support
+        self.com_margin_m = com_margin_m
+        self._wrapper = placo.RobotWrapper("", 0, canonical_urdf(robot.tree))
+        if list(self._wrapper.model.names) != list(robot.model.names):
+            raise RuntimeError(
+                "placo and pinocchio disagree on the joint order"
+            )  # a bug, not input
+        self._solver = placo.KinematicsSolver(self._wrapper)
+        self._solver.enable_joint_limits(True)
+        self._solver.enable_velocity_limits(False)
+        self._solver.mask_fbase(not robot.floating_base)
+        left, right = (foot.link for foot in robot.feet)
+        self._feet = {
+            "left": self._solver.add_frame_task(left, np.eye(4)),
+            "right": self._solver.add_frame_task(right, np.eye(4)),
+        }
+        self._pelvis_frame = robot.tree.root
+        self._pelvis = self._solver.add_frame_task(self._pelvis_frame, np.eye(4))
+        self._pelvis.configure("pelvis", "soft", 0.0, 0.0)
+        for loop in robot.tree.loops:
+            task = self._solver.add_relative_position_task(loop.link_a, loop.link_b, np.zeros(3))
+            # Soft but dominant: a planar loop's out-of-plane rows are rank-deficient as hard
+            # equalities. close_loops() polishes the result to numerical precision.
+            task.configure(f"loop {loop.name}", "soft", LOOP_WEIGHT)
+        self._posture = self._solver.add_joints_task()
+        self._posture.configure("posture", "soft", posture_weight)
+        neutral_angles = robot.joint_angles(robot.q_neutral)
+        for joint, angle in zip(robot.joints, neutral_angles, strict=True):
+            if joint.kind != "continuous":
+                self._posture.set_joint(joint.name, float(angle))
+        self._solver.add_regularization_task(1e-6)
+        self._polygon = self._solver.add_com_polygon_constraint([np.zeros(2)] * 3, com_margin_m)
+        self._polygon.configure("com polygon", "hard", 1.0)
+        self._polygon_on = False
+        self._set_polygon(False)
+        self._com_pull = self._solver.add_com_task(np.zeros(3))
+        self._com_pull.mask.set_axises("xy")
+        self._com_pull.configure("com pull", "soft", 0.0)
+        self._data = robot.model.createData()
+
+    def support_polygon(self, q: np.ndarray, stance: Stance) -> np.ndarray:
+        """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q."""
+        placements = self.robot.link_placements(q, self._data)
+        sides = ("left", "right") if stance == "both" else (stance,)
+        points = []
+        for foot in self.robot.feet:
+            if foot.side in sides:
+                T = placements[foot.link]
+                points.append((T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T[:, :2])
+        stacked = np.concatenate(points)
+        hull = ConvexHull(stacked)
+        return stacked[hull.vertices]
+
+    def com_margin(self, q: np.ndarray, polygon: np.ndarray) -> float:
+        """Signed distance [m] of the CoM's ground projection inside a convex polygon."""
+        com = self.robot.com(q, self._data)[:2]
+        edges = np.roll(polygon, -1, axis=0) - polygon
+        normals = (
+            np.stack([edges[:, 1], -edges[:, 0]], axis=1) / np.linalg.norm(edges, axis=1)[:, None]
+        )
+        return float(np.min(np.einsum("ij,ij->i", polygon - com, normals)))
+
+    def _guard_com(self, q: np.ndarray, polygon: np.ndarray) -> None:
+        """Hard CoM-in-polygon constraint when the CoM is inside (the QP stays feasible from
+        there); while it is outside, a CoM task pulls it towards the polygon's centroid."""
+        inside = self.com_margin(q, polygon) >= self.com_margin_m - 1e-6
+        self._set_polygon(inside, polygon)
+        if inside:
+            self._com_pull.configure("com pull", "soft", 0.0)
+        else:
+            self._com_pull.target_world = np.array([*polygon.mean(axis=0), 0.0])
+            self._com_pull.configure("com pull", "soft", COM_PULL_WEIGHT)
+
+    def _set_polygon(self, on: bool, polygon: np.ndarray | None = None) -> None:
+        """Make the hard polygon constraint bite (the support polygon) or not (a huge square:
+        placo has no cheap on/off for a hard constraint, and removing one is unsafe)."""
+        if on and polygon is not None:
+            self._polygon.polygon = [np.array(p) for p in polygon[::-1]]  # placo wants clockwise
+        elif not on:
+            self._polygon.polygon = [np.array(p) for p in OFF_POLYGON]
+        self._polygon_on = on
+
+    def solve(
+        self,
+        q_start: np.ndarray,
+        targets: IkTargets,
+        *,
+        com_in_support: bool | None = None,
+        max_iterations: int = 100,
+        step_tolerance: float = 1e-9,
+    ) -> IkResult:
+        """Iterate the QP from q_start towards the targets; never returns NaN."""
+        robot, wrapper = self.robot, self._wrapper
+        start = np.array(q_start, dtype=float)
+        wrapper.state.q = start.copy()
+        wrapper.update_kinematics()
+        placements = robot.link_placements(start, self._data)
+        stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
+        wanted = {}
+        for foot in robot.feet:
+            given = targets.T_world_left if foot.side == "left" else targets.T_world_right
+            hold = foot.side in stance_sides or given is None
+            wanted[foot.side] = placements[foot.link] if hold else np.asarray(given)
+            task = self._feet[foot.side]
+            task.T_world_frame = wanted[foot.side]
+            weight = STANCE_WEIGHT if foot.side in stance_sides else 1.0
+            task.configure(foot.side, "soft", weight, weight)
+        if targets.T_world_pelvis is not None:
+            self._pelvis.T_world_frame = targets.T_world_pelvis
+            self._pelvis.configure("pelvis", "soft", 1.0, 1.0)
+            wanted["pelvis"] = np.asarray(targets.T_world_pelvis)
+        else:
+            self._pelvis.configure("pelvis", "soft", 0.0, 0.0)
+        use_polygon = self.com_in_support if com_in_support is None else com_in_support
+        polygon = self.support_polygon(start, targets.stance)
+        self._set_polygon(False)
+        self._com_pull.configure("com pull", "soft", 0.0)
+
+        warnings: list[str] = []
+        iterations = 0
+        try:
+            for iterations in range(1, max_iterations + 1):  # noqa: B007 - reported
+                before = wrapper.state.q.copy()
+                if use_polygon:
+                    self._guard_com(before, polygon)
+                self._solver.solve(True)
+                wrapper.update_kinematics()
+                if not np.all(np.isfinite(wrapper.state.q)):
+                    raise FloatingPointError("non-finite configuration")
+                if (
+                    np.linalg.norm(pin.difference(robot.model, before, wrapper.state.q))
+                    < step_tolerance
+                ):
+                    break
+            q = wrapper.state.q.copy()
+            if robot.tree.loops:
+                q = close_loops(robot, q, self._data).q
+        except (RuntimeError, FloatingPointError) as error:
+            warnings.append(f"IK step failed ({error}); the pose was kept")
+            q = start
+
+        placements = robot.link_placements(q, self._data)
+        position_error, orientation_error = {}, {}
+        for label, T_target in wanted.items():
+            frame = self._pelvis_frame if label == "pelvis" else robot.foot(label).link
+            T = placements[frame]
+            position_error[label] = float(np.linalg.norm(T[:3, 3] - T_target[:3, 3]))
+            orientation_error[label] = float(
+                np.linalg.norm(pin.log3(T_target[:3, :3].T @ T[:3, :3]))
+            )
+        reached = all(
+            position_error[k] < REACHED_M and orientation_error[k] < REACHED_RAD for k in wanted
+        )
+        if not reached:
+            worst = max(wanted, key=lambda k: position_error[k])
+            warnings.append(
+                f"{worst} target out of reach: closest pose is {position_error[worst] * 1000:.1f} mm, "
+                f"{np.rad2deg(orientation_error[worst]):.1f}° away"
+            )
+        margin = self.com_margin(q, self.support_polygon(q, targets.stance))
+        angles = robot.joint_angles(q)
+        near = tuple(
+            joint.name
+            for joint, angle in zip(robot.joints, angles, strict=True)
+            if joint.kind != "continuous"
+            and min(angle - joint.lower, joint.upper - angle) < NEAR_LIMIT_RAD
+        )
+        return IkResult(
+            q, reached, iterations, position_error, orientation_error, margin, near, tuple(warnings)
+        )
