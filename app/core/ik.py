@@ -38,6 +38,7 @@ COM_PULL_WEIGHT = 10.0
 infeasible), a CoM task this much heavier than the moving foot pulls it in; once inside, the
 polygon is a hard constraint."""
 LOOP_WEIGHT = 1e4
+COM_TARGET_WEIGHT = 10.0
 OFF_POLYGON = np.array([[1e3, 1e3], [1e3, -1e3], [-1e3, -1e3], [-1e3, 1e3]])
 """Clockwise square [m] that no CoM leaves: the polygon constraint's "off" state."""
 STANCE_WEIGHT = 1e9
@@ -53,6 +54,8 @@ class IkTargets:
     T_world_left: np.ndarray | None = None
     T_world_right: np.ndarray | None = None
     T_world_pelvis: np.ndarray | None = None
+    com_xy: np.ndarray | None = None
+    """Where the CoM's ground projection should be [m] (soft, heavier than the feet)."""
     stance: Stance = "both"
     """Feet held fixed where they are (hard): the other foot follows its target (soft)."""
 
@@ -65,7 +68,7 @@ class IkResult:
     """Every soft target within REACHED_M and REACHED_RAD."""
     iterations: int
     position_error_m: dict[str, float]
-    """Per target frame ("left", "right", "pelvis") distance to its target [m]."""
+    """Per target ("left", "right", "pelvis", "com") distance to it [m]."""
     orientation_error_rad: dict[str, float]
     com_margin_m: float
     """Distance of the CoM's ground projection inside the support polygon [m] (negative: outside)."""
@@ -123,6 +126,9 @@ class WholeBodyIK:
         self._com_pull = self._solver.add_com_task(np.zeros(3))
         self._com_pull.mask.set_axises("xy")
         self._com_pull.configure("com pull", "soft", 0.0)
+        self._com_target = self._solver.add_com_task(np.zeros(3))
+        self._com_target.mask.set_axises("xy")
+        self._com_target.configure("com target", "soft", 0.0)
         self._data = robot.model.createData()
 
     def support_polygon(self, q: np.ndarray, stance: Stance) -> np.ndarray:
@@ -198,6 +204,13 @@ class WholeBodyIK:
             wanted["pelvis"] = np.asarray(targets.T_world_pelvis)
         else:
             self._pelvis.configure("pelvis", "soft", 0.0, 0.0)
+        if targets.com_xy is not None:
+            self._com_target.target_world = np.array(
+                [*np.asarray(targets.com_xy, dtype=float)[:2], 0.0]
+            )
+            self._com_target.configure("com target", "soft", COM_TARGET_WEIGHT)
+        else:
+            self._com_target.configure("com target", "soft", 0.0)
         use_polygon = self.com_in_support if com_in_support is None else com_in_support
         polygon = self.support_polygon(start, targets.stance)
         self._set_polygon(False)
@@ -244,6 +257,14 @@ class WholeBodyIK:
                 f"{worst} target out of reach: closest pose is {position_error[worst] * 1000:.1f} mm, "
                 f"{np.rad2deg(orientation_error[worst]):.1f}° away"
             )
+        com_xy = robot.com(q, self._data)[:2]
+        if targets.com_xy is not None:
+            position_error["com"] = float(np.linalg.norm(com_xy - np.asarray(targets.com_xy)[:2]))
+            if position_error["com"] >= REACHED_M:
+                reached = False
+                warnings.append(
+                    f"CoM target out of reach: {position_error['com'] * 1000:.1f} mm away"
+                )
         margin = self.com_margin(q, self.support_polygon(q, targets.stance))
         angles = robot.joint_angles(q)
         near = tuple(
