@@ -21,9 +21,11 @@ from app.core.loops import close_loops
 from app.core.model import RobotModel
 from app.core.report import RobotReport, robot_report
 from app.core.uploads import store_upload
+from app.pose_session import PoseSession
 from app.views.robot_view import RobotView
 from panels.display_panel import DisplayFlags, DisplayPanel
 from panels.joints_panel import JointsPanel
+from panels.pose_panel import PosePanel
 from panels.robot_panel import RobotPanel
 
 log = logging.getLogger(__name__)
@@ -40,7 +42,7 @@ class Studio:
         self.server = viser.ViserServer(
             host=config.host, port=config.port, label="Biped Studio", verbose=False
         )
-        self._lock = threading.RLock()
+        self.lock = threading.RLock()
         self.server.gui.configure_theme(control_width="medium", dark_mode=False, show_logo=False)
         self.server.scene.set_up_direction("+z")
         self.server.scene.add_grid(
@@ -53,12 +55,14 @@ class Studio:
             shadow_opacity=0.2,
         )
         self.robot_panel = RobotPanel(self.server.gui, self, config.max_upload_bytes)
+        self.pose_panel = PosePanel(self.server.gui, self)
         self.display_panel = DisplayPanel(self.server.gui, self._on_display)
         self.robot: RobotModel | None = None
         self.report: RobotReport | None = None
         self.q = np.zeros(0)
         self.view: RobotView | None = None
         self.joints_panel: JointsPanel | None = None
+        self.pose: PoseSession | None = None
         self.last_error = ""
         self._install(
             robot if robot is not None else load_robot(config.robot, **self._load_options())
@@ -113,23 +117,20 @@ class Studio:
 
     def _install(self, robot: RobotModel) -> None:
         report = robot_report(robot)
-        with self._lock, self.server.atomic():
-            if self.view is not None:
-                self.view.remove()
-            if self.joints_panel is not None:
-                self.joints_panel.remove()
+        with self.lock, self.server.atomic():
+            for old in (self.view, self.joints_panel, self.pose):
+                if old is not None:
+                    old.remove()
             self.robot, self.report = robot, report
             self.q = robot.q_neutral.copy()
             self.view = RobotView(self.server, robot)
             self.view.set_visible(**vars_of(self.display_panel.flags()))
-            self.view.update(self.q)
             self.joints_panel = JointsPanel(
-                self.server.gui,
-                robot,
-                robot.joint_angles(self.q),
-                self.set_joint_angle,
-                self.reset_pose,
+                self.server.gui, robot, robot.joint_angles(self.q), self.set_joint_angle
             )
+            self.pose = PoseSession(self, robot, self.pose_panel.com_in_support.value)
+            self.pose.handles.set_visible(self.pose_panel.handles.value)
+            self.show_pose(self.q)
             self.robot_panel.show_report(report)
             self.robot_panel.show_status(
                 f"**{robot.name}** — {robot.n_actuated} DOF, {robot.mass_kg:.2f} kg"
@@ -141,9 +142,26 @@ class Studio:
 
     # --- posing --------------------------------------------------------------------------
 
+    def show_pose(
+        self, q: np.ndarray, dragged: str | None = None, from_slider: bool = False
+    ) -> None:
+        """Make q the current pose and draw it everywhere (caller holds the lock). `dragged`
+        is the handle being dragged (left where the user holds it); a pose set by a joint
+        slider does not write back to the sliders."""
+        assert self.robot is not None and self.view is not None
+        self.q = q
+        with self.server.atomic():
+            self.view.update(q)
+            if self.pose is not None:
+                self.pose.update_overlays(q, dragged)
+                self.pose_panel.show_stance(self.pose.posing.stance)
+                self.pose_panel.show_status(self.pose.status_markdown())
+            if self.joints_panel is not None and not from_slider:
+                self.joints_panel.set_angles(self.robot, self.robot.joint_angles(q))
+
     def set_joint_angle(self, index: int, value: float) -> None:
         """Set one actuated joint [rad or m], clamped to its limits, and redraw."""
-        with self._lock:
+        with self.lock:
             robot, view = self.robot, self.view
             if (
                 robot is None
@@ -165,22 +183,52 @@ class Studio:
                     )
                     return
                 q = closure.q
-            self.q = q
-            with self.server.atomic():
-                view.update(self.q)
+            self.show_pose(q, from_slider=True)
+
+    def request_drag(self, which: str, T_world: np.ndarray) -> None:
+        """A drag handle ("left", "right", "pelvis") moved to T_world: solve IK and redraw."""
+        if self.pose is not None:
+            self.pose.request_drag(which, T_world)
 
     def reset_pose(self) -> None:
-        with self._lock:
-            if self.robot is None or self.view is None:
+        with self.lock:
+            if self.robot is None or self.pose is None:
                 return
-            self.q = self.robot.q_neutral.copy()
-            with self.server.atomic():
-                self.view.update(self.q)
-            if self.joints_panel is not None:
-                self.joints_panel.set_angles(self.robot, self.robot.joint_angles(self.q))
+            self.pose.posing.stance = "both"
+            self.pose.last_result = None
+            self.show_pose(self.robot.q_neutral.copy())
+
+    def snap_feet(self) -> None:
+        with self.lock:
+            if self.pose is not None:
+                result = self.pose.posing.snap_feet_to_ground(self.q)
+                self.pose.last_result = result
+                self.show_pose(result.q)
+
+    def swap_stance(self) -> None:
+        with self.lock:
+            if self.pose is not None:
+                self.pose.posing.swap_stance()
+                self.show_pose(self.q)
+
+    def set_stance(self, stance: str) -> None:
+        with self.lock:
+            if self.pose is not None and stance in ("both", "left", "right"):
+                self.pose.posing.stance = stance  # type: ignore[assignment]
+                self.show_pose(self.q)
+
+    def set_com_in_support(self, on: bool) -> None:
+        with self.lock:
+            if self.pose is not None:
+                self.pose.posing.com_in_support = on
+
+    def set_handles_visible(self, visible: bool) -> None:
+        with self.lock:
+            if self.pose is not None:
+                self.pose.handles.set_visible(visible)
 
     def _on_display(self, flags: DisplayFlags) -> None:
-        with self._lock:
+        with self.lock:
             if self.view is not None:
                 self.view.set_visible(**vars_of(flags))
                 self.view.update(self.q)

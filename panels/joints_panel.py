@@ -25,15 +25,12 @@ class JointsPanel:
         robot: RobotModel,
         angles: np.ndarray,
         on_change: Callable[[int, float], None],
-        on_reset: Callable[[], None],
     ) -> None:
         self.sliders: dict[str, viser.GuiSliderHandle[float]] = {}
         self._scales: list[float] = []
         self._syncing = False
         self.folder = gui.add_folder("Joints", order=1)
         with self.folder:
-            reset = gui.add_button("Reset pose", icon=viser.Icon.REFRESH)
-            reset.on_click(lambda _event: on_reset())
             limbs = sorted({j.limb for j in robot.joints}, key=lambda limb: LIMB_ORDER.index(limb))
             for limb in limbs:
                 with gui.add_folder(limb, expand_by_default=limb.endswith("leg")):

@@ -57,7 +57,8 @@ class IkTargets:
     com_xy: np.ndarray | None = None
     """Where the CoM's ground projection should be [m] (soft, heavier than the feet)."""
     stance: Stance = "both"
-    """Feet held fixed where they are (hard): the other foot follows its target (soft)."""
+    """Feet held (overwhelming weight) at their target, or where they are when they have none;
+    the other foot follows its target (soft)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -192,8 +193,7 @@ class WholeBodyIK:
         wanted = {}
         for foot in robot.feet:
             given = targets.T_world_left if foot.side == "left" else targets.T_world_right
-            hold = foot.side in stance_sides or given is None
-            wanted[foot.side] = placements[foot.link] if hold else np.asarray(given)
+            wanted[foot.side] = placements[foot.link] if given is None else np.asarray(given)
             task = self._feet[foot.side]
             task.T_world_frame = wanted[foot.side]
             weight = STANCE_WEIGHT if foot.side in stance_sides else 1.0

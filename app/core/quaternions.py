@@ -40,3 +40,15 @@ def matrix_to_wxyz(rotation: np.ndarray) -> np.ndarray:
         q[1 + k] = (r[k, i] + r[i, k]) / s
     q /= np.linalg.norm(q)
     return q if q[0] >= 0.0 else -q
+
+
+def wxyz_to_matrix(quat_wxyz: np.ndarray) -> np.ndarray:
+    """3x3 rotation matrix of a (w, x, y, z) quaternion (normalised first)."""
+    w, x, y, z = np.asarray(quat_wxyz, dtype=float) / np.linalg.norm(quat_wxyz)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )

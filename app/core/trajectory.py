@@ -6,8 +6,9 @@ pinocchio's layout (see app.core.model).
 
 Velocities and accelerations are computed from the configurations by finite differences on
 the configuration manifold (pin.difference, so the base orientation is handled properly):
-central differences inside, one-sided for v at the ends (a there repeats its neighbour), v_k = (q_{k+1} ⊖ q_{k-1}) / (2 dt) and
-a_k = (q_{k+1} ⊖ q_k − q_k ⊖ q_{k-1}) / dt², as the spring-compensation paper computes them
+central differences inside (the mean of the two one-step differences,
+v_k = (q_k ⊖ q_{k-1} + q_{k+1} ⊖ q_k) / (2 dt), and a_k = (q_{k+1} ⊖ q_k − q_k ⊖ q_{k-1}) / dt²),
+one-sided for v at the ends (a there repeats its neighbour), as the spring-compensation paper computes them
 "by finite differences at a small dt". Both are second-order accurate for smooth motions.
 """
 

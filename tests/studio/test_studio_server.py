@@ -71,18 +71,9 @@ def test_slider_values_outside_limits_are_clamped(studio):
 def test_reset_pose_button(studio):
     studio.joints_panel.sliders["right_hip_pitch"].value = -30.0
     assert not np.allclose(studio.q, studio.robot.q_neutral)
-    reset = next(h for h in _buttons(studio) if h.label == "Reset pose")
-    reset.value = True
+    studio.pose_panel.reset.value = True
     np.testing.assert_allclose(studio.q, studio.robot.q_neutral)
     assert studio.joints_panel.sliders["right_hip_pitch"].value == 0.0
-
-
-def _buttons(studio: Studio) -> list[viser.GuiButtonHandle]:
-    return [
-        h
-        for h in studio.joints_panel.folder._children.values()
-        if isinstance(h, viser.GuiButtonHandle)
-    ]
 
 
 def test_open_path_loads_a_third_party_robot_and_rebuilds_sliders(studio):
@@ -186,3 +177,85 @@ def test_knee_slider_keeps_the_hybrid_legs_four_bars_closed(studio):
     for name in studio.robot.passive_joints:
         opened[studio.robot.model.joints[studio.robot.model.getJointId(name)].idx_q] = 0.0
     assert np.abs(loop_residual(studio.robot, opened, studio.robot.model.createData())).max() > 1e-3
+
+
+def _placement(studio: Studio, link: str) -> np.ndarray:
+    return studio.robot.link_placements(studio.q, studio.robot.model.createData())[link]
+
+
+def test_dragging_a_foot_moves_it_and_keeps_the_other_planted(studio):
+    left, right = (foot.link for foot in studio.robot.feet)
+    right_before = _placement(studio, right)
+    target = _placement(studio, left)
+    target[:3, 3] += [0.02, 0.0, 0.03]
+    studio.request_drag("left", target)
+    np.testing.assert_allclose(_placement(studio, left)[:3, 3], target[:3, 3], atol=1e-3)
+    np.testing.assert_allclose(_placement(studio, right), right_before, atol=1e-6)
+    assert studio.pose.posing.stance == "right"
+    assert studio.pose_panel.stance.value == "right"
+    # The CoM's ground projection is over the right sole (checked against its corners).
+    com = pin.centerOfMass(studio.robot.model, studio.robot.model.createData(), studio.q)
+    corners = studio.robot.feet[1].sole_corners_m
+    T = _placement(studio, right)
+    world = (T[:3, :3] @ corners.T + T[:3, 3:4]).T
+    assert world[:, 0].min() < com[0] < world[:, 0].max()
+    assert world[:, 1].min() < com[1] < world[:, 1].max()
+    # The sliders show the solved angles.
+    knee = studio.robot.joint_names.index("left_knee")
+    assert studio.joints_panel.sliders["left_knee"].value == pytest.approx(
+        np.rad2deg(studio.robot.joint_angles(studio.q)[knee]), abs=0.051
+    )
+
+
+def test_unreachable_drag_keeps_a_finite_pose_and_says_so(studio):
+    target = _placement(studio, studio.robot.feet[0].link)
+    target[:3, 3] += [1.0, 0.5, 0.4]
+    studio.request_drag("left", target)
+    assert np.all(np.isfinite(studio.q))
+    assert "out of reach" in studio.pose_panel.status.content
+    for joint, angle in zip(studio.robot.joints, studio.robot.joint_angles(studio.q), strict=True):
+        assert joint.lower - 1e-9 <= angle <= joint.upper + 1e-9
+
+
+def test_snap_feet_and_swap_stance_buttons(studio):
+    target = _placement(studio, studio.robot.feet[0].link)
+    target[:3, 3] += [0.0, 0.0, 0.04]
+    studio.request_drag("left", target)
+    studio.pose_panel.swap.value = True
+    assert studio.pose.posing.stance == "left"
+    studio.pose_panel.snap.value = True
+    for foot in studio.robot.feet:
+        T = _placement(studio, foot.link)
+        sole = (T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T
+        np.testing.assert_allclose(sole[:, 2], 0.0, atol=1e-3)
+    assert studio.pose.posing.stance == "both"
+
+
+def test_two_tabs_dragging_at_once_latest_target_wins(studio):
+    """Targets queued while the studio is busy are replaced by newer ones, never replayed."""
+    base = _placement(studio, studio.robot.feet[0].link)
+    targets = []
+    for k in range(1, 6):
+        T = base.copy()
+        T[2, 3] += 0.005 * k
+        targets.append(T)
+    solved = []
+    original = studio.pose.posing.drag
+
+    def recording_drag(q, which, T):
+        solved.append(T[2, 3])
+        return original(q, which, T)
+
+    studio.pose.posing.drag = recording_drag
+    studio.lock.acquire()
+    threads = [threading.Thread(target=studio.request_drag, args=("left", T)) for T in targets]
+    for t in threads:
+        t.start()
+        t.join(timeout=0.05)  # each callback stores its target, then waits for the lock
+    studio.lock.release()
+    for t in threads:
+        t.join()
+    assert solved == [targets[-1][2, 3]]
+    np.testing.assert_allclose(
+        _placement(studio, studio.robot.feet[0].link)[:3, 3], targets[-1][:3, 3], atol=1e-3
+    )

@@ -1,0 +1,407 @@
+"""Motions as CSV files: the studio's own self-describing format, and Roban motion files.
+
+The studio's format has ONE header row naming every column with its joint and unit, then one
+row per sample, numbers written with Python's `repr` (shortest text that reads back to the
+same float, so a round trip is exact). Columns, for a floating-base robot:
+
+    t [s]
+    base_x [m], base_y [m], base_z [m]          base position in the world
+    base_qx, base_qy, base_qz, base_qw          base orientation, quaternion in xyzw order
+    q:<joint> [rad]   (or [m] if prismatic)     every moving joint of the model: the actuated
+                                                joints in the robot's order, then the passive
+                                                joints of closed loops, so q is recoverable;
+                                                a continuous joint is written as an angle
+    v:base_vx … v:base_vz [m/s], v:base_wx … v:base_wz [rad/s], v:<joint> [rad/s or m/s]
+    a:base_vx … a:base_vz [m/s^2], a:base_wx … a:base_wz [rad/s^2], a:<joint> [rad/s^2 or m/s^2]
+    contact_left [0/1], contact_right [0/1]
+
+`a:X` is the time derivative of `v:X`. Base velocities and accelerations are pinocchio's: the
+base twist expressed in the base frame. A fixed-base robot has no base columns. The reader
+takes the columns in any order; the v and a columns may be left out together, and are then
+computed from the configurations by finite differences (trajectory.from_configurations).
+Times must be evenly spaced; they are shifted so that the first sample is at t = 0.
+
+Roban motion files (LejuLab-Train) are headerless: root xyz [m], root quaternion, the
+actuated joint angles [rad] in the URDF's joint order; the frame rate is only in the file name.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import os
+import re
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO, Literal, TypeAlias
+
+import numpy as np
+import pinocchio as pin
+
+from app.core.errors import StudioError
+from app.core.model import RobotModel
+from app.core.trajectory import Trajectory, from_configurations
+
+BASE_Q_COLUMNS = ("base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw")
+BASE_V_NAMES = ("base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz")
+CONTACT_COLUMNS = ("contact_left", "contact_right")
+SOLE_CONTACT_BAND_M = 0.01
+"""Roban import: a sole within this height of the lowest sole of its frame is in contact."""
+
+PathOrFile: TypeAlias = str | os.PathLike[str] | IO[str]
+
+
+class MotionFileError(StudioError):
+    """A motion file that cannot be read, or does not fit the robot."""
+
+
+@dataclasses.dataclass(frozen=True)
+class _MovingJoint:
+    name: str
+    kind: str
+    idx_q: int
+    idx_v: int
+
+    @property
+    def linear(self) -> bool:
+        return self.kind == "prismatic"
+
+
+def _moving_joints(robot: RobotModel) -> list[_MovingJoint]:
+    """Actuated joints in the robot's order, then the passive loop joints."""
+    joints = [_MovingJoint(j.name, j.kind, j.idx_q, j.idx_v) for j in robot.joints]
+    for name in robot.passive_joints:
+        pin_joint = robot.model.joints[robot.model.getJointId(name)]
+        kind = robot.tree.joints[name].kind
+        joints.append(_MovingJoint(name, kind, pin_joint.idx_q, pin_joint.idx_v))
+    return joints
+
+
+def _columns(robot: RobotModel) -> list[tuple[str, str]]:
+    """(name, unit) of every column, in the order they are written; unit "" when none."""
+    joints = _moving_joints(robot)
+    cols = [("t", "s")]
+    if robot.floating_base:
+        cols += [(name, "m") for name in BASE_Q_COLUMNS[:3]]
+        cols += [(name, "") for name in BASE_Q_COLUMNS[3:]]
+    cols += [(f"q:{j.name}", "m" if j.linear else "rad") for j in joints]
+    for prefix, per in (("v", "/s"), ("a", "/s^2")):
+        if robot.floating_base:
+            cols += [(f"{prefix}:{name}", "m" + per) for name in BASE_V_NAMES[:3]]
+            cols += [(f"{prefix}:{name}", "rad" + per) for name in BASE_V_NAMES[3:]]
+        cols += [(f"{prefix}:{j.name}", ("m" if j.linear else "rad") + per) for j in joints]
+    cols += [(name, "0/1") for name in CONTACT_COLUMNS]
+    return cols
+
+
+def _header_cell(name: str, unit: str) -> str:
+    return f"{name} [{unit}]" if unit else name
+
+
+def _open(path_or_file: PathOrFile, mode: str) -> tuple[IO[str], bool, str]:
+    """(file, whether we opened it, name for messages)."""
+    if isinstance(path_or_file, str | os.PathLike):
+        path = Path(path_or_file)
+        try:
+            return open(path, mode, newline="", encoding="utf-8"), True, path.name
+        except OSError as exc:
+            raise MotionFileError(f"{path}: cannot open: {exc.strerror}") from None
+    return path_or_file, False, str(getattr(path_or_file, "name", "motion"))
+
+
+def write_trajectory_csv(traj: Trajectory, path_or_file: PathOrFile, robot: RobotModel) -> None:
+    """Write a trajectory of `robot` as a CSV file with a header row (see the module docstring)."""
+    if traj.q.shape[1] != robot.model.nq or tuple(traj.joint_names) != robot.joint_names:
+        raise MotionFileError(
+            f"trajectory {traj.name!r} was made for another robot than {robot.name!r} "
+            f"({traj.q.shape[1]} configuration values, the robot has {robot.model.nq})"
+        )
+    joints = _moving_joints(robot)
+    n_base_v = 6 if robot.floating_base else 0
+    file, owned, _ = _open(path_or_file, "w")
+    try:
+        writer = csv.writer(file, lineterminator="\n")
+        writer.writerow([_header_cell(name, unit) for name, unit in _columns(robot)])
+        for k in range(traj.n_samples):
+            q, v, a = traj.q[k], traj.v[k], traj.a[k]
+            row = [float(traj.t[k])]
+            if robot.floating_base:
+                row += [float(x) for x in q[:7]]
+            for j in joints:
+                if j.kind == "continuous":
+                    row.append(math.atan2(q[j.idx_q + 1], q[j.idx_q]))
+                else:
+                    row.append(float(q[j.idx_q]))
+            for array in (v, a):
+                row += [float(x) for x in array[:n_base_v]]
+                row += [float(array[j.idx_v]) for j in joints]
+            cells = [repr(x) for x in row]
+            cells += ["1" if contact else "0" for contact in traj.contacts[k]]
+            writer.writerow(cells)
+    finally:
+        if owned:
+            file.close()
+
+
+_HEADER_CELL = re.compile(r"^\s*(?P<name>.*?)\s*(?:\[(?P<unit>[^\]]*)\])?\s*$")
+
+
+def _rows(file: IO[str], source: str) -> Iterator[tuple[int, list[str]]]:
+    """(line number, cells) of every non-empty row."""
+    reader = csv.reader(file)
+    try:
+        for cells in reader:
+            if cells and any(cell.strip() for cell in cells):
+                yield reader.line_num, cells
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise MotionFileError(f"{source}: not a readable CSV text file ({exc})") from None
+
+
+def _number(cell: str, line: int, column: int, label: str, source: str) -> float:
+    try:
+        value = float(cell)
+    except ValueError:
+        raise MotionFileError(
+            f"{source}, line {line}, column {column} ({label}): {cell.strip()!r} is not a number"
+        ) from None
+    if not math.isfinite(value):
+        raise MotionFileError(
+            f"{source}, line {line}, column {column} ({label}): {cell.strip()} is not a finite number"
+        )
+    return value
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def read_trajectory_csv(path_or_file: PathOrFile, robot: RobotModel) -> Trajectory:
+    """Read a CSV file written by write_trajectory_csv (or by hand in the same format)."""
+    file, owned, source = _open(path_or_file, "r")
+    try:
+        table = list(_rows(file, source))
+    finally:
+        if owned:
+            file.close()
+    if not table:
+        raise MotionFileError(f"{source}: the file is empty")
+    header_line, header = table[0]
+    if all(_is_number(cell) for cell in header):
+        raise MotionFileError(
+            f"{source}: line {header_line} holds numbers, not a header row naming the columns "
+            "(t [s], base_x [m], …, q:<joint> [rad], …); a headerless Roban motion file is "
+            "imported with read_roban_motion_csv"
+        )
+
+    expected = dict(_columns(robot))
+    index: dict[str, int] = {}
+    unknown: list[str] = []
+    for column, cell in enumerate(header):
+        match = _HEADER_CELL.match(cell)
+        assert match is not None  # the pattern matches any text
+        name, unit = match["name"], match["unit"]
+        if name not in expected:
+            unknown.append(name)
+            continue
+        if name in index:
+            raise MotionFileError(f"{source}: column {name!r} appears twice in the header")
+        if unit is not None and unit.strip() != expected[name]:
+            raise MotionFileError(
+                f"{source}: column {name!r} is in [{unit.strip()}], expected [{expected[name]}]"
+            )
+        index[name] = column
+    if unknown:
+        names = ", ".join(j.name for j in _moving_joints(robot))
+        raise MotionFileError(
+            f"{source}: unknown column(s) {', '.join(map(repr, unknown))} for robot "
+            f"{robot.name!r}; its joints are: {names} (columns are t, base_*, q:<joint>, "
+            "v:<joint>, a:<joint>, contact_left, contact_right)"
+        )
+    derivatives = [name for name in expected if name[:2] in ("v:", "a:")]
+    required = [name for name in expected if name not in derivatives]
+    has_derivatives = any(name in index for name in derivatives)
+    missing = [
+        name for name in required + (derivatives if has_derivatives else []) if name not in index
+    ]
+    if missing:
+        shown = ", ".join(missing[:12]) + (" …" if len(missing) > 12 else "")
+        raise MotionFileError(
+            f"{source}: {len(missing)} column(s) missing for robot {robot.name!r}: {shown}"
+            + (" (give all v: and a: columns or none)" if has_derivatives else "")
+        )
+
+    labels = [cell.strip() for cell in header]
+    values = np.empty((len(table) - 1, len(header)))
+    for k, (line, cells) in enumerate(table[1:]):
+        if len(cells) != len(header):
+            raise MotionFileError(
+                f"{source}, line {line}: {len(cells)} values, the header has {len(header)} columns"
+            )
+        for column, cell in enumerate(cells):
+            values[k, column] = _number(cell, line, column + 1, labels[column], source)
+    lines = [line for line, _ in table[1:]]
+    if len(values) < 2:
+        raise MotionFileError(f"{source}: {len(values)} sample row(s); a motion needs at least 2")
+
+    t = values[:, index["t"]]
+    _check_times(t, lines, source)
+    contacts = np.empty((len(values), 2), dtype=bool)
+    for side, name in enumerate(CONTACT_COLUMNS):
+        flags = values[:, index[name]]
+        bad = np.flatnonzero((flags != 0.0) & (flags != 1.0))
+        if len(bad):
+            raise MotionFileError(
+                f"{source}, line {lines[bad[0]]}, column {index[name] + 1} ({name}): "
+                f"{flags[bad[0]]:g}; a contact is 0 or 1"
+            )
+        contacts[:, side] = flags == 1.0
+
+    joints = _moving_joints(robot)
+    q = np.tile(robot.q_neutral, (len(values), 1))
+    if robot.floating_base:
+        q[:, :3] = values[:, [index[name] for name in BASE_Q_COLUMNS[:3]]]
+        quats = values[:, [index[name] for name in BASE_Q_COLUMNS[3:]]]
+        q[:, 3:7] = _normalised(quats, lines, source)
+    for j in joints:
+        angle = values[:, index[f"q:{j.name}"]]
+        if j.kind == "continuous":
+            q[:, j.idx_q], q[:, j.idx_q + 1] = np.cos(angle), np.sin(angle)
+        else:
+            q[:, j.idx_q] = angle
+    name = Path(source).stem or "motion"
+    dt = float(t[1] - t[0])
+    if not has_derivatives:
+        return from_configurations(robot.model, name, robot.joint_names, dt, q, contacts)
+
+    n_base_v = 6 if robot.floating_base else 0
+    v = np.empty((len(values), robot.model.nv))
+    a = np.empty_like(v)
+    for prefix, array in (("v", v), ("a", a)):
+        for i, base in enumerate(BASE_V_NAMES[:n_base_v]):
+            array[:, i] = values[:, index[f"{prefix}:{base}"]]
+        for j in joints:
+            array[:, j.idx_v] = values[:, index[f"{prefix}:{j.name}"]]
+    return Trajectory(
+        name=name, joint_names=robot.joint_names, t=t - t[0], q=q, v=v, a=a, contacts=contacts
+    )
+
+
+def _check_times(t: np.ndarray, lines: list[int], source: str) -> None:
+    steps = np.diff(t)
+    if not steps[0] > 0.0:
+        raise MotionFileError(
+            f"{source}, line {lines[1]}: time {t[1]:g} s does not increase from {t[0]:g} s"
+        )
+    off = np.flatnonzero(np.abs(steps - steps[0]) > 1e-6 * steps[0])
+    if len(off):
+        k = off[0] + 1
+        raise MotionFileError(
+            f"{source}, line {lines[k]}: time step {steps[k - 1]:g} s differs from the first "
+            f"step {steps[0]:g} s; samples must be evenly spaced in time"
+        )
+
+
+def _normalised(quats: np.ndarray, lines: list[int], source: str) -> np.ndarray:
+    norms = np.linalg.norm(quats, axis=1)
+    bad = np.flatnonzero(norms < 1e-9)
+    if len(bad):
+        raise MotionFileError(
+            f"{source}, line {lines[bad[0]]}: the base quaternion is zero; it must be a rotation"
+        )
+    return quats / norms[:, None]
+
+
+_FPS_IN_NAME = re.compile(r"(\d+(?:\.\d+)?)\s*fps", re.IGNORECASE)
+
+
+def read_roban_motion_csv(
+    path: str | os.PathLike[str],
+    robot: RobotModel,
+    fps: float | None = None,
+    quaternion_order: Literal["wxyz", "xyzw"] = "wxyz",
+) -> Trajectory:
+    """Import a headerless Roban (LejuLab-Train) motion file.
+
+    Columns: root position xyz [m], root quaternion in `quaternion_order`, then one angle [rad]
+    per actuated joint in the order of the URDF's <joint> elements. The files do not say their
+    quaternion order, and the two shipped with Roban S14 differ: the new-year dance is xyzw,
+    the prone get-up wxyz (upstream's default). The frame rate is `fps` when given, else read
+    from the file name (`…_100fps.csv`). v and a are finite differences of the configurations.
+
+    Contacts are not in the file; they are guessed: in each frame a foot is in contact when
+    the lowest corner of its sole is within SOLE_CONTACT_BAND_M (1 cm) of the lowest sole
+    corner of both feet. Both feet are thus never in the air at once, even in a jump, and a
+    foot resting on something is taken as "in contact" only if it is about as low as the other.
+    """
+    path = Path(path)
+    if quaternion_order not in ("wxyz", "xyzw"):
+        raise MotionFileError(f"quaternion order {quaternion_order!r}: use 'wxyz' or 'xyzw'")
+    if fps is None:
+        found = _FPS_IN_NAME.search(path.stem)
+        if found is None:
+            raise MotionFileError(
+                f"{path.name}: the frame rate is not in the file name (like …_100fps.csv); "
+                "give it (fps=…)"
+            )
+        fps = float(found[1])
+    if not (math.isfinite(fps) and fps > 0.0):
+        raise MotionFileError(f"{path.name}: frame rate {fps:g} fps; it must be positive")
+    if not robot.floating_base:
+        raise MotionFileError(
+            f"{path.name}: a Roban motion moves a floating base, robot {robot.name!r} is fixed"
+        )
+    if robot.passive_joints:
+        raise MotionFileError(
+            f"{path.name}: a Roban motion has no columns for the passive loop joints of robot "
+            f"{robot.name!r} ({', '.join(robot.passive_joints)})"
+        )
+    actuated = {j.name: j for j in robot.joints}
+    urdf_order = [actuated[name] for name in robot.tree.joints if name in actuated]
+    width = 7 + len(urdf_order)
+
+    file, _, source = _open(path, "r")
+    with file:
+        table = list(_rows(file, path.name))
+    values = np.empty((len(table), width))
+    for k, (line, cells) in enumerate(table):
+        if len(cells) != width:
+            raise MotionFileError(
+                f"{source}, line {line}: {len(cells)} values; robot {robot.name!r} needs "
+                f"{width} (3 position + 4 quaternion + {len(urdf_order)} joint angles)"
+            )
+        for column, cell in enumerate(cells):
+            values[k, column] = _number(cell, line, column + 1, f"column {column + 1}", source)
+    if len(values) < 2:
+        raise MotionFileError(f"{source}: {len(values)} frame(s); a motion needs at least 2")
+    lines = [line for line, _ in table]
+
+    quats = values[:, 3:7] if quaternion_order == "xyzw" else values[:, [4, 5, 6, 3]]
+    q = np.tile(robot.q_neutral, (len(values), 1))
+    q[:, :3] = values[:, :3]
+    q[:, 3:7] = _normalised(quats, lines, source)
+    for column, joint in enumerate(urdf_order, start=7):
+        if joint.kind == "continuous":
+            q[:, joint.idx_q] = np.cos(values[:, column])
+            q[:, joint.idx_q + 1] = np.sin(values[:, column])
+        else:
+            q[:, joint.idx_q] = values[:, column]
+    contacts = sole_contacts(robot, q)
+    return from_configurations(robot.model, path.stem, robot.joint_names, 1.0 / fps, q, contacts)
+
+
+def sole_contacts(robot: RobotModel, q: np.ndarray) -> np.ndarray:
+    """(T, 2) bool: feet whose lowest sole corner is within 1 cm of the lowest of both feet."""
+    data = robot.model.createData()
+    heights = np.empty((len(q), 2))
+    for k, q_k in enumerate(q):
+        pin.framesForwardKinematics(robot.model, data, q_k)
+        for side, foot in enumerate(robot.feet):
+            T_world_foot = data.oMf[robot.link_frame_ids[foot.link]]
+            corners_world = T_world_foot.rotation @ foot.sole_corners_m.T
+            heights[k, side] = corners_world[2].min() + T_world_foot.translation[2]
+    return heights <= heights.min(axis=1, keepdims=True) + SOLE_CONTACT_BAND_M

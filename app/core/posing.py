@@ -1,0 +1,111 @@
+"""Posing by dragging: which feet hold, what a drag means, snapping feet to the ground.
+
+Pure state and computation (no GUI): the studio feeds drag targets in and draws what comes
+out. Dragging a foot makes the other foot the stance foot; dragging the pelvis keeps the
+current stance.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pinocchio as pin
+
+from app.core.ik import IkResult, IkTargets, Stance, WholeBodyIK
+from app.core.model import RobotModel
+
+
+@dataclasses.dataclass(frozen=True)
+class Balance:
+    """What the balance overlay shows for a configuration."""
+
+    polygon_xy: np.ndarray
+    """Support polygon corners [m], shape (N, 2), counter-clockwise."""
+    com_world: np.ndarray
+    com_margin_m: float
+    """Distance of the CoM's ground projection inside the polygon [m] (negative: outside)."""
+    joints_near_limit: tuple[str, ...]
+    joint_positions_near_limit: list[np.ndarray]
+    contact_frames: list[np.ndarray]
+    """4x4 placements of the sole corners of the stance feet."""
+
+
+class Posing:
+    """Drag-to-pose state of one robot."""
+
+    def __init__(self, robot: RobotModel, com_in_support: bool = True) -> None:
+        self.robot = robot
+        self.ik = WholeBodyIK(robot, com_in_support=com_in_support)
+        self.stance: Stance = "both"
+        self._data = robot.model.createData()
+
+    @property
+    def com_in_support(self) -> bool:
+        return self.ik.com_in_support
+
+    @com_in_support.setter
+    def com_in_support(self, on: bool) -> None:
+        self.ik.com_in_support = on
+
+    def drag(self, q: np.ndarray, which: str, T_world_target: np.ndarray) -> IkResult:
+        """Solve for a dragged handle ("left", "right" or "pelvis") reaching T_world_target."""
+        if not np.all(np.isfinite(T_world_target)):
+            raise ValueError("non-finite drag target")
+        if which in ("left", "right"):
+            other = "right" if which == "left" else "left"
+            if self.stance in (which, "both"):
+                self.stance = other  # type: ignore[assignment]
+            targets = IkTargets(**{f"T_world_{which}": T_world_target}, stance=self.stance)
+        else:
+            targets = IkTargets(T_world_pelvis=T_world_target, stance=self.stance)
+        return self.ik.solve(q, targets)
+
+    def snap_feet_to_ground(self, q: np.ndarray) -> IkResult:
+        """Put both soles flat on z = 0, keeping each foot's x, y and heading; both feet stance after."""
+        placements = self.robot.link_placements(q, self._data)
+        targets = {}
+        for foot in self.robot.feet:
+            T = placements[foot.link]
+            heading = np.arctan2(T[1, 0], T[0, 0])
+            flat = np.eye(4)
+            flat[:3, :3] = pin.rpy.rpyToMatrix(0.0, 0.0, heading)
+            # Sole corners in the foot frame, rotated flat: the lowest must land on z = 0.
+            sole_z = (flat[:3, :3] @ foot.sole_corners_m.T)[2].min()
+            flat[:3, 3] = [T[0, 3], T[1, 3], -sole_z]
+            targets[foot.side] = flat
+        self.stance = "both"
+        return self.ik.solve(
+            q,
+            IkTargets(T_world_left=targets["left"], T_world_right=targets["right"], stance="both"),
+        )
+
+    def swap_stance(self) -> Stance:
+        self.stance = {"left": "right", "right": "left", "both": "both"}[self.stance]  # type: ignore[assignment]
+        return self.stance
+
+    def balance(self, q: np.ndarray) -> Balance:
+        robot = self.robot
+        polygon = self.ik.support_polygon(q, self.stance)
+        placements = robot.link_placements(q, self._data)
+        com = robot.com(q, self._data)
+        angles = robot.joint_angles(q)
+        near, positions = [], []
+        for joint, angle in zip(robot.joints, angles, strict=True):
+            if joint.kind != "continuous" and min(
+                angle - joint.lower, joint.upper - angle
+            ) < np.deg2rad(3.0):
+                near.append(joint.name)
+                positions.append(placements[robot.tree.joints[joint.name].child][:3, 3].copy())
+        sides = ("left", "right") if self.stance == "both" else (self.stance,)
+        contacts = []
+        for foot in robot.feet:
+            if foot.side in sides:
+                T = placements[foot.link]
+                centre = foot.sole_corners_m.mean(axis=0)
+                frame = T.copy()
+                frame[:3, 3] = T[:3, :3] @ centre + T[:3, 3]
+                contacts.append(frame)
+        return Balance(
+            polygon, com, self.ik.com_margin(q, polygon), tuple(near), positions, contacts
+        )

@@ -1,0 +1,68 @@
+"""Transform gizmos on the feet and the pelvis: drag them and the robot follows (IK).
+
+The overlay only reports where the user dragged a handle (`on_drag(which, T_world)`) and is
+told where to sit afterwards (`place`). It owns its scene nodes under one root.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import viser
+
+from app.core.quaternions import matrix_to_wxyz, wxyz_to_matrix
+
+HANDLES = ("left", "right", "pelvis")
+
+
+class DragHandles:
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        frames: dict[str, str],
+        scale_m: float,
+        on_drag: Callable[[str, np.ndarray], None],
+        root: str = "/drag",
+    ) -> None:
+        """frames maps "left"/"right"/"pelvis" to the link each handle sits on."""
+        self.frames = frames
+        self._controls: dict[str, viser.TransformControlsHandle] = {}
+        for which in HANDLES:
+            control = server.scene.add_transform_controls(
+                f"{root}/{which}", scale=scale_m, line_width=2.0, depth_test=False, opacity=0.85
+            )
+            control.on_update(self._callback(which, control, on_drag))
+            self._controls[which] = control
+
+    @staticmethod
+    def _callback(which: str, control: viser.TransformControlsHandle, on_drag):
+        def callback(_event: object) -> None:
+            on_drag(which, transform_of(np.asarray(control.position), np.asarray(control.wxyz)))
+
+        return callback
+
+    def place(self, placements: dict[str, np.ndarray], skip: str | None = None) -> None:
+        """Move the handles onto their links (except the one being dragged)."""
+        for which, control in self._controls.items():
+            if which == skip:
+                continue
+            T = placements[self.frames[which]]
+            control.position = T[:3, 3]
+            control.wxyz = matrix_to_wxyz(T[:3, :3])
+
+    def set_visible(self, visible: bool) -> None:
+        for control in self._controls.values():
+            control.visible = visible
+
+    def remove(self) -> None:
+        for control in self._controls.values():
+            control.remove()
+
+
+def transform_of(position: np.ndarray, wxyz: np.ndarray) -> np.ndarray:
+    """4x4 transform from a viser position and (w, x, y, z) quaternion."""
+    T = np.eye(4)
+    T[:3, :3] = wxyz_to_matrix(wxyz)
+    T[:3, 3] = position
+    return T
