@@ -31,7 +31,7 @@ class PoseSession:
         self.robot = robot
         self.posing = Posing(robot, com_in_support=com_in_support)
         lower, upper = robot.bounds_m(robot.q_neutral, robot.model.createData())
-        scale = 0.25 * float(upper[2] - lower[2])
+        scale = 0.15 * float(upper[2] - lower[2])
         frames = {
             "left": robot.feet[0].link,
             "right": robot.feet[1].link,

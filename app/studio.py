@@ -19,12 +19,17 @@ from app.core.errors import StudioError
 from app.core.loading import load_robot
 from app.core.loops import close_loops
 from app.core.model import RobotModel
+from app.core.paths import task_space_paths
 from app.core.report import RobotReport, robot_report
+from app.core.trajectory import Trajectory
 from app.core.uploads import store_upload
+from app.player import Player
 from app.pose_session import PoseSession
 from app.views.robot_view import RobotView
+from app.views.traces_view import TracesView
 from panels.display_panel import DisplayFlags, DisplayPanel
 from panels.joints_panel import JointsPanel
+from panels.playback_panel import PlaybackPanel
 from panels.pose_panel import PosePanel
 from panels.robot_panel import RobotPanel
 
@@ -56,6 +61,10 @@ class Studio:
         )
         self.robot_panel = RobotPanel(self.server.gui, self, config.max_upload_bytes)
         self.pose_panel = PosePanel(self.server.gui, self)
+        self.playback_panel = PlaybackPanel(self.server.gui, self)
+        self.trajectory: Trajectory | None = None
+        self.traces: TracesView | None = None
+        self.player = Player(self)
         self.display_panel = DisplayPanel(self.server.gui, self._on_display)
         self.robot: RobotModel | None = None
         self.report: RobotReport | None = None
@@ -117,10 +126,12 @@ class Studio:
 
     def _install(self, robot: RobotModel) -> None:
         report = robot_report(robot)
+        self.player.pause()
         with self.lock, self.server.atomic():
-            for old in (self.view, self.joints_panel, self.pose):
+            for old in (self.view, self.joints_panel, self.pose, self.traces):
                 if old is not None:
                     old.remove()
+            self.trajectory, self.traces = None, None  # a motion belongs to its robot
             self.robot, self.report = robot, report
             self.q = robot.q_neutral.copy()
             self.view = RobotView(self.server, robot)
@@ -227,6 +238,60 @@ class Studio:
             if self.pose is not None:
                 self.pose.handles.set_visible(visible)
 
+    # --- motions and playback -------------------------------------------------------------
+
+    def set_trajectory(self, trajectory: Trajectory, summary: str) -> None:
+        """Make a motion of the current robot the one played back, and show its start."""
+        self.player.pause()
+        with self.lock:
+            assert self.robot is not None
+            if trajectory.joint_names != self.robot.joint_names:
+                self._fail(
+                    "Motion not for this robot", "its joints differ from the loaded robot's", None
+                )
+                return
+            if self.traces is not None:
+                self.traces.remove()
+            self.trajectory = trajectory
+            self.traces = TracesView(self.server, task_space_paths(self.robot, trajectory))
+            self.traces.set_visible(self.playback_panel.traces.value)
+            self.playback_panel.show_trajectory(trajectory, summary)
+            self.show_time(0.0)
+
+    def show_time(self, time_s: float, playing: bool = False) -> None:
+        """Show the trajectory's sample nearest to time_s (the player calls this every frame)."""
+        with self.lock:
+            trajectory = self.trajectory
+            if trajectory is None or self.pose is None:
+                return
+            k = trajectory.index_at(time_s)
+            left, right = trajectory.contacts[k]
+            self.pose.posing.stance = "both" if left == right else ("left" if left else "right")
+            self.pose.last_result = None
+            self.show_pose(trajectory.q[k], from_slider=playing)
+            self.playback_panel.show_time(time_s)
+            if not playing:
+                self.playback_panel.show_playing(False)
+
+    def seek(self, time_s: float) -> None:
+        self.player.pause()
+        self.show_time(time_s)
+
+    def toggle_play(self) -> None:
+        if self.player.playing:
+            self.player.pause()
+            self.playback_panel.show_playing(False)
+            self.show_time(self.playback_panel.time.value)
+        elif self.trajectory is not None:
+            start = self.playback_panel.time.value
+            self.player.play(0.0 if start >= self.trajectory.duration else start)
+            self.playback_panel.show_playing(True)
+
+    def set_traces_visible(self, visible: bool) -> None:
+        with self.lock:
+            if self.traces is not None:
+                self.traces.set_visible(visible)
+
     def _on_display(self, flags: DisplayFlags) -> None:
         with self.lock:
             if self.view is not None:
@@ -265,6 +330,7 @@ class Studio:
             client.camera.look_at = look_at
 
     def stop(self) -> None:
+        self.player.pause()
         self.server.stop()
 
 

@@ -157,7 +157,7 @@ class WholeBodyIK:
     def _guard_com(self, q: np.ndarray, polygon: np.ndarray) -> None:
         """Hard CoM-in-polygon constraint when the CoM is inside (the QP stays feasible from
         there); while it is outside, a CoM task pulls it towards the polygon's centroid."""
-        inside = self.com_margin(q, polygon) >= self.com_margin_m - 1e-6
+        inside = self.com_margin(q, polygon) >= 0.5 * self.com_margin_m  # hysteresis: no chatter
         self._set_polygon(inside, polygon)
         if inside:
             self._com_pull.configure("com pull", "soft", 0.0)

@@ -259,3 +259,51 @@ def test_two_tabs_dragging_at_once_latest_target_wins(studio):
     np.testing.assert_allclose(
         _placement(studio, studio.robot.feet[0].link)[:3, 3], targets[-1][:3, 3], atol=1e-3
     )
+
+
+def _knee_bend(studio: Studio, duration_s: float = 1.0, dt: float = 0.01):
+    from app.core.trajectory import from_configurations
+
+    robot = studio.robot
+    knee = robot.joint_names.index("left_knee")
+    qs = []
+    for t in np.arange(0.0, duration_s + 1e-9, dt):
+        angles = robot.joint_angles(robot.q_neutral)
+        angles[knee] = 0.5 * np.sin(np.pi * t / duration_s)
+        qs.append(robot.with_joint_angles(robot.q_neutral, angles))
+    contacts = np.ones((len(qs), 2), dtype=bool)
+    return from_configurations(
+        robot.model, "knee bend", robot.joint_names, dt, np.array(qs), contacts
+    )
+
+
+def test_timeline_slider_seeks_and_the_player_plays(studio):
+    trajectory = _knee_bend(studio)
+    studio.set_trajectory(trajectory, "knee bend")
+    assert studio.playback_panel.time.max == pytest.approx(1.0)
+    studio.playback_panel.time.value = 0.5
+    np.testing.assert_allclose(studio.q, trajectory.q[50])
+    studio.playback_panel.speed.value = "2"
+    studio.playback_panel.time.value = 0.0
+    studio.playback_panel.play.value = True
+    assert studio.player.playing
+    import time
+
+    deadline = time.monotonic() + 10.0
+    while studio.playback_panel.time.value < 0.2 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    studio.playback_panel.play.value = True  # pause
+    assert not studio.player.playing
+    k = trajectory.index_at(studio.playback_panel.time.value)
+    np.testing.assert_allclose(studio.q, trajectory.q[k])
+    assert k > 0
+
+
+def test_a_motion_for_another_robot_is_refused(studio):
+    trajectory = _knee_bend(studio)
+    studio.robot_panel.builtin.value = "dircon_biped"
+    studio.robot_panel.load_builtin.value = True
+    assert studio.trajectory is None  # the old motion went with the old robot
+    studio.set_trajectory(trajectory, "knee bend")
+    assert studio.trajectory is None
+    assert "joints differ" in studio.last_error

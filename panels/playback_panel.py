@@ -1,0 +1,58 @@
+"""Playback panel: timeline, play/pause, speed, loop, traces."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import viser
+
+if TYPE_CHECKING:
+    from app.core.trajectory import Trajectory
+    from app.studio import Studio
+
+SPEEDS = ("0.25", "0.5", "1", "2")
+
+
+class PlaybackPanel:
+    """Owns the "Playback" folder. The studio's player moves the timeline while playing."""
+
+    def __init__(self, gui: viser.GuiApi, studio: Studio) -> None:
+        with gui.add_folder("Playback", order=3):
+            self.info = gui.add_markdown(
+                "No motion yet: pick one in *Motions* or capture keyframes."
+            )
+            self.time = gui.add_slider(
+                "Time [s]", min=0.0, max=1.0, step=0.01, initial_value=0.0, disabled=True
+            )
+            self.play = gui.add_button("Play", icon=viser.Icon.PLAYER_PLAY, disabled=True)
+            self.speed = gui.add_dropdown("Speed", SPEEDS, initial_value="1")
+            self.loop = gui.add_checkbox("Loop", True)
+            self.traces = gui.add_checkbox("Show traces", True)
+        self._syncing = False
+        self.time.on_update(lambda _: None if self._syncing else studio.seek(self.time.value))
+        self.play.on_click(lambda _: studio.toggle_play())
+        self.traces.on_update(lambda _: studio.set_traces_visible(self.traces.value))
+
+    def show_trajectory(self, trajectory: Trajectory, summary: str) -> None:
+        self.time.max = round(trajectory.duration, 2)
+        self.time.step = max(0.01, round(trajectory.dt, 3))
+        self.time.disabled = False
+        self.play.disabled = False
+        self.info.content = summary
+        self.show_time(0.0)
+
+    def show_time(self, time_s: float) -> None:
+        """Move the timeline without seeking again."""
+        self._syncing = True
+        try:
+            self.time.value = min(round(time_s, 2), self.time.max)  # type: ignore[misc]  # viser types the setter on a generic base
+        finally:
+            self._syncing = False
+
+    def show_playing(self, playing: bool) -> None:
+        self.play.label = "Pause" if playing else "Play"
+        self.play.icon = viser.Icon.PLAYER_PAUSE if playing else viser.Icon.PLAYER_PLAY
+
+    @property
+    def speed_factor(self) -> float:
+        return float(self.speed.value)
