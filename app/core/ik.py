@@ -37,8 +37,12 @@ COM_PULL_WEIGHT = 10.0
 """While the CoM is outside the support polygon (a hard constraint would make the QP
 infeasible), a CoM task this much heavier than the moving foot pulls it in; once inside, the
 polygon is a hard constraint."""
-LOOP_WEIGHT = 1e4
+LOOP_WEIGHT = 1e7
 COM_TARGET_WEIGHT = 10.0
+CONTRACTION = 0.9
+"""Full QP steps are taken while their size shrinks by this factor; when it does not (the
+active set of joint limits and the CoM polygon flips between steps), the step is halved."""
+MIN_GAIN = 1.0 / 64.0
 OFF_POLYGON = np.array([[1e3, 1e3], [1e3, -1e3], [-1e3, -1e3], [-1e3, 1e3]])
 """Clockwise square [m] that no CoM leaves: the polygon constraint's "off" state."""
 STANCE_WEIGHT = 1e9
@@ -155,9 +159,12 @@ class WholeBodyIK:
         return float(np.min(np.einsum("ij,ij->i", polygon - com, normals)))
 
     def _guard_com(self, q: np.ndarray, polygon: np.ndarray) -> None:
-        """Hard CoM-in-polygon constraint when the CoM is inside (the QP stays feasible from
-        there); while it is outside, a CoM task pulls it towards the polygon's centroid."""
-        inside = self.com_margin(q, polygon) >= 0.5 * self.com_margin_m  # hysteresis: no chatter
+        """Hard CoM-in-polygon constraint once the CoM is inside (the QP stays feasible from
+        there, and it stays on for the rest of the solve: switching back and forth chatters);
+        while the CoM is outside, a CoM task pulls it towards the polygon's centroid."""
+        if self._polygon_on:
+            return
+        inside = self.com_margin(q, polygon) >= 0.0
         self._set_polygon(inside, polygon)
         if inside:
             self._com_pull.configure("com pull", "soft", 0.0)
@@ -174,14 +181,45 @@ class WholeBodyIK:
             self._polygon.polygon = [np.array(p) for p in OFF_POLYGON]
         self._polygon_on = on
 
+    def _iterate(
+        self,
+        start: np.ndarray,
+        polygon: np.ndarray | None,
+        max_iterations: int,
+        step_tolerance: float,
+    ) -> tuple[np.ndarray, int]:
+        """QP steps from start until they vanish; the CoM is guarded when a polygon is given."""
+        model, wrapper = self.robot.model, self._wrapper
+        wrapper.state.q = start.copy()
+        wrapper.update_kinematics()
+        self._set_polygon(False)
+        self._com_pull.configure("com pull", "soft", 0.0)
+        gain, last_norm, iterations = 1.0, np.inf, 0
+        for iterations in range(1, max_iterations + 1):  # noqa: B007 - returned
+            before = wrapper.state.q.copy()
+            if polygon is not None:
+                self._guard_com(before, polygon)
+            dq = np.asarray(self._solver.solve(False))
+            if not np.all(np.isfinite(dq)):
+                raise FloatingPointError("non-finite step")
+            norm = float(np.linalg.norm(dq))
+            if norm > CONTRACTION * last_norm:
+                gain = max(0.5 * gain, MIN_GAIN)  # steps not shrinking: active sets chatter
+            last_norm = norm
+            wrapper.state.q = pin.integrate(model, before, gain * dq)
+            wrapper.update_kinematics()
+            if gain * norm < step_tolerance:
+                break
+        return wrapper.state.q.copy(), iterations
+
     def solve(
         self,
         q_start: np.ndarray,
         targets: IkTargets,
         *,
         com_in_support: bool | None = None,
-        max_iterations: int = 100,
-        step_tolerance: float = 1e-9,
+        max_iterations: int = 60,
+        step_tolerance: float = 1e-6,
     ) -> IkResult:
         """Iterate the QP from q_start towards the targets; never returns NaN."""
         robot, wrapper = self.robot, self._wrapper
@@ -213,31 +251,24 @@ class WholeBodyIK:
             self._com_target.configure("com target", "soft", 0.0)
         use_polygon = self.com_in_support if com_in_support is None else com_in_support
         polygon = self.support_polygon(start, targets.stance)
-        self._set_polygon(False)
-        self._com_pull.configure("com pull", "soft", 0.0)
-
         warnings: list[str] = []
-        iterations = 0
         try:
-            for iterations in range(1, max_iterations + 1):  # noqa: B007 - reported
-                before = wrapper.state.q.copy()
-                if use_polygon:
-                    self._guard_com(before, polygon)
-                self._solver.solve(True)
-                wrapper.update_kinematics()
-                if not np.all(np.isfinite(wrapper.state.q)):
-                    raise FloatingPointError("non-finite configuration")
-                if (
-                    np.linalg.norm(pin.difference(robot.model, before, wrapper.state.q))
-                    < step_tolerance
-                ):
-                    break
-            q = wrapper.state.q.copy()
+            q, iterations = self._iterate(
+                start, polygon if use_polygon else None, max_iterations, step_tolerance
+            )
+            if use_polygon and not self._polygon_on:
+                # The CoM never got inside: rather than a contorted compromise that drags the
+                # stance foot, show the pose without the polygon and say so.
+                warnings.append(
+                    "the CoM cannot be brought over the support polygon from here "
+                    "(a leg without ankle roll cannot shift it over one flat foot): shown without it"
+                )
+                q, iterations = self._iterate(start, None, max_iterations, step_tolerance)
             if robot.tree.loops:
                 q = close_loops(robot, q, self._data).q
         except (RuntimeError, FloatingPointError) as error:
             warnings.append(f"IK step failed ({error}); the pose was kept")
-            q = start
+            q, iterations = start, 0
 
         placements = robot.link_placements(q, self._data)
         position_error, orientation_error = {}, {}

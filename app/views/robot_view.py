@@ -11,11 +11,14 @@ import pinocchio as pin
 import viser
 
 from app.core.model import RobotModel
-from app.core.quaternions import matrix_to_wxyz
+from app.core.quaternions import matrix_to_wxyz, wxyz_to_matrix
 
 DEFAULT_RGB = (150, 156, 168)
 COLLISION_RGB = (255, 140, 40)
 COM_RGB = (230, 40, 90)
+SEND_TOLERANCE = 1e-9
+"""A node whose relative placement changed less than this (m, and rotation-matrix entries)
+is not re-sent."""
 
 
 class RobotView:
@@ -25,8 +28,14 @@ class RobotView:
         self.robot = robot
         self.root = root
         self.data = robot.model.createData()
-        self._links = sorted({mesh.link for mesh in robot.meshes} | set(robot.link_frame_ids))
+        self._links = _tree_order(robot)
+        self._parent = {
+            link: (joint.parent if (joint := robot.tree.parent_joint(link)) else None)
+            for link in self._links
+        }
         self._link_frames: dict[str, viser.FrameHandle] = {}
+        self._sent: dict[str, np.ndarray] = {}
+        """Placement of each link's node relative to its parent link's node, as last sent."""
         self._visuals: list[viser.SceneNodeHandle] = []
         self._collisions: list[viser.SceneNodeHandle] = []
         self._axes: list[viser.FrameHandle] = []
@@ -36,12 +45,17 @@ class RobotView:
             self._build(server.scene)
 
     def _build(self, scene: viser.SceneApi) -> None:
+        # Link nodes nest like the kinematic tree, each placed relative to its parent link, so
+        # a joint change re-sends one node and a base move re-sends only the base.
+        self._node = {}
         for i, link in enumerate(self._links):
-            frame = scene.add_frame(f"{self.root}/links/{i}", show_axes=False)
+            parent = self._parent[link]
+            self._node[link] = f"{self._node[parent]}/{i}" if parent else f"{self.root}/links/{i}"
+            frame = scene.add_frame(self._node[link], show_axes=False)
             self._link_frames[link] = frame
             self._axes.append(
                 scene.add_frame(
-                    f"{self.root}/links/{i}/axes",
+                    f"{self._node[link]}/axes",
                     axes_length=self.axes_length_m,
                     axes_radius=self.axes_length_m * 0.05,
                     visible=False,
@@ -49,9 +63,8 @@ class RobotView:
             )
         counts: dict[str, int] = {}
         for mesh in self.robot.meshes:
-            i = self._links.index(mesh.link)
             k = counts[mesh.link] = counts.get(mesh.link, -1) + 1
-            name = f"{self.root}/links/{i}/{mesh.role}_{k}"
+            name = f"{self._node[mesh.link]}/{mesh.role}_{k}"
             wxyz = matrix_to_wxyz(mesh.T_link_mesh[:3, :3])
             position = mesh.T_link_mesh[:3, 3]
             if mesh.role == "collision":
@@ -97,25 +110,36 @@ class RobotView:
         )
 
     def update(self, q: np.ndarray) -> None:
-        """Move every link to its placement at configuration q."""
+        """Move every link to its placement at configuration q (only changed nodes are sent)."""
         pin.framesForwardKinematics(self.robot.model, self.data, q)
-        oMf = self.data.oMf
+        oMf, ids = self.data.oMf, self.robot.link_frame_ids
         for link, frame in self._link_frames.items():
-            fid = self.robot.link_frame_ids.get(link)
-            if fid is None:
+            parent = self._parent[link]
+            T = oMf[ids[link]] if parent is None else oMf[ids[parent]].actInv(oMf[ids[link]])
+            relative = T.homogeneous
+            last = self._sent.get(link)
+            if last is not None and np.abs(relative - last).max() < SEND_TOLERANCE:
                 continue
-            placement = oMf[fid]
-            frame.position = placement.translation
-            frame.wxyz = matrix_to_wxyz(placement.rotation)
+            self._sent[link] = relative
+            frame.position = relative[:3, 3]
+            frame.wxyz = matrix_to_wxyz(relative[:3, :3])
         if self._com.visible:
             com = pin.centerOfMass(self.robot.model, self.data, q, False)
             self._com.position = com
             self._com_ground.position = (com[0], com[1], 0.0)
 
     def link_pose(self, link: str) -> tuple[np.ndarray, np.ndarray]:
-        """(position, wxyz) of a link's node as last sent to the scene."""
-        frame = self._link_frames[link]
-        return np.asarray(frame.position), np.asarray(frame.wxyz)
+        """World (position, wxyz) of a link's node, composed from what was sent to the scene."""
+        T = np.eye(4)
+        node: str | None = link
+        while node is not None:
+            frame = self._link_frames[node]
+            local = np.eye(4)
+            local[:3, :3] = wxyz_to_matrix(np.asarray(frame.wxyz))
+            local[:3, 3] = frame.position
+            T = local @ T
+            node = self._parent[node]
+        return T[:3, 3], matrix_to_wxyz(T[:3, :3])
 
     def set_visible(self, *, visual: bool, collision: bool, frames: bool, com: bool) -> None:
         for handle in self._visuals:
@@ -128,7 +152,18 @@ class RobotView:
         self._com_ground.visible = com
 
     def remove(self) -> None:
-        for frame in self._link_frames.values():
-            frame.remove()
+        """Drop the whole robot: removing the root link node removes its subtree."""
+        self._link_frames[self._links[0]].remove()
         self._com.remove()
         self._com_ground.remove()
+
+
+def _tree_order(robot: RobotModel) -> list[str]:
+    """Links with a pinocchio frame, parents before children (breadth first from the root)."""
+    order, queue = [], [robot.tree.root]
+    while queue:
+        link = queue.pop(0)
+        if link in robot.link_frame_ids:
+            order.append(link)
+        queue.extend(joint.child for joint in robot.tree.children_of(link))
+    return order
