@@ -39,13 +39,17 @@ infeasible), a CoM task this much heavier than the moving foot pulls it in; once
 polygon is a hard constraint."""
 LOOP_WEIGHT = 1e7
 COM_TARGET_WEIGHT = 10.0
-CONTRACTION = 0.9
-"""Full QP steps are taken while their size shrinks by this factor; when it does not (the
-active set of joint limits and the CoM polygon flips between steps), the step is halved."""
-MIN_GAIN = 1.0 / 64.0
+DAMPING_MIN = 1e-6
+DAMPING_PER_M2 = 0.0
+"""Step damping weight per squared metre of remaining soft-target error."""
+MAX_STEP_M = 0.03
+MAX_STEP_RAD = 0.3
+"""A soft target further than this is approached through intermediate targets (one per QP
+step): a far, unreachable target otherwise asks for huge steps at a stretched, near-singular
+leg, and the iterations jump between configurations instead of settling."""
 OFF_POLYGON = np.array([[1e3, 1e3], [1e3, -1e3], [-1e3, -1e3], [-1e3, 1e3]])
 """Clockwise square [m] that no CoM leaves: the polygon constraint's "off" state."""
-STANCE_WEIGHT = 1e9
+STANCE_WEIGHT = 1e4
 """Stance feet are soft tasks of overwhelming weight rather than hard equalities: with both
 feet of a 5-DOF-leg robot (dircon_biped) held, hard 6-D equalities are rank-deficient and
 the QP fails, while a consistent soft target is still met to ~1e-9 m."""
@@ -123,7 +127,7 @@ class WholeBodyIK:
         for joint, angle in zip(robot.joints, neutral_angles, strict=True):
             if joint.kind != "continuous":
                 self._posture.set_joint(joint.name, float(angle))
-        self._solver.add_regularization_task(1e-6)
+        self._damping = self._solver.add_regularization_task(DAMPING_MIN)
         self._polygon = self._solver.add_com_polygon_constraint([np.zeros(2)] * 3, com_margin_m)
         self._polygon.configure("com polygon", "hard", 1.0)
         self._polygon_on = False
@@ -135,6 +139,10 @@ class WholeBodyIK:
         self._com_target.mask.set_axises("xy")
         self._com_target.configure("com target", "soft", 0.0)
         self._data = robot.model.createData()
+        self._hard_stance = True
+        self._soft_goals: list[tuple[placo.FrameTask, str, np.ndarray]] = []
+        """(task, frame, target) of soft frame targets, approached at most MAX_STEP per step."""
+        """Stance feet are hard equalities unless that proved rank-deficient for this robot."""
 
     def support_polygon(self, q: np.ndarray, stance: Stance) -> np.ndarray:
         """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q."""
@@ -194,23 +202,67 @@ class WholeBodyIK:
         wrapper.update_kinematics()
         self._set_polygon(False)
         self._com_pull.configure("com pull", "soft", 0.0)
-        gain, last_norm, iterations = 1.0, np.inf, 0
+        iterations = 0
         for iterations in range(1, max_iterations + 1):  # noqa: B007 - returned
             before = wrapper.state.q.copy()
             if polygon is not None:
                 self._guard_com(before, polygon)
+            squared_error = 0.0
+            for task, frame, goal in self._soft_goals:
+                current = wrapper.get_T_world_frame(frame)
+                task.T_world_frame = _clamped_towards(current, goal)
+                squared_error += float(np.sum((goal[:3, 3] - current[:3, 3]) ** 2))
+            # Levenberg-Marquardt: damping grows with the remaining error, so a far target is
+            # approached by settling steps rather than huge jumps at a stretched leg.
+            self._damping.configure("damping", "soft", DAMPING_MIN + DAMPING_PER_M2 * squared_error)
             dq = np.asarray(self._solver.solve(False))
             if not np.all(np.isfinite(dq)):
                 raise FloatingPointError("non-finite step")
-            norm = float(np.linalg.norm(dq))
-            if norm > CONTRACTION * last_norm:
-                gain = max(0.5 * gain, MIN_GAIN)  # steps not shrinking: active sets chatter
-            last_norm = norm
-            wrapper.state.q = pin.integrate(model, before, gain * dq)
+            wrapper.state.q = pin.integrate(model, before, dq)
             wrapper.update_kinematics()
-            if gain * norm < step_tolerance:
+            if float(np.linalg.norm(dq)) < step_tolerance:
                 break
         return wrapper.state.q.copy(), iterations
+
+    def _anchor(self, q: np.ndarray, stance_targets: dict[str, np.ndarray]) -> np.ndarray:
+        """Move the floating base rigidly so the first stance foot is exactly on its target.
+
+        The QP's linearised steps can leave a held foot a fraction of a millimetre off after
+        a compromise with an unreachable target; a rigid correction of the base removes that
+        exactly without changing a joint (the whole robot shifts by the same amount).
+        """
+        if not self.robot.floating_base or not stance_targets:
+            return q
+        side, T_target = next(iter(stance_targets.items()))
+        placements = self.robot.link_placements(q, self._data)
+        correction = pin.SE3(T_target) * pin.SE3(placements[self.robot.foot(side).link]).inverse()
+        base = pin.XYZQUATToSE3(q[:7])
+        out = q.copy()
+        out[:7] = pin.SE3ToXYZQUAT(correction * base)
+        return out
+
+    def _solve_steps(
+        self,
+        start: np.ndarray,
+        polygon: np.ndarray | None,
+        stance_sides: tuple[str, ...],
+        warnings: list[str],
+        max_iterations: int,
+        step_tolerance: float,
+    ) -> tuple[np.ndarray, int]:
+        q, iterations = self._iterate(start, polygon, max_iterations, step_tolerance)
+        if polygon is not None and not self._polygon_on:
+            # The CoM never got inside: rather than a contorted compromise, show the pose
+            # without the polygon and say so.
+            warnings.append(
+                "the CoM cannot be brought over the support polygon from here "
+                "(a leg without ankle roll cannot shift it over one flat foot): shown without it"
+            )
+            q, iterations = self._iterate(start, None, max_iterations, step_tolerance)
+        if self.robot.tree.loops:
+            q = close_loops(self.robot, q, self._data).q
+        q = self._anchor(q, {side: self._feet[side].T_world_frame for side in stance_sides})
+        return q, iterations
 
     def solve(
         self,
@@ -229,17 +281,25 @@ class WholeBodyIK:
         placements = robot.link_placements(start, self._data)
         stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
         wanted = {}
+        self._soft_goals = []
+        warnings: list[str] = []
         for foot in robot.feet:
             given = targets.T_world_left if foot.side == "left" else targets.T_world_right
             wanted[foot.side] = placements[foot.link] if given is None else np.asarray(given)
             task = self._feet[foot.side]
             task.T_world_frame = wanted[foot.side]
-            weight = STANCE_WEIGHT if foot.side in stance_sides else 1.0
-            task.configure(foot.side, "soft", weight, weight)
+            if foot.side not in stance_sides:
+                task.configure(foot.side, "soft", 1.0, 1.0)
+                self._soft_goals.append((task, foot.link, wanted[foot.side]))
+            elif self._hard_stance:
+                task.configure(foot.side, "hard", 1.0, 1.0)
+            else:
+                task.configure(foot.side, "soft", STANCE_WEIGHT, STANCE_WEIGHT)
         if targets.T_world_pelvis is not None:
             self._pelvis.T_world_frame = targets.T_world_pelvis
             self._pelvis.configure("pelvis", "soft", 1.0, 1.0)
             wanted["pelvis"] = np.asarray(targets.T_world_pelvis)
+            self._soft_goals.append((self._pelvis, self._pelvis_frame, wanted["pelvis"]))
         else:
             self._pelvis.configure("pelvis", "soft", 0.0, 0.0)
         if targets.com_xy is not None:
@@ -251,21 +311,32 @@ class WholeBodyIK:
             self._com_target.configure("com target", "soft", 0.0)
         use_polygon = self.com_in_support if com_in_support is None else com_in_support
         polygon = self.support_polygon(start, targets.stance)
-        warnings: list[str] = []
         try:
-            q, iterations = self._iterate(
-                start, polygon if use_polygon else None, max_iterations, step_tolerance
-            )
-            if use_polygon and not self._polygon_on:
-                # The CoM never got inside: rather than a contorted compromise that drags the
-                # stance foot, show the pose without the polygon and say so.
-                warnings.append(
-                    "the CoM cannot be brought over the support polygon from here "
-                    "(a leg without ankle roll cannot shift it over one flat foot): shown without it"
+            try:
+                q, iterations = self._solve_steps(
+                    start,
+                    polygon if use_polygon else None,
+                    stance_sides,
+                    warnings,
+                    max_iterations,
+                    step_tolerance,
                 )
-                q, iterations = self._iterate(start, None, max_iterations, step_tolerance)
-            if robot.tree.loops:
-                q = close_loops(robot, q, self._data).q
+            except RuntimeError:
+                if not self._hard_stance:
+                    raise
+                # Hard 6-D stance equalities are rank-deficient for legs with fewer than six
+                # joints (dircon_biped with both feet down): hold the feet by weight instead.
+                self._hard_stance = False
+                for side in stance_sides:
+                    self._feet[side].configure(side, "soft", STANCE_WEIGHT, STANCE_WEIGHT)
+                q, iterations = self._solve_steps(
+                    start,
+                    polygon if use_polygon else None,
+                    stance_sides,
+                    warnings,
+                    max_iterations,
+                    step_tolerance,
+                )
         except (RuntimeError, FloatingPointError) as error:
             warnings.append(f"IK step failed ({error}); the pose was kept")
             q, iterations = start, 0
@@ -307,3 +378,17 @@ class WholeBodyIK:
         return IkResult(
             q, reached, iterations, position_error, orientation_error, margin, near, tuple(warnings)
         )
+
+
+def _clamped_towards(T_current: np.ndarray, T_goal: np.ndarray) -> np.ndarray:
+    """T_goal, or the pose MAX_STEP_M / MAX_STEP_RAD from T_current in its direction."""
+    out = np.array(T_goal, dtype=float)
+    delta = T_goal[:3, 3] - T_current[:3, 3]
+    distance = float(np.linalg.norm(delta))
+    if distance > MAX_STEP_M:
+        out[:3, 3] = T_current[:3, 3] + delta * (MAX_STEP_M / distance)
+    rotation = pin.log3(T_current[:3, :3].T @ T_goal[:3, :3])
+    angle = float(np.linalg.norm(rotation))
+    if angle > MAX_STEP_RAD:
+        out[:3, :3] = T_current[:3, :3] @ pin.exp3(rotation * (MAX_STEP_RAD / angle))
+    return out

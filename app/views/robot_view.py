@@ -47,7 +47,7 @@ class RobotView:
     def _build(self, scene: viser.SceneApi) -> None:
         # Link nodes nest like the kinematic tree, each placed relative to its parent link, so
         # a joint change re-sends one node and a base move re-sends only the base.
-        self._node = {}
+        self._node: dict[str, str] = {}
         for i, link in enumerate(self._links):
             parent = self._parent[link]
             self._node[link] = f"{self._node[parent]}/{i}" if parent else f"{self.root}/links/{i}"
