@@ -33,15 +33,15 @@ REACHED_M = 1e-3
 """A target closer than this (and REACHED_RAD) counts as reached."""
 REACHED_RAD = np.deg2rad(0.5)
 NEAR_LIMIT_RAD = np.deg2rad(3.0)
-COM_PULL_WEIGHT = 10.0
+COM_PULL_WEIGHT = 1.0
 """While the CoM is outside the support polygon (a hard constraint would make the QP
 infeasible), a CoM task this much heavier than the moving foot pulls it in; once inside, the
 polygon is a hard constraint."""
 LOOP_WEIGHT = 1e7
 COM_TARGET_WEIGHT = 10.0
 DAMPING_MIN = 1e-6
-DAMPING_PER_M2 = 0.0
-"""Step damping weight per squared metre of remaining soft-target error."""
+ROTATION_WEIGHT = 0.01
+"""[m²/rad²] in the goal cost used to accept steps: 0.1 rad counts like 1 cm."""
 MAX_STEP_M = 0.03
 MAX_STEP_RAD = 0.3
 """A soft target further than this is approached through intermediate targets (one per QP
@@ -197,7 +197,7 @@ class WholeBodyIK:
         step_tolerance: float,
     ) -> tuple[np.ndarray, int]:
         """QP steps from start until they vanish; the CoM is guarded when a polygon is given."""
-        model, wrapper = self.robot.model, self._wrapper
+        wrapper = self._wrapper
         wrapper.state.q = start.copy()
         wrapper.update_kinematics()
         self._set_polygon(False)
@@ -207,22 +207,46 @@ class WholeBodyIK:
             before = wrapper.state.q.copy()
             if polygon is not None:
                 self._guard_com(before, polygon)
-            squared_error = 0.0
+            cost = self._goal_cost()
             for task, frame, goal in self._soft_goals:
-                current = wrapper.get_T_world_frame(frame)
-                task.T_world_frame = _clamped_towards(current, goal)
-                squared_error += float(np.sum((goal[:3, 3] - current[:3, 3]) ** 2))
-            # Levenberg-Marquardt: damping grows with the remaining error, so a far target is
-            # approached by settling steps rather than huge jumps at a stretched leg.
-            self._damping.configure("damping", "soft", DAMPING_MIN + DAMPING_PER_M2 * squared_error)
+                task.T_world_frame = _clamped_towards(wrapper.get_T_world_frame(frame), goal)
             dq = np.asarray(self._solver.solve(False))
             if not np.all(np.isfinite(dq)):
                 raise FloatingPointError("non-finite step")
-            wrapper.state.q = pin.integrate(model, before, dq)
-            wrapper.update_kinematics()
+            if not self._take_step(
+                before, dq, cost, pulling=polygon is not None and not self._polygon_on
+            ):
+                break  # no step along dq lowers the goal cost: the closest pose is reached
             if float(np.linalg.norm(dq)) < step_tolerance:
                 break
         return wrapper.state.q.copy(), iterations
+
+    def _goal_cost(self) -> float:
+        """Weighted distance of the soft goals: Σ |Δp|² [m²] + ROTATION_WEIGHT·|Δθ|² [rad²]."""
+        cost = 0.0
+        for _, frame, goal in self._soft_goals:
+            current = self._wrapper.get_T_world_frame(frame)
+            cost += float(np.sum((goal[:3, 3] - current[:3, 3]) ** 2))
+            cost += ROTATION_WEIGHT * float(np.sum(pin.log3(current[:3, :3].T @ goal[:3, :3]) ** 2))
+        return cost
+
+    def _take_step(self, before: np.ndarray, dq: np.ndarray, cost: float, pulling: bool) -> bool:
+        """Apply the longest of dq, dq/2, … dq/16 that lowers the goal cost (any step while
+        the CoM is being pulled into the polygon, or when there is no soft goal). False, with
+        the configuration unchanged, when none does: iterating further would only wander."""
+        model, wrapper = self.robot.model, self._wrapper
+        if pulling or not self._soft_goals or cost < 1e-12:
+            wrapper.state.q = pin.integrate(model, before, dq)
+            wrapper.update_kinematics()
+            return True
+        for gain in (1.0, 0.5, 0.25, 0.125, 0.0625):
+            wrapper.state.q = pin.integrate(model, before, gain * dq)
+            wrapper.update_kinematics()
+            if self._goal_cost() < cost * (1.0 - 1e-9):
+                return True
+        wrapper.state.q = before
+        wrapper.update_kinematics()
+        return False
 
     def _anchor(self, q: np.ndarray, stance_targets: dict[str, np.ndarray]) -> np.ndarray:
         """Move the floating base rigidly so the first stance foot is exactly on its target.
@@ -289,8 +313,10 @@ class WholeBodyIK:
             task = self._feet[foot.side]
             task.T_world_frame = wanted[foot.side]
             if foot.side not in stance_sides:
+                aim = _above_floor(wanted[foot.side], foot.sole_corners_m, foot.side, warnings)
+                task.T_world_frame = aim
                 task.configure(foot.side, "soft", 1.0, 1.0)
-                self._soft_goals.append((task, foot.link, wanted[foot.side]))
+                self._soft_goals.append((task, foot.link, aim))
             elif self._hard_stance:
                 task.configure(foot.side, "hard", 1.0, 1.0)
             else:
@@ -392,3 +418,18 @@ def _clamped_towards(T_current: np.ndarray, T_goal: np.ndarray) -> np.ndarray:
     if angle > MAX_STEP_RAD:
         out[:3, :3] = T_current[:3, :3] @ pin.exp3(rotation * (MAX_STEP_RAD / angle))
     return out
+
+
+def _above_floor(
+    T_goal: np.ndarray, sole_corners_m: np.ndarray, side: str, warnings: list[str]
+) -> np.ndarray:
+    """The goal raised so that no sole corner is below the floor (z = 0), with a warning."""
+    lowest = float((T_goal[:3, :3] @ sole_corners_m.T)[2].min() + T_goal[2, 3])
+    if lowest >= 0.0:
+        return T_goal
+    raised = np.array(T_goal, dtype=float)
+    raised[2, 3] -= lowest
+    warnings.append(
+        f"{side} foot target is {-lowest * 1000:.0f} mm below the floor: aiming for the floor instead"
+    )
+    return raised
