@@ -23,12 +23,15 @@ from app.core.paths import task_space_paths
 from app.core.report import RobotReport, robot_report
 from app.core.trajectory import Trajectory
 from app.core.uploads import store_upload
+from app.motion_session import MotionSession
 from app.player import Player
 from app.pose_session import PoseSession
 from app.views.robot_view import RobotView
 from app.views.traces_view import TracesView
 from panels.display_panel import DisplayFlags, DisplayPanel
 from panels.joints_panel import JointsPanel
+from panels.keyframes_panel import KeyframesPanel
+from panels.motions_panel import MotionsPanel
 from panels.playback_panel import PlaybackPanel
 from panels.pose_panel import PosePanel
 from panels.robot_panel import RobotPanel
@@ -62,6 +65,9 @@ class Studio:
         self.robot_panel = RobotPanel(self.server.gui, self, config.max_upload_bytes)
         self.pose_panel = PosePanel(self.server.gui, self)
         self.playback_panel = PlaybackPanel(self.server.gui, self)
+        self.motions_panel = MotionsPanel(self.server.gui, self)
+        self.keyframes_panel = KeyframesPanel(self.server.gui, self)
+        self.motions = MotionSession(self)
         self.trajectory: Trajectory | None = None
         self.traces: TracesView | None = None
         self.player = Player(self)
@@ -132,6 +138,7 @@ class Studio:
                 if old is not None:
                     old.remove()
             self.trajectory, self.traces = None, None  # a motion belongs to its robot
+            self.motions.clear()
             self.robot, self.report = robot, report
             self.q = robot.q_neutral.copy()
             self.view = RobotView(self.server, robot)
@@ -306,6 +313,22 @@ class Studio:
         self.robot_panel.show_status(f"⚠️ {body}")
         self._notify(title, body, client, color="red")
 
+    def report_error(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
+        """Tell the user something failed (the state is unchanged)."""
+        self._fail(title, body, client)
+
+    def notify_progress(
+        self, title: str, body: str, client: viser.ClientHandle | None
+    ) -> _Progress:
+        """A loading notification to remove when the work is done."""
+        clients = [client] if client is not None else list(self.server.get_clients().values())
+        return _Progress(
+            [
+                c.add_notification(title, body, loading=True, with_close_button=False)
+                for c in clients
+            ]
+        )
+
     def _notify(
         self,
         title: str,
@@ -341,3 +364,12 @@ def vars_of(flags: DisplayFlags) -> dict[str, bool]:
         "frames": flags.frames,
         "com": flags.com,
     }
+
+
+class _Progress:
+    def __init__(self, handles: list) -> None:
+        self._handles = handles
+
+    def remove(self) -> None:
+        for handle in self._handles:
+            handle.remove()

@@ -74,3 +74,44 @@ def test_check_reports_missing_meshes_but_succeeds(tmp_path):
 def test_bad_feet_option():
     result = run("check", "servo_biped", "--feet", "only_one")
     assert result.returncode != 0 and "two link names" in result.stderr
+
+
+def test_motion_writes_csv_and_reports_json(tmp_path):
+    import numpy as np
+    import pinocchio as pin
+
+    from app.core.loading import load_robot
+    from app.core.motion_csv import read_trajectory_csv
+
+    out = tmp_path / "shift.csv"
+    result = run(
+        "motion", "com_shift", "--robot", "servo_biped", "--param", "shift_m=0.043",
+        "--param", "side=right", "--dt", "0.02", "--out", str(out), "--json",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["ok"] and report["motion"] == "com_shift" and report["robot"] == "servo_biped"
+    assert report["params"]["shift_m"] == 0.043 and report["dt_s"] == pytest.approx(0.02)
+    robot = load_robot("servo_biped")
+    traj = read_trajectory_csv(out, robot)
+    assert traj.n_samples == report["n_samples"] and traj.duration == report["duration_s"]
+    data = robot.model.createData()
+    com = [pin.centerOfMass(robot.model, data, traj.q[k]) for k in (0, -1)]
+    assert com[1][1] - com[0][1] == pytest.approx(-0.043, abs=2e-3)
+    assert np.all(traj.contacts)
+
+
+def test_motion_bad_parameter_is_one_line_naming_the_valid_ones(tmp_path):
+    result = run(
+        "motion", "one_leg_squats", "--param", "depth=0.02", "--out", str(tmp_path / "x.csv")
+    )
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "'depth'" in lines[0] and "depth_m" in lines[0]
+    assert not (tmp_path / "x.csv").exists()
+    result = run("motion", "moonwalk")
+    assert result.returncode == 1 and "step_in_place" in result.stderr
+    listed = run("motion", "list", "--json")
+    assert listed.returncode == 0 and "one_leg_squats" in {
+        m["name"] for m in json.loads(listed.stdout)
+    }

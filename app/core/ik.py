@@ -40,6 +40,8 @@ polygon is a hard constraint."""
 LOOP_WEIGHT = 1e7
 COM_TARGET_WEIGHT = 10.0
 DAMPING_MIN = 1e-6
+FLOOR_TOLERANCE_M = 1e-4
+"""A sole this little below the floor is rounding, not a request to dig in."""
 ROTATION_WEIGHT = 0.01
 """[m²/rad²] in the goal cost used to accept steps: 0.1 rad counts like 1 cm."""
 MAX_STEP_M = 0.03
@@ -425,7 +427,7 @@ def _above_floor(
 ) -> np.ndarray:
     """The goal raised so that no sole corner is below the floor (z = 0), with a warning."""
     lowest = float((T_goal[:3, :3] @ sole_corners_m.T)[2].min() + T_goal[2, 3])
-    if lowest >= 0.0:
+    if lowest >= -FLOOR_TOLERANCE_M:
         return T_goal
     raised = np.array(T_goal, dtype=float)
     raised[2, 3] -= lowest

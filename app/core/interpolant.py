@@ -1,0 +1,39 @@
+"""Task-space interpolants: time laws on [0, 1] and the blend of two placements.
+
+- min_jerk: s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, zero velocity and acceleration at both ends;
+- trapezoid: a trapezoidal speed profile (constant acceleration for a ramp fraction of the
+  segment, cruise, symmetric braking), the hybrid-leg paper's "T-shaped" curve (Sec. 4.1);
+- blend: position lerp and rotation slerp, R0·exp(s·log(R0ᵀR1)).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+TRAPEZOID_RAMP = 0.25
+"""Fraction of a trapezoid segment spent accelerating (and as much braking); the hybrid-leg
+paper's "T-shaped" speed curve gives no ramp length."""
+
+
+def min_jerk(tau: float) -> float:
+    """Minimum-jerk time law s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ on [0, 1]."""
+    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+
+
+def trapezoid(tau: float, ramp: float = TRAPEZOID_RAMP) -> float:
+    """Time law with a trapezoidal speed: constant acceleration for `ramp`, cruise, mirror."""
+    peak = 1.0 / (1.0 - ramp)
+    if tau < ramp:
+        return 0.5 * peak * tau**2 / ramp
+    if tau > 1.0 - ramp:
+        return 1.0 - 0.5 * peak * (1.0 - tau) ** 2 / ramp
+    return peak * (tau - 0.5 * ramp)
+
+
+def blend(T0: np.ndarray, T1: np.ndarray, s: float) -> np.ndarray:
+    """Placement a fraction s of the way from T0 to T1: position lerp, rotation slerp."""
+    T = np.eye(4)
+    T[:3, 3] = T0[:3, 3] + s * (T1[:3, 3] - T0[:3, 3])
+    T[:3, :3] = T0[:3, :3] @ pin.exp3(s * pin.log3(T0[:3, :3].T @ T1[:3, :3]))
+    return T

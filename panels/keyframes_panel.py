@@ -1,0 +1,64 @@
+"""Keyframes panel: capture the current pose, reorder, delete, set durations, build a motion."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import viser
+
+if TYPE_CHECKING:
+    from app.core.keyframes import Keyframe
+    from app.studio import Studio
+
+
+class KeyframesPanel:
+    """Owns the "Keyframes" folder. The studio holds the keyframe list."""
+
+    def __init__(self, gui: viser.GuiApi, studio: Studio) -> None:
+        with gui.add_folder("Keyframes", order=2.6, expand_by_default=False):
+            self.duration = gui.add_number(
+                "Duration [s]",
+                1.0,
+                min=0.05,
+                step=0.05,
+                hint="Time to reach a keyframe from the previous one",
+            )
+            self.capture = gui.add_button("Capture pose", icon=viser.Icon.CAMERA)
+            self.list = gui.add_markdown("No keyframes yet.")
+            self.selected = gui.add_dropdown("Selected", ("—",), initial_value="—")
+            with gui.add_folder("Edit selected", expand_by_default=True):
+                self.up = gui.add_button("Move up", icon=viser.Icon.ARROW_UP)
+                self.down = gui.add_button("Move down", icon=viser.Icon.ARROW_DOWN)
+                self.set_duration = gui.add_button("Set duration", icon=viser.Icon.CLOCK)
+                self.delete = gui.add_button("Delete", icon=viser.Icon.TRASH, color="red")
+            self.build = gui.add_button("Build motion", icon=viser.Icon.PLAYER_PLAY)
+        self.capture.on_click(lambda _: studio.motions.capture(float(self.duration.value)))
+        self.up.on_click(lambda _: studio.motions.move(self.index(), -1))
+        self.down.on_click(lambda _: studio.motions.move(self.index(), +1))
+        self.delete.on_click(lambda _: studio.motions.delete(self.index()))
+        self.set_duration.on_click(
+            lambda _: studio.motions.set_duration(self.index(), float(self.duration.value))
+        )
+
+        @self.build.on_click
+        def _(event: viser.GuiEvent) -> None:
+            studio.motions.build(event.client)
+
+    def index(self) -> int:
+        """Index of the selected keyframe, -1 if none."""
+        value = self.selected.value
+        return int(value.split(".")[0]) - 1 if value != "—" else -1
+
+    def show(self, keyframes: list[Keyframe], selected: int) -> None:
+        if not keyframes:
+            self.list.content = "No keyframes yet."
+            self.selected.options = ("—",)
+            return
+        rows = [
+            f"{i + 1}. **{kf.name}** — {kf.duration_s:.2f} s, stance {kf.stance}"
+            for i, kf in enumerate(keyframes)
+        ]
+        self.list.content = "  \n".join(rows)
+        options = tuple(f"{i + 1}. {kf.name}" for i, kf in enumerate(keyframes))
+        self.selected.options = options
+        self.selected.value = options[max(0, min(selected, len(options) - 1))]  # type: ignore[misc]  # viser types the setter on a generic base
