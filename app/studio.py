@@ -20,6 +20,7 @@ from app.core.loading import load_robot
 from app.core.loops import close_loops
 from app.core.model import RobotModel
 from app.core.paths import task_space_paths
+from app.core.ready_pose import ready_pose
 from app.core.report import RobotReport, robot_report
 from app.core.trajectory import Trajectory
 from app.core.uploads import store_upload
@@ -215,6 +216,21 @@ class Studio:
             self.pose.posing.stance = "both"
             self.pose.last_result = None
             self.show_pose(self.robot.q_neutral.copy())
+
+    def ready_pose(self) -> None:
+        """Knees bent, pelvis lowered, feet where they stand (app.core.ready_pose)."""
+        with self.lock:
+            robot, pose = self.robot, self.pose
+            if robot is None or pose is None:
+                return
+            try:
+                ready = ready_pose(robot)
+            except StudioError as error:
+                self._fail("No ready pose", str(error), None)
+                return
+            pose.posing.stance = "both"
+            pose.last_result = None
+            self.show_pose(ready.q)
 
     def snap_feet(self) -> None:
         with self.lock:

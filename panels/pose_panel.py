@@ -30,6 +30,11 @@ class PosePanel:
             )
             self.handles = gui.add_checkbox("Show drag handles", True)
             self.reset = gui.add_button("Reset pose", icon=viser.Icon.REFRESH)
+            self.ready = gui.add_button(
+                "Ready pose (knees bent)",
+                icon=viser.Icon.ARROW_DOWN,
+                hint="Straight legs are singular: from them the pelvis cannot be lowered by dragging",
+            )
             self.snap = gui.add_button("Snap feet to ground", icon=viser.Icon.ARROW_BAR_TO_DOWN)
             self.swap = gui.add_button("Swap stance foot", icon=viser.Icon.ARROWS_EXCHANGE)
             self.status = gui.add_markdown("")
@@ -42,6 +47,7 @@ class PosePanel:
         )
         self.handles.on_update(lambda _: studio.set_handles_visible(self.handles.value))
         self.reset.on_click(lambda _: studio.reset_pose())
+        self.ready.on_click(lambda _: studio.ready_pose())
         self.snap.on_click(lambda _: studio.snap_feet())
         self.swap.on_click(lambda _: studio.swap_stance())
 

@@ -307,3 +307,20 @@ def test_a_motion_for_another_robot_is_refused(studio):
     studio.set_trajectory(trajectory, "knee bend")
     assert studio.trajectory is None
     assert "joints differ" in studio.last_error
+
+
+def test_ready_pose_bends_the_knees_with_feet_in_place(studio):
+    robot = studio.robot
+    feet_before = {f.link: _placement(studio, f.link) for f in robot.feet}
+    pelvis_before = _placement(studio, robot.tree.root)[2, 3]
+    studio.pose_panel.ready.value = True
+    for link, T in feet_before.items():
+        np.testing.assert_allclose(_placement(studio, link), T, atol=1e-5)
+    assert _placement(studio, robot.tree.root)[2, 3] < pelvis_before - 0.005
+    knee = robot.joint_names.index("left_knee")
+    assert robot.joint_angles(studio.q)[knee] > 0.1
+    # From the ready pose the pelvis can be dragged down (from straight legs it cannot).
+    T = _placement(studio, robot.tree.root)
+    T[2, 3] -= 0.02
+    studio.request_drag("pelvis", T)
+    assert _placement(studio, robot.tree.root)[2, 3] == pytest.approx(T[2, 3], abs=1e-3)
