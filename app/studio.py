@@ -361,7 +361,7 @@ class Studio:
         height = max(float(upper[2] - min(lower[2], 0.0)), 0.3)
         centre = 0.5 * (lower + upper)
         look_at = (float(centre[0]), float(centre[1]), 0.45 * height)
-        position = (centre[0] + 1.25 * height, centre[1] + 0.9 * height, 0.75 * height)
+        position = (centre[0] + 0.95 * height, centre[1] + 0.7 * height, 0.7 * height)
         self.server.initial_camera.position = position
         self.server.initial_camera.look_at = look_at
         for client in self.server.get_clients().values():
