@@ -55,7 +55,9 @@ class KeyframesPanel:
             self.selected.options = ("—",)
             return
         rows = [
-            f"{i + 1}. **{kf.name}** — {kf.duration_s:.2f} s, stance {kf.stance}"
+            f"{i + 1}. **{kf.name}** — "
+            + ("start" if i == 0 else f"{kf.duration_s:.2f} s")
+            + f", stance {kf.stance}"
             for i, kf in enumerate(keyframes)
         ]
         self.list.content = "  \n".join(rows)

@@ -1,0 +1,200 @@
+"""End to end in a real headless Chromium: capture two keyframes in the Keyframes folder, build
+a motion from them, then play it back and pause it from the Playback folder.
+
+Everything a user would do is done by clicking and typing in the page, except posing the
+robot between the two captures: a user drags the foot's 3D gizmo, which Playwright cannot do
+practically (a drag in a WebGL canvas needs the gizmo's projected screen position and a
+software-rendered frame per mouse move), so the test calls `studio.request_drag` — the
+method the gizmo's drag callback calls — with the target such a drag would send.
+
+The page is loaded once for the module (software WebGL is slow) and the second test plays
+the motion the first one built: run them together, in file order.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+from app.studio import Studio
+from tests.browser.test_studio_browser import (
+    RENDER_TIMEOUT_S,
+    UI_TIMEOUT_S,
+    changed,
+    dismiss_software_webgl_warning,
+    gui_row_input,
+    not_blank,
+    shot,
+    wait_for,
+    wait_stable,
+)
+
+LIFT_M = 0.03
+"""How far the left foot is lifted between the two keyframes."""
+SECOND_DURATION_S = 2.0
+"""Duration typed for the second keyframe: the motion's length (the first one's is unused)."""
+# Fraction of the view that must change while the motion plays: 20x the noise allowed between
+# two "stable" shots (STABLE_FRACTION). Mid-motion the robot leans over its right foot (the CoM
+# is kept over the support) and 1-4 % of the view changes (measured with servo_biped).
+MIN_PLAY_FRACTION = 0.01
+
+
+def folder_title(page, label: str):
+    """The clickable title bar of the GUI folder `label` (viser draws it as a Paper holding
+    only the label text and a chevron icon, inside the folder's own Paper)."""
+    return page.locator(".mantine-Paper-root", has_text=re.compile(rf"^{re.escape(label)}$"))
+
+
+def folder(page, label: str):
+    """The whole GUI folder `label`: the title bar's parent."""
+    return folder_title(page, label).locator("xpath=..")
+
+
+def expand_folder(page, label: str, inside: str) -> None:
+    """Click a collapsed folder's title, as a user would, until the button `inside` shows."""
+    button = page.get_by_role("button", name=inside, exact=True)
+    if not button.is_visible():
+        folder_title(page, label).click()
+    button.wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
+
+
+def click_button(page, name: str) -> None:
+    button = page.get_by_role("button", name=name, exact=True)
+    button.scroll_into_view_if_needed()
+    button.click()
+
+
+def type_number(page, label: str, value: float) -> None:
+    box = gui_row_input(page, label, "input.mantine-NumberInput-input")
+    box.scroll_into_view_if_needed()
+    box.fill(f"{value:g}")
+    box.press("Enter")
+
+
+def page_time_s(page) -> float:
+    """The value the page shows in the number box beside the "Time [s]" slider."""
+    text = gui_row_input(page, "Time [s]", "input.mantine-NumberInput-input").input_value()
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
+def lifted_left_foot(studio: Studio) -> np.ndarray:
+    """Where dragging the left foot's gizmo straight up by LIFT_M would put it."""
+    robot = studio.robot
+    assert robot is not None
+    T = robot.link_placements(studio.q, robot.model.createData())[robot.feet[0].link]
+    T[:3, 3] += [0.0, 0.0, LIFT_M]
+    return T
+
+
+@pytest.fixture(scope="module")
+def page(browser_page, studio_url: str):
+    """The studio page, loaded once and connected (its Playback folder is drawn)."""
+    browser_page.goto(studio_url)
+    folder_title(browser_page, "Playback").wait_for(
+        state="visible", timeout=RENDER_TIMEOUT_S * 1000
+    )
+    dismiss_software_webgl_warning(browser_page)
+    return browser_page
+
+
+def test_capture_two_keyframes_and_build_a_motion(page, studio: Studio) -> None:
+    motions = studio.motions
+    assert studio.trajectory is None and not motions.keyframes
+    expand_folder(page, "Keyframes", "Capture pose")
+    keyframes = folder(page, "Keyframes")
+
+    # Keyframe 1: the neutral pose, with the default duration (unused for a first keyframe).
+    click_button(page, "Capture pose")
+    wait_for("the first keyframe", lambda: len(motions.keyframes) == 1, UI_TIMEOUT_S)
+    keyframes.get_by_text("pose 1 — start", exact=False).wait_for(state="visible")
+
+    # Lift the left foot 3 cm (in place of a gizmo drag, see the module docstring).
+    studio.request_drag("left", lifted_left_foot(studio))
+    assert studio.pose is not None and studio.pose.posing.stance == "right"
+
+    # Keyframe 2, reached in SECOND_DURATION_S: type it, then capture.
+    type_number(page, "Duration [s]", SECOND_DURATION_S)
+    wait_for(
+        "the studio to receive the typed duration",
+        lambda: studio.keyframes_panel.duration.value == SECOND_DURATION_S,
+        UI_TIMEOUT_S,
+    )
+    click_button(page, "Capture pose")
+    wait_for("the second keyframe", lambda: len(motions.keyframes) == 2, UI_TIMEOUT_S)
+    keyframes.get_by_text(f"pose 2 — {SECOND_DURATION_S:.2f} s", exact=False).wait_for(
+        state="visible"
+    )
+    selected = gui_row_input(page, "Selected", "input.mantine-Select-input")
+    wait_for(
+        "the page to select the new keyframe",
+        lambda: selected.input_value() == "2. pose 2",
+        UI_TIMEOUT_S,
+    )
+    assert [kf.duration_s for kf in motions.keyframes] == [1.0, SECOND_DURATION_S]
+    assert [kf.stance for kf in motions.keyframes] == ["both", "right"]
+
+    click_button(page, "Build motion")
+    trajectory = wait_for("the built motion", lambda: studio.trajectory, UI_TIMEOUT_S)
+    # A motion lasts the sum of its keyframes' durations but the first's (samples every dt).
+    expected = sum(kf.duration_s for kf in motions.keyframes[1:])
+    assert trajectory.name == "keyframes"
+    assert trajectory.duration == pytest.approx(expected, abs=trajectory.dt + 1e-9)
+
+    # The page's Playback folder describes the motion and its timeline starts at 0.
+    playback = folder(page, "Playback")
+    playback.get_by_text(
+        re.compile(rf"keyframes\s+—\s+{trajectory.duration:.2f} s, {trajectory.n_samples} samples")
+    ).wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
+    assert page_time_s(page) == 0.0
+    assert page.get_by_role("button", name="Play", exact=True).is_enabled()
+
+
+def test_play_moves_the_robot_and_pause_stops_it(page, studio: Studio) -> None:
+    trajectory = studio.trajectory
+    assert trajectory is not None, "run with the previous test: it builds the motion played here"
+    assert not studio.player.playing
+    start = wait_stable(page, "the motion's first pose drawn", not_blank)
+
+    click_button(page, "Play")
+    page.get_by_role("button", name="Pause", exact=True).wait_for(state="visible")
+    assert studio.player.playing
+
+    # The page's timeline runs (it moves on again and again; the motion loops)...
+    first = wait_for(
+        "the page's Time [s] to leave 0",
+        lambda: (t := page_time_s(page)) > 0.0 and t,
+        UI_TIMEOUT_S,
+    )
+    wait_for(
+        f"the page's Time [s] to move on from {first}",
+        lambda: math.isfinite(t := page_time_s(page)) and t != first,
+        UI_TIMEOUT_S,
+    )
+
+    # ... and the robot is redrawn away from its first pose, drawn before Play. (Over 2 s it
+    # leans onto its right foot and lifts the left one, then loops; a shot takes ~1 s in
+    # software WebGL, so the first shot or the next lands mid-motion.)
+    moved = wait_for(
+        "a shot of the robot away from its first pose",
+        lambda: (f := float(changed(shot(page), start).mean())) > MIN_PLAY_FRACTION and f,
+        RENDER_TIMEOUT_S,
+    )
+    assert moved > MIN_PLAY_FRACTION
+
+    click_button(page, "Pause")
+    page.get_by_role("button", name="Play", exact=True).wait_for(state="visible")
+    assert studio.player.playing is False
+    # The page's timeline stops where the studio paused.
+    paused_at = studio.playback_panel.time.value
+    assert 0.0 <= paused_at <= trajectory.duration
+    wait_for(
+        f"the page's Time [s] to show the pause at {paused_at}",
+        lambda: page_time_s(page) == pytest.approx(paused_at, abs=1e-6),
+        UI_TIMEOUT_S,
+    )
