@@ -26,6 +26,7 @@ from scipy.spatial import ConvexHull
 
 from app.core.loops import close_loops
 from app.core.model import RobotModel
+from app.core.stance import anchor_on_foot
 from app.core.urdf_xml import canonical_urdf
 
 Stance = Literal["left", "right", "both"]
@@ -260,12 +261,7 @@ class WholeBodyIK:
         if not self.robot.floating_base or not stance_targets:
             return q
         side, T_target = next(iter(stance_targets.items()))
-        placements = self.robot.link_placements(q, self._data)
-        correction = pin.SE3(T_target) * pin.SE3(placements[self.robot.foot(side).link]).inverse()
-        base = pin.XYZQUATToSE3(q[:7])
-        out = q.copy()
-        out[:7] = pin.SE3ToXYZQUAT(correction * base)
-        return out
+        return anchor_on_foot(self.robot, q, self.robot.foot(side).link, T_target, self._data)
 
     def _solve_steps(
         self,

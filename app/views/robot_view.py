@@ -24,9 +24,19 @@ is not re-sent."""
 class RobotView:
     """Scene nodes of one robot under `root`."""
 
-    def __init__(self, server: viser.ViserServer, robot: RobotModel, root: str = "/robot") -> None:
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        robot: RobotModel,
+        root: str = "/robot",
+        tint_rgb: tuple[int, int, int] | None = None,
+        opacity: float | None = None,
+        with_collision: bool = True,
+    ) -> None:
+        """tint_rgb and opacity draw every visual mesh in one colour (a "ghost" of the robot)."""
         self.robot = robot
         self.root = root
+        self._tint, self._opacity, self._with_collision = tint_rgb, opacity, with_collision
         self.data = robot.model.createData()
         self._links = _tree_order(robot)
         self._parent = {
@@ -68,6 +78,8 @@ class RobotView:
             wxyz = matrix_to_wxyz(mesh.T_link_mesh[:3, :3])
             position = mesh.T_link_mesh[:3, 3]
             if mesh.role == "collision":
+                if not self._with_collision:
+                    continue
                 handle = scene.add_mesh_simple(
                     name,
                     mesh.mesh.vertices,
@@ -80,27 +92,22 @@ class RobotView:
                 )
                 self._collisions.append(handle)
                 continue
-            if mesh.rgba is not None:
+            rgb, opacity = DEFAULT_RGB, self._opacity
+            if self._tint is not None:
+                rgb = self._tint
+            elif mesh.rgba is not None:
                 rgb = (int(255 * mesh.rgba[0]), int(255 * mesh.rgba[1]), int(255 * mesh.rgba[2]))
                 opacity = mesh.rgba[3] if mesh.rgba[3] < 1.0 else None
-                handle = scene.add_mesh_simple(
-                    name,
-                    mesh.mesh.vertices,
-                    mesh.mesh.faces,
-                    color=rgb,
-                    opacity=opacity,
-                    wxyz=wxyz,
-                    position=position,
-                )
-            else:
-                handle = scene.add_mesh_simple(
-                    name,
-                    mesh.mesh.vertices,
-                    mesh.mesh.faces,
-                    color=DEFAULT_RGB,
-                    wxyz=wxyz,
-                    position=position,
-                )
+            handle = scene.add_mesh_simple(
+                name,
+                mesh.mesh.vertices,
+                mesh.mesh.faces,
+                color=rgb,
+                opacity=opacity,
+                wxyz=wxyz,
+                position=position,
+                cast_shadow=self._tint is None,
+            )
             self._visuals.append(handle)
         self._com = scene.add_icosphere(
             f"{self.root}/com", radius=0.02, color=COM_RGB, visible=False
