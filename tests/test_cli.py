@@ -115,3 +115,186 @@ def test_motion_bad_parameter_is_one_line_naming_the_valid_ones(tmp_path):
     assert listed.returncode == 0 and "one_leg_squats" in {
         m["name"] for m in json.loads(listed.stdout)
     }
+
+
+# --- compensate / calibrate (servo spring and clearance compensation) -----------------------
+
+
+def _plan_and_torques(tmp_path, drop_joint=None):
+    """A one-leg stand of servo_biped as motion CSV, and a made-up torque CSV for it:
+    τ_j(t) = 0.4·sin(t + j) N·m, every 7th sample with status 'max_iter'."""
+    import math
+
+    from app.core.loading import load_robot
+    from app.core.motion_csv import write_trajectory_csv
+    from app.core.motions import run_motion
+
+    robot = load_robot("servo_biped")
+    traj = run_motion(robot, "one_leg_stand", dt=0.05).trajectory
+    write_trajectory_csv(traj, tmp_path / "traj.csv", robot)
+    names = [n for n in robot.joint_names if n != drop_joint]
+    lines = [",".join(["t [s]", *(f"tau:{n} [N·m]" for n in names), "status"])]
+    for k, t in enumerate(traj.t):
+        taus = [repr(0.4 * math.sin(t + robot.joint_names.index(n))) for n in names]
+        lines.append(",".join([repr(float(t)), *taus, "max_iter" if k % 7 == 0 else "ok"]))
+    (tmp_path / "tau.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return robot, traj
+
+
+def _read_columns(path):
+    import csv
+
+    with open(path, encoding="utf-8") as file:
+        rows = list(csv.reader(file))
+    return {name: [float(row[i]) for row in rows[1:]] for i, name in enumerate(rows[0])}
+
+
+def test_compensate_table3_with_clearance_writes_eq23_commands(tmp_path):
+    import math
+
+    robot, traj = _plan_and_torques(tmp_path)
+    out = tmp_path / "cmd.csv"
+    result = run(
+        "compensate", str(tmp_path / "traj.csv"), "--robot", "servo_biped",
+        "--tau", str(tmp_path / "tau.csv"), "--preset", "table3", "--clearance",
+        "--out", str(out), "--json",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert {row["joint"]: row["k_deg_per_Nm"] for row in report["compensated"]} == {
+        "left_hip_roll": -4.0,
+        "left_hip_pitch": -650.0,
+        "right_hip_roll": 20.0,
+        "right_hip_pitch": -1200.0,
+    }
+    assert any("max_iter" in line for line in report["warnings"])
+    columns = _read_columns(out)
+    assert columns["t [s]"] == pytest.approx(list(traj.t))
+    k = {"left_hip_roll": -4.0, "left_hip_pitch": -650.0, "left_knee": 0.0}
+    for name, k_j in k.items():
+        j = robot.joint_names.index(name)
+        for i, t in enumerate(traj.t):
+            q_deg = math.degrees(traj.q[i, robot.joints[j].idx_q])
+            spring = q_deg + k_j * 0.4 * math.sin(t + j)  # eq 7
+            expected = spring + (8.0 * math.copysign(1.0, spring) if k_j else 0.0)  # eq 23
+            assert columns[f"q_cmd:{name} [deg]"][i] == pytest.approx(expected, abs=1e-9)
+            assert columns[f"q_cmd:{name} [rad]"][i] == pytest.approx(
+                math.radians(expected), abs=1e-11
+            )
+
+
+def test_compensate_with_a_coefficient_file(tmp_path):
+    _plan_and_torques(tmp_path)
+    coeffs = tmp_path / "k.toml"
+    coeffs.write_text(
+        "[joints.right_knee]\nk_deg_per_Nm = 2.5\n[joints.left_knee]\nk_deg_per_Nm = 1\n"
+        "enabled = false\n"
+    )
+    result = run(
+        "compensate", str(tmp_path / "traj.csv"), "--tau", str(tmp_path / "tau.csv"),
+        "--coeffs", str(coeffs), "--json",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    (row,) = json.loads(result.stdout)["compensated"]
+    assert row["joint"] == "right_knee" and row["k_deg_per_Nm"] == 2.5
+    assert row["max_correction_deg"] == pytest.approx(2.5 * 0.4, rel=0.05)
+
+
+@pytest.mark.parametrize(
+    "extra, drop, message",
+    [
+        (("--preset", "table3"), "left_knee", "no tau:<joint> column for left_knee"),
+        (("--coeffs", "k.toml", "--clearance"), None, "--clearance goes with --preset table3"),
+        (("--preset", "table2", "--robot", "dircon_biped"), None, "unknown column"),
+    ],
+)
+def test_compensate_bad_input_is_one_line(tmp_path, extra, drop, message):
+    _plan_and_torques(tmp_path, drop_joint=drop)
+    (tmp_path / "k.toml").write_text("[joints.left_knee]\nk_deg_per_Nm = 1\n")
+    extra = tuple(str(tmp_path / e) if e == "k.toml" else e for e in extra)
+    result = run(
+        "compensate", str(tmp_path / "traj.csv"), "--tau", str(tmp_path / "tau.csv"), *extra
+    )
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0]
+
+
+def test_calibrate_json_on_the_papers_table2(tmp_path):
+    rows = [  # Table 2: servo, q_des [°], q [°], τ [N·m]
+        (2, 0.6226, 0.15625, -0.36474),
+        (4, 68.7407, 71.6406, -1.86625),
+        (11, -30.8266, -29.375, 0.02008),
+    ]
+    lines = ["frame,joint,q_cmd_deg,q_meas_deg,tau_Nm"]
+    lines += [f"0,servo{s},{q_des},{q},{tau}" for s, q_des, q, tau in rows]
+    lines += [f"{f},idle,{f},{f},0" for f in range(3)]
+    path = tmp_path / "measured.csv"
+    path.write_text("\n".join(lines) + "\n")
+    result = run("calibrate", str(path), "--json")
+    assert result.returncode == 0, result.stderr
+    out = {row["joint"]: row for row in json.loads(result.stdout)}
+    assert out["servo2"]["k_deg_per_Nm"] == pytest.approx(-1.28, abs=0.005)
+    assert out["servo4"]["k_deg_per_Nm"] == pytest.approx(1.55, abs=0.005)
+    assert out["servo11"]["k_deg_per_Nm"] == pytest.approx(-72.29, abs=0.005)  # not −722.91
+    assert out["servo4"]["identifiable"] and out["servo4"]["se_deg_per_Nm"] is None
+    assert not out["servo11"]["identifiable"] and "N·m" in out["servo11"]["reason"]
+    assert not out["idle"]["identifiable"] and out["idle"]["k_deg_per_Nm"] is None
+    text = run("calibrate", str(path))
+    assert text.returncode == 0 and "servo4" in text.stdout and "NOT identifiable" in text.stdout
+
+
+def test_calibrate_malformed_file_names_the_line(tmp_path):
+    path = tmp_path / "measured.csv"
+    path.write_text("frame,joint,q_cmd_deg,q_meas_deg,tau_Nm\n0,knee,1,0,2\n1,knee,one,0,2\n")
+    result = run("calibrate", str(path))
+    assert result.returncode == 1
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "line 3" in lines[0] and "'one'" in lines[0]
+
+
+# --- feedforward (whole-body QP torques) -----------------------------------------------------
+
+
+def test_feedforward_writes_torque_csv_and_reports_json(tmp_path):
+    import csv
+
+    import numpy as np
+
+    from app.core.loading import load_robot
+    from app.core.motion_csv import read_trajectory_csv
+
+    motion = tmp_path / "shift.csv"
+    made = run("motion", "com_shift", "--dt", "0.05", "--out", str(motion))
+    assert made.returncode == 0, made.stderr
+    out = tmp_path / "tau.csv"
+    result = run("feedforward", str(motion), "--robot", "servo_biped", "--out", str(out), "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    robot = load_robot("servo_biped")
+    traj = read_trajectory_csv(motion, robot)
+    assert report["ok"] and report["n_samples"] == traj.n_samples
+    assert report["infeasible_samples"] == [] and report["solve_time_s"] > 0.0
+    with open(out, encoding="utf-8") as file:
+        rows = list(csv.reader(file))
+    assert rows[0] == ["t [s]", *(f"tau:{n} [N·m]" for n in robot.joint_names), "status"]
+    assert len(rows) == traj.n_samples + 1 and {row[-1] for row in rows[1:]} == {"solved"}
+    tau = np.array([[float(x) for x in row[1:-1]] for row in rows[1:]])
+    peaks = np.abs(tau).max(axis=0)
+    assert report["max_abs_tau_Nm"] == pytest.approx(
+        dict(zip(robot.joint_names, peaks, strict=True))
+    )
+    # the file holds the library's torques exactly (repr round trip); their physics is
+    # checked in tests/core/test_wbc.py
+    from app.core.wbc import torque_feedforward
+
+    np.testing.assert_array_equal(tau, torque_feedforward(robot, traj).tau_Nm)
+
+
+def test_feedforward_on_a_motion_of_another_robot_is_one_line(tmp_path):
+    motion = tmp_path / "shift.csv"
+    assert run("motion", "com_shift", "--dt", "0.1", "--out", str(motion)).returncode == 0
+    result = run("feedforward", str(motion), "--robot", "dircon_biped")
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "unknown column" in lines[0]

@@ -1,0 +1,361 @@
+"""Torque feed-forward τ(t) of a planned motion: CoM LQR + whole-body QP, friction pyramids.
+
+The spring-compensation paper (Wang et al. 2023, Secs. 3–4) gets the joint torques its spring
+compensation q_des = q + k·τ (eq. 7) needs from a whole-body QP (eqs. 12–18) over the joint
+accelerations q̈ and the contact forces at the four corners of each rectangular sole, whose
+cost contains the value function V of a CoM LQR (eqs. 1–5). τ then follows from eq. 10. The
+QP itself is in app.core.wbc_qp; this module checks inputs, runs it sample after sample and
+returns a FeedForward.
+
+Feed-forward means the state is the plan's own: x̄ = x − x^d = 0 unless a CoM state error is
+given, so V reduces to ūᵀ(R + a²Q_p)ū, a cost on leaving the plan's CoM acceleration.
+
+A sample is "solved" when the QP's accelerations stay within `max_qdd_error` of the plan's and
+its torques within their limits: τ then realises the planned motion with contact forces inside
+the friction pyramids (the dynamics hold to round-off, whatever OSQP's tolerance). Otherwise
+the status says why, and the run goes on:
+- "cannot follow the plan: …" (CoM outside the stance sole, too little friction, a torque
+  limit): τ, forces and q̈ are those of the QP's nearest realisable motion;
+- "no solution: …" (the QP is infeasible): τ, forces and q̈ are copied from the nearest
+  sample that has a solution, and the status names it. We hold rather than write NaN so that
+  a torque file stays usable downstream (compensation, plots) with its status column saying
+  which rows are stand-ins; only if no sample has a solution are the values NaN.
+`infeasible_samples` lists every sample that is not "solved".
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import os
+import time
+from collections.abc import Callable
+from typing import IO
+
+import numpy as np
+
+from app.core.errors import StudioError
+from app.core.lqr import lqr_com
+from app.core.model import RobotModel
+from app.core.trajectory import Trajectory
+from app.core.wbc_qp import N_CORNERS, QpWeights, WholeBodyQp
+
+MAX_SPEED = 1e3
+"""Largest |v| accepted in a trajectory [rad/s or m/s]; more is taken as corrupt input."""
+MAX_ACCELERATION = 1e5
+"""Largest |a| accepted in a trajectory [rad/s² or m/s²]."""
+TORQUE_TOLERANCE = 1e-3
+"""Relative excess over a torque limit tolerated as solver round-off."""
+PROGRESS_EVERY = 25
+"""Samples between two progress reports."""
+
+
+class WbcError(StudioError):
+    """A torque feed-forward that cannot be computed for these inputs."""
+
+
+@dataclasses.dataclass(frozen=True)
+class WbcParams:
+    """Parameters of the whole-body QP (eq. 12–18) and of the CoM LQR (eqs. 1–5)."""
+
+    mu: float = 0.7
+    """Coulomb friction coefficient of the pyramids (eq. 11). The paper gives no value; 0.7
+    is a common rubber-sole-on-floor figure (the gait paper plans with 0.6)."""
+    alpha: float = 10.0
+    """No-slip gain α of eq. 14 [1/s] (not given in the paper)."""
+    w_qdd: float = 100.0
+    """Weight of ‖q̈_des − q̈‖² in eq. 12 [per (rad/s²)²] (not given in the paper). 100 ≫ the
+    unit weight of ‖η‖² makes the plan authoritative: the slack absorbs the small foot
+    accelerations finite differences leave in a plan, instead of q̈ bending away from it."""
+    epsilon: float = 1e-6
+    """ε of eq. 12 [per N²] (not given): only picks the smallest spread of forces over the
+    corners; 1e-4 already bends q̈ of a 29 kg robot by ~4e-3 rad/s² on one leg."""
+    eta_max: float = 10.0
+    """Bound of the no-slip slack η of eq. 18 [m/s², rad/s²] (not given)."""
+    lqr_q: float = 10.0
+    """Q = lqr_q·I₆ of the CoM LQR (paper: 10)."""
+    lqr_r: float = 0.1
+    """R = lqr_r·I₃ of the CoM LQR (paper: 0.1)."""
+    a: float = 0.1
+    """Feed-through a of the CoM output y = p + a·u (eq. 1; paper: 0.1) [s²]."""
+    torque_limits_Nm: tuple[float | None, ...] | None = None
+    """|τ| bound per actuated joint [N·m or N], robot order (eq. 15). None: the URDF's effort
+    limits; a joint without one (None here or in the URDF) is unbounded."""
+    max_qdd_error: float = 0.1
+    """A sample is "solved" when max |q̈ − q̈_des| stays below this [rad/s² or m/s²]."""
+
+    def __post_init__(self) -> None:
+        positive = {
+            "mu": self.mu,
+            "w_qdd": self.w_qdd,
+            "epsilon": self.epsilon,
+            "eta_max": self.eta_max,
+            "lqr_q": self.lqr_q,
+            "lqr_r": self.lqr_r,
+            "max_qdd_error": self.max_qdd_error,
+        }
+        for name, value in {**positive, "alpha": self.alpha, "a": self.a}.items():
+            bad = not math.isfinite(value) or value < 0.0 or (name in positive and value == 0.0)
+            if bad:
+                kind = "positive" if name in positive else "non-negative"
+                raise WbcError(f"WBC parameter {name} must be a {kind} number, got {value!r}")
+        for limit in self.torque_limits_Nm or ():
+            if limit is not None and not (math.isfinite(limit) and limit >= 0.0):
+                raise WbcError(f"torque limits must be non-negative numbers or None, got {limit!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class FeedForward:
+    """Joint torques and contact forces that realise a trajectory, one row per sample."""
+
+    trajectory_name: str
+    joint_names: tuple[str, ...]
+    """Actuated joints, the robot's order: the columns of tau_Nm."""
+    t: np.ndarray
+    """Sample times [s], shape (T,)."""
+    tau_Nm: np.ndarray
+    """Actuated joint torques of eq. 10 [N·m, N for a prismatic joint], shape (T, n_actuated).
+    Samples without a QP solution hold the nearest solved sample's values (see `status`)."""
+    contact_forces_N: np.ndarray
+    """Force of the ground on each sole corner, world frame [N], shape (T, 2, 4, 3):
+    (left, right), corner in Foot.sole_corners_m order, xyz. Zero for a foot in the air."""
+    qdd: np.ndarray
+    """Generalised accelerations the torques realise, shape (T, nv) (pinocchio's layout)."""
+    loop_forces_N: np.ndarray
+    """Internal force of each declared closed loop (robot.tree.loops order) on its link_a
+    side, world frame [N], shape (T, n_loops, 3); link_b gets the opposite force."""
+    status: tuple[str, ...]
+    """Per sample: "solved", or what went wrong in words."""
+    qp_time_s: np.ndarray
+    """Wall time of building and solving each sample's QP [s], shape (T,)."""
+    tau_units: tuple[str, ...]
+    """Unit of each column of tau_Nm: "N·m", or "N" for a prismatic joint."""
+    notes: tuple[str, ...] = ()
+    """Remarks about the whole run (e.g. joints without torque limits)."""
+
+    @property
+    def infeasible_samples(self) -> np.ndarray:
+        """Indices of the samples whose status is not "solved", shape (n,), int."""
+        return np.array([k for k, s in enumerate(self.status) if s != "solved"], dtype=int)
+
+
+def torque_limits(robot: RobotModel, params: WbcParams) -> tuple[np.ndarray, list[str]]:
+    """|τ| bound per actuated joint [N·m or N], inf where unbounded, and the unbounded names."""
+    if params.torque_limits_Nm is None:
+        limits = [joint.effort for joint in robot.joints]
+    elif len(params.torque_limits_Nm) != robot.n_actuated:
+        raise WbcError(
+            f"{len(params.torque_limits_Nm)} torque limits given; {robot.name!r} has "
+            f"{robot.n_actuated} actuated joints: {', '.join(robot.joint_names)}"
+        )
+    else:
+        limits = list(params.torque_limits_Nm)
+    bound = np.array([np.inf if limit is None else limit for limit in limits], dtype=float)
+    return bound, [name for name, b in zip(robot.joint_names, bound, strict=True) if np.isinf(b)]
+
+
+def torque_feedforward(
+    robot: RobotModel,
+    trajectory: Trajectory,
+    params: WbcParams = WbcParams(),
+    progress: Callable[[float], None] | None = None,
+    com_state_error: np.ndarray | None = None,
+) -> FeedForward:
+    """Solve the whole-body QP at every sample of a trajectory; never fails on a sample.
+
+    Contacts come from `trajectory.contacts`; the plan's q̈ is `trajectory.a`. `progress` is
+    called with the fraction done (0…1) every few samples and may raise to cancel.
+    `com_state_error` (T, 6) is x̄ = x − x^d [m, m/s] for the CoM LQR term, e.g. a measured
+    CoM state minus the plan's; None is the feed-forward case x̄ = 0.
+    Raises WbcError for input that does not fit the robot (joints, shapes, NaN, absurd values).
+    """
+    x_bar = _check_inputs(robot, trajectory, com_state_error)
+    bound, unbounded = torque_limits(robot, params)
+    qp = WholeBodyQp(
+        robot,
+        QpWeights(
+            mu=params.mu,
+            alpha=params.alpha,
+            w_qdd=params.w_qdd,
+            epsilon=params.epsilon,
+            eta_max=params.eta_max,
+            a=params.a,
+            q_lqr=params.lqr_q,
+            r_lqr=params.lqr_r,
+            S=lqr_com(params.lqr_q, params.lqr_r)[1],
+            tau_max=bound,
+        ),
+    )
+    n, nv = trajectory.n_samples, robot.model.nv
+    tau = np.full((n, robot.n_actuated), np.nan)
+    forces = np.full((n, 2, N_CORNERS, 3), np.nan)
+    qdd = np.full((n, nv), np.nan)
+    loop_forces = np.full((n, len(robot.tree.loops), 3), np.nan)
+    times = np.empty(n)
+    solved = np.zeros(n, dtype=bool)
+    status: list[str] = []
+    dof_names = _dof_names(robot)
+    for k in range(n):
+        if progress is not None and k % PROGRESS_EVERY == 0:
+            progress(k / n)
+        q, v, a = trajectory.q[k], trajectory.v[k], trajectory.a[k]
+        begin = time.perf_counter()
+        terms = qp.kinematics(q, v, a)
+        solution = qp.solve(terms, v, a, trajectory.contacts[k], x_bar[k])
+        times[k] = time.perf_counter() - begin
+        if not solution.ok:
+            status.append(f"no solution: {solution.status}")
+            continue
+        solved[k] = True
+        qdd[k] = solution.qdd
+        tau[k] = qp.torques(terms, solution)
+        forces[k] = qp.corner_forces(solution.beta)
+        loop_forces[k] = solution.f_loop.reshape(-1, 3)
+        status.append(_certify(solution.qdd - a, tau[k], bound, params, dof_names, robot))
+    if progress is not None:
+        progress(1.0)
+    if solved.any():
+        for k in np.flatnonzero(~solved):
+            source = _nearest(solved, k)
+            for array in (tau, forces, qdd, loop_forces):
+                array[k] = array[source]
+            status[k] += f"; values held from sample {source} (t = {trajectory.t[source]:.3f} s)"
+    notes = []
+    if unbounded:
+        notes.append(f"no torque limit (unbounded): {', '.join(unbounded)}")
+    for foot, corners in zip(robot.feet, qp.corners, strict=True):
+        if np.ptp(corners, axis=0).max() < 1e-6:
+            notes.append(f"{foot.link} has no sole geometry: its contact is a single point")
+    return FeedForward(
+        trajectory_name=trajectory.name,
+        joint_names=robot.joint_names,
+        t=trajectory.t.copy(),
+        tau_Nm=tau,
+        contact_forces_N=forces,
+        qdd=qdd,
+        loop_forces_N=loop_forces,
+        status=tuple(status),
+        qp_time_s=times,
+        tau_units=tuple("N" if j.kind == "prismatic" else "N·m" for j in robot.joints),
+        notes=tuple(notes),
+    )
+
+
+def _nearest(solved: np.ndarray, k: int) -> int:
+    """Index of the solved sample nearest to k (the earlier one on a tie)."""
+    indices = np.flatnonzero(solved)
+    return int(indices[np.argmin(np.abs(indices - k))])
+
+
+def _certify(
+    qdd_error: np.ndarray,
+    tau: np.ndarray,
+    bound: np.ndarray,
+    params: WbcParams,
+    dof_names: list[str],
+    robot: RobotModel,
+) -> str:
+    """ "solved", or why not: the QP's dynamics hold exactly and its forces lie in the
+    pyramids by construction; left to check are the plan's q̈ and the torque limits."""
+    over = np.abs(tau) - bound
+    joint = int(np.argmax(over))
+    worst = int(np.argmax(np.abs(qdd_error)))
+    if abs(qdd_error[worst]) > params.max_qdd_error:
+        reason = (
+            f"{robot.joint_names[joint]} is at its torque limit"
+            if over[joint] > -TORQUE_TOLERANCE * max(1.0, bound[joint])
+            else "the CoM leaves the support area, or friction is too low"
+        )
+        return (
+            f"cannot follow the plan: q̈ of {dof_names[worst]} departs by "
+            f"{abs(qdd_error[worst]):.3g} ({reason})"
+        )
+    if over[joint] > TORQUE_TOLERANCE * max(1.0, bound[joint]):
+        return (
+            f"torque limit: {robot.joint_names[joint]} needs {abs(tau[joint]):.3g}, "
+            f"limit {bound[joint]:.3g} N·m"
+        )
+    return "solved"
+
+
+def _check_inputs(
+    robot: RobotModel, trajectory: Trajectory, com_state_error: np.ndarray | None
+) -> np.ndarray:
+    """x̄ per sample, shape (T, 6), after checking that the trajectory fits the robot."""
+    if not robot.floating_base:
+        raise WbcError(
+            f"{robot.name!r} is fixed to the world: torque feed-forward with foot contacts "
+            "needs a floating-base biped"
+        )
+    if tuple(trajectory.joint_names) != robot.joint_names:
+        missing = [j for j in robot.joint_names if j not in trajectory.joint_names]
+        extra = [j for j in trajectory.joint_names if j not in robot.joint_names]
+        detail = (
+            f"missing {missing}, unknown {extra}" if missing or extra else "in a different order"
+        )
+        raise WbcError(
+            f"trajectory {trajectory.name!r} does not fit robot {robot.name!r}: joints {detail}"
+        )
+    model, n = robot.model, trajectory.n_samples
+    shapes = {"q": (n, model.nq), "v": (n, model.nv), "a": (n, model.nv), "contacts": (n, 2)}
+    for label, shape in shapes.items():
+        array = np.asarray(getattr(trajectory, label))
+        if array.shape != shape:
+            raise WbcError(
+                f"trajectory {trajectory.name!r}: {label} has shape {array.shape}, "
+                f"robot {robot.name!r} needs {shape}"
+            )
+    for label, limit in (("q", MAX_SPEED), ("v", MAX_SPEED), ("a", MAX_ACCELERATION)):
+        array = getattr(trajectory, label)
+        if not np.all(np.isfinite(array)):
+            raise WbcError(f"trajectory {trajectory.name!r}: {label} contains NaN or inf")
+        worst = float(np.abs(array).max())
+        if worst > limit:
+            raise WbcError(
+                f"trajectory {trajectory.name!r}: |{label}| reaches {worst:.3g}, over {limit:g}; "
+                "check the units (rad, m, s)"
+            )
+    norms = np.linalg.norm(trajectory.q[:, 3:7], axis=1)
+    if np.abs(norms - 1.0).max() > 1e-3:
+        raise WbcError(
+            f"trajectory {trajectory.name!r}: base quaternions are not unit (norm "
+            f"{norms[np.argmax(np.abs(norms - 1.0))]:.4g})"
+        )
+    if com_state_error is None:
+        return np.zeros((n, 6))
+    x_bar = np.asarray(com_state_error, dtype=float)
+    if x_bar.shape != (n, 6) or not np.all(np.isfinite(x_bar)):
+        raise WbcError(f"CoM state error must be finite with shape ({n}, 6), got {x_bar.shape}")
+    return x_bar
+
+
+def _dof_names(robot: RobotModel) -> list[str]:
+    """A name per velocity coordinate: base_vx … base_wz, then the joints."""
+    names = ["base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz"]
+    model = robot.model
+    for jid in range(2, model.njoints):
+        names += [model.names[jid]] * model.joints[jid].nv
+    return names
+
+
+def write_torque_csv(path_or_file: str | os.PathLike[str] | IO[str], ff: FeedForward) -> None:
+    """Write torques as CSV: `t [s]`, `tau:<joint> [N·m]` ([N] for a prismatic joint) per
+    actuated joint, `status`; numbers as Python's repr (exact round trip)."""
+    header = ["t [s]"]
+    header += [f"tau:{n} [{u}]" for n, u in zip(ff.joint_names, ff.tau_units, strict=True)]
+    if not isinstance(path_or_file, str | os.PathLike):
+        _write_rows(path_or_file, header, ff)
+        return
+    try:
+        with open(path_or_file, "w", newline="", encoding="utf-8") as file:
+            _write_rows(file, header, ff)
+    except OSError as exc:
+        raise WbcError(f"{path_or_file}: cannot write: {exc.strerror}") from None
+
+
+def _write_rows(file: IO[str], header: list[str], ff: FeedForward) -> None:
+    writer = csv.writer(file, lineterminator="\n")
+    writer.writerow([*header, "status"])
+    for k, t in enumerate(ff.t):
+        writer.writerow([repr(float(t)), *(repr(float(x)) for x in ff.tau_Nm[k]), ff.status[k]])

@@ -1,0 +1,377 @@
+"""The whole-body QP of the spring-compensation paper (eqs. 12–18), one sample at a time.
+
+Decision variables z = [q̈ (nv), β (2 feet × 4 corners × 4 edges), η (2 × 6), f_loop (3 per
+declared loop)]; OSQP's form is min ½zᵀPz + pᵀz subject to l ≤ A z ≤ u.
+
+- eq. 13, floating base (and passive joints of closed loops, τ = 0):
+  M_u q̈ + h_u = (Φᵀλ)_u + (J_loopᵀ f_loop)_u, u = unactuated rows.
+- eq. 14, no slip of a foot in contact: J q̈ + J̇ q̇ = −α J q̇ + η, with J the foot frame's
+  6-D Jacobian (LOCAL, so J q̈ + J̇ q̇ is its spatial acceleration). The four corners sit on
+  one rigid sole, so this says the same as their twelve point rows in half the rows; η is
+  free for a foot in the air.
+- closed loops: the two sides of a loop keep together, J_loop q̈ + J̇_loop q̇ = −α J_loop q̇,
+  their internal force f_loop is free.
+- eq. 15, torque limits on eq. 10's τ = M_a q̈ + h_a − (Φᵀλ)_a − (J_loopᵀ f_loop)_a (B_a = I).
+- eqs. 11, 16, 17: λ_c = Σ_i β_ci w_i at each sole corner c, w_i = n + μ d_i, n the ground
+  normal (world z), d_i = ±x, ±y (world), β ≥ 0; β = 0 for a foot in the air.
+- eq. 18: |η| ≤ η_max.
+
+The cost is eq. 12: V(x̄, ū) + w‖q̈_des − q̈‖² + ε Σβ² + ‖η‖² (+ 1e-8‖f_loop‖², which only
+picks one of the equivalent internal forces of a planar loop). V is eq. 5 with the output of
+eq. 1 put in, our reading of eqs. 4–5:
+
+    V = ȳᵀQ_p ȳ + v̄ᵀQ_v v̄ + ūᵀRū + 2 x̄ᵀS(A x̄ + B ū),   ȳ = p̄ + a ū,
+
+so that for a = 0 its minimum over ū is the LQR law ū = −K x̄. ū = c̈ − c̈_des is written
+through Newton's law on the whole robot, m c̈ = Σλ + m g, which eq. 13 makes exact: V is then
+a constant quadratic in β and P never changes; only A, p, l and u change per sample.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import osqp
+import pinocchio as pin
+import scipy.sparse as sp
+
+from app.core.lqr import B_COM
+from app.core.model import RobotModel
+
+N_EDGES = 4
+N_CORNERS = 4
+LOOP_FORCE_WEIGHT = 1e-8
+TOLERANCE = 1e-6
+"""OSQP's absolute and relative tolerances."""
+MAX_ITERATIONS = 2000
+"""OSQP's iteration cap. A followable sample converges in 25–250 warm-started iterations;
+thousands only happen where the plan cannot be followed. The last iterate is used even
+then: after `_exact` its dynamics hold and its forces lie in the pyramids whatever OSQP's
+status, and the caller certifies each sample itself (q̈ against the plan, torque limits)."""
+FAILED_STATUSES = {
+    "primal infeasible": "no accelerations, forces inside the friction pyramids and torques "
+    "within their limits satisfy the dynamics (QP infeasible)",
+    "dual infeasible": "the QP is unbounded",
+    "non convex": "the QP is not convex",
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class QpWeights:
+    """What the QP needs from WbcParams, resolved for one robot."""
+
+    mu: float
+    alpha: float
+    w_qdd: float
+    epsilon: float
+    eta_max: float
+    a: float
+    q_lqr: float
+    r_lqr: float
+    S: np.ndarray
+    """Riccati solution of the CoM LQR, shape (6, 6)."""
+    tau_max: np.ndarray
+    """|τ| bound per actuated joint [N·m or N], shape (n_actuated,), inf when unbounded."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SampleSolution:
+    ok: bool
+    status: str
+    """OSQP's status, or why there is no solution, in words."""
+    qdd: np.ndarray
+    """Generalised accelerations, shape (nv,)."""
+    beta: np.ndarray
+    """Pyramid coefficients [N], shape (2 * 4 * 4,): foot, corner, edge."""
+    f_loop: np.ndarray
+    """Internal force of each loop on its link_a side (link_b gets the opposite), world
+    frame [N], shape (3 * n_loops,)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Terms:
+    """The configuration-dependent quantities of one sample."""
+
+    M: np.ndarray
+    """Mass matrix, shape (nv, nv)."""
+    h: np.ndarray
+    """Coriolis, centrifugal and gravity terms, shape (nv,)."""
+    Phi: np.ndarray
+    """Generalised force of the pyramid coefficients, Φᵀλ = Phi β, shape (nv, 32)."""
+    J_feet: np.ndarray
+    """Both feet's 6-D Jacobians (LOCAL), shape (12, nv)."""
+    drift_feet: np.ndarray
+    """J̇ q̇ of the feet (LOCAL spatial acceleration at q̈ = 0), shape (12,)."""
+    J_loop: np.ndarray
+    """Jacobian of p_a − p_b of every loop (world), shape (3 * n_loops, nv)."""
+    drift_loop: np.ndarray
+    """J̇_loop q̇, shape (3 * n_loops,)."""
+    com_acc: np.ndarray
+    """The plan's CoM acceleration [m/s²], shape (3,)."""
+
+
+def pyramid_edges(mu: float) -> np.ndarray:
+    """w_i = n + μ d_i as columns, shape (3, 4): n = world z, d = +x, −x, +y, −y (eq. 11)."""
+    return np.array(
+        [[mu, -mu, 0.0, 0.0], [0.0, 0.0, mu, -mu], [1.0, 1.0, 1.0, 1.0]],
+    )
+
+
+class WholeBodyQp:
+    """The QP's sparsity fixed at construction; `solve` fills values and runs OSQP warm."""
+
+    def __init__(self, robot: RobotModel, weights: QpWeights) -> None:
+        model = robot.model
+        self.robot, self.model, self.data, self.weights = robot, model, model.createData(), weights
+        self.nv = nv = model.nv
+        self.mass = robot.mass_kg
+        self.gravity = np.array(model.gravity.linear)
+        self.foot_ids = [robot.link_frame_ids[foot.link] for foot in robot.feet]
+        self.corners = [np.asarray(foot.sole_corners_m, dtype=float) for foot in robot.feet]
+        self.loop_ids = [
+            (robot.link_frame_ids[loop.link_a], robot.link_frame_ids[loop.link_b])
+            for loop in robot.tree.loops
+        ]
+        self.W = pyramid_edges(weights.mu)
+        self.actuated = np.array([joint.idx_v for joint in robot.joints], dtype=int)
+        passive = [model.joints[model.getJointId(name)].idx_v for name in robot.passive_joints]
+        self.unactuated = np.array(list(range(6)) + passive, dtype=int)
+        self.limited = np.flatnonzero(np.isfinite(weights.tau_max))
+
+        nb, ne, nf = 2 * N_CORNERS * N_EDGES, 12, 3 * len(self.loop_ids)
+        self.cols = {"qdd": slice(0, nv), "beta": slice(nv, nv + nb)}
+        self.cols["eta"] = slice(nv + nb, nv + nb + ne)
+        self.cols["f"] = slice(nv + nb + ne, nv + nb + ne + nf)
+        self.n = nv + nb + ne + nf
+        sizes = {
+            "dyn": len(self.unactuated),
+            "loop": nf,
+            "contact": 12,
+            "tau": len(self.limited),
+            "beta": nb,
+            "eta": ne,
+        }
+        self.rows, start = {}, 0
+        for name, size in sizes.items():
+            self.rows[name] = slice(start, start + size)
+            start += size
+        self.m = start
+
+        mask = self._fill(*self._structure())
+        self.A = np.zeros((self.m, self.n))
+        self._fill_constant(self.A)
+        self._fill_constant(mask)
+        cols, rows = np.nonzero(mask.T != 0.0)  # column-major = CSC order
+        self.nz_rows, self.nz_cols = rows, cols
+        A0 = sp.csc_matrix((np.ones(len(rows)), (rows, cols)), shape=(self.m, self.n))
+
+        # Constant cost: w‖q̈‖², ε‖β‖² + V's quadratic in β, ‖η‖², tiny ‖f_loop‖².
+        r, q, a = weights.r_lqr, weights.q_lqr, weights.a
+        self.H_u = (r + a * a * q) * np.eye(3)
+        self.G_u = np.tile(self.W, 2 * N_CORNERS) / self.mass  # ū = G_u β + g − c̈_des
+        P = np.zeros((self.n, self.n))
+        P[self.cols["qdd"], self.cols["qdd"]] = 2.0 * weights.w_qdd * np.eye(nv)
+        P[self.cols["beta"], self.cols["beta"]] = 2.0 * (
+            weights.epsilon * np.eye(nb) + self.G_u.T @ self.H_u @ self.G_u
+        )
+        P[self.cols["eta"], self.cols["eta"]] = 2.0 * np.eye(ne)
+        P[self.cols["f"], self.cols["f"]] = 2.0 * LOOP_FORCE_WEIGHT * np.eye(nf)
+        self.solver = osqp.OSQP()
+        self.solver.setup(
+            sp.triu(sp.csc_matrix(P)).tocsc(),
+            np.zeros(self.n),
+            A0,
+            np.zeros(self.m),
+            np.zeros(self.m),
+            verbose=False,
+            eps_abs=TOLERANCE,
+            eps_rel=TOLERANCE,
+            polishing=False,  # `_exact` makes the equalities exact; polishing costs ~20 %
+            warm_starting=True,
+            max_iter=MAX_ITERATIONS,
+        )
+        self.zero_v = np.zeros(nv)
+        self.last_x: np.ndarray | None = None
+
+    def _structure(self):
+        """0/1 matrices with the structural nonzeros of M, Φᵀ, the foot and loop Jacobians."""
+        model, nv = self.model, self.nv
+        dof_joint = np.empty(nv, dtype=int)
+        for jid in range(1, model.njoints):
+            joint = model.joints[jid]
+            dof_joint[joint.idx_v : joint.idx_v + joint.nv] = jid
+        supports = [set(model.supports[jid]) for jid in range(model.njoints)]
+
+        def columns(frame_id: int) -> np.ndarray:
+            chain = supports[model.frames[frame_id].parentJoint]
+            return np.array([float(dof_joint[i] in chain) for i in range(nv)])
+
+        M = np.array(
+            [
+                [
+                    float(
+                        dof_joint[i] in supports[dof_joint[j]]
+                        or dof_joint[j] in supports[dof_joint[i]]
+                    )
+                    for j in range(nv)
+                ]
+                for i in range(nv)
+            ]
+        )
+        feet = [np.tile(columns(fid), (6, 1)) for fid in self.foot_ids]
+        Phi = np.hstack([J.T @ np.ones((6, N_CORNERS * N_EDGES)) for J in feet])
+        loops = [np.tile(columns(a) + columns(b), (3, 1)) for a, b in self.loop_ids]
+        J_loop = np.vstack(loops) if loops else np.zeros((0, nv))
+        return M, Phi, np.vstack(feet), J_loop
+
+    def _fill(self, M, Phi, J_feet, J_loop, out: np.ndarray | None = None) -> np.ndarray:
+        """Write the configuration-dependent blocks of A (also used on 0/1 structure)."""
+        A = np.zeros((self.m, self.n)) if out is None else out
+        r, c, u, lim = self.rows, self.cols, self.unactuated, self.actuated[self.limited]
+        A[r["dyn"], c["qdd"]] = M[u]
+        A[r["dyn"], c["beta"]] = -Phi[u]
+        A[r["dyn"], c["f"]] = -J_loop[:, u].T
+        A[r["loop"], c["qdd"]] = J_loop
+        A[r["contact"], c["qdd"]] = J_feet
+        A[r["tau"], c["qdd"]] = M[lim]
+        A[r["tau"], c["beta"]] = -Phi[lim]
+        A[r["tau"], c["f"]] = -J_loop[:, lim].T
+        return A
+
+    def _fill_constant(self, A: np.ndarray) -> None:
+        r, c = self.rows, self.cols
+        A[r["contact"], c["eta"]] = -np.eye(12)
+        A[r["beta"], c["beta"]] = np.eye(c["beta"].stop - c["beta"].start)
+        A[r["eta"], c["eta"]] = np.eye(12)
+
+    def kinematics(self, q: np.ndarray, v: np.ndarray, qdd_des: np.ndarray) -> Terms:
+        """Every configuration-dependent term of one sample."""
+        model, data = self.model, self.data
+        pin.centerOfMass(model, data, q, v, qdd_des)
+        com_acc = data.acom[0].copy()
+        M = pin.crba(model, data, q).copy()  # data.M is overwritten by the next sample
+        h = pin.nonLinearEffects(model, data, q, v).copy()
+        pin.computeJointJacobians(model, data, q)
+        pin.forwardKinematics(model, data, q, v, self.zero_v)
+        pin.updateFramePlacements(model, data)
+        J_feet, drift_feet, Phi = [], [], []
+        for fid, corners in zip(self.foot_ids, self.corners, strict=True):
+            J = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
+            R = data.oMf[fid].rotation
+            J_world = np.vstack([R @ J[:3], R @ J[3:]])
+            offsets = corners @ R.T  # corner positions relative to the foot origin, world axes
+            G = self._wrench_map(offsets)
+            J_feet.append(J)
+            drift_feet.append(pin.getFrameAcceleration(model, data, fid, pin.LOCAL).vector)
+            Phi.append(J_world.T @ G)
+        J_loop, drift_loop = [], []
+        for a, b in self.loop_ids:
+            J_a = pin.getFrameJacobian(model, data, a, pin.LOCAL_WORLD_ALIGNED)[:3]
+            J_b = pin.getFrameJacobian(model, data, b, pin.LOCAL_WORLD_ALIGNED)[:3]
+            J_loop.append(J_a - J_b)
+            drift_loop.append(
+                pin.getFrameClassicalAcceleration(model, data, a, pin.LOCAL_WORLD_ALIGNED).linear
+                - pin.getFrameClassicalAcceleration(model, data, b, pin.LOCAL_WORLD_ALIGNED).linear
+            )
+        return Terms(
+            M=M,
+            h=h,
+            Phi=np.hstack(Phi),
+            J_feet=np.vstack(J_feet),
+            drift_feet=np.concatenate(drift_feet),
+            J_loop=np.vstack(J_loop) if J_loop else np.zeros((0, self.nv)),
+            drift_loop=np.concatenate(drift_loop) if drift_loop else np.zeros(0),
+            com_acc=com_acc,
+        )
+
+    def _wrench_map(self, offsets: np.ndarray) -> np.ndarray:
+        """Wrench at the foot origin (force; moment, world axes) of the foot's 16 β, (6, 16).
+
+        Column (c, i) is [w_i; r_c × w_i] with r_c the corner's offset from the foot origin.
+        """
+        W = self.W
+        x, y, z = offsets[:, 0:1], offsets[:, 1:2], offsets[:, 2:3]
+        G = np.empty((6, N_CORNERS, N_EDGES))
+        G[:3] = W[:, None, :]
+        G[3] = y * W[2] - z * W[1]
+        G[4] = z * W[0] - x * W[2]
+        G[5] = x * W[1] - y * W[0]
+        return G.reshape(6, N_CORNERS * N_EDGES)
+
+    def solve(
+        self,
+        terms: Terms,
+        v: np.ndarray,
+        qdd_des: np.ndarray,
+        contacts: np.ndarray,
+        com_error: np.ndarray,
+    ) -> SampleSolution:
+        w, r, c = self.weights, self.rows, self.cols
+        self._fill(terms.M, terms.Phi, terms.J_feet, terms.J_loop, out=self.A)
+        lower, upper = np.empty(self.m), np.empty(self.m)
+        lower[r["dyn"]] = upper[r["dyn"]] = -terms.h[self.unactuated]
+        loop_rhs = -terms.drift_loop - w.alpha * (terms.J_loop @ v)
+        lower[r["loop"]] = upper[r["loop"]] = loop_rhs
+        slip = -terms.drift_feet - w.alpha * (terms.J_feet @ v)
+        in_contact = np.repeat(contacts, 6)
+        lower[r["contact"]] = np.where(in_contact, slip, -np.inf)
+        upper[r["contact"]] = np.where(in_contact, slip, np.inf)
+        h_lim = terms.h[self.actuated[self.limited]]
+        lower[r["tau"]] = -w.tau_max[self.limited] - h_lim
+        upper[r["tau"]] = w.tau_max[self.limited] - h_lim
+        lower[r["beta"]] = 0.0
+        upper[r["beta"]] = np.where(np.repeat(contacts, N_CORNERS * N_EDGES), np.inf, 0.0)
+        lower[r["eta"]], upper[r["eta"]] = -w.eta_max, w.eta_max
+
+        # V (eq. 5): ūᵀH_uū + 2 g_uᵀū with ū = G_u β + d, d = g − c̈_des.
+        p_bar = com_error[:3]
+        g_u = w.a * w.q_lqr * p_bar + B_COM.T @ w.S @ com_error
+        d = self.gravity - terms.com_acc
+        p = np.zeros(self.n)
+        p[c["qdd"]] = -2.0 * w.w_qdd * qdd_des
+        p[c["beta"]] = 2.0 * self.G_u.T @ (self.H_u @ d + g_u)
+        self.solver.update(q=p, l=lower, u=upper, Ax=self.A[self.nz_rows, self.nz_cols])
+        result = self.solver.solve(raise_error=False)
+        status = result.info.status.removesuffix(" inaccurate")
+        x = None if result.x is None else np.asarray(result.x)
+        if status in FAILED_STATUSES or x is None or not np.all(np.isfinite(x)):
+            if self.last_x is not None:
+                self.solver.warm_start(x=self.last_x)
+            reason = FAILED_STATUSES.get(status, f"OSQP returned {result.info.status!r}")
+            return SampleSolution(False, reason, *(np.full(0, np.nan),) * 3)
+        self.last_x = x
+        beta = np.where(
+            np.repeat(contacts, N_CORNERS * N_EDGES), np.maximum(x[c["beta"]], 0.0), 0.0
+        )
+        qdd, f_loop = self._exact(terms, loop_rhs, x[c["qdd"]], beta, x[c["f"]])
+        return SampleSolution(True, status, qdd, beta, f_loop)
+
+    def corner_forces(self, beta: np.ndarray) -> np.ndarray:
+        """λ at each sole corner, world frame [N], shape (2, 4, 3) (eq. 11)."""
+        return beta.reshape(2, N_CORNERS, N_EDGES) @ self.W.T
+
+    def torques(self, terms: Terms, solution: SampleSolution) -> np.ndarray:
+        """τ of eq. 10 (B_a = I) [N·m], shape (n_actuated,)."""
+        a = self.actuated
+        return (
+            terms.M[a] @ solution.qdd
+            + terms.h[a]
+            - terms.Phi[a] @ solution.beta
+            - terms.J_loop[:, a].T @ solution.f_loop
+        )
+
+    def _exact(self, terms: Terms, loop_rhs, qdd, beta, f_loop):
+        """Smallest change of q̈ and f_loop that makes eq. 13 and the loop rows hold exactly
+        (OSQP meets them only to its tolerance); β, already inside the pyramids, is kept."""
+        u = self.unactuated
+        E_dyn = np.hstack([terms.M[u], -terms.J_loop[:, u].T])
+        E_loop = np.hstack([terms.J_loop, np.zeros((len(terms.J_loop), len(f_loop)))])
+        E = np.vstack([E_dyn, E_loop])
+        target = np.concatenate([-terms.h[u] + terms.Phi[u] @ beta, loop_rhs])
+        residual = target - E @ np.concatenate([qdd, f_loop])
+        if self.loop_ids:  # a planar loop has a redundant row: least squares
+            step = np.linalg.lstsq(E, residual, rcond=None)[0]
+        else:  # E = M_u has full row rank: the minimum-norm step
+            step = E.T @ np.linalg.solve(E @ E.T, residual)
+        return qdd + step[: self.nv], f_loop + step[self.nv :]
