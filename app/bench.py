@@ -26,6 +26,7 @@ import numpy as np
 
 from app.config import StudioConfig
 from app.studio import Studio
+from panels.quiet import set_value
 
 ROBAN_CANDIDATES = (
     Path(__file__).resolve().parents[2]
@@ -183,7 +184,7 @@ def _bench_slider(studio: Studio, robot: str, repeats: int) -> dict:
         slider = panel.sliders[names[k % len(names)]]
         target = slider.min + (slider.max - slider.min) * (0.25 if (k // len(names)) % 2 else 0.75)
         start = time.perf_counter()
-        slider.value = round(target, 1)  # type: ignore[misc]  # viser types the setter on a generic base
+        set_value(slider, round(target, 1))
         times.append(time.perf_counter() - start)
     ms = np.array(times) * 1000.0
     return {

@@ -321,16 +321,15 @@ def _add_compensation_commands(sub) -> None:
 def _compensate(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from app.core.compensation import (
-        command_limit_violations,
-        compensated_command,
-        paper_table2_preset,
-        paper_table3_preset,
+    from app.core.compensation import command_limit_violations, compensated_command
+    from app.core.compensation_files import (
         read_coefficients_toml,
         read_torque_csv,
+        write_command_csv,
     )
     from app.core.loading import load_robot
     from app.core.motion_csv import read_trajectory_csv
+    from app.core.paper_presets import paper_table2_preset, paper_table3_preset
     from app.core.servo_model import joint_angles
 
     if args.clearance and args.preset != "table3":
@@ -365,7 +364,7 @@ def _compensate(args: argparse.Namespace) -> int:
         count = sum(s == status for s in torques.status)
         warnings.append(f"{count} torque sample(s) have status {status!r}")
     if args.out is not None:
-        _write_command_csv(args.out, traj.t, robot.joint_names, q_cmd)
+        write_command_csv(args.out, traj.t, robot.joint_names, q_cmd)
     correction = np.degrees(np.abs(q_cmd - q_plan)).max(axis=0)
     joints = [
         {
@@ -404,29 +403,6 @@ def _compensate(args: argparse.Namespace) -> int:
     for line in warnings:
         print(f"warning: {line}", file=sys.stderr)
     return 0
-
-
-def _write_command_csv(path: Path, t, joint_names: tuple[str, ...], q_cmd_rad) -> None:
-    """Servo commands: `t [s]`, then `q_cmd:<joint> [rad]` and `q_cmd:<joint> [deg]` columns."""
-    import csv
-    import math
-
-    header = ["t [s]"]
-    header += [f"q_cmd:{name} [rad]" for name in joint_names]
-    header += [f"q_cmd:{name} [deg]" for name in joint_names]
-    try:
-        with open(path, "w", newline="", encoding="utf-8") as file:
-            writer = csv.writer(file)
-            writer.writerow(header)
-            for k, row in enumerate(q_cmd_rad):
-                radians = [float(value) for value in row]
-                writer.writerow(
-                    [repr(float(t[k]))]
-                    + [repr(value) for value in radians]
-                    + [repr(math.degrees(value)) for value in radians]
-                )
-    except OSError as error:
-        raise StudioError(f"cannot write {path}: {error.strerror}") from None
 
 
 def _calibrate(args: argparse.Namespace) -> int:

@@ -14,6 +14,7 @@ from typing import Literal
 import numpy as np
 import viser
 
+from app.compensation_session import CompensationSession
 from app.config import StudioConfig
 from app.core.errors import StudioError
 from app.core.loading import load_robot
@@ -69,6 +70,7 @@ class Studio:
         self.motions_panel = MotionsPanel(self.server.gui, self)
         self.keyframes_panel = KeyframesPanel(self.server.gui, self)
         self.motions = MotionSession(self)
+        self.compensation = CompensationSession(self)
         self.trajectory: Trajectory | None = None
         self.traces: TracesView | None = None
         self.player = Player(self)
@@ -140,6 +142,7 @@ class Studio:
                     old.remove()
             self.trajectory, self.traces = None, None  # a motion belongs to its robot
             self.motions.clear()
+            self.compensation.reset(robot, None)
             self.robot, self.report = robot, report
             self.q = robot.q_neutral.copy()
             self.view = RobotView(self.server, robot)
@@ -276,6 +279,7 @@ class Studio:
             if self.traces is not None:
                 self.traces.remove()
             self.trajectory = trajectory
+            self.compensation.reset(self.robot, trajectory)
             self.traces = TracesView(self.server, task_space_paths(self.robot, trajectory))
             self.traces.set_visible(self.playback_panel.traces.value)
             self.playback_panel.show_trajectory(trajectory, summary)
@@ -292,6 +296,7 @@ class Studio:
             self.pose.posing.stance = "both" if left == right else ("left" if left else "right")
             self.pose.last_result = None
             self.show_pose(trajectory.q[k], from_slider=playing)
+            self.compensation.show_sample(k)
             self.playback_panel.show_time(time_s)
             if not playing:
                 self.playback_panel.show_playing(False)

@@ -12,6 +12,7 @@ import numpy as np
 import viser
 
 from app.core.model import ActuatedJoint, RobotModel
+from panels.quiet import set_value
 
 LIMB_ORDER = ("Left leg", "Right leg", "Torso", "Left arm", "Right arm", "Head", "Other")
 
@@ -79,7 +80,7 @@ class JointsPanel:
                 value = float(
                     np.clip(round(angles[i] * self._scales[i], 1), slider.min, slider.max)
                 )
-                slider.value = value  # type: ignore[misc]  # viser types the setter on a generic base
+                set_value(slider, value)
         finally:
             self._syncing = False
 

@@ -6,6 +6,8 @@ from typing import TYPE_CHECKING
 
 import viser
 
+from panels.quiet import set_value
+
 if TYPE_CHECKING:
     from app.core.keyframes import Keyframe
     from app.studio import Studio
@@ -63,4 +65,4 @@ class KeyframesPanel:
         self.list.content = "  \n".join(rows)
         options = tuple(f"{i + 1}. {kf.name}" for i, kf in enumerate(keyframes))
         self.selected.options = options
-        self.selected.value = options[max(0, min(selected, len(options) - 1))]  # type: ignore[misc]  # viser types the setter on a generic base
+        set_value(self.selected, options[max(0, min(selected, len(options) - 1))])

@@ -6,6 +6,8 @@ from typing import TYPE_CHECKING
 
 import viser
 
+from panels.quiet import set_value
+
 if TYPE_CHECKING:
     from app.core.trajectory import Trajectory
     from app.studio import Studio
@@ -45,7 +47,7 @@ class PlaybackPanel:
         """Move the timeline without seeking again."""
         self._syncing = True
         try:
-            self.time.value = min(round(time_s, 2), self.time.max)  # type: ignore[misc]  # viser types the setter on a generic base
+            set_value(self.time, min(round(time_s, 2), self.time.max))
         finally:
             self._syncing = False
 

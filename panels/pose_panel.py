@@ -6,6 +6,8 @@ from typing import TYPE_CHECKING
 
 import viser
 
+from panels.quiet import set_value
+
 if TYPE_CHECKING:
     from app.studio import Studio
 
@@ -55,7 +57,7 @@ class PosePanel:
         """Reflect a stance changed by the studio (e.g. by a foot drag) without calling back."""
         self._syncing = True
         try:
-            self.stance.value = stance  # type: ignore[misc]  # viser types the setter on a generic base
+            set_value(self.stance, stance)
         finally:
             self._syncing = False
 

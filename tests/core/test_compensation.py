@@ -15,13 +15,10 @@ from app.core.compensation import (
     compensated_command,
     disabled_params,
     k_rad_per_Nm,
-    paper_table2_preset,
-    paper_table3_preset,
-    read_coefficients_toml,
-    read_torque_csv,
-    servo_joint_names,
 )
+from app.core.compensation_files import read_coefficients_toml, read_torque_csv
 from app.core.loading import load_robot
+from app.core.paper_presets import paper_table2_preset, paper_table3_preset, servo_joint_names
 from tests.conftest import ROBAN_URDF
 
 D = math.radians

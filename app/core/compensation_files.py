@@ -1,0 +1,232 @@
+"""Files of the compensation pipeline: coefficients (TOML), torque feed-forward (CSV) and
+servo commands (CSV)."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import os
+from collections.abc import Sequence
+from typing import IO, TypeAlias
+
+import numpy as np
+
+from app.core.compensation import CompensationError, CompensationParams
+
+PathOrFile: TypeAlias = str | os.PathLike[str] | IO[bytes]
+
+
+def read_coefficients_toml(path_or_file: PathOrFile) -> CompensationParams:
+    """Coefficients from a k.toml file::
+
+        clearance_sign = "command"        # optional: "command" (paper, default) or "torque"
+        [joints.left_hip_roll]
+        k_deg_per_Nm = -4.0               # required [°/(N·m)]
+        phi_deg = 8.0                     # optional [°], default 0
+        enabled = true                    # optional, default true
+
+    Only the joints listed are compensated; `CompensationParams.for_joints` checks the names.
+    """
+    try:
+        import tomllib  # Python ≥ 3.11
+    except ImportError:  # pragma: no cover - the studio runs on 3.11
+        raise CompensationError("reading k.toml files needs Python 3.11 or newer") from None
+    if isinstance(path_or_file, (str, os.PathLike)):
+        source = os.fspath(path_or_file)
+        try:
+            with open(path_or_file, "rb") as file:
+                data = tomllib.load(file)
+        except OSError as error:
+            raise CompensationError(f"cannot read {source}: {error.strerror}") from None
+        except tomllib.TOMLDecodeError as error:
+            raise CompensationError(f"{source}: not valid TOML: {error}") from None
+    else:
+        source = getattr(path_or_file, "name", "coefficients")
+        try:
+            data = tomllib.load(path_or_file)
+        except tomllib.TOMLDecodeError as error:
+            raise CompensationError(f"{source}: not valid TOML: {error}") from None
+    return _params_from_mapping(data, str(source))
+
+
+def _params_from_mapping(data: dict, source: str) -> CompensationParams:
+    unknown = set(data) - {"clearance_sign", "joints"}
+    if unknown:
+        raise CompensationError(
+            f"{source}: unknown key(s) {', '.join(sorted(unknown))}; expected clearance_sign "
+            "and [joints.<name>] tables"
+        )
+    joints = data.get("joints")
+    if not isinstance(joints, dict) or not joints:
+        raise CompensationError(
+            f"{source}: no [joints.<name>] tables; give k_deg_per_Nm for at least one joint"
+        )
+    names, k, phi, enabled = [], [], [], []
+    for name, entry in joints.items():
+        if not isinstance(entry, dict):
+            raise CompensationError(f"{source}: joints.{name} must be a table")
+        extra = set(entry) - {"k_deg_per_Nm", "phi_deg", "enabled"}
+        if extra:
+            raise CompensationError(
+                f"{source}: joints.{name} has unknown key(s) {', '.join(sorted(extra))}; "
+                "allowed: k_deg_per_Nm, phi_deg, enabled"
+            )
+        if "k_deg_per_Nm" not in entry:
+            raise CompensationError(f"{source}: joints.{name} has no k_deg_per_Nm")
+        values = []
+        for key, default in (("k_deg_per_Nm", None), ("phi_deg", 0.0)):
+            value = entry.get(key, default)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise CompensationError(
+                    f"{source}: joints.{name}.{key} must be a number, got {value!r}"
+                )
+            values.append(float(value))
+        on = entry.get("enabled", True)
+        if not isinstance(on, bool):
+            raise CompensationError(
+                f"{source}: joints.{name}.enabled must be true or false, got {on!r}"
+            )
+        names.append(name)
+        k.append(values[0])
+        phi.append(values[1])
+        enabled.append(on)
+    sign = data.get("clearance_sign", "command")
+    return CompensationParams(
+        tuple(names), np.array(k), np.array(phi), np.array(enabled), sign, (f"from {source}",)
+    )
+
+
+# --- torque feed-forward files --------------------------------------------------------------
+
+TORQUE_UNITS = ("N·m", "N.m", "Nm", "N*m", "N m")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class TorqueTable:
+    """A torque feed-forward read from CSV."""
+
+    t: np.ndarray
+    """Sample times [s], shape (T,)."""
+    tau_Nm: np.ndarray
+    """Joint torques [N·m], shape (T, n), columns in the order asked for."""
+    status: tuple[str, ...]
+    """The solver's status of each sample ("" when the file has no status column)."""
+
+
+def read_torque_csv(
+    path_or_file: str | os.PathLike[str] | IO[str], joint_names: Sequence[str]
+) -> TorqueTable:
+    """Read a torque feed-forward CSV: header `t [s]`, `tau:<joint> [N·m]` per joint (any
+    order), optionally `status`; one row per sample. Every joint of `joint_names` must have a
+    column, and every `tau:` column must name one of them."""
+    if isinstance(path_or_file, (str, os.PathLike)):
+        source = os.fspath(path_or_file)
+        try:
+            with open(source, newline="", encoding="utf-8-sig") as file:
+                return _read_torque(file, str(source), joint_names)
+        except OSError as error:
+            raise CompensationError(f"cannot read {source}: {error.strerror}") from None
+        except UnicodeDecodeError:
+            raise CompensationError(f"{source}: not a UTF-8 text file") from None
+    return _read_torque(path_or_file, str(getattr(path_or_file, "name", "torques")), joint_names)
+
+
+def _read_torque(file: IO[str], source: str, joint_names: Sequence[str]) -> TorqueTable:
+    reader = csv.reader(file)
+    header = next(reader, None)
+    if not header:
+        raise CompensationError(
+            f"{source}: empty file; expected a header t [s], tau:<joint> [N·m], …"
+        )
+    time_col, status_col, tau_cols = None, None, {}
+    for i, cell in enumerate(header):
+        name, _, unit = cell.strip().partition("[")
+        name, unit = name.strip(), unit.rstrip("]").strip()
+        if name == "t":
+            time_col = i
+        elif name == "status":
+            status_col = i
+        elif name.startswith("tau:"):
+            if unit not in TORQUE_UNITS:
+                raise CompensationError(
+                    f"{source}, line 1: column {cell.strip()!r} must be in N·m, e.g. '{name} [N·m]'"
+                )
+            tau_cols[name[4:]] = i
+    if time_col is None:
+        raise CompensationError(f"{source}, line 1: no 't [s]' column")
+    unknown = [name for name in tau_cols if name not in joint_names]
+    if unknown:
+        raise CompensationError(
+            f"{source}: torque column(s) for joint(s) this robot does not have: "
+            f"{', '.join(unknown)}; its joints are: {', '.join(joint_names)}"
+        )
+    missing = [name for name in joint_names if name not in tau_cols]
+    if missing:
+        raise CompensationError(
+            f"{source}: no tau:<joint> column for {', '.join(missing)} (was the feed-forward "
+            "computed for this robot?)"
+        )
+    columns = [time_col] + [tau_cols[name] for name in joint_names]
+    rows, status = [], []
+    for row in reader:
+        line = reader.line_num
+        if not any(cell.strip() for cell in row):
+            continue
+        if len(row) < len(header):
+            raise CompensationError(
+                f"{source}, line {line}: {len(row)} values for {len(header)} columns"
+            )
+        values = []
+        for col in columns:
+            cell = row[col].strip()
+            try:
+                value = float(cell)
+            except ValueError:
+                raise CompensationError(
+                    f"{source}, line {line}: {header[col].strip()} {cell!r} is not a number"
+                ) from None
+            if not math.isfinite(value):
+                raise CompensationError(
+                    f"{source}, line {line}: {header[col].strip()} is {cell!r}; give a finite number"
+                )
+            values.append(value)
+        rows.append(values)
+        status.append(row[status_col].strip() if status_col is not None else "")
+    if not rows:
+        raise CompensationError(f"{source}: a header but no samples")
+    table = np.array(rows)
+    return TorqueTable(table[:, 0], table[:, 1:], tuple(status))
+
+
+def write_command_csv(
+    path_or_file: str | os.PathLike[str] | IO[str],
+    t: np.ndarray,
+    joint_names: Sequence[str],
+    q_cmd_rad: np.ndarray,
+) -> None:
+    """Servo commands for the real robot: `t [s]`, then `q_cmd:<joint> [rad]` and
+    `q_cmd:<joint> [deg]` columns, one row per sample."""
+    header = ["t [s]"]
+    header += [f"q_cmd:{name} [rad]" for name in joint_names]
+    header += [f"q_cmd:{name} [deg]" for name in joint_names]
+
+    def write(file: IO[str]) -> None:
+        writer = csv.writer(file)
+        writer.writerow(header)
+        for k, row in enumerate(np.asarray(q_cmd_rad, dtype=float)):
+            radians = [float(value) for value in row]
+            writer.writerow(
+                [repr(float(t[k]))]
+                + [repr(value) for value in radians]
+                + [repr(math.degrees(value)) for value in radians]
+            )
+
+    if isinstance(path_or_file, (str, os.PathLike)):
+        try:
+            with open(path_or_file, "w", newline="", encoding="utf-8") as file:
+                write(file)
+        except OSError as error:
+            raise CompensationError(f"cannot write {path_or_file}: {error.strerror}") from None
+    else:
+        write(path_or_file)

@@ -1,0 +1,167 @@
+"""Compensation panel: torque feed-forward, spring/clearance compensation coefficients per
+joint, the virtual servos' true compliance and backlash, and the ghosts' legend.
+
+Moving a slider re-predicts the motion (no torque recomputation): the callbacks only say
+which value changed; the studio's compensation session recomputes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+import viser
+
+from app.views.ghosts_view import GHOSTS, legend_markdown
+from panels.quiet import Quiet, set_value
+
+if TYPE_CHECKING:
+    from app.compensation_session import CompensationSession
+
+PRESETS = (
+    "uniform k = 1.4 °/(N·m) (Table 2's identifiable servos)",
+    "paper Table 3 (servos 2, 3, 8, 9)",
+    "paper Table 3 + clearance φ = 8°",
+    "paper Table 2 (standing)",
+    "none",
+)
+HELP = """**q_cmd = q + k·τ** (eq. 7): each servo sags like a spring under its load τ; the command
+is offset by k·τ so that it lands on the plan. k is in °/(N·m) as in the paper's tables
+(×π/180 for rad/(N·m)).
+**+ φ·sign(·)** (eq. 23): a servo's gear play (dead band) adds φ in the direction the load
+pushes. The paper takes the sign of q + k·τ; the *torque* variant takes the sign of τ,
+which is the exact inverse of a dead band loaded by τ (see `app/core/servo_model.py`).
+The servo model below is the virtual robot: its true compliance and backlash."""
+
+
+class CompensationPanel:
+    """Owns the "Compensation" folder; the per-joint controls edit the selected joint."""
+
+    def __init__(self, gui: viser.GuiApi, session: CompensationSession) -> None:
+        self._session = session
+        self._quiet = Quiet()
+        with gui.add_folder("Compensation", order=4, expand_by_default=False):
+            self.compute = gui.add_button("Compute torque feed-forward", icon=viser.Icon.CALCULATOR)
+            self.progress = gui.add_progress_bar(0.0, visible=False)
+            self.status = gui.add_markdown("Generate or build a motion, then compute its torques.")
+            self.preset = gui.add_dropdown("Preset", PRESETS, initial_value=PRESETS[0])
+            self.clearance_sign = gui.add_dropdown(
+                "Clearance sign",
+                ("q + kτ (paper)", "τ (dead-band inverse)"),
+                initial_value="q + kτ (paper)",
+            )
+            self.joint = gui.add_dropdown("Joint", ("—",), initial_value="—")
+            with gui.add_folder("Selected joint"):
+                self.enabled = gui.add_checkbox("Compensate", False)
+                self.k = gui.add_slider(
+                    "k [°/(N·m)]", min=-1500.0, max=1500.0, step=1.0, initial_value=0.0
+                )
+                self.k_rad = gui.add_markdown("")
+                self.phi = gui.add_slider("φ [°]", min=0.0, max=15.0, step=0.1, initial_value=0.0)
+                self.compliance = gui.add_slider(
+                    "servo compliance [°/(N·m)]",
+                    min=-1500.0,
+                    max=1500.0,
+                    step=1.0,
+                    initial_value=0.0,
+                    hint="The virtual servo's true k: how far it sags per N·m",
+                )
+                self.backlash = gui.add_slider(
+                    "servo backlash [°]",
+                    min=0.0,
+                    max=20.0,
+                    step=0.1,
+                    initial_value=0.0,
+                    hint="Full width of the virtual servo's dead band",
+                )
+            with gui.add_folder("Ghosts", expand_by_default=True):
+                gui.add_markdown(legend_markdown())
+                self.ghosts = {
+                    name: gui.add_checkbox(text, True) for name, (_, text) in GHOSTS.items()
+                }
+            self.export_commands = gui.add_button(
+                "Export servo commands CSV", icon=viser.Icon.DOWNLOAD
+            )
+            self.export_torques = gui.add_button("Export τ CSV", icon=viser.Icon.DOWNLOAD)
+            with gui.add_folder("Help", expand_by_default=False):
+                gui.add_markdown(HELP)
+
+        @self.compute.on_click
+        def _(event: viser.GuiEvent) -> None:
+            session.compute_torques(event.client)
+
+        @self.export_commands.on_click
+        def _(event: viser.GuiEvent) -> None:
+            session.export_commands(event.client)
+
+        @self.export_torques.on_click
+        def _(event: viser.GuiEvent) -> None:
+            session.export_torques(event.client)
+
+        self.preset.on_update(
+            lambda _: None if self._quiet.quiet else session.apply_preset(self.preset.value)
+        )
+        self.clearance_sign.on_update(
+            lambda _: (
+                None
+                if self._quiet.quiet
+                else session.set_clearance_sign(
+                    "torque" if self.clearance_sign.value.startswith("τ") else "command"
+                )
+            )
+        )
+        self.joint.on_update(
+            lambda _: None if self._quiet.quiet else session.select_joint(self.joint.value)
+        )
+        for handle, field in (
+            (self.enabled, "enabled"),
+            (self.k, "k"),
+            (self.phi, "phi"),
+            (self.compliance, "compliance"),
+            (self.backlash, "backlash"),
+        ):
+            handle.on_update(self._edit(field, handle))
+        for name, checkbox in self.ghosts.items():
+            checkbox.on_update(self._ghost(name, checkbox))
+
+    def _ghost(self, name: str, checkbox: viser.GuiCheckboxHandle) -> Callable[[object], None]:
+        def callback(_event: object) -> None:
+            self._session.set_ghost_visible(name, checkbox.value)
+
+        return callback
+
+    def _edit(self, field: str, handle: viser.GuiInputHandle) -> Callable[[object], None]:
+        def callback(_event: object) -> None:
+            if not self._quiet.quiet:
+                self._session.edit_joint(self.joint.value, field, handle.value)
+
+        return callback
+
+    def show_joints(self, joint_names: tuple[str, ...], selected: str) -> None:
+        with self._quiet.quietly():
+            self.joint.options = joint_names or ("—",)
+            set_value(
+                self.joint,
+                selected if selected in joint_names else (joint_names[0] if joint_names else "—"),
+            )
+
+    def show_joint(
+        self, enabled: bool, k: float, phi: float, compliance: float, backlash: float
+    ) -> None:
+        """Show the selected joint's values without calling back."""
+        with self._quiet.quietly():
+            set_value(self.enabled, enabled)
+            set_value(self.k, float(np.clip(k, self.k.min, self.k.max)))
+            set_value(self.phi, float(np.clip(phi, self.phi.min, self.phi.max)))
+            set_value(
+                self.compliance,
+                float(np.clip(compliance, self.compliance.min, self.compliance.max)),
+            )
+            set_value(self.backlash, float(np.clip(backlash, self.backlash.min, self.backlash.max)))
+            self.k_rad.content = f"k = {np.deg2rad(k):.4g} rad/(N·m)"
+
+    def show_progress(self, fraction: float | None) -> None:
+        self.progress.visible = fraction is not None
+        if fraction is not None:
+            set_value(self.progress, 100.0 * fraction)

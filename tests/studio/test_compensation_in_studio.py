@@ -1,0 +1,95 @@
+"""Torque feed-forward and compensation through the studio's panels: a real viser server."""
+
+from __future__ import annotations
+
+import csv
+import io
+import socket
+
+import numpy as np
+import pytest
+
+from app.config import StudioConfig
+from app.studio import Studio
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory):
+    studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path_factory.mktemp("data")))
+    studio.motions_panel.motion.value = "one_leg_stand"
+    studio.motions_panel.generate.value = True
+    studio.compensation.compute_torques(wait=True)
+    yield studio
+    studio.stop()
+
+
+def test_torques_plots_and_ghosts_follow_the_motion(studio):
+    session = studio.compensation
+    feedforward, prediction = session.feedforward, session.prediction
+    assert feedforward is not None and prediction is not None
+    assert feedforward.tau_Nm.shape == (studio.trajectory.n_samples, studio.robot.n_actuated)
+    assert session.plots.torques is not None and session.plots.attitude is not None
+    assert len(session.plots.torques.data) == 1 + studio.robot.n_actuated
+    # The ghosts stand where the prediction says at the shown sample.
+    studio.seek(3.0)
+    k = studio.trajectory.index_at(3.0)
+    position, _ = session.ghosts._views["with"].link_pose(studio.robot.tree.root)
+    expected = studio.robot.link_placements(
+        prediction.q_world_compensated[k], studio.robot.model.createData()
+    )
+    np.testing.assert_allclose(position, expected[studio.robot.tree.root][:3, 3], atol=1e-9)
+
+
+def test_compensation_reduces_the_torso_error(studio):
+    errors = studio.compensation.prediction.attitude_errors_deg()
+    worst_without = max(errors["roll_uncompensated"], errors["pitch_uncompensated"])
+    worst_with = max(errors["roll_compensated"], errors["pitch_compensated"])
+    assert worst_without > 0.05  # the compliant servos make the torso tilt
+    assert worst_with < 0.5 * worst_without
+
+
+def test_a_k_slider_changes_the_command_by_k_tau_without_recomputing_torques(studio):
+    session, panel = studio.compensation, studio.compensation.panel
+    feedforward = session.feedforward
+    panel.joint.value = "left_hip_roll"
+    i = studio.robot.joint_names.index("left_hip_roll")
+    before = session.prediction.q_cmd_rad[:, i].copy()
+    k_before = session.params.k_deg_per_Nm[i]
+    panel.enabled.value = True
+    panel.k.value = k_before + 10.0
+    after = session.prediction.q_cmd_rad[:, i]
+    tau = feedforward.tau_Nm[:, i]
+    np.testing.assert_allclose(after - before, np.deg2rad(10.0) * tau, atol=1e-12)  # eq 7
+    assert session.feedforward is feedforward
+    assert "rad/(N·m)" in panel.k_rad.content
+
+
+def test_export_servo_commands(studio):
+    content = studio.compensation.export_commands()
+    rows = list(csv.reader(io.StringIO(content.decode())))
+    header = rows[0]
+    assert (
+        header[0] == "t [s]"
+        and "q_cmd:left_knee [rad]" in header
+        and "q_cmd:left_knee [deg]" in header
+    )
+    assert len(rows) == 1 + studio.trajectory.n_samples
+    rad = float(rows[5][header.index("q_cmd:left_knee [rad]")])
+    deg = float(rows[5][header.index("q_cmd:left_knee [deg]")])
+    assert deg == pytest.approx(np.rad2deg(rad))
+    torques = studio.compensation.export_torques()
+    assert torques.decode().splitlines()[0].startswith("t [s],tau:")
+
+
+def test_a_new_motion_drops_the_stale_torques(studio):
+    studio.motions_panel.motion.value = "com_shift"
+    studio.motions_panel.generate.value = True
+    assert studio.compensation.feedforward is None and studio.compensation.prediction is None
+    studio.compensation.compute_torques(wait=True)
+    assert studio.compensation.feedforward.trajectory_name == "com_shift"
