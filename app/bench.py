@@ -10,6 +10,10 @@
   (robot, overlays, timeline); target ≥ 60 Hz.
 - interpolate: a keyframed motion (the three one-leg squats) sampled at 100 Hz with IK at
   every sample, scaled to 10 s of motion; target ≤ 1 s.
+- feedforward: the whole-body QP per sample (median, p95) and for 10 s of motion at 100 Hz
+  (app.core.wbc_bench); targets ≤ 0.5 ms median, ≤ 0.5 s.
+- compensation slider: a k slider moved with a 10 s motion loaded: re-prediction, ghosts and
+  plots (τ not recomputed); target ≤ 50 ms.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from app.config import StudioConfig
+from app.core.wbc_bench import bench_feedforward
 from app.studio import Studio
 from panels.quiet import set_value
 
@@ -41,6 +46,7 @@ SLIDER_TARGET_MS = 5.0
 DRAG_TARGET_MS = 5.0
 PLAYBACK_TARGET_HZ = 60.0
 INTERPOLATE_TARGET_S = 1.0
+COMPENSATION_TARGET_MS = 50.0
 
 
 def run_bench(args: argparse.Namespace) -> int:
@@ -60,6 +66,8 @@ def run_bench(args: argparse.Namespace) -> int:
                 },
                 "playback": _bench_playback(studio, "servo_biped"),
                 "interpolate": _bench_interpolate(studio),
+                "feedforward": bench_feedforward(),
+                "compensation_slider": _bench_compensation_slider(studio),
             }
         finally:
             studio.stop()
@@ -92,7 +100,48 @@ def run_bench(args: argparse.Namespace) -> int:
         f"of motion at 100 Hz with IK at every sample, {row['per_10s_s']:.2f} s per 10 s "
         f"(target ≤ {INTERPOLATE_TARGET_S} s) {_mark(row['per_10s_s'] <= INTERPOLATE_TARGET_S)}"
     )
+    ff = results["feedforward"]
+    for key in ("servo_biped", "roban_s14"):
+        row = ff.get(key)
+        if row:
+            print(
+                f"torque feed-forward QP per sample, {row['robot']} {row['motion']}: median "
+                f"{row['qp_median_ms']:.2f} ms, p95 {row['qp_p95_ms']:.2f} ms "
+                f"(target median ≤ 0.5 ms) {_mark(row['qp_median_ms'] <= 0.5)}"
+            )
+    row = ff["servo_biped"]
+    print(
+        f"torque feed-forward of 10 s at 100 Hz, servo_biped: {row['per_10s_s']:.2f} s "
+        f"(target ≤ 0.5 s) {_mark(row['per_10s_s'] <= 0.5)}"
+    )
+    row = results["compensation_slider"]
+    print(
+        f"compensation slider → prediction, ghosts and plots, {row['samples']} samples: p50 "
+        f"{row['p50_ms']:.1f} ms, p95 {row['p95_ms']:.1f} ms (target ≤ {COMPENSATION_TARGET_MS:.0f} ms) "
+        f"{_mark(row['p95_ms'] <= COMPENSATION_TARGET_MS)}"
+    )
     return 0
+
+
+def _bench_compensation_slider(studio: Studio, repeats: int = 20) -> dict:
+    """A k slider moved on a 10 s motion (1000 samples): re-prediction, ghosts and plots."""
+    studio.load("servo_biped")
+    set_value(studio.motions_panel.motion, "one_leg_squats")
+    set_value(studio.motions_panel.generate, True)
+    studio.compensation.compute_torques(wait=True)
+    panel = studio.compensation.panel
+    assert studio.trajectory is not None
+    times = []
+    for k in range(repeats):
+        begin = time.perf_counter()
+        set_value(panel.k, 1.0 + (k % 2))
+        times.append(time.perf_counter() - begin)
+    ms = np.array(times) * 1000.0
+    return {
+        "samples": studio.trajectory.n_samples,
+        "p50_ms": float(np.percentile(ms, 50)),
+        "p95_ms": float(np.percentile(ms, 95)),
+    }
 
 
 def _bench_interpolate(studio: Studio) -> dict:
