@@ -21,6 +21,8 @@ PALETTE = (
     "#393b79",
     "#637939",
 )
+SECONDS_AXIS = {"x": uplot.Scale(time=False)}
+"""The x axis is seconds from the motion's start, not a date."""
 ATTITUDE_SERIES = (
     ("roll planned", "#3c78e6", (4.0, 4.0)),
     ("pitch planned", "#3c78e6", ()),
@@ -70,6 +72,7 @@ class PlotsPanel:
                 series,
                 title="Torso roll and pitch [°]",
                 aspect=1.6,
+                scales=SECONDS_AXIS,
             )
 
     def _replace(self, handle, title: str, t: np.ndarray, names: tuple[str, ...], rows: np.ndarray):
@@ -87,7 +90,7 @@ class PlotsPanel:
             ),
         )
         with self.folder:
-            return self._gui.add_uplot(data, series, title=title, aspect=1.6)
+            return self._gui.add_uplot(data, series, title=title, aspect=1.6, scales=SECONDS_AXIS)
 
     def clear(self) -> None:
         for handle in (self.torques, self.attitude, self.offsets):

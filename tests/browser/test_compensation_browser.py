@@ -1,0 +1,224 @@
+"""End to end in a real headless Chromium: generate a one-leg motion, compute its torque
+feed-forward, then edit one joint's compensation coefficient k and see the ghosts move.
+
+Everything is done by clicking and typing in the page: the Motion and Joint dropdowns are
+picked from their option lists, the playback time and k are typed into the number boxes
+beside their sliders. The server's state is read to check what the page sent.
+
+The page is loaded once for the module (software WebGL is slow) and each test continues from
+the previous one: run them together, in file order.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from app.core.motions import MOTIONS
+from app.studio import Studio
+from tests.browser.test_motion_browser import (
+    click_button,
+    expand_folder,
+    folder,
+    folder_title,
+    page_time_s,
+    type_number,
+)
+from tests.browser.test_studio_browser import (
+    RENDER_TIMEOUT_S,
+    UI_TIMEOUT_S,
+    changed,
+    dismiss_software_webgl_warning,
+    gui_row_input,
+    not_blank,
+    shot,
+    wait_for,
+    wait_stable,
+)
+
+MOTION = "one_leg_stand"
+JOINT = "left_hip_roll"
+"""The stance hip's roll: it carries the body's weight sideways while the right foot is up."""
+MIN_TAU_NM = 0.5
+"""|τ| of JOINT at the shown sample must exceed this for k·τ to show."""
+TARGET_OFFSET_DEG = 20.0
+"""How far the k edit moves JOINT's command at the shown sample (Δk ≈ this / |τ|)."""
+# Fraction of the view that must change when the ghosts appear, and when two of them (the
+# compensated command and the compensated prediction) turn by ~20° at the stance hip: 10x
+# the noise allowed between two "stable" shots (STABLE_FRACTION).
+MIN_GHOSTS_FRACTION = 0.005
+MIN_EDIT_FRACTION = 0.005
+
+
+def select_option(page, label: str, option: str) -> None:
+    """Open the dropdown `label` (a Mantine Select) and click `option` in its list."""
+    box = gui_row_input(page, label, "input.mantine-Select-input")
+    box.scroll_into_view_if_needed()
+    box.click()
+    page.get_by_role("option", name=option, exact=True).click()
+    wait_for(
+        f"the page's {label} to show {option}",
+        lambda: box.input_value() == option,
+        UI_TIMEOUT_S,
+    )
+
+
+def single_support_time(studio: Studio) -> float:
+    """The middle of the motion's longest stretch on one foot, on the 0.01 s timeline."""
+    trajectory = studio.trajectory
+    assert trajectory is not None
+    single = trajectory.contacts[:, 0] != trajectory.contacts[:, 1]
+    assert single.any(), f"{trajectory.name} never lifts a foot"
+    samples = np.flatnonzero(single)
+    return round(float(trajectory.t[samples[len(samples) // 2]]), 2)
+
+
+@pytest.fixture(scope="module")
+def page(browser_page, studio_url: str):
+    """The studio page, loaded once and connected (its Playback folder is drawn)."""
+    browser_page.goto(studio_url)
+    folder_title(browser_page, "Playback").wait_for(
+        state="visible", timeout=RENDER_TIMEOUT_S * 1000
+    )
+    dismiss_software_webgl_warning(browser_page)
+    return browser_page
+
+
+@pytest.fixture(scope="module")
+def shots() -> dict[str, np.ndarray]:
+    """Screenshots shared by the module's tests."""
+    return {}
+
+
+def test_generate_a_motion_and_compute_its_torques(
+    page, studio: Studio, shots: dict[str, np.ndarray], tmp_path: Path
+) -> None:
+    session = studio.compensation
+    assert session.prediction is None and session.ghosts is None
+
+    # Motions: pick the motion in the dropdown, wait for its parameters, generate it.
+    expand_folder(page, "Motions", "Generate")
+    select_option(page, "Motion", MOTION)
+    wanted = {param.name for param in MOTIONS[MOTION].params}
+    wait_for(
+        f"the studio to show {MOTION}'s parameters",
+        lambda: set(studio.motions_panel.inputs) == wanted,
+        UI_TIMEOUT_S,
+    )
+    click_button(page, "Generate")
+    trajectory = wait_for(
+        f"the generated {MOTION}",
+        lambda: (t := studio.trajectory) is not None and t.name == MOTION and t,
+        UI_TIMEOUT_S,
+    )
+
+    # Playback: type a time when the right foot is up into the box beside "Time [s]".
+    t_show = single_support_time(studio)
+    type_number(page, "Time [s]", t_show)
+    wait_for(
+        f"the studio to seek to {t_show} s",
+        lambda: studio.playback_panel.time.value == pytest.approx(t_show, abs=1e-9),
+        UI_TIMEOUT_S,
+    )
+    assert page_time_s(page) == pytest.approx(t_show)
+    plain = wait_stable(page, f"the robot at {t_show} s, without ghosts", not_blank)
+
+    # Compensation: compute τ (in a worker thread) and wait for the prediction.
+    expand_folder(page, "Compensation", "Compute torque feed-forward")
+    click_button(page, "Compute torque feed-forward")
+    prediction = wait_for(
+        "the prediction after the torque feed-forward",
+        lambda: session.prediction,
+        RENDER_TIMEOUT_S,
+    )
+    feedforward = session.feedforward
+    assert feedforward is not None and session.ghosts is not None
+    assert feedforward.tau_Nm.shape == (trajectory.n_samples, len(prediction.joint_names))
+    folder(page, "Compensation").get_by_text("max |τ|", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+
+    # The four translucent ghosts are drawn over the robot.
+    with_ghosts = wait_stable(
+        page,
+        "the ghosts drawn",
+        lambda image: changed(image, plain).mean() > MIN_GHOSTS_FRACTION,
+    )
+    fraction = float(changed(with_ghosts, plain).mean())
+    print(f"ghosts changed {fraction:.2%} of the view")
+    Image.fromarray(with_ghosts.astype(np.uint8)).save(tmp_path / "ghosts.png")
+    shots["ghosts"] = with_ghosts
+
+
+def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
+    page, studio: Studio, shots: dict[str, np.ndarray], tmp_path: Path
+) -> None:
+    session, panel = studio.compensation, studio.compensation.panel
+    feedforward, before = session.feedforward, session.prediction
+    trajectory = studio.trajectory
+    assert feedforward is not None and before is not None and trajectory is not None, (
+        "run with the previous test: it computes the torques edited here"
+    )
+    i = before.joint_names.index(JOINT)
+    k_shown = trajectory.index_at(studio.playback_panel.time.value)
+    tau = feedforward.tau_Nm[:, i]
+    assert abs(tau[k_shown]) > MIN_TAU_NM, f"τ of {JOINT} is {tau[k_shown]:.3f} N·m there"
+
+    # Pick the joint in the "Joint" dropdown.
+    select_option(page, "Joint", JOINT)
+    wait_for(
+        f"the studio to select {JOINT}",
+        lambda: panel.joint.value == JOINT,
+        UI_TIMEOUT_S,
+    )
+    assert session.params is not None and session.params.enabled[i], f"{JOINT} not compensated"
+    assert panel.enabled.value is True
+    k_before = float(session.params.k_deg_per_Nm[i])
+
+    # Type a new k (the slider's step is 1 °/(N·m)) into the box beside the slider.
+    k_after = float(round(k_before + TARGET_OFFSET_DEG / abs(tau[k_shown])))
+    type_number(page, "k [°/(N·m)]", k_after)
+    after = wait_for(
+        f"the prediction with k = {k_after:g} °/(N·m) for {JOINT}",
+        lambda: (
+            (p := session.prediction) is not before
+            and session.params.k_deg_per_Nm[i] == k_after
+            and p
+        ),
+        UI_TIMEOUT_S,
+    )
+
+    # The command of that joint moved by Δk·τ (eq 7), the others did not; τ was not recomputed.
+    delta = np.deg2rad(k_after - k_before)
+    np.testing.assert_allclose(
+        after.q_cmd_rad[:, i] - before.q_cmd_rad[:, i], delta * tau, rtol=0, atol=1e-9
+    )
+    others = np.arange(len(after.joint_names)) != i
+    np.testing.assert_array_equal(after.q_cmd_rad[:, others], before.q_cmd_rad[:, others])
+    assert session.feedforward is feedforward
+    np.testing.assert_array_equal(after.tau_Nm, before.tau_Nm)
+    assert panel.k.value == k_after
+
+    # The page redrew the ghosts: the compensated command and prediction turn at the hip.
+    moved = wait_stable(
+        page,
+        "the ghosts redrawn",
+        lambda image: changed(image, shots["ghosts"]).mean() > MIN_EDIT_FRACTION,
+    )
+    fraction = float(changed(moved, shots["ghosts"]).mean())
+    print(f"k edit changed {fraction:.2%} of the view")
+    Image.fromarray(moved.astype(np.uint8)).save(tmp_path / "ghosts_edited.png")
+
+
+def test_plots_show_the_torques(page, studio: Studio) -> None:
+    assert studio.compensation.plots.torques is not None, "run with the previous tests"
+    plots = folder(page, "Plots")
+    canvas = plots.locator(".uplot canvas")
+    if not canvas.first.is_visible():
+        folder_title(page, "Plots").click()
+    canvas.first.wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
+    plots.get_by_text("Joint torque [N·m]", exact=True).wait_for(state="visible")
+    assert plots.locator(".uplot").count() == 3  # torques, torso attitude, command offsets
