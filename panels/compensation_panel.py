@@ -55,7 +55,7 @@ class CompensationPanel:
             with gui.add_folder("Selected joint"):
                 self.enabled = gui.add_checkbox("Compensate", False)
                 self.k = gui.add_slider(
-                    "k [°/(N·m)]", min=-1500.0, max=1500.0, step=1.0, initial_value=0.0
+                    "k [°/(N·m)]", min=-1500.0, max=1500.0, step=0.1, initial_value=0.0
                 )
                 self.k_rad = gui.add_markdown("")
                 self.phi = gui.add_slider("φ [°]", min=0.0, max=15.0, step=0.1, initial_value=0.0)

@@ -19,22 +19,19 @@ from PIL import Image
 
 from app.core.motions import MOTIONS
 from app.studio import Studio
-from tests.browser.test_motion_browser import (
-    click_button,
-    expand_folder,
-    folder,
-    folder_title,
-    page_time_s,
-    type_number,
-)
-from tests.browser.test_studio_browser import (
+from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
     changed,
+    click_button,
     dismiss_software_webgl_warning,
+    expand_folder,
+    folder,
+    folder_title,
     gui_row_input,
     not_blank,
-    shot,
+    page_time_s,
+    type_number,
     wait_for,
     wait_stable,
 )
@@ -47,10 +44,11 @@ MIN_TAU_NM = 0.5
 TARGET_OFFSET_DEG = 20.0
 """How far the k edit moves JOINT's command at the shown sample (Δk ≈ this / |τ|)."""
 # Fraction of the view that must change when the ghosts appear, and when two of them (the
-# compensated command and the compensated prediction) turn by ~20° at the stance hip: 10x
-# the noise allowed between two "stable" shots (STABLE_FRACTION).
-MIN_GHOSTS_FRACTION = 0.005
-MIN_EDIT_FRACTION = 0.005
+# compensated command and the compensated prediction) turn by ~20° at the stance hip: 20x
+# the noise allowed between two "stable" shots (STABLE_FRACTION). Measured with servo_biped:
+# ~4.5 % and ~4 % of the view.
+MIN_GHOSTS_FRACTION = 0.01
+MIN_EDIT_FRACTION = 0.01
 
 
 def select_option(page, label: str, option: str) -> None:
@@ -148,7 +146,7 @@ def test_generate_a_motion_and_compute_its_torques(
         lambda image: changed(image, plain).mean() > MIN_GHOSTS_FRACTION,
     )
     fraction = float(changed(with_ghosts, plain).mean())
-    print(f"ghosts changed {fraction:.2%} of the view")
+    assert fraction > MIN_GHOSTS_FRACTION, f"the ghosts changed only {fraction:.2%} of the view"
     Image.fromarray(with_ghosts.astype(np.uint8)).save(tmp_path / "ghosts.png")
     shots["ghosts"] = with_ghosts
 
@@ -209,7 +207,7 @@ def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
         lambda image: changed(image, shots["ghosts"]).mean() > MIN_EDIT_FRACTION,
     )
     fraction = float(changed(moved, shots["ghosts"]).mean())
-    print(f"k edit changed {fraction:.2%} of the view")
+    assert fraction > MIN_EDIT_FRACTION, f"the k edit changed only {fraction:.2%} of the view"
     Image.fromarray(moved.astype(np.uint8)).save(tmp_path / "ghosts_edited.png")
 
 

@@ -20,14 +20,20 @@ import numpy as np
 import pytest
 
 from app.studio import Studio
-from tests.browser.test_studio_browser import (
+from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
     changed,
+    click_button,
     dismiss_software_webgl_warning,
+    expand_folder,
+    folder,
+    folder_title,
     gui_row_input,
     not_blank,
+    page_time_s,
     shot,
+    type_number,
     wait_for,
     wait_stable,
 )
@@ -40,47 +46,6 @@ SECOND_DURATION_S = 2.0
 # two "stable" shots (STABLE_FRACTION). Mid-motion the robot leans over its right foot (the CoM
 # is kept over the support) and 1-4 % of the view changes (measured with servo_biped).
 MIN_PLAY_FRACTION = 0.01
-
-
-def folder_title(page, label: str):
-    """The clickable title bar of the GUI folder `label` (viser draws it as a Paper holding
-    only the label text and a chevron icon, inside the folder's own Paper)."""
-    return page.locator(".mantine-Paper-root", has_text=re.compile(rf"^{re.escape(label)}$"))
-
-
-def folder(page, label: str):
-    """The whole GUI folder `label`: the title bar's parent."""
-    return folder_title(page, label).locator("xpath=..")
-
-
-def expand_folder(page, label: str, inside: str) -> None:
-    """Click a collapsed folder's title, as a user would, until the button `inside` shows."""
-    button = page.get_by_role("button", name=inside, exact=True)
-    if not button.is_visible():
-        folder_title(page, label).click()
-    button.wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
-
-
-def click_button(page, name: str) -> None:
-    button = page.get_by_role("button", name=name, exact=True)
-    button.scroll_into_view_if_needed()
-    button.click()
-
-
-def type_number(page, label: str, value: float) -> None:
-    box = gui_row_input(page, label, "input.mantine-NumberInput-input")
-    box.scroll_into_view_if_needed()
-    box.fill(f"{value:g}")
-    box.press("Enter")
-
-
-def page_time_s(page) -> float:
-    """The value the page shows in the number box beside the "Time [s]" slider."""
-    text = gui_row_input(page, "Time [s]", "input.mantine-NumberInput-input").input_value()
-    try:
-        return float(text)
-    except ValueError:
-        return math.nan
 
 
 def lifted_left_foot(studio: Studio) -> np.ndarray:

@@ -7,114 +7,34 @@ the studio's state; nothing sleeps for a fixed time beyond a short polling inter
 
 from __future__ import annotations
 
-import io
 import os
-import re
 import shutil
-import time
-from collections.abc import Callable
 from pathlib import Path
-from typing import TypeVar
 
 import numpy as np
 import pytest
 from PIL import Image
 
 from app.studio import Studio, vars_of
+from tests.browser.page_helpers import (
+    RENDER_TIMEOUT_S,
+    UI_TIMEOUT_S,
+    box_of,
+    changed,
+    dismiss_software_webgl_warning,
+    gui_row_input,
+    not_blank,
+    wait_for,
+    wait_stable,
+)
 
 REPO = Path(__file__).resolve().parents[2]
 README_SCREENSHOT = REPO / "static" / "studio.png"
-RENDER_TIMEOUT_S = 90.0
-UI_TIMEOUT_S = 30.0
-POLL_S = 0.25
 
-# A pixel "differs" when a channel moves by more than this (0-255): well above the noise of
-# antialiasing and of SwiftShader, well below a robot part against the grid.
-PIXEL_DELTA = 40
 # Robot pixels (shot vs. the same view with the robot hidden), as a fraction of the view.
 MIN_ROBOT_FRACTION = 0.005
 # Pixels of the robot's box that must change when a joint moves.
 MIN_MOTION_FRACTION = 0.01
-# Stable: two successive shots differ on fewer pixels than this fraction.
-STABLE_FRACTION = 0.0005
-
-T = TypeVar("T")
-
-
-def wait_for(what: str, probe: Callable[[], T | None], timeout_s: float) -> T:
-    """Poll `probe` until it returns something other than None or False; fail naming `what`
-    after the timeout."""
-    deadline = time.monotonic() + timeout_s
-    while True:
-        result = probe()
-        if result is not None and result is not False:
-            return result
-        if time.monotonic() > deadline:
-            pytest.fail(f"timed out after {timeout_s:.0f} s waiting for {what}", pytrace=False)
-        time.sleep(POLL_S)
-
-
-def shot(page) -> np.ndarray:
-    """The 3D view as an RGB array; the control panel and notifications are painted black so
-    that only the scene can make two shots differ."""
-    png = page.screenshot(
-        mask=[page.locator("[data-dock-group]"), page.locator(".mantine-Notification-root")],
-        mask_color="#000000",
-        animations="disabled",
-    )
-    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
-
-
-def changed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Boolean mask of the pixels that differ between two shots."""
-    return np.abs(a - b).max(axis=2) > PIXEL_DELTA
-
-
-def not_blank(image: np.ndarray) -> bool:
-    """A drawn scene, not a cleared canvas: varied colours and contrast."""
-    colours = np.unique(image.reshape(-1, 3)[::7], axis=0)
-    return len(colours) > 50 and float(image.std()) > 10.0
-
-
-def wait_stable(
-    page, what: str, accept: Callable[[np.ndarray], bool], timeout_s: float = RENDER_TIMEOUT_S
-):
-    """The first shot that `accept`s and equals the shot taken just before it."""
-    previous: list[np.ndarray] = []
-
-    def probe() -> np.ndarray | None:
-        image = shot(page)
-        ok = accept(image)
-        stable = ok and bool(previous) and changed(image, previous[0]).mean() < STABLE_FRACTION
-        previous[:] = [image] if ok else []
-        return image if stable else None  # an array: wait_for tests it against None
-
-    return wait_for(what, probe, timeout_s)
-
-
-def dismiss_software_webgl_warning(page) -> None:
-    """viser warns about SwiftShader with a sticky notification; close it for a clean picture."""
-    close = page.locator("#webgl-software-rendering .mantine-Notification-closeButton")
-    if close.count():
-        close.first.click()
-        close.wait_for(state="detached")
-
-
-def gui_row_input(page, label: str, css: str):
-    """The input `css` in the GUI row whose label reads exactly `label` (viser puts the label
-    in a <label> and the controls in the same flex row)."""
-    text = page.locator("label", has_text=re.compile(rf"^{re.escape(label)}$"))
-    row = text.locator("xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]")
-    return row.locator(css)
-
-
-def box_of(mask: np.ndarray, margin: int = 20) -> tuple[slice, slice]:
-    rows, cols = np.nonzero(mask)
-    height, width = mask.shape
-    return (
-        slice(max(0, rows.min() - margin), min(height, rows.max() + margin + 1)),
-        slice(max(0, cols.min() - margin), min(width, cols.max() + margin + 1)),
-    )
 
 
 def joint_to_move(studio: Studio) -> tuple[int, str, float]:

@@ -1,0 +1,142 @@
+"""Driving the studio's page in tests: waiting, screenshots of the 3D view and comparing them,
+finding viser's folders, buttons and number inputs by their labels."""
+
+from __future__ import annotations
+
+import io
+import math
+import re
+import time
+from collections.abc import Callable
+from typing import TypeVar
+
+import numpy as np
+import pytest
+from PIL import Image
+
+RENDER_TIMEOUT_S = 90.0
+UI_TIMEOUT_S = 30.0
+POLL_S = 0.25
+# A pixel "differs" when a channel moves by more than this (0-255): well above the noise of
+# antialiasing and of SwiftShader, well below a robot part against the grid.
+PIXEL_DELTA = 40
+# Stable: two successive shots differ on fewer pixels than this fraction.
+STABLE_FRACTION = 0.0005
+T = TypeVar("T")
+
+
+def wait_for(what: str, probe: Callable[[], T | None], timeout_s: float) -> T:
+    """Poll `probe` until it returns something other than None or False; fail naming `what`
+    after the timeout."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        result = probe()
+        if result is not None and result is not False:
+            return result
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out after {timeout_s:.0f} s waiting for {what}", pytrace=False)
+        time.sleep(POLL_S)
+
+
+def shot(page) -> np.ndarray:
+    """The 3D view as an RGB array; the control panel and notifications are painted black so
+    that only the scene can make two shots differ."""
+    png = page.screenshot(
+        mask=[page.locator("[data-dock-group]"), page.locator(".mantine-Notification-root")],
+        mask_color="#000000",
+        animations="disabled",
+    )
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
+
+
+def changed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Boolean mask of the pixels that differ between two shots."""
+    return np.abs(a - b).max(axis=2) > PIXEL_DELTA
+
+
+def not_blank(image: np.ndarray) -> bool:
+    """A drawn scene, not a cleared canvas: varied colours and contrast."""
+    colours = np.unique(image.reshape(-1, 3)[::7], axis=0)
+    return len(colours) > 50 and float(image.std()) > 10.0
+
+
+def wait_stable(
+    page, what: str, accept: Callable[[np.ndarray], bool], timeout_s: float = RENDER_TIMEOUT_S
+):
+    """The first shot that `accept`s and equals the shot taken just before it."""
+    previous: list[np.ndarray] = []
+
+    def probe() -> np.ndarray | None:
+        image = shot(page)
+        ok = accept(image)
+        stable = ok and bool(previous) and changed(image, previous[0]).mean() < STABLE_FRACTION
+        previous[:] = [image] if ok else []
+        return image if stable else None  # an array: wait_for tests it against None
+
+    return wait_for(what, probe, timeout_s)
+
+
+def dismiss_software_webgl_warning(page) -> None:
+    """viser warns about SwiftShader with a sticky notification; close it for a clean picture."""
+    close = page.locator("#webgl-software-rendering .mantine-Notification-closeButton")
+    if close.count():
+        close.first.click()
+        close.wait_for(state="detached")
+
+
+def gui_row_input(page, label: str, css: str):
+    """The input `css` in the GUI row whose label reads exactly `label` (viser puts the label
+    in a <label> and the controls in the same flex row)."""
+    text = page.locator("label", has_text=re.compile(rf"^{re.escape(label)}$"))
+    row = text.locator("xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]")
+    return row.locator(css)
+
+
+def box_of(mask: np.ndarray, margin: int = 20) -> tuple[slice, slice]:
+    rows, cols = np.nonzero(mask)
+    height, width = mask.shape
+    return (
+        slice(max(0, rows.min() - margin), min(height, rows.max() + margin + 1)),
+        slice(max(0, cols.min() - margin), min(width, cols.max() + margin + 1)),
+    )
+
+
+def folder_title(page, label: str):
+    """The clickable title bar of the GUI folder `label` (viser draws it as a Paper holding
+    only the label text and a chevron icon, inside the folder's own Paper)."""
+    return page.locator(".mantine-Paper-root", has_text=re.compile(rf"^{re.escape(label)}$"))
+
+
+def folder(page, label: str):
+    """The whole GUI folder `label`: the title bar's parent."""
+    return folder_title(page, label).locator("xpath=..")
+
+
+def expand_folder(page, label: str, inside: str) -> None:
+    """Click a collapsed folder's title, as a user would, until the button `inside` shows."""
+    button = page.get_by_role("button", name=inside, exact=True)
+    if not button.is_visible():
+        folder_title(page, label).click()
+    button.wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
+
+
+def click_button(page, name: str) -> None:
+    button = page.get_by_role("button", name=name, exact=True)
+    button.scroll_into_view_if_needed()
+    button.click()
+
+
+def type_number(page, label: str, value: float) -> None:
+    box = gui_row_input(page, label, "input.mantine-NumberInput-input")
+    box.scroll_into_view_if_needed()
+    box.fill(f"{value:g}")
+    box.press("Enter")
+
+
+def page_time_s(page) -> float:
+    """The value the page shows in the number box beside the "Time [s]" slider."""
+    text = gui_row_input(page, "Time [s]", "input.mantine-NumberInput-input").input_value()
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
