@@ -66,7 +66,9 @@ def run_bench(args: argparse.Namespace) -> int:
                 },
                 "playback": _bench_playback(studio, "servo_biped"),
                 "interpolate": _bench_interpolate(studio),
-                "feedforward": bench_feedforward(),
+                "feedforward": bench_feedforward(
+                    next((p for p in ROBAN_CANDIDATES if p.exists()), None)
+                ),
                 "compensation_slider": _bench_compensation_slider(studio),
             }
         finally:

@@ -335,16 +335,16 @@ class WholeBodyIK:
             self._com_target.configure("com target", "soft", 0.0)
         use_polygon = self.com_in_support if com_in_support is None else com_in_support
         polygon = self.support_polygon(start, targets.stance)
+
+        def steps() -> tuple[np.ndarray, int]:
+            chosen = polygon if use_polygon else None
+            return self._solve_steps(
+                start, chosen, stance_sides, warnings, max_iterations, step_tolerance
+            )
+
         try:
             try:
-                q, iterations = self._solve_steps(
-                    start,
-                    polygon if use_polygon else None,
-                    stance_sides,
-                    warnings,
-                    max_iterations,
-                    step_tolerance,
-                )
+                q, iterations = steps()
             except RuntimeError:
                 if not self._hard_stance:
                     raise
@@ -353,14 +353,7 @@ class WholeBodyIK:
                 self._hard_stance = False
                 for side in stance_sides:
                     self._feet[side].configure(side, "soft", STANCE_WEIGHT, STANCE_WEIGHT)
-                q, iterations = self._solve_steps(
-                    start,
-                    polygon if use_polygon else None,
-                    stance_sides,
-                    warnings,
-                    max_iterations,
-                    step_tolerance,
-                )
+                q, iterations = steps()
         except (RuntimeError, FloatingPointError) as error:
             warnings.append(f"IK step failed ({error}); the pose was kept")
             q, iterations = start, 0

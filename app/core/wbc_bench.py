@@ -18,14 +18,6 @@ from app.core.loading import load_robot
 from app.core.motions import run_motion
 from app.core.wbc import torque_feedforward
 
-ROBAN_URDF = (
-    Path(__file__).resolve().parents[3]
-    / "shared"
-    / "robots"
-    / "roban_s14"
-    / "urdf"
-    / "robanS14.urdf"
-)
 SAMPLE_TARGET_MS = 0.5
 TEN_SECONDS_TARGET_S = 0.5
 
@@ -50,7 +42,7 @@ def _run(robot_source: str | Path, motion: str) -> dict:
     }
 
 
-def bench_feedforward(roban_urdf: Path | None = ROBAN_URDF) -> dict:
+def bench_feedforward(roban_urdf: Path | None = None) -> dict:
     """{"servo_biped": row, "roban_s14": row or None, "ten_seconds_s": …, targets, ok flags}."""
     servo = _run("servo_biped", "one_leg_squats")
     roban = _run(roban_urdf, "com_shift") if roban_urdf and roban_urdf.exists() else None

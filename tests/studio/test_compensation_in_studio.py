@@ -4,24 +4,16 @@ from __future__ import annotations
 
 import csv
 import io
-import socket
 
 import numpy as np
 import pytest
 
-from app.config import StudioConfig
-from app.studio import Studio
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from tests.studio.conftest import start_studio
 
 
 @pytest.fixture(scope="module")
 def studio(tmp_path_factory):
-    studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path_factory.mktemp("data")))
+    studio = start_studio(tmp_path_factory.mktemp("data"))
     studio.motions_panel.motion.value = "one_leg_stand"
     studio.motions_panel.generate.value = True
     studio.compensation.compute_torques(wait=True)

@@ -4,26 +4,19 @@ from __future__ import annotations
 
 import csv
 import io
-import socket
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from app.config import StudioConfig
 from app.studio import Studio
 from tests.conftest import ROBAN_URDF, SHARED_ROBOTS
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from tests.studio.conftest import start_studio
 
 
 @pytest.fixture(scope="module")
 def studio(tmp_path_factory):
-    studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path_factory.mktemp("data")))
+    studio = start_studio(tmp_path_factory.mktemp("data"))
     yield studio
     studio.stop()
 

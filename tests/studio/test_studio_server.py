@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import socket
 import threading
 
 import numpy as np
@@ -10,20 +9,14 @@ import pinocchio as pin
 import pytest
 import viser
 
-from app.config import StudioConfig
 from app.studio import Studio
 from tests.conftest import SIGMABAN_URDF, tiny_biped_urdf
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from tests.studio.conftest import start_studio
 
 
 @pytest.fixture
 def studio(tmp_path):
-    studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path / "data"))
+    studio = start_studio(tmp_path / "data")
     yield studio
     studio.stop()
 
