@@ -25,6 +25,7 @@ from app.core.ready_pose import ready_pose
 from app.core.report import RobotReport, robot_report
 from app.core.trajectory import Trajectory
 from app.core.uploads import store_upload
+from app.gait_session import GaitSession
 from app.motion_session import MotionSession
 from app.player import Player
 from app.pose_session import PoseSession
@@ -71,6 +72,7 @@ class Studio:
         self.keyframes_panel = KeyframesPanel(self.server.gui, self)
         self.motions = MotionSession(self)
         self.compensation = CompensationSession(self)
+        self.gait = GaitSession(self)
         self.trajectory: Trajectory | None = None
         self.traces: TracesView | None = None
         self.player = Player(self)
@@ -158,6 +160,7 @@ class Studio:
                 f"**{robot.name}** — {robot.n_actuated} DOF, {robot.mass_kg:.2f} kg"
             )
             self._frame_camera(robot)
+        self.gait.show_robot()
 
     def _load_options(self) -> dict:
         return {"package_roots": self.config.package_roots, "feet": self.config.feet}
@@ -375,6 +378,7 @@ class Studio:
 
     def stop(self) -> None:
         self.player.pause()
+        self.gait.close()
         self.server.stop()
 
 

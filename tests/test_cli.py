@@ -298,3 +298,52 @@ def test_feedforward_on_a_motion_of_another_robot_is_one_line(tmp_path):
     assert result.returncode == 1 and "Traceback" not in result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "unknown column" in lines[0]
+
+
+def test_plan_writes_a_gait_csv_and_reports_json(tmp_path):
+    import numpy as np
+
+    from app.core.loading import load_robot
+    from app.core.motion_csv import read_trajectory_csv
+
+    config = tmp_path / "plan.toml"
+    config.write_text("knots = 12\nK0 = 6.5\n")
+    out = tmp_path / "gait.csv"
+    result = run("plan", "--config", str(config), "--out", str(out), "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    for key in (
+        "status",
+        "solve_s",
+        "iterations",
+        "max_abs_tau_Nm",
+        "step_lengths_m",
+        "slack0",
+        "sr",
+    ):
+        assert key in report
+    assert report["ok"] is True and report["status"] == "solved"
+    assert report["max_abs_tau_Nm"] <= 13.0 + 1e-6  # the paper's |τ| ≤ 13 N·m
+    assert sum(report["step_lengths_m"]) == pytest.approx(0.2)  # two steps advance 0.2 m
+    traj = read_trajectory_csv(out, load_robot("dircon_biped"))
+    assert traj.dt == pytest.approx(0.01) and traj.duration == pytest.approx(0.72)
+    assert traj.q[-1, 0] - traj.q[0, 0] == pytest.approx(0.2)
+    assert np.all(traj.contacts.sum(axis=1) == 1)  # single support, feet taking turns
+
+
+@pytest.mark.parametrize(
+    "config, reason",
+    [
+        ("knots = 12\nslack_a = 0.05\nslack_b = -0.05\n", "slack bounds crossed"),
+        ("knots = 12\ntau_max_Nm = 0.1\n", "admit no gait"),
+        ("K3 = 1.0\n", "unknown key"),
+    ],
+)
+def test_plan_refuses_bad_settings_with_one_line(tmp_path, config, reason):
+    path = tmp_path / "plan.toml"
+    path.write_text(config)
+    result = run("plan", "--config", str(path), "--out", str(tmp_path / "gait.csv"))
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and reason in lines[0]
+    assert not (tmp_path / "gait.csv").exists()

@@ -1,0 +1,329 @@
+"""GaitProblem: the paper's three-mode symmetric gait NLP (eq. 7), built once, solved many times.
+
+Decision variables: per node q, v, a (planar), u (joint torques), λ (stance force); per
+interval γ (velocity correction) and λ̄ (collocation force); per touch-down the impulse Λ; the
+foothold slack0 (symmetric) or the middle foothold x1 (baseline); the mode durations (baseline).
+
+Constraints (see transcription.py for the collocation and stance rows):
+- knots: M a + h = B u + J_sᵀ λ; φ = 0, J_s v = 0, J_s a + J̇_s v = 0; friction cone
+  |f_x| ≤ μ (f_z heel + f_z toe), f_z ≥ 0; swing foot sole points 0 ≤ z ≤ swing height, and
+  ≥ swing_clearance_m at mid-swing (our addition: without it the optimum shuffles); Table 1
+  joint ranges, |q̇| ≤ qd_max, |u| ≤ τ_max;
+- intervals: Hermite–Simpson collocation with γ and λ̄ (λ̄ in the friction cone too);
+- touch-downs (virtual knots, eq. 4 with K_O = I): q_post = q_pre,
+  M(q_pre)(v_post − v_pre) = J_land(q_pre)ᵀ Λ, Λ in the friction cone, and the lifting foot
+  leaves the ground (its sole points' vertical speed ≥ 0);
+- footholds: left sole centre at x0 = 0 in mode0, x2 = advance d in mode2, right at x1 in mode1;
+  symmetric: x1 = (0.5 + slack0)(x0 + x2), a ≤ slack0 ≤ b (eq. 5);
+- symmetric (eq. 6): LSP and RSP last H/2 each; joint states exchanged between the legs at the
+  two touch-downs; final state = initial state with x advanced by d. With identical legs and
+  both soles flat at a touch-down, the exact exchange makes the two steps mirror images, so
+  slack0 = 0 at every solution: eq. 5 then only matters through a ≤ 0 ≤ b;
+- baseline ("original DIRCON", section 5.3): no slack, no exchange, free mode durations summing
+  to H (mode0, mode2 in [0.05, 0.5]·H, RSP in [0.25, 0.75]·H); periodicity is kept so that the
+  gait repeats and its SR is comparable.
+
+Cost: w·(‖(pitch, joints) at start‖² + ‖… at end‖²) (light posture terms toward the upright
+standing pose) + K0 Σ_modes h Σ_k ‖u_k‖² + K1 slack0² + K2 Σ_k (‖q_k − q_k−1‖² + ‖v_k − v_k−1‖²
++ ‖u_k − u_k−1‖²) within each mode; the baseline drops the K1 and K2 terms.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from app.core.collocation.guess import initial_guess
+from app.core.collocation.nlp import CompiledNlp, IterationCallback, SxNlp
+from app.core.collocation.planar_model import BASE_DOF, PlanarModel
+from app.core.collocation.readout import read_result
+from app.core.collocation.result import GaitResult
+from app.core.collocation.settings import GaitSettings, GaitSettingsError
+from app.core.collocation.transcription import (
+    STANCE,
+    GaitLayout,
+    hermite_simpson,
+    other,
+    stance_rows,
+    swing_z_rows,
+)
+from app.core.model import RobotModel
+
+POSTURE_WEIGHT = 0.05
+"""Weight of the light initial/final posture terms (eq. 7's l_0, l_f)."""
+IPOPT_OPTIONS: dict[str, Any] = {
+    "ipopt.print_level": 0,
+    "print_time": False,
+    "ipopt.sb": "yes",
+    "ipopt.linear_solver": "mumps",
+    "ipopt.tol": 1e-6,
+    "ipopt.constr_viol_tol": 1e-6,
+    "ipopt.acceptable_tol": 1e-4,
+    "ipopt.acceptable_iter": 10,
+    "ipopt.max_iter": 100000,  # the per-solve limit is GaitSettings.max_iter, via the callback
+    "ipopt.mu_strategy": "monotone",
+}
+BASE_Z_BOUNDS_M = (0.3, 1.6)
+BASE_PITCH_BOUNDS_RAD = (-0.8, 0.8)
+BASE_SPEED_MAX = 10.0
+"""Bound on the base's x and z speeds [m/s] (loose: keeps IPOPT's iterates sane)."""
+BASE_PITCH_RATE_MAX = 20.0
+"""[rad/s]"""
+
+
+def _dm(matrix: np.ndarray) -> ca.DM:
+    return ca.DM(matrix)
+
+
+class GaitProblem:
+    """The NLP for one structure (knots, baseline); `solve` re-solves it for any slider values."""
+
+    def __init__(
+        self,
+        robot: RobotModel | PlanarModel | None = None,
+        knots: int = 38,
+        baseline: bool = False,
+        *,
+        hessian: str = "exact",
+    ) -> None:
+        """Build the NLP for dircon_biped (or `robot`): `hessian` is "exact" (default, about 20
+        iterations) or "limited-memory" (L-BFGS: thousands of iterations here, kept for
+        comparison)."""
+        if not isinstance(robot, RobotModel | PlanarModel | None):
+            raise TypeError(f"GaitProblem's first argument is the robot, not {robot!r}")
+        GaitSettings(knots=knots, baseline=baseline).validate()
+        start = time.perf_counter()
+        if robot is None:
+            from app.core.loading import load_robot
+
+            robot = load_robot("dircon_biped")
+        self.model = robot if isinstance(robot, PlanarModel) else PlanarModel(robot)
+        self.layout = GaitLayout.from_knots(knots)
+        self.structure = (knots, baseline)
+        self.baseline = baseline
+        self.nlp = SxNlp()
+        self._build()
+        options = dict(IPOPT_OPTIONS)
+        if hessian != "exact":
+            options["ipopt.hessian_approximation"] = "limited-memory"
+        self.compiled: CompiledNlp = self.nlp.compile(options)
+        self.build_s = time.perf_counter() - start
+        """Time to build the NLP and IPOPT's derivative functions [s]."""
+        self.last_good: GaitResult | None = None
+        """The last converged result: the default warm start, kept through failed solves."""
+
+    # -- building ------------------------------------------------------------------------------
+
+    def _build(self) -> None:
+        nlp, m, L = self.nlp, self.model, self.layout
+        N = L.n_nodes
+        H, d, mu = nlp.parameter("H"), nlp.parameter("d"), nlp.parameter("mu")
+        K0, K1, K2 = nlp.parameter("K0"), nlp.parameter("K1"), nlp.parameter("K2")
+        B = np.zeros((m.nv, m.nu))
+        B[BASE_DOF:] = np.eye(m.nu)
+        Bd = _dm(B)
+
+        q = [nlp.variable("q", m.nq) for _ in range(N)]
+        v = [nlp.variable("v", m.nv) for _ in range(N)]
+        a = [nlp.variable("a", m.nv) for _ in range(N)]
+        u = [nlp.variable("u", m.nu) for _ in range(N)]
+        lam = [nlp.variable("lam", 3) for _ in range(N)]
+        if self.baseline:
+            T = nlp.variable("T", 3)
+            durations = (T[0], T[1], T[2])
+            nlp.constrain(T[0] + T[1] + T[2] - H)
+            x1 = nlp.variable("x1", 1)
+            slack = None
+        else:
+            durations = L.symmetric_durations(H)
+            slack = nlp.variable("slack", 1)
+            x1 = (0.5 + slack) * (0.0 + d)
+        footholds = (0.0, x1, d)
+        steps = [durations[j] / (L.sizes[j] - 1) for j in range(3)]
+
+        def friction(force: Any) -> None:
+            total = force[1] + force[2]
+            nlp.constrain(ca.vertcat(mu * total - force[0], mu * total + force[0]), 0.0, ca.inf)
+
+        energy: Any = 0
+        smooth: Any = 0
+        for k in range(N):
+            j = L.mode_of(k)
+            S = _dm(stance_rows(STANCE[j]))
+            p = m.contact_positions(q[k])
+            Js = S @ m.contact_jacobian(q[k])
+            nlp.constrain(m.rnea(q[k], v[k], a[k]) - Bd @ u[k] - Js.T @ lam[k])
+            nlp.constrain(S @ p - ca.vertcat(footholds[j], 0.0, 0.0))
+            nlp.constrain(Js @ v[k])
+            nlp.constrain(Js @ a[k] + S @ m.contact_jdot_v(q[k], v[k]))
+            friction(lam[k])
+            swing = _dm(swing_z_rows(other(STANCE[j]))) @ p
+            nlp.constrain(swing, 0.0, 0.0, tag="swing")  # bounds set per solve
+            if k in (0, N - 1):  # the right foot's mid-swing
+                nlp.constrain(swing, 0.0, 0.0, tag="clearance")
+            energy += steps[j] * ca.sumsqr(u[k])
+
+        for j in range(3):
+            S = _dm(stance_rows(STANCE[j]))
+            nodes = list(L.nodes(j))
+            if j == 1 and len(nodes) % 2 == 1:  # the left foot's mid-swing is a node
+                mid_node = nodes[len(nodes) // 2]
+                swing_mid = _dm(swing_z_rows("left")) @ m.contact_positions(q[mid_node])
+                nlp.constrain(swing_mid, 0.0, 0.0, tag="clearance")
+            for k in nodes[:-1]:
+                gamma = nlp.variable("gamma", 3)
+                lam_mid = nlp.variable("lam_mid", 3)
+                q_c, v_c, qd_c, vd_c = hermite_simpson(
+                    q[k], v[k], a[k], q[k + 1], v[k + 1], a[k + 1], steps[j]
+                )
+                Jc = S @ m.contact_jacobian(q_c)
+                nlp.constrain(qd_c - v_c - Jc.T @ gamma)
+                nlp.constrain(
+                    m.rnea(q_c, v_c, vd_c) - Bd @ (0.5 * (u[k] + u[k + 1])) - Jc.T @ lam_mid
+                )
+                friction(lam_mid)
+                if j == 1 and 2 * (k - nodes[0]) == len(nodes) - 2:  # the left foot's mid-swing
+                    swing_c = _dm(swing_z_rows("left")) @ m.contact_positions(q_c)
+                    nlp.constrain(swing_c, 0.0, 0.0, tag="clearance")
+                smooth += (
+                    ca.sumsqr(q[k + 1] - q[k])
+                    + ca.sumsqr(v[k + 1] - v[k])
+                    + ca.sumsqr(u[k + 1] - u[k])
+                )
+
+        for j in (0, 1):
+            pre, post = L.last(j), L.first(j + 1)
+            impulse = nlp.variable("impulse", 3)
+            S_land = _dm(stance_rows(STANCE[j + 1]))
+            nlp.constrain(q[post] - q[pre])
+            nlp.constrain(
+                m.mass_matrix(q[pre]) @ (v[post] - v[pre])
+                - (S_land @ m.contact_jacobian(q[pre])).T @ impulse
+            )
+            friction(impulse)
+            lifting = _dm(swing_z_rows(STANCE[j])) @ m.contact_jacobian(q[post]) @ v[post]
+            nlp.constrain(lifting, 0.0, ca.inf)
+
+        advance = ca.vertcat(d, ca.DM.zeros(m.nq - 1))
+        nlp.constrain(q[N - 1] - q[0] - advance)
+        nlp.constrain(v[N - 1] - v[0])
+
+        cost = POSTURE_WEIGHT * (ca.sumsqr(q[0][2:]) + ca.sumsqr(q[N - 1][2:])) + K0 * energy
+        if not self.baseline:
+            left, right = (list(m.leg_joints[s]) for s in ("left", "right"))
+            e0, e1 = L.last(0), L.last(1)
+            for x in (q, v):
+                nlp.constrain(x[e0][left] - x[e1][right])
+                nlp.constrain(x[e0][right] - x[e1][left])
+            assert slack is not None
+            cost += K1 * slack**2 + K2 * smooth
+        nlp.cost = cost
+
+    # -- solving -------------------------------------------------------------------------------
+
+    def _parameters(self, s: GaitSettings) -> np.ndarray:
+        values = {"H": s.H_s, "d": s.step_length_m, "mu": s.mu, "K0": s.K0, "K1": s.K1, "K2": s.K2}
+        p = np.zeros(len(self.nlp.p_index))
+        for name, i in self.nlp.p_index.items():
+            p[i] = values[name]
+        return p
+
+    def _bounds(self, s: GaitSettings) -> tuple[np.ndarray, ...]:
+        m, nlp = self.model, self.nlp
+        lbx, ubx = np.full(nlp.nx, -np.inf), np.full(nlp.nx, np.inf)
+        blocks = nlp.x_blocks
+        lo_q = np.concatenate([[-np.inf, BASE_Z_BOUNDS_M[0], BASE_PITCH_BOUNDS_RAD[0]], m.lower])
+        hi_q = np.concatenate([[np.inf, BASE_Z_BOUNDS_M[1], BASE_PITCH_BOUNDS_RAD[1]], m.upper])
+        speed = [BASE_SPEED_MAX] * 2 + [BASE_PITCH_RATE_MAX] + [s.qd_max] * m.nu
+        for sl in blocks["q"]:
+            lbx[sl], ubx[sl] = lo_q, hi_q
+        for sl in blocks["v"]:
+            lbx[sl], ubx[sl] = -np.array(speed), np.array(speed)
+        for sl in blocks["u"]:
+            lbx[sl], ubx[sl] = -s.tau_max_Nm, s.tau_max_Nm
+        for name in ("lam", "lam_mid", "impulse"):
+            for sl in blocks[name]:
+                lbx[sl.start + 1 : sl.stop] = 0.0  # vertical forces push
+        if self.baseline:
+            (sl,) = blocks["T"]
+            lbx[sl] = np.array([0.05, 0.25, 0.05]) * s.H_s
+            ubx[sl] = np.array([0.5, 0.75, 0.5]) * s.H_s
+            (sl,) = blocks["x1"]
+            lbx[sl], ubx[sl] = -0.5, s.step_length_m + 0.5
+        else:
+            (sl,) = blocks["slack"]
+            lbx[sl], ubx[sl] = s.slack_a, s.slack_b
+        lbg, ubg = self.compiled.lbg.copy(), self.compiled.ubg.copy()
+        for sl in nlp.g_blocks["swing"]:
+            lbg[sl], ubg[sl] = 0.0, s.swing_height_m
+        for sl in nlp.g_blocks["clearance"]:
+            lbg[sl] = min(s.swing_clearance_m, s.swing_height_m)
+            ubg[sl] = s.swing_height_m
+        return lbx, ubx, lbg, ubg
+
+    def _guess(self, s: GaitSettings) -> np.ndarray:
+        L, blocks = self.layout, self.nlp.x_blocks
+        durations = np.array(L.symmetric_durations(s.H_s), dtype=float)
+        times = L.node_times(durations)
+        g = initial_guess(self.model, L, times, s.H_s, s.step_length_m, s.swing_height_m)
+        x = np.zeros(self.nlp.nx)
+        for name in ("q", "v", "a", "u", "lam"):
+            for k, sl in enumerate(blocks[name]):
+                x[sl] = g[name][k]
+        pairs = [(k, k + 1) for j in range(3) for k in list(L.nodes(j))[:-1]]
+        for (k0, k1), sl in zip(pairs, blocks["lam_mid"], strict=True):
+            x[sl] = 0.5 * (g["lam"][k0] + g["lam"][k1])
+        if self.baseline:
+            x[blocks["T"][0]] = durations
+            x[blocks["x1"][0]] = 0.5 * s.step_length_m
+        return x
+
+    def solve(
+        self,
+        settings: GaitSettings,
+        warm_start: GaitResult | None = None,
+        iteration_callback: IterationCallback | None = None,
+        *,
+        cold: bool = False,
+    ) -> GaitResult:
+        """Solve for `settings`. Starts from `warm_start` if it is a converged result of this
+        structure, else from the last converged solution of this problem, else (or with
+        cold=True) from the built-in guess. Never raises for bad settings or a failed solve:
+        the result says what happened, and `last_good` keeps the last converged gait.
+        `iteration_callback(iteration, objective, violation)` runs at every IPOPT iteration and
+        may return True to stop the solve."""
+        try:
+            settings.validate()
+        except GaitSettingsError as error:
+            return GaitResult.refused(settings, f"invalid settings: {error}")
+        if settings.structure != self.structure:
+            return GaitResult.refused(
+                settings,
+                f"invalid settings: this problem is built for knots = {self.structure[0]}, "
+                f"baseline = {self.structure[1]}; build another GaitProblem (or use GaitPlanner)",
+            )
+        start = self.last_good
+        if (
+            isinstance(warm_start, GaitResult)
+            and warm_start.converged
+            and warm_start.structure == self.structure
+        ):
+            start = warm_start
+        x0 = self._guess(settings) if cold or start is None else start.z
+        # Primal warm start only: IPOPT's warm_start_init_point with the old multipliers was
+        # measured faster for some slider changes and 4x slower for others.
+        lbx, ubx, lbg, ubg = self._bounds(settings)
+        try:
+            outcome = self.compiled.run(
+                np.clip(x0, lbx, ubx), self._parameters(settings), lbx, ubx, lbg, ubg,
+                max_iter=settings.max_iter, callback=iteration_callback,
+            )  # fmt: skip
+        except RuntimeError as error:
+            return GaitResult.refused(settings, f"the solver failed: {error}")
+        result = read_result(outcome, settings, self.model, self.layout, self.nlp.x_blocks)
+        if result.converged:
+            self.last_good = result
+        return result

@@ -1,0 +1,239 @@
+"""A small SX nonlinear program: named variable and constraint blocks, solved by IPOPT.
+
+Why not casadi's Opti: Opti builds MX graphs (slower derivatives unless expanded) and fixes
+variable bounds into the problem. Here every expression is SX, the NLP is built once, and every
+bound (joint ranges, |τ| ≤ τ_max, slack ∈ [a, b], swing height …) is given at solve time as
+lbx/ubx/lbg/ubg, so a slider change re-solves the same compiled problem. Values that enter
+expressions (H, step length, μ, weights) are NLP parameters p.
+
+The iteration callback sees (iteration, objective, constraint violation) from IPOPT's
+`iteration_callback` and may return True to stop; the iteration limit uses it too, so it can
+change per solve without rebuilding the solver.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+IterationCallback = Callable[[int, float, float], "bool | None"]
+"""(iteration, objective, max constraint violation) -> True to stop the solve."""
+
+IPOPT_WORDS = {
+    "Solve_Succeeded": "solved",
+    "Solved_To_Acceptable_Level": "solved (to IPOPT's acceptable tolerance)",
+    "Infeasible_Problem_Detected": (
+        "the settings admit no gait: IPOPT found the constraints locally infeasible "
+        "(torque or speed bounds too tight, step too long for the time, slack bounds too narrow…)"
+    ),
+    "Restoration_Failed": (
+        "the solver could not get back to feasible points (restoration failed); the settings "
+        "probably admit no gait near the starting guess"
+    ),
+    "Maximum_Iterations_Exceeded": "not converged: the iteration limit was hit",
+    "Maximum_CpuTime_Exceeded": "not converged: the time limit was hit",
+    "Maximum_WallTime_Exceeded": "not converged: the time limit was hit",
+    "Search_Direction_Becomes_Too_Small": "not converged: the search direction became too small",
+    "Diverging_Iterates": "not converged: the iterates diverged (unbounded problem?)",
+    "Invalid_Number_Detected": "not converged: the model produced NaN or infinite values",
+    "Error_In_Step_Computation": "not converged: IPOPT could not compute a step",
+    "Not_Enough_Degrees_Of_Freedom": "the settings over-constrain the gait (too few freedoms)",
+    "User_Requested_Stop": "stopped on request",
+}
+CONVERGED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+class SxNlp:
+    """Collects SX variables, constraints and a cost; `compile` makes the IPOPT solver."""
+
+    def __init__(self) -> None:
+        self._x: list[ca.SX] = []
+        self._p: list[ca.SX] = []
+        self._g: list[ca.SX] = []
+        self.x_blocks: dict[str, list[slice]] = {}
+        self.g_blocks: dict[str, list[slice]] = {}
+        self.p_index: dict[str, int] = {}
+        self.nx = self.ng = 0
+        self.cost: Any = 0
+        self._lbg: list[np.ndarray] = []
+        self._ubg: list[np.ndarray] = []
+
+    def variable(self, block: str, n: int) -> ca.SX:
+        """n new variables, recorded (in order) under `block` for reading the solution back."""
+        slices = self.x_blocks.setdefault(block, [])
+        sym = ca.SX.sym(f"{block}{len(slices)}", n)
+        self._x.append(sym)
+        slices.append(slice(self.nx, self.nx + n))
+        self.nx += n
+        return sym
+
+    def parameter(self, name: str) -> ca.SX:
+        sym = ca.SX.sym(name)
+        self.p_index[name] = len(self._p)
+        self._p.append(sym)
+        return sym
+
+    def constrain(self, expr: Any, lower: float = 0.0, upper: float = 0.0, tag: str = "") -> None:
+        """lower ≤ expr ≤ upper; `tag` lets solve-time bounds replace lower/upper."""
+        expr = ca.vec(ca.SX(expr))
+        n = expr.shape[0]
+        self._g.append(expr)
+        self._lbg.append(np.full(n, lower, dtype=float))
+        self._ubg.append(np.full(n, upper, dtype=float))
+        if tag:
+            self.g_blocks.setdefault(tag, []).append(slice(self.ng, self.ng + n))
+        self.ng += n
+
+    def compile(self, options: dict[str, Any]) -> CompiledNlp:
+        x, p, g = ca.vertcat(*self._x), ca.vertcat(*self._p), ca.vertcat(*self._g)
+        callback = _Callback(x.shape[0], g.shape[0])
+        solver = ca.nlpsol(
+            "gait", "ipopt", {"x": x, "p": p, "f": self.cost, "g": g},
+            {**options, "iteration_callback": callback},
+        )  # fmt: skip
+        return CompiledNlp(
+            solver=solver,
+            callback=callback,
+            lbg=np.concatenate(self._lbg),
+            ubg=np.concatenate(self._ubg),
+        )
+
+
+class _Callback(ca.Callback):
+    """IPOPT's per-iteration hook: counts, reports and may stop the solve."""
+
+    def __init__(self, nx: int, ng: int) -> None:
+        ca.Callback.__init__(self)
+        self.nx, self.ng = nx, ng
+        self.user: IterationCallback | None = None
+        self.max_iter = 10**9
+        self.iteration = 0
+        self.hit_limit = False
+        self.error = ""
+        """What the user's callback raised, if it did (the solve then stops)."""
+        self.lbg = self.ubg = np.zeros(ng)
+        self.construct("gait_iterations", {})
+
+    def get_n_in(self) -> int:
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_name_in(self, i: int) -> str:
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i: int) -> str:
+        return "ret"
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        name = ca.nlpsol_out(i)
+        if name == "f":
+            return ca.Sparsity.scalar()
+        if name in ("x", "lam_x"):
+            return ca.Sparsity.dense(self.nx)
+        if name in ("g", "lam_g"):
+            return ca.Sparsity.dense(self.ng)
+        return ca.Sparsity(0, 0)
+
+    def reset(
+        self, user: IterationCallback | None, max_iter: int, lbg: np.ndarray, ubg: np.ndarray
+    ) -> None:
+        self.user, self.max_iter, self.iteration, self.hit_limit = user, max_iter, 0, False
+        self.lbg, self.ubg = lbg, ubg
+        self.error = ""
+
+    def eval(self, arg: Sequence[ca.DM]) -> list[Any]:
+        iteration = self.iteration
+        self.iteration += 1
+        stop = False
+        if self.user is not None:
+            g = np.asarray(arg[ca.nlpsol_out().index("g")]).ravel()
+            violation = float(
+                max(np.max(self.lbg - g, initial=0.0), np.max(g - self.ubg, initial=0.0))
+            )
+            objective = float(arg[ca.nlpsol_out().index("f")])
+            # The caller's code (a GUI, a pipe to another process) must not crash IPOPT: what
+            # it raises stops the solve and is reported in the result's status.
+            try:
+                stop = bool(self.user(iteration, objective, violation))
+            except Exception as error:
+                self.error = f"{type(error).__name__}: {error}"
+                stop = True
+        if iteration >= self.max_iter:
+            self.hit_limit = True
+            stop = True
+        return [1 if stop else 0]
+
+
+@dataclasses.dataclass
+class CompiledNlp:
+    solver: ca.Function
+    callback: _Callback
+    lbg: np.ndarray
+    ubg: np.ndarray
+
+    def run(
+        self,
+        x0: np.ndarray,
+        p: np.ndarray,
+        lbx: np.ndarray,
+        ubx: np.ndarray,
+        lbg: np.ndarray,
+        ubg: np.ndarray,
+        *,
+        max_iter: int,
+        callback: IterationCallback | None,
+    ) -> SolveOutcome:
+        self.callback.reset(callback, max_iter, lbg, ubg)
+        args: dict[str, Any] = {"x0": x0, "p": p, "lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
+        start = time.perf_counter()
+        out = self.solver(**args)
+        seconds = time.perf_counter() - start
+        stats = self.solver.stats()
+        raw = str(stats.get("return_status", "unknown"))
+        words = IPOPT_WORDS.get(raw, f"not converged: IPOPT returned {raw}")
+        if raw == "User_Requested_Stop" and self.callback.error:
+            words = f"stopped: the iteration callback raised {self.callback.error}"
+        elif raw == "User_Requested_Stop" and self.callback.hit_limit:
+            raw = "Maximum_Iterations_Exceeded"
+            words = IPOPT_WORDS[raw]
+        x = np.array(out["x"].full()).ravel()
+        g = np.array(out["g"].full()).ravel()
+        violation = max(
+            np.max(lbg - g, initial=0.0),
+            np.max(g - ubg, initial=0.0),
+            np.max(lbx - x, initial=0.0),
+            np.max(x - ubx, initial=0.0),
+        )
+        return SolveOutcome(
+            raw_status=raw,
+            converged=raw in CONVERGED,
+            words=words,
+            iterations=int(stats.get("iter_count", self.callback.iteration)),
+            seconds=seconds,
+            x=x,
+            lam_g=np.array(out["lam_g"].full()).ravel(),
+            lam_x=np.array(out["lam_x"].full()).ravel(),
+            objective=float(out["f"]),
+            violation=float(violation),
+        )
+
+
+@dataclasses.dataclass(frozen=True)
+class SolveOutcome:
+    raw_status: str
+    converged: bool
+    words: str
+    iterations: int
+    seconds: float
+    x: np.ndarray
+    lam_g: np.ndarray
+    lam_x: np.ndarray
+    objective: float
+    violation: float

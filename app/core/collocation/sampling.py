@@ -1,0 +1,173 @@
+"""Gait plans between the knots: spline evaluation, positive work, and the Trajectory.
+
+As in the paper (section 3.2) and DIRCON, within each interval of a mode
+- q(t) is the cubic Hermite spline through (q_k, v_k) and (q_k+1, v_k+1),
+- v(t) is the cubic Hermite spline through (v_k, a_k) and (v_k+1, a_k+1), a(t) its derivative,
+- u(t) is linear between u_k and u_k+1,
+- the stance force is linear from λ_k to the collocation force λ̄ at mid-interval and on to
+  λ_k+1, so the equations of motion hold exactly at knots and collocation points and every
+  sample is a convex combination of forces inside the friction cone.
+dq/dt and v(t) agree at both knots and at the collocation point (that is the collocation
+constraint, up to the velocity correction γ); elsewhere they differ by O(h³).
+
+At a touch-down time the sample belongs to the new mode (post-impact velocity, new stance foot).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from app.core.collocation.planar_model import PlanarModel
+from app.core.collocation.result import GaitResult
+from app.core.collocation.transcription import STANCE, GaitLayout, point_forces
+from app.core.errors import StudioError
+from app.core.model import RobotModel
+from app.core.trajectory import Trajectory
+
+TIME_TOLERANCE_S = 1e-9
+
+
+@dataclasses.dataclass(frozen=True)
+class GaitSamples:
+    """The planned gait at arbitrary times (planar layout)."""
+
+    t: np.ndarray
+    """Times [s], shape (T,)."""
+    mode: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    u: np.ndarray
+    """Joint torques [N·m], (T, nu)."""
+    stance_force: np.ndarray
+    """(f_x, f_z heel, f_z toe) of the stance foot [N], (T, 3)."""
+    contact_forces_N: np.ndarray
+    """(f_x, f_z) at left heel, left toe, right heel, right toe [N], (T, 4, 2)."""
+    contacts: np.ndarray
+    """(left, right) in contact, (T, 2) bool."""
+
+
+def _hermite(
+    p0: np.ndarray, m0: np.ndarray, p1: np.ndarray, m1: np.ndarray, h: float, s: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Value and time derivative of the cubic Hermite spline at s ∈ [0, 1] of a step h."""
+    s2, s3 = s * s, s * s * s
+    value = (
+        (2 * s3 - 3 * s2 + 1) * p0
+        + (s3 - 2 * s2 + s) * h * m0
+        + (3 * s2 - 2 * s3) * p1
+        + (s3 - s2) * h * m1
+    )
+    slope = (
+        (6 * s2 - 6 * s) * p0
+        + (3 * s2 - 4 * s + 1) * h * m0
+        + (6 * s - 6 * s2) * p1
+        + (3 * s2 - 2 * s) * h * m1
+    ) / h
+    return value, slope
+
+
+def sample_gait(
+    result: GaitResult, times: np.ndarray, modes: np.ndarray | None = None
+) -> GaitSamples:
+    """The gait at `times` [s] within [0, duration]; `modes` picks the mode of each time
+    (default: from the time, the new mode at a touch-down)."""
+    if not result.has_gait:
+        raise StudioError(f"no gait to sample: {result.status}")
+    layout = GaitLayout.from_knots(result.structure[0])
+    times = np.asarray(times, dtype=float)
+    bounds = np.cumsum(result.durations_s)
+    n = len(times)
+    out = {
+        "q": np.empty((n, result.q.shape[1])),
+        "v": np.empty((n, result.v.shape[1])),
+        "a": np.empty((n, result.a.shape[1])),
+        "u": np.empty((n, result.u.shape[1])),
+        "lam": np.empty((n, 3)),
+    }
+    chosen = np.empty(n, dtype=int)
+    for i, t in enumerate(times):
+        mode = (
+            int(np.searchsorted(bounds[:2] - TIME_TOLERANCE_S, t, side="right"))
+            if modes is None
+            else int(modes[i])
+        )
+        nodes = np.array(layout.nodes(mode))
+        k = nodes[0] + int(
+            np.clip(np.searchsorted(result.t[nodes], t, side="right") - 1, 0, len(nodes) - 2)
+        )
+        h = result.t[k + 1] - result.t[k]
+        s = float(np.clip((t - result.t[k]) / h, 0.0, 1.0))
+        out["q"][i] = _hermite(result.q[k], result.v[k], result.q[k + 1], result.v[k + 1], h, s)[0]
+        out["v"][i], out["a"][i] = _hermite(
+            result.v[k], result.a[k], result.v[k + 1], result.a[k + 1], h, s
+        )
+        out["u"][i] = (1 - s) * result.u[k] + s * result.u[k + 1]
+        mid = result.mid_force[k]
+        out["lam"][i] = (
+            (1 - 2 * s) * result.stance_force[k] + 2 * s * mid
+            if s <= 0.5
+            else (2 - 2 * s) * mid + (2 * s - 1) * result.stance_force[k + 1]
+        )
+        chosen[i] = mode
+    forces = np.zeros((n, 4, 2))
+    contacts = np.zeros((n, 2), dtype=bool)
+    for mode, side in enumerate(STANCE):
+        rows = chosen == mode
+        forces[rows] = point_forces(out["lam"][rows], side)
+        contacts[rows, 0 if side == "left" else 1] = True
+    return GaitSamples(
+        t=times, mode=chosen, q=out["q"], v=out["v"], a=out["a"], u=out["u"],
+        stance_force=out["lam"], contact_forces_N=forces, contacts=contacts,
+    )  # fmt: skip
+
+
+def positive_work(result: GaitResult, per_interval: int = 24) -> float:
+    """E = ∫ Σ_joints max(τ·q̇, 0) dt [J], by the trapezoid rule on each mode's splines."""
+    layout = GaitLayout.from_knots(result.structure[0])
+    total = 0.0
+    for mode in range(3):
+        nodes = list(layout.nodes(mode))
+        t = np.concatenate(
+            [np.linspace(result.t[k], result.t[k + 1], per_interval + 1)[:-1] for k in nodes[:-1]]
+            + [result.t[nodes[-1] : nodes[-1] + 1]]
+        )
+        if len(t) < 2:
+            continue
+        samples = sample_gait(result, t, np.full(len(t), mode))
+        power = np.maximum(samples.u * samples.v[:, 3:], 0.0).sum(axis=1)
+        total += float(np.sum(0.5 * (power[1:] + power[:-1]) * np.diff(t)))
+    return total
+
+
+def to_trajectory(robot: RobotModel, result: GaitResult, dt: float = 0.01) -> Trajectory:
+    """The gait sampled every dt [s] (the paper's 100 Hz) on the full robot: roll/yaw joints and
+    the base's y, roll and yaw at zero. q is the Hermite spline of the planar q; v and a are the
+    Hermite spline of v and its derivative (not finite differences), mapped to pinocchio's
+    base-frame twist; contacts follow the modes (left, right, left)."""
+    if not result.has_gait:
+        raise StudioError(f"no gait to sample: {result.status}")
+    if not dt > 0.0:
+        raise StudioError(f"dt must be > 0, got {dt}")
+    planar = PlanarModel(robot)
+    if planar.joint_names != result.joint_names:
+        raise StudioError(
+            f"the gait was planned for joints {', '.join(result.joint_names)}; "
+            f"{robot.name} has planar joints {', '.join(planar.joint_names)}"
+        )
+    times = np.arange(int(np.floor(result.duration_s / dt + 1e-9)) + 1) * dt
+    samples = sample_gait(result, times)
+    q = planar.to_full_q(samples.q)
+    v = np.array([planar.to_full_v(qk, vk) for qk, vk in zip(samples.q, samples.v, strict=True)])
+    a = np.array(
+        [
+            planar.to_full_a(qk, vk, ak)
+            for qk, vk, ak in zip(samples.q, samples.v, samples.a, strict=True)
+        ]
+    )
+    name = "baseline DIRCON gait" if result.settings.baseline else "symmetric gait"
+    return Trajectory(
+        name=name, joint_names=robot.joint_names, t=times, q=q, v=v, a=a, contacts=samples.contacts
+    )
