@@ -1,0 +1,216 @@
+"""End to end in a real headless Chromium: solve a gait from the "Gait (DIRCON)" folder, watch
+its progress and results in the page, play it on dircon_biped, then start a larger solve and
+cancel it.
+
+Everything is done by clicking and typing in the page; the server's state is read to check what
+the page sent and what the solver returned. A solve of the default gait (38 knots) takes a few
+seconds, so its "Solving…" status may be on screen for less than a poll of Playwright: a
+MutationObserver installed in the page records when each status text first appears (on the
+page's clock), which also gives the cancel latency as the page sees it (click → "Cancelled").
+
+The page is loaded once for the module (software WebGL is slow) and each test continues from
+the previous one: run them together, in file order.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from app.gait_session import PLANNER_ROBOT
+from app.studio import Studio
+from tests.browser.page_helpers import (
+    RENDER_TIMEOUT_S,
+    UI_TIMEOUT_S,
+    changed,
+    click_button,
+    dismiss_software_webgl_warning,
+    expand_folder,
+    folder,
+    folder_title,
+    not_blank,
+    type_number,
+    wait_for,
+    wait_stable,
+)
+
+GAIT = "Gait (DIRCON)"
+SOLVE_TIMEOUT_S = 180.0
+"""A first solve: spawn the worker, build the 38-knot NLP, run IPOPT (a few seconds here)."""
+CANCEL_TIMEOUT_S = 5.0
+"""How soon after the click the page must say "Cancelled" (SIGTERM, SIGKILL after 0.5 s)."""
+GAIT_DURATION_S = 0.72
+"""The paper's two steps (the panel's default H)."""
+BIG_KNOTS = 80
+"""A new NLP structure: the worker must build it before solving, so the solve is slow."""
+# Fraction of the view that must change when dircon_biped replaces servo_biped (another robot
+# and a reframed camera): 20x the noise allowed between two "stable" shots.
+MIN_ROBOT_CHANGE_FRACTION = 0.01
+MARKERS = ("Solving", "Solved in", "Cancelled")
+
+# Records, on the page's clock (performance.now(), ms), when each marker text appears in the
+# page (absent -> present) and when the Cancel button is clicked.
+RECORDER_JS = """
+(markers) => {
+  const rec = { events: [], cancelClicks: [] };
+  window.__gaitRecorder = rec;
+  const present = {};
+  const check = () => {
+    const text = document.body.textContent || "";
+    for (const marker of markers) {
+      const now = text.includes(marker);
+      if (now && !present[marker]) rec.events.push({ marker, t: performance.now() });
+      present[marker] = now;
+    }
+  };
+  check();
+  new MutationObserver(check).observe(document.body, {
+    subtree: true, childList: true, characterData: true,
+  });
+  document.addEventListener("click", (event) => {
+    const button = event.target.closest && event.target.closest("button");
+    if (button && button.textContent.trim() === "Cancel") rec.cancelClicks.push(performance.now());
+  }, true);
+}
+"""
+
+
+def recorded(page) -> dict:
+    return page.evaluate("() => window.__gaitRecorder")
+
+
+def seen_at(page, marker: str, after_ms: float = -1.0) -> float | None:
+    """When `marker` last appeared in the page after `after_ms` (page clock, ms), if it did."""
+    times = [e["t"] for e in recorded(page)["events"] if e["marker"] == marker]
+    later = [t for t in times if t > after_ms]
+    return later[-1] if later else None
+
+
+def page_now_ms(page) -> float:
+    return float(page.evaluate("() => performance.now()"))
+
+
+@pytest.fixture(scope="module")
+def page(browser_page, studio_url: str):
+    """The studio page, loaded once and connected (its Playback folder is drawn), with the
+    status recorder installed."""
+    browser_page.goto(studio_url)
+    folder_title(browser_page, "Playback").wait_for(
+        state="visible", timeout=RENDER_TIMEOUT_S * 1000
+    )
+    dismiss_software_webgl_warning(browser_page)
+    browser_page.evaluate(RECORDER_JS, list(MARKERS))
+    return browser_page
+
+
+def test_solve_shows_progress_then_results(page, studio: Studio) -> None:
+    session = studio.gait
+    assert session.running is None and not session.results
+    expand_folder(page, GAIT, "Solve")
+    gait = folder(page, GAIT)
+    assert not page.get_by_role("button", name="Play this gait", exact=True).is_enabled()
+
+    clicked_ms = page_now_ms(page)
+    click_button(page, "Solve")
+
+    # Progress: the status says "Solving…", then IPOPT's iterations arrive (the convergence
+    # chart is added at the first one; the progress bar shows while the solve runs).
+    wait_for(
+        'the page to show "Solving…"',
+        lambda: seen_at(page, "Solving", clicked_ms) is not None,
+        UI_TIMEOUT_S,
+    )
+    gait.locator(".uplot canvas").first.or_(gait.locator(".mantine-Progress-root")).first.wait_for(
+        state="visible", timeout=SOLVE_TIMEOUT_S * 1000
+    )
+
+    # Solved: the status and the results beside the paper's Table 4.
+    gait.get_by_text("Solved in", exact=False).wait_for(
+        state="visible", timeout=SOLVE_TIMEOUT_S * 1000
+    )
+    gait.get_by_text("9.8 / 11.5", exact=True).wait_for(state="visible")
+    gait.locator(".uplot canvas").first.wait_for(state="visible")
+    gait.get_by_text("IPOPT convergence", exact=True).wait_for(state="visible")
+    assert seen_at(page, "Solving", clicked_ms) < seen_at(page, "Solved in", clicked_ms)
+
+    assert session.running is None
+    result = session.results[False]
+    assert result.converged
+    assert len(session.history[0]) >= 1  # convergence was reported live
+    print(f"\nsolve: {result.iterations} IPOPT iterations, {result.solve_s:.2f} s in the worker")
+
+
+def test_play_this_gait_loads_dircon_biped(page, studio: Studio, tmp_path: Path) -> None:
+    assert studio.gait.results.get(False) is not None, "run with the previous test: it solves"
+    assert studio.robot is not None and studio.robot.name != PLANNER_ROBOT
+    before = wait_stable(page, f"{studio.robot.name} drawn", not_blank)
+
+    click_button(page, "Play this gait")  # enabled once a gait is solved
+    trajectory = wait_for(
+        "the gait played on dircon_biped",
+        lambda: (
+            (r := studio.robot) is not None
+            and r.name == PLANNER_ROBOT
+            and (t := studio.trajectory) is not None
+            and t
+        ),
+        UI_TIMEOUT_S,
+    )
+    assert trajectory.duration == pytest.approx(GAIT_DURATION_S, abs=trajectory.dt + 1e-9)
+
+    # The page redrew the scene with the other robot.
+    after = wait_stable(
+        page,
+        "dircon_biped drawn",
+        lambda image: (
+            not_blank(image) and changed(image, before).mean() > MIN_ROBOT_CHANGE_FRACTION
+        ),
+    )
+    fraction = float(changed(after, before).mean())
+    assert fraction > MIN_ROBOT_CHANGE_FRACTION, f"only {fraction:.2%} of the view changed"
+    Image.fromarray(after.astype(np.uint8)).save(tmp_path / "gait_robot.png")
+
+
+def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio) -> None:
+    session = studio.gait
+    good = session.results.get(False)
+    assert good is not None, "run with the previous tests: they solve the gait kept here"
+    gait = folder(page, GAIT)
+
+    # Type 80 knots into the box beside the "knots" slider.
+    type_number(page, "knots", BIG_KNOTS)
+    wait_for(
+        f"the studio to receive {BIG_KNOTS} knots",
+        lambda: session.panel.knots.value == BIG_KNOTS,
+        UI_TIMEOUT_S,
+    )
+
+    clicked_ms = page_now_ms(page)
+    click_button(page, "Solve")
+    wait_for(
+        'the page to show "Solving…"',
+        lambda: seen_at(page, "Solving", clicked_ms) is not None,
+        UI_TIMEOUT_S,
+    )
+    assert session.running is not None and session.running[2]["knots"] == BIG_KNOTS
+
+    click_button(page, "Cancel")  # waits until the page has enabled it
+    gait.get_by_text("Cancelled", exact=False).wait_for(
+        state="visible", timeout=CANCEL_TIMEOUT_S * 1000
+    )
+    rec = recorded(page)
+    assert rec["cancelClicks"], "the page did not see the click on Cancel"
+    click_ms = rec["cancelClicks"][-1]
+    cancelled_ms = seen_at(page, "Cancelled", clicked_ms)
+    assert cancelled_ms is not None and cancelled_ms > click_ms
+    latency_s = (cancelled_ms - click_ms) / 1000.0
+    print(f"\ncancel latency seen in the page (click → 'Cancelled'): {latency_s:.3f} s")
+    assert latency_s < CANCEL_TIMEOUT_S
+    assert seen_at(page, "Solved in", clicked_ms) is None  # the big solve never finished
+
+    wait_for("the studio to be idle", lambda: session.running is None, UI_TIMEOUT_S)
+    assert session.results[False] is good
+    assert not page.get_by_role("button", name="Cancel", exact=True).is_enabled()
