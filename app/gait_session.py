@@ -175,6 +175,9 @@ class GaitSession:
                 rows.append(f"| steps LSP / RSP [m] ({label}) | {lsp:.3f} / {rsp:.3f} | | |")
         if sym is not None:
             rows.append(f"| slack0 | {sym.slack0:+.3f} | | |")
+        rows.append(
+            f"| symmetry residuals: exchange / periodicity | {_residuals(sym)} | {_residuals(base)} | |"
+        )
         stale = self.last is not None and self.last[2] != values
         note = "\n\n⚠️ The settings changed since this solve: results are stale." if stale else ""
         self.panel.results.content = "\n".join(rows) + note
@@ -210,3 +213,9 @@ class GaitSession:
             + (" Load it to watch the gait." if other else "")
         )
         self.panel.load_robot.visible = other
+
+
+def _residuals(result: Any) -> str:
+    if result is None:
+        return "—"
+    return f"{result.exchange_residual:.1e} / {result.periodicity_residual:.1e}"
