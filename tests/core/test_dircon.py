@@ -31,11 +31,9 @@ from app.core.collocation.dircon import (
     GaitResult,
     GaitSettings,
     GaitSettingsError,
-    PlanarModel,
     sample_gait,
     to_trajectory,
 )
-from app.core.loading import load_robot
 
 EOM_TOL_KNOTS = 1e-4
 EOM_TOL_SAMPLES = 1.0
@@ -43,41 +41,6 @@ STANCE_DRIFT_M = 1e-4
 STANCE_SPEED_M_S = 5e-3
 SPEED_OVERSHOOT = 0.02
 """Relative overshoot of |q̇| ≤ qd_max allowed between knots (Hermite v(t))."""
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return load_robot("dircon_biped")
-
-
-@pytest.fixture(scope="module")
-def planar(robot):
-    return PlanarModel(robot)
-
-
-@pytest.fixture(scope="module")
-def full(robot):
-    model = robot.model.copy()
-    frame_ids = []
-    for foot in robot.feet:
-        sole = model.frames[robot.link_frame_ids[foot.link]]
-        c = foot.sole_corners_m
-        for point in (
-            c[np.isclose(c[:, 0], c[:, 0].min())].mean(axis=0),
-            c[np.isclose(c[:, 0], c[:, 0].max())].mean(axis=0),
-        ):
-            placement = sole.placement * pin.SE3(np.eye(3), point)
-            frame_ids.append(
-                model.addFrame(
-                    pin.Frame(
-                        f"contact{len(frame_ids)}",
-                        sole.parentJoint,
-                        placement,
-                        pin.FrameType.OP_FRAME,
-                    )
-                )
-            )
-    return model, model.createData(), frame_ids
 
 
 @pytest.fixture(scope="module")

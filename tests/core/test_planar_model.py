@@ -15,42 +15,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from app.core.collocation.planar_model import CONTACT_NAMES, PlanarModel, evaluate
-from app.core.loading import load_robot
+from app.core.collocation.planar_model import CONTACT_NAMES, evaluate
 
 PAPER_TOTAL_MASS_KG = 18.532  # Table 2
 FOOT_LENGTH_M = 0.190  # Figure 2
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return load_robot("dircon_biped")
-
-
-@pytest.fixture(scope="module")
-def planar(robot):
-    return PlanarModel(robot)
-
-
-@pytest.fixture(scope="module")
-def full(robot):
-    """A copy of the pinocchio model with frames at the heel and toe mid-points of each sole."""
-    model = robot.model.copy()
-    frame_ids = []
-    for foot in robot.feet:
-        sole = model.frames[robot.link_frame_ids[foot.link]]
-        corners = foot.sole_corners_m
-        rear = corners[np.isclose(corners[:, 0], corners[:, 0].min())].mean(axis=0)
-        front = corners[np.isclose(corners[:, 0], corners[:, 0].max())].mean(axis=0)
-        for name, point in (("heel", rear), ("toe", front)):
-            frame = pin.Frame(
-                f"{foot.side}_{name}",
-                sole.parentJoint,
-                sole.placement * pin.SE3(np.eye(3), point),
-                pin.FrameType.OP_FRAME,
-            )
-            frame_ids.append(model.addFrame(frame))
-    return model, model.createData(), frame_ids
 
 
 def random_states(planar, n=6, seed=7):
