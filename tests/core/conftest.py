@@ -1,5 +1,6 @@
-"""Fixtures of the planner tests: dircon_biped, its planar model, and a copy of its pinocchio model with frames at the heel
-and toe mid-points of each sole (the planner's contact points, built here independently)."""
+"""Fixtures of the planner tests: dircon_biped, its planar model, and a copy of its pinocchio
+model with frames at the heel and toe mid-points of each sole (the planner's contact points,
+built here independently). Modules with their own `robot` fixture override this one."""
 
 from __future__ import annotations
 
