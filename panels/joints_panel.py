@@ -12,7 +12,7 @@ import numpy as np
 import viser
 
 from app.core.model import ActuatedJoint, RobotModel
-from panels.quiet import set_value
+from panels.quiet import Quiet, set_value
 
 LIMB_ORDER = ("Left leg", "Right leg", "Torso", "Left arm", "Right arm", "Head", "Other")
 
@@ -29,7 +29,7 @@ class JointsPanel:
     ) -> None:
         self.sliders: dict[str, viser.GuiSliderHandle[float]] = {}
         self._scales: list[float] = []
-        self._syncing = False
+        self._quiet = Quiet()
         self.folder = gui.add_folder("Joints", order=1)
         with self.folder:
             limbs = sorted({j.limb for j in robot.joints}, key=lambda limb: LIMB_ORDER.index(limb))
@@ -66,23 +66,20 @@ class JointsPanel:
 
         @slider.on_update
         def _(_event: viser.GuiEvent) -> None:
-            if not self._syncing:
+            if not self._quiet.quiet:
                 on_change(index, slider.value / scale)
 
         return slider
 
     def set_angles(self, robot: RobotModel, angles: np.ndarray) -> None:
         """Show new angles without firing on_change (e.g. after Reset pose)."""
-        self._syncing = True
-        try:
+        with self._quiet.quietly():
             for i, joint in enumerate(robot.joints):
                 slider = self.sliders[joint.name]
                 value = float(
                     np.clip(round(angles[i] * self._scales[i], 1), slider.min, slider.max)
                 )
                 set_value(slider, value)
-        finally:
-            self._syncing = False
 
     def remove(self) -> None:
         self.folder.remove()

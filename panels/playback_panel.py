@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import viser
 
-from panels.quiet import set_value
+from panels.quiet import Quiet, set_value
 
 if TYPE_CHECKING:
     from app.core.trajectory import Trajectory
@@ -30,8 +30,8 @@ class PlaybackPanel:
             self.speed = gui.add_dropdown("Speed", SPEEDS, initial_value="1")
             self.loop = gui.add_checkbox("Loop", True)
             self.traces = gui.add_checkbox("Show traces", True)
-        self._syncing = False
-        self.time.on_update(lambda _: None if self._syncing else studio.seek(self.time.value))
+        self._quiet = Quiet()
+        self.time.on_update(lambda _: None if self._quiet.quiet else studio.seek(self.time.value))
         self.play.on_click(lambda _: studio.toggle_play())
         self.traces.on_update(lambda _: studio.set_traces_visible(self.traces.value))
 
@@ -45,11 +45,8 @@ class PlaybackPanel:
 
     def show_time(self, time_s: float) -> None:
         """Move the timeline without seeking again."""
-        self._syncing = True
-        try:
+        with self._quiet.quietly():
             set_value(self.time, min(round(time_s, 2), self.time.max))
-        finally:
-            self._syncing = False
 
     def show_playing(self, playing: bool) -> None:
         self.play.label = "Pause" if playing else "Play"

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import viser
 
-from panels.quiet import set_value
+from panels.quiet import Quiet, set_value
 
 if TYPE_CHECKING:
     from app.studio import Studio
@@ -40,12 +40,12 @@ class PosePanel:
             self.snap = gui.add_button("Snap feet to ground", icon=viser.Icon.ARROW_BAR_TO_DOWN)
             self.swap = gui.add_button("Swap stance foot", icon=viser.Icon.ARROWS_EXCHANGE)
             self.status = gui.add_markdown("")
-        self._syncing = False
+        self._quiet = Quiet()
         self.com_in_support.on_update(
             lambda _: studio.set_com_in_support(self.com_in_support.value)
         )
         self.stance.on_update(
-            lambda _: None if self._syncing else studio.set_stance(self.stance.value)
+            lambda _: None if self._quiet.quiet else studio.set_stance(self.stance.value)
         )
         self.handles.on_update(lambda _: studio.set_handles_visible(self.handles.value))
         self.reset.on_click(lambda _: studio.reset_pose())
@@ -55,11 +55,8 @@ class PosePanel:
 
     def show_stance(self, stance: str) -> None:
         """Reflect a stance changed by the studio (e.g. by a foot drag) without calling back."""
-        self._syncing = True
-        try:
+        with self._quiet.quietly():
             set_value(self.stance, stance)
-        finally:
-            self._syncing = False
 
     def show_status(self, text: str) -> None:
         self.status.content = text
