@@ -29,7 +29,7 @@ from typing import IO, TypeAlias
 
 import numpy as np
 
-from app.core.errors import StudioError
+from app.core.errors import StudioError, finite_float
 
 PathOrFile: TypeAlias = str | os.PathLike[str] | IO[str]
 MEASURED_COLUMNS = ("frame", "joint", "q_cmd_deg", "q_meas_deg", "tau_Nm")
@@ -174,18 +174,8 @@ def _read(file: IO[str], source: str) -> Measurements:
             raise CalibrationError(f"{source}, line {line}: empty joint name")
         numbers = []
         for name in MEASURED_COLUMNS[2:]:
-            cell = row[col[name]].strip()
-            try:
-                value = float(cell)
-            except ValueError:
-                raise CalibrationError(
-                    f"{source}, line {line}: {name} {cell!r} is not a number"
-                ) from None
-            if not math.isfinite(value):
-                raise CalibrationError(
-                    f"{source}, line {line}: {name} is {cell!r}; give a finite number"
-                )
-            numbers.append(value)
+            where = f"{source}, line {line}: {name}"
+            numbers.append(finite_float(row[col[name]].strip(), where, CalibrationError))
         if (frame, joint) in seen:
             raise CalibrationError(
                 f"{source}, line {line}: frame {frame} of {joint} already given on line "

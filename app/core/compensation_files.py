@@ -13,6 +13,7 @@ from typing import IO, TypeAlias
 import numpy as np
 
 from app.core.compensation import CompensationError, CompensationParams
+from app.core.errors import finite_float
 
 PathOrFile: TypeAlias = str | os.PathLike[str] | IO[bytes]
 
@@ -179,18 +180,8 @@ def _read_torque(file: IO[str], source: str, joint_names: Sequence[str]) -> Torq
             )
         values = []
         for col in columns:
-            cell = row[col].strip()
-            try:
-                value = float(cell)
-            except ValueError:
-                raise CompensationError(
-                    f"{source}, line {line}: {header[col].strip()} {cell!r} is not a number"
-                ) from None
-            if not math.isfinite(value):
-                raise CompensationError(
-                    f"{source}, line {line}: {header[col].strip()} is {cell!r}; give a finite number"
-                )
-            values.append(value)
+            where = f"{source}, line {line}: {header[col].strip()}"
+            values.append(finite_float(row[col].strip(), where, CompensationError))
         rows.append(values)
         status.append(row[status_col].strip() if status_col is not None else "")
     if not rows:

@@ -39,3 +39,14 @@ class FrameNotFound(StudioError):
 
 class UploadError(StudioError):
     """An uploaded file was refused (too large, wrong kind, unsafe archive)."""
+
+
+def finite_float(cell: str, where: str, error: type[StudioError] = StudioError) -> float:
+    """float(cell), or `error` saying where the cell is and what was wrong with it."""
+    try:
+        value = float(cell)
+    except ValueError:
+        raise error(f"{where} {cell!r} is not a number") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise error(f"{where} is {cell!r}; give a finite number")
+    return value
