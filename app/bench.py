@@ -11,7 +11,7 @@
 - interpolate: a keyframed motion (the three one-leg squats) sampled at 100 Hz with IK at
   every sample, scaled to 10 s of motion; target ≤ 1 s.
 - feedforward: the whole-body QP per sample (median, p95) and for 10 s of motion at 100 Hz
-  (app.core.wbc_bench); targets ≤ 0.5 ms median, ≤ 0.5 s.
+  (app.core.dynamics.wbc_bench); targets ≤ 0.5 ms median, ≤ 0.5 s.
 - compensation slider: a k slider moved with a 10 s motion loaded: re-prediction, ghosts and
   plots (τ not recomputed); target ≤ 50 ms.
 - plan: the gait paper's case (38 knots) built and solved cold, target ≤ 10 s (the paper:
@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from app.config import StudioConfig
-from app.core.wbc_bench import bench_feedforward
+from app.core.dynamics.wbc_bench import bench_feedforward
 from app.studio import Studio
 from panels.quiet import set_value
 
@@ -189,8 +189,8 @@ def _bench_compensation_slider(studio: Studio, repeats: int = 20) -> dict:
 
 
 def _bench_interpolate(studio: Studio) -> dict:
-    from app.core.keyframes import interpolate
-    from app.core.motions import MOTIONS, resolve_params
+    from app.core.motions.keyframes import interpolate
+    from app.core.motions.library import MOTIONS, resolve_params
 
     studio.load("servo_biped")
     assert studio.robot is not None
@@ -230,7 +230,7 @@ def _bench_drag(studio: Studio, robot: str, repeats: int) -> dict:
 
 
 def _bench_playback(studio: Studio, robot: str, seconds: float = 2.0) -> dict:
-    from app.core.trajectory import from_configurations
+    from app.core.motions.trajectory import from_configurations
 
     studio.load(robot)
     assert studio.robot is not None

@@ -130,7 +130,7 @@ def _feet(value: str | None) -> tuple[str, str] | None:
 
 
 def _serve(args: argparse.Namespace) -> int:
-    from app.core.loading import load_robot
+    from app.core.robot.loading import load_robot
     from app.studio import Studio
 
     config = StudioConfig(
@@ -161,7 +161,7 @@ def _serve(args: argparse.Namespace) -> int:
 
 
 def _robots(args: argparse.Namespace) -> int:
-    from app.core.loading import load_robot
+    from app.core.robot.loading import load_robot
 
     rows = []
     for name, entry in BUILTIN_ROBOTS.items():
@@ -187,8 +187,8 @@ def _robots(args: argparse.Namespace) -> int:
 
 
 def _check(args: argparse.Namespace) -> int:
-    from app.core.loading import load_robot
-    from app.core.report import robot_report
+    from app.core.robot.loading import load_robot
+    from app.core.robot.report import robot_report
 
     robot = load_robot(args.robot, package_roots=tuple(args.package_root), feet=_feet(args.feet))
     report = robot_report(robot)
@@ -214,7 +214,7 @@ def _params(pairs: list[str]) -> dict[str, str]:
 
 
 def _motion(args: argparse.Namespace) -> int:
-    from app.core.motions import MOTIONS, resolve_params, run_motion
+    from app.core.motions.library import MOTIONS, resolve_params, run_motion
 
     if args.name == "list":
         if args.json:
@@ -236,8 +236,8 @@ def _motion(args: argparse.Namespace) -> int:
                 print(f"    {param.name}={default}{unit}  {param.help}")
         return 0
 
-    from app.core.loading import load_robot
-    from app.core.motion_csv import write_trajectory_csv
+    from app.core.motions.csv_files import write_trajectory_csv
+    from app.core.robot.loading import load_robot
 
     params = resolve_params(args.name, _params(args.param))  # bad names fail before loading
     robot = load_robot(args.robot, package_roots=tuple(args.package_root), feet=_feet(args.feet))
@@ -324,16 +324,16 @@ def _add_compensation_commands(sub) -> None:
 def _compensate(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from app.core.compensation import command_limit_violations, compensated_command
-    from app.core.compensation_files import (
+    from app.core.motions.csv_files import read_trajectory_csv
+    from app.core.robot.loading import load_robot
+    from app.core.servo.compensation import command_limit_violations, compensated_command
+    from app.core.servo.files import (
         read_coefficients_toml,
         read_torque_csv,
         write_command_csv,
     )
-    from app.core.loading import load_robot
-    from app.core.motion_csv import read_trajectory_csv
-    from app.core.paper_presets import paper_table2_preset, paper_table3_preset
-    from app.core.servo_model import joint_angles
+    from app.core.servo.model import joint_angles
+    from app.core.servo.presets import paper_table2_preset, paper_table3_preset
 
     if args.clearance and args.preset != "table3":
         raise StudioError("--clearance goes with --preset table3 (a k.toml sets phi_deg itself)")
@@ -411,8 +411,8 @@ def _compensate(args: argparse.Namespace) -> int:
 def _calibrate(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from app.core import calibration
-    from app.core.compensation import CompensationParams
+    from app.core.servo import calibration
+    from app.core.servo.compensation import CompensationParams
 
     options = {}
     for option, key, value in (
@@ -471,9 +471,9 @@ def _feedforward(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from app.core.loading import load_robot
-    from app.core.motion_csv import read_trajectory_csv
-    from app.core.wbc import torque_feedforward, write_torque_csv
+    from app.core.dynamics.wbc import torque_feedforward, write_torque_csv
+    from app.core.motions.csv_files import read_trajectory_csv
+    from app.core.robot.loading import load_robot
 
     robot = load_robot(args.robot, package_roots=tuple(args.package_root), feet=_feet(args.feet))
     traj = read_trajectory_csv(args.trajectory, robot)
@@ -539,8 +539,8 @@ def _plan(args: argparse.Namespace) -> int:
         read_settings_toml,
         to_trajectory,
     )
-    from app.core.loading import load_robot
-    from app.core.motion_csv import write_trajectory_csv
+    from app.core.motions.csv_files import write_trajectory_csv
+    from app.core.robot.loading import load_robot
 
     values = read_settings_toml(args.config) if args.config is not None else {}
     if args.baseline:

@@ -14,20 +14,20 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 import viser
 
-from app.core.compensation import CompensationParams, disabled_params
-from app.core.compensation_files import write_command_csv
+from app.core.dynamics.wbc import FeedForward, torque_feedforward, write_torque_csv
 from app.core.errors import StudioError
-from app.core.model import RobotModel
-from app.core.paper_presets import (
+from app.core.motions.trajectory import Trajectory
+from app.core.posing.stance import anchor_on_foot, stance_link
+from app.core.robot.model import RobotModel
+from app.core.servo.compensation import CompensationParams, disabled_params
+from app.core.servo.files import write_command_csv
+from app.core.servo.model import Prediction, ServoModel, predict
+from app.core.servo.presets import (
     TYPICAL_COMPLIANCE_DEG_PER_NM,
     paper_table2_preset,
     paper_table3_preset,
     uniform_preset,
 )
-from app.core.servo_model import Prediction, ServoModel, predict
-from app.core.stance import anchor_on_foot, stance_link
-from app.core.trajectory import Trajectory
-from app.core.wbc import FeedForward, torque_feedforward, write_torque_csv
 from app.views.ghosts_view import GhostsView
 from panels.compensation_panel import PRESETS, CompensationPanel
 from panels.plots_panel import PlotsPanel

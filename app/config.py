@@ -6,7 +6,7 @@ import dataclasses
 import os
 from pathlib import Path
 
-from app.core.uploads import MAX_UPLOAD_BYTES
+from app.core.robot.uploads import MAX_UPLOAD_BYTES
 from robots.catalogue import DEFAULT_ROBOT
 
 LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")

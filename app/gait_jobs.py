@@ -8,7 +8,7 @@ from typing import Any
 def build_gait_problem(structure_key: tuple[int, bool]) -> Any:
     """A gait NLP for dircon_biped with `knots` knots, symmetric or baseline (built once per key)."""
     from app.core.collocation.dircon import GaitProblem
-    from app.core.loading import load_robot
+    from app.core.robot.loading import load_robot
 
     knots, baseline = structure_key
     return GaitProblem(load_robot("dircon_biped"), knots=knots, baseline=baseline)

@@ -18,9 +18,13 @@ from typing import TYPE_CHECKING, Any, Literal, cast
 import viser
 
 from app.core.errors import StudioError
-from app.core.keyframes import Keyframe, MotionResult, capture_keyframe, interpolate
-from app.core.motion_csv import read_roban_motion_csv, read_trajectory_csv, write_trajectory_csv
-from app.core.motions import run_motion
+from app.core.motions.csv_files import (
+    read_roban_motion_csv,
+    read_trajectory_csv,
+    write_trajectory_csv,
+)
+from app.core.motions.keyframes import Keyframe, MotionResult, capture_keyframe, interpolate
+from app.core.motions.library import run_motion
 
 if TYPE_CHECKING:
     from app.studio import Studio

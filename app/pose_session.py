@@ -13,9 +13,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from app.core.ik import IkResult
-from app.core.model import RobotModel
-from app.core.posing import Posing
+from app.core.posing.drag import Posing
+from app.core.posing.ik import IkResult
+from app.core.robot.model import RobotModel
 from app.views.balance_view import BalanceView
 from app.views.drag_handles import DragHandles
 

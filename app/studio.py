@@ -17,14 +17,14 @@ import viser
 from app.compensation_session import CompensationSession
 from app.config import StudioConfig
 from app.core.errors import StudioError
-from app.core.loading import load_robot
-from app.core.loops import close_loops
-from app.core.model import RobotModel
-from app.core.paths import task_space_paths
-from app.core.ready_pose import ready_pose
-from app.core.report import RobotReport, robot_report
-from app.core.trajectory import Trajectory
-from app.core.uploads import store_upload
+from app.core.motions.paths import task_space_paths
+from app.core.motions.trajectory import Trajectory
+from app.core.posing.ready_pose import ready_pose
+from app.core.robot.loading import load_robot
+from app.core.robot.loops import close_loops
+from app.core.robot.model import RobotModel
+from app.core.robot.report import RobotReport, robot_report
+from app.core.robot.uploads import store_upload
 from app.gait_session import GaitSession
 from app.motion_session import MotionSession
 from app.player import Player
@@ -224,7 +224,7 @@ class Studio:
             self.show_pose(self.robot.q_neutral.copy())
 
     def ready_pose(self) -> None:
-        """Knees bent, pelvis lowered, feet where they stand (app.core.ready_pose)."""
+        """Knees bent, pelvis lowered, feet where they stand (app.core.posing.ready_pose)."""
         with self.lock:
             robot, pose = self.robot, self.pose
             if robot is None or pose is None:

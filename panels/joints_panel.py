@@ -11,7 +11,7 @@ from collections.abc import Callable
 import numpy as np
 import viser
 
-from app.core.model import ActuatedJoint, RobotModel
+from app.core.robot.model import ActuatedJoint, RobotModel
 from panels.quiet import Quiet, set_value
 
 LIMB_ORDER = ("Left leg", "Right leg", "Torso", "Left arm", "Right arm", "Head", "Other")

@@ -9,7 +9,7 @@ import viser
 from panels.quiet import set_value
 
 if TYPE_CHECKING:
-    from app.core.keyframes import Keyframe
+    from app.core.motions.keyframes import Keyframe
     from app.studio import Studio
 
 

@@ -6,8 +6,8 @@ from typing import TYPE_CHECKING
 
 import viser
 
-from app.core.motion_params import Param
-from app.core.motions import MOTIONS
+from app.core.motions.library import MOTIONS
+from app.core.motions.params import Param
 
 if TYPE_CHECKING:
     from app.studio import Studio

@@ -9,7 +9,7 @@ import viser
 from panels.quiet import Quiet, set_value
 
 if TYPE_CHECKING:
-    from app.core.trajectory import Trajectory
+    from app.core.motions.trajectory import Trajectory
     from app.studio import Studio
 
 SPEEDS = ("0.25", "0.5", "1", "2")

@@ -9,7 +9,7 @@ import viser
 from robots.catalogue import BUILTIN_ROBOTS
 
 if TYPE_CHECKING:
-    from app.core.report import RobotReport
+    from app.core.robot.report import RobotReport
     from app.studio import Studio
 
 

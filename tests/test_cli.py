@@ -80,8 +80,8 @@ def test_motion_writes_csv_and_reports_json(tmp_path):
     import numpy as np
     import pinocchio as pin
 
-    from app.core.loading import load_robot
-    from app.core.motion_csv import read_trajectory_csv
+    from app.core.motions.csv_files import read_trajectory_csv
+    from app.core.robot.loading import load_robot
 
     out = tmp_path / "shift.csv"
     result = run(
@@ -125,9 +125,9 @@ def _plan_and_torques(tmp_path, drop_joint=None):
     τ_j(t) = 0.4·sin(t + j) N·m, every 7th sample with status 'max_iter'."""
     import math
 
-    from app.core.loading import load_robot
-    from app.core.motion_csv import write_trajectory_csv
-    from app.core.motions import run_motion
+    from app.core.motions.csv_files import write_trajectory_csv
+    from app.core.motions.library import run_motion
+    from app.core.robot.loading import load_robot
 
     robot = load_robot("servo_biped")
     traj = run_motion(robot, "one_leg_stand", dt=0.05).trajectory
@@ -261,8 +261,8 @@ def test_feedforward_writes_torque_csv_and_reports_json(tmp_path):
 
     import numpy as np
 
-    from app.core.loading import load_robot
-    from app.core.motion_csv import read_trajectory_csv
+    from app.core.motions.csv_files import read_trajectory_csv
+    from app.core.robot.loading import load_robot
 
     motion = tmp_path / "shift.csv"
     made = run("motion", "com_shift", "--dt", "0.05", "--out", str(motion))
@@ -286,7 +286,7 @@ def test_feedforward_writes_torque_csv_and_reports_json(tmp_path):
     )
     # the file holds the library's torques exactly (repr round trip); their physics is
     # checked in tests/core/test_wbc.py
-    from app.core.wbc import torque_feedforward
+    from app.core.dynamics.wbc import torque_feedforward
 
     np.testing.assert_array_equal(tau, torque_feedforward(robot, traj).tau_Nm)
 
@@ -303,8 +303,8 @@ def test_feedforward_on_a_motion_of_another_robot_is_one_line(tmp_path):
 def test_plan_writes_a_gait_csv_and_reports_json(tmp_path):
     import numpy as np
 
-    from app.core.loading import load_robot
-    from app.core.motion_csv import read_trajectory_csv
+    from app.core.motions.csv_files import read_trajectory_csv
+    from app.core.robot.loading import load_robot
 
     config = tmp_path / "plan.toml"
     config.write_text("knots = 12\nK0 = 6.5\n")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import viser
 
-from app.core.model import RobotModel
+from app.core.robot.model import RobotModel
 from app.views.robot_view import RobotView
 
 GHOSTS = {

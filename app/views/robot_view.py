@@ -10,8 +10,8 @@ import numpy as np
 import pinocchio as pin
 import viser
 
-from app.core.model import RobotModel
 from app.core.quaternions import matrix_to_wxyz, wxyz_to_matrix
+from app.core.robot.model import RobotModel
 
 DEFAULT_RGB = (150, 156, 168)
 COLLISION_RGB = (255, 140, 40)

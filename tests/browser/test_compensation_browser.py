@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from app.core.motions import MOTIONS
+from app.core.motions.library import MOTIONS
 from app.studio import Studio
 from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,

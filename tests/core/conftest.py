@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 from app.core.collocation.dircon import PlanarModel
-from app.core.loading import load_robot
+from app.core.robot.loading import load_robot
 
 
 @pytest.fixture(scope="module")

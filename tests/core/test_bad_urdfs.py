@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from app.core.errors import NoFeetFound, RobotLoadError, UrdfStructureError, UrdfSyntaxError
-from app.core.loading import load_robot
-from app.core.report import robot_report
+from app.core.robot.loading import load_robot
+from app.core.robot.report import robot_report
 from tests.conftest import tiny_biped_urdf
 
 BILLION_LAUGHS = """<?xml version="1.0"?>

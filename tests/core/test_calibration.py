@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from app.core.calibration import (
+from app.core.servo.calibration import (
     ENCODER_RESOLUTION_DEG,
     CalibrationError,
     calibrate,

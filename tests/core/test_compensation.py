@@ -9,16 +9,16 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from app.core.compensation import (
+from app.core.robot.loading import load_robot
+from app.core.servo.compensation import (
     CompensationError,
     CompensationParams,
     compensated_command,
     disabled_params,
     k_rad_per_Nm,
 )
-from app.core.compensation_files import read_coefficients_toml, read_torque_csv
-from app.core.loading import load_robot
-from app.core.paper_presets import paper_table2_preset, paper_table3_preset, servo_joint_names
+from app.core.servo.files import read_coefficients_toml, read_torque_csv
+from app.core.servo.presets import paper_table2_preset, paper_table3_preset, servo_joint_names
 from tests.conftest import ROBAN_URDF
 
 D = math.radians
@@ -154,7 +154,7 @@ def test_table2_standing_pose_fits_the_numbering(servo_biped):
     """Table 2's q_des, put on the joints our numbering gives, is a flat-footed stand: hip
     pitch + knee + ankle pitch ≈ 0 and hip roll + ankle roll ≈ 0 on each leg, knees bent
     69° (servos 4, 10). Checked with pinocchio's FK: each sole parallel to the pelvis."""
-    from app.core.calibration import table2_rows
+    from app.core.servo.calibration import table2_rows
 
     q_des = {row.servo: row.q_des_deg for row in table2_rows()}
     names = servo_joint_names(servo_biped)

@@ -15,10 +15,10 @@ import pinocchio as pin
 import pytest
 
 from app.core.errors import StudioError
-from app.core.hybrid_leg_ik import UnreachableFootPose, leg_fk, leg_ik
-from app.core.loading import load_robot
-from app.core.loops import close_loops
-from app.core.model import RobotModel
+from app.core.robot.loading import load_robot
+from app.core.robot.loops import close_loops
+from app.core.robot.model import RobotModel
+from tests.oracles.hybrid_leg_ik import UnreachableFootPose, leg_fk, leg_ik
 
 FK_TOL_m, FK_TOL_rad = 1e-6, 1e-6
 Q30_rad, Q40_rad, Q50_rad = math.radians(151.92), math.radians(126.85), math.radians(74.1)

@@ -17,10 +17,10 @@ import pinocchio as pin
 import pytest
 from scipy.optimize import minimize
 
-from app.core.ik import IkResult, IkTargets, WholeBodyIK
-from app.core.loading import load_robot
-from app.core.loops import close_loops, loop_residual
-from app.core.model import RobotModel
+from app.core.posing.ik import IkResult, IkTargets, WholeBodyIK
+from app.core.robot.loading import load_robot
+from app.core.robot.loops import close_loops, loop_residual
+from app.core.robot.model import RobotModel
 from tests.conftest import ROBAN_URDF, SIGMABAN_URDF
 
 REACH_M, REACH_RAD = 1e-3, np.deg2rad(0.5)

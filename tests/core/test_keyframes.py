@@ -10,9 +10,9 @@ import pinocchio as pin
 import pytest
 
 from app.core.errors import StudioError
-from app.core.keyframes import Keyframe, KeyframeError, capture_keyframe, interpolate
-from app.core.loading import load_robot
-from app.core.motion_poses import pose_context
+from app.core.motions.keyframes import Keyframe, KeyframeError, capture_keyframe, interpolate
+from app.core.motions.poses import pose_context
+from app.core.robot.loading import load_robot
 
 DT = 0.01
 LIFT = np.array([0.02, -0.01, 0.03])  # right foot: forwards, outwards, up [m]

@@ -15,16 +15,16 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from app.core.loading import load_robot
-from app.core.model import RobotModel
-from app.core.motion_csv import (
+from app.core.motions.csv_files import (
     MotionFileError,
     read_roban_motion_csv,
     read_trajectory_csv,
     sole_contacts,
     write_trajectory_csv,
 )
-from app.core.trajectory import Trajectory, from_configurations
+from app.core.motions.trajectory import Trajectory, from_configurations
+from app.core.robot.loading import load_robot
+from app.core.robot.model import RobotModel
 from tests.conftest import ROBAN_URDF, tiny_biped_urdf
 
 MOTIONS = ROBAN_URDF.parents[1] / "motions"

@@ -10,9 +10,9 @@ import pytest
 from scipy.signal import find_peaks
 
 from app.core.errors import StudioError
-from app.core.keyframes import interpolate
-from app.core.loading import load_robot
-from app.core.motions import MOTIONS, resolve_params, run_motion
+from app.core.motions.keyframes import interpolate
+from app.core.motions.library import MOTIONS, resolve_params, run_motion
+from app.core.robot.loading import load_robot
 from tests.conftest import ROBAN_URDF
 
 DT = 0.02

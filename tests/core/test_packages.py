@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 import trimesh
 
-from app.core.loading import load_robot
-from app.core.packages import PackageResolver
+from app.core.robot.loading import load_robot
+from app.core.robot.packages import PackageResolver
 from tests.conftest import tiny_biped_urdf
 
 

@@ -13,8 +13,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from app.core.loading import load_robot
-from app.core.report import robot_report
+from app.core.robot.loading import load_robot
+from app.core.robot.report import robot_report
 from robots.catalogue import BUILTIN_ROBOTS
 from tests.conftest import ROBAN_URDF, SIGMABAN_URDF
 

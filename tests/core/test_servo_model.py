@@ -8,10 +8,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from app.core.compensation import CompensationParams, disabled_params
-from app.core.loading import load_robot
-from app.core.motions import run_motion
-from app.core.servo_model import (
+from app.core.motions.library import run_motion
+from app.core.motions.trajectory import from_configurations
+from app.core.robot.loading import load_robot
+from app.core.servo.compensation import CompensationParams, disabled_params
+from app.core.servo.model import (
     ServoModel,
     ServoModelError,
     grounded_configurations,
@@ -20,7 +21,6 @@ from app.core.servo_model import (
     servo_response,
     torso_attitude,
 )
-from app.core.trajectory import from_configurations
 
 D = math.radians
 
@@ -100,7 +100,7 @@ def test_matching_servo_is_inverted_exactly_by_the_torque_sign_rule():
     params = CompensationParams(
         ("a", "b", "c"), [2.0, -40.0, 0.3], [1.0, 8.0, 0.0], [1, 1, 1], "torque"
     )
-    from app.core.compensation import compensated_command
+    from app.core.servo.compensation import compensated_command
 
     actual = servo_response(compensated_command(q, tau, params), tau, ServoModel.matching(params))
     assert np.abs(actual - q).max() < 1e-14

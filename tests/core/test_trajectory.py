@@ -10,9 +10,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from app.core.loading import load_robot
-from app.core.model import RobotModel
-from app.core.trajectory import Trajectory, TrajectoryError, from_configurations
+from app.core.motions.trajectory import Trajectory, TrajectoryError, from_configurations
+from app.core.robot.loading import load_robot
+from app.core.robot.model import RobotModel
 
 A, OMEGA, PHASE = 0.4, 2 * np.pi * 1.5, 0.7
 """Amplitude [rad], angular frequency [rad/s] and phase [rad] of the joint sine."""

@@ -10,8 +10,8 @@ import pytest
 import trimesh
 
 from app.core.errors import UploadError
-from app.core.loading import load_robot
-from app.core.uploads import store_upload
+from app.core.robot.loading import load_robot
+from app.core.robot.uploads import store_upload
 from tests.conftest import tiny_biped_urdf
 
 

@@ -1,4 +1,4 @@
-"""Torque feed-forward (app.core.wbc), checked against independent computations: scipy's
+"""Torque feed-forward (app.core.dynamics.wbc), checked against independent computations: scipy's
 Riccati solver for the CoM LQR, pinocchio's RNEA with the solved contact forces as external
 forces, the mass matrix and corner Jacobians from a model with frames added at the sole
 corners, static equilibrium (forces sum to m·g, centre of pressure under the CoM), and the
@@ -13,13 +13,13 @@ import pinocchio as pin
 import pytest
 import scipy.linalg
 
-import app.core.wbc_qp as wbc_qp
+import app.core.dynamics.wbc_qp as wbc_qp
+from app.core.dynamics.lqr import A_COM, B_COM, lqr_com
+from app.core.dynamics.wbc import FeedForward, WbcError, WbcParams, torque_feedforward
 from app.core.errors import StudioError
-from app.core.loading import load_robot
-from app.core.lqr import A_COM, B_COM, lqr_com
-from app.core.motions import run_motion
-from app.core.trajectory import Trajectory
-from app.core.wbc import FeedForward, WbcError, WbcParams, torque_feedforward
+from app.core.motions.library import run_motion
+from app.core.motions.trajectory import Trajectory
+from app.core.robot.loading import load_robot
 from tests.conftest import ROBAN_URDF
 
 RESIDUAL_NM = 1e-6

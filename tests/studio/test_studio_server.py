@@ -155,7 +155,7 @@ def test_concurrent_slider_updates_leave_a_consistent_state(studio):
 
 
 def test_knee_slider_keeps_the_hybrid_legs_four_bars_closed(studio):
-    from app.core.loops import loop_residual
+    from app.core.robot.loops import loop_residual
 
     studio.robot_panel.builtin.value = "hybrid_leg_biped"
     studio.robot_panel.load_builtin.value = True
@@ -255,7 +255,7 @@ def test_two_tabs_dragging_at_once_latest_target_wins(studio):
 
 
 def _knee_bend(studio: Studio, duration_s: float = 1.0, dt: float = 0.01):
-    from app.core.trajectory import from_configurations
+    from app.core.motions.trajectory import from_configurations
 
     robot = studio.robot
     knee = robot.joint_names.index("left_knee")

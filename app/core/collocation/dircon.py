@@ -22,7 +22,7 @@ from app.core.collocation.planar_model import PlanarModel, PlanarModelError
 from app.core.collocation.result import GaitResult
 from app.core.collocation.sampling import GaitSamples, positive_work, sample_gait, to_trajectory
 from app.core.collocation.settings import GaitSettings, GaitSettingsError, read_settings_toml
-from app.core.model import RobotModel
+from app.core.robot.model import RobotModel
 
 
 class GaitPlanner:
@@ -30,7 +30,7 @@ class GaitPlanner:
 
     def __init__(self, robot: RobotModel | PlanarModel | None = None) -> None:
         if robot is None:
-            from app.core.loading import load_robot
+            from app.core.robot.loading import load_robot
 
             robot = load_robot("dircon_biped")
         self.model = robot if isinstance(robot, PlanarModel) else PlanarModel(robot)

@@ -50,7 +50,7 @@ from app.core.collocation.transcription import (
     stance_rows,
     swing_z_rows,
 )
-from app.core.model import RobotModel
+from app.core.robot.model import RobotModel
 
 POSTURE_WEIGHT = 0.05
 """Weight of the light initial/final posture terms (eq. 7's l_0, l_f)."""
@@ -97,7 +97,7 @@ class GaitProblem:
         GaitSettings(knots=knots, baseline=baseline).validate()
         start = time.perf_counter()
         if robot is None:
-            from app.core.loading import load_robot
+            from app.core.robot.loading import load_robot
 
             robot = load_robot("dircon_biped")
         self.model = robot if isinstance(robot, PlanarModel) else PlanarModel(robot)

@@ -24,7 +24,7 @@ import casadi as ca
 import numpy as np
 
 from app.core.collocation.planar_reduction import BASE_DOF, PlanarModelError, reduce_to_plane
-from app.core.model import RobotModel
+from app.core.robot.model import RobotModel
 
 __all__ = ["BASE_DOF", "CONTACT_NAMES", "PlanarModel", "PlanarModelError", "evaluate"]
 

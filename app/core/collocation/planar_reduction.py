@@ -16,7 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from app.core.errors import StudioError
-from app.core.model import RobotModel
+from app.core.robot.model import RobotModel
 
 BASE_DOF = 3
 """x [m], z [m], pitch [rad] of the floating base."""

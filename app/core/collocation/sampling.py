@@ -23,8 +23,8 @@ from app.core.collocation.planar_model import PlanarModel
 from app.core.collocation.result import GaitResult
 from app.core.collocation.transcription import STANCE, GaitLayout, point_forces
 from app.core.errors import StudioError
-from app.core.model import RobotModel
-from app.core.trajectory import Trajectory
+from app.core.motions.trajectory import Trajectory
+from app.core.robot.model import RobotModel
 
 TIME_TOLERANCE_S = 1e-9
 

@@ -1,6 +1,6 @@
 """Key poses for the built-in motions, each solved so that the keyframes are consistent.
 
-- Every built-in motion starts from the ready pose (app.core.ready_pose).
+- Every built-in motion starts from the ready pose (app.core.posing.ready_pose).
 - KeyframeSequence appends keyframes one solved pose at a time, starting from the ready pose.
 - A pose with the CoM over a point: the pelvis target (upright) is moved horizontally by the
   remaining CoM error until the CoM is there (a fixed-point iteration: the CoM follows the
@@ -16,10 +16,10 @@ from typing import Literal
 
 import numpy as np
 
-from app.core.ik import IkTargets, Stance, WholeBodyIK
-from app.core.keyframes import Keyframe, capture_keyframe
-from app.core.model import RobotModel
-from app.core.ready_pose import MOTION_POSTURE_WEIGHT, PoseError, ready_pose
+from app.core.motions.keyframes import Keyframe, capture_keyframe
+from app.core.posing.ik import IkTargets, Stance, WholeBodyIK
+from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT, PoseError, ready_pose
+from app.core.robot.model import RobotModel
 
 Side = Literal["left", "right"]
 

@@ -16,8 +16,8 @@ import numpy as np
 import pinocchio as pin
 
 from app.core.errors import StudioError
-from app.core.ik import IkTargets, WholeBodyIK
-from app.core.model import RobotModel
+from app.core.posing.ik import IkTargets, WholeBodyIK
+from app.core.robot.model import RobotModel
 
 READY_CROUCH = 0.05
 """Pelvis lowered by this fraction of the leg length in the ready pose."""

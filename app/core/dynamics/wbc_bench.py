@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from app.core.loading import load_robot
-from app.core.motions import run_motion
-from app.core.wbc import torque_feedforward
+from app.core.dynamics.wbc import torque_feedforward
+from app.core.motions.library import run_motion
+from app.core.robot.loading import load_robot
 
 SAMPLE_TARGET_MS = 0.5
 TEN_SECONDS_TARGET_S = 0.5

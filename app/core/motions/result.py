@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import re
 
-from app.core.trajectory import Trajectory
+from app.core.motions.trajectory import Trajectory
 
 
 @dataclasses.dataclass(frozen=True)

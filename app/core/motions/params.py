@@ -10,7 +10,7 @@ import dataclasses
 import math
 from collections.abc import Mapping
 
-from app.core.motion_poses import MotionError
+from app.core.motions.poses import MotionError
 
 
 @dataclasses.dataclass(frozen=True)

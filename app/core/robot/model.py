@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from app.core.feet import Foot
-from app.core.meshes import LinkMesh, MissingMesh
-from app.core.urdf_xml import UrdfTree
+from app.core.robot.feet import Foot
+from app.core.robot.meshes import LinkMesh, MissingMesh
+from app.core.robot.urdf_xml import UrdfTree
 
 
 @dataclasses.dataclass(frozen=True)

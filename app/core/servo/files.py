@@ -12,8 +12,8 @@ from typing import IO, TypeAlias
 
 import numpy as np
 
-from app.core.compensation import CompensationError, CompensationParams
 from app.core.errors import finite_float
+from app.core.servo.compensation import CompensationError, CompensationParams
 
 PathOrFile: TypeAlias = str | os.PathLike[str] | IO[bytes]
 

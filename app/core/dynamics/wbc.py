@@ -4,7 +4,7 @@ The spring-compensation paper (Wang et al. 2023, Secs. 3–4) gets the joint tor
 compensation q_des = q + k·τ (eq. 7) needs from a whole-body QP (eqs. 12–18) over the joint
 accelerations q̈ and the contact forces at the four corners of each rectangular sole, whose
 cost contains the value function V of a CoM LQR (eqs. 1–5). τ then follows from eq. 10. The
-QP itself is in app.core.wbc_qp; this module checks inputs, runs it sample after sample and
+QP itself is in app.core.dynamics.wbc_qp; this module checks inputs, runs it sample after sample and
 returns a FeedForward.
 
 Feed-forward means the state is the plan's own: x̄ = x − x^d = 0 unless a CoM state error is
@@ -35,11 +35,11 @@ from typing import IO
 
 import numpy as np
 
+from app.core.dynamics.lqr import lqr_com
+from app.core.dynamics.wbc_qp import N_CORNERS, QpWeights, WholeBodyQp
 from app.core.errors import StudioError
-from app.core.lqr import lqr_com
-from app.core.model import RobotModel
-from app.core.trajectory import Trajectory
-from app.core.wbc_qp import N_CORNERS, QpWeights, WholeBodyQp
+from app.core.motions.trajectory import Trajectory
+from app.core.robot.model import RobotModel
 
 MAX_SPEED = 1e3
 """Largest |v| accepted in a trajectory [rad/s or m/s]; more is taken as corrupt input."""

@@ -35,14 +35,14 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from app.core.compensation import (
+from app.core.errors import StudioError
+from app.core.motions.trajectory import Trajectory
+from app.core.robot.model import RobotModel
+from app.core.servo.compensation import (
     MAX_ABS_K_DEG_PER_NM,
     CompensationParams,
     compensated_command,
 )
-from app.core.errors import StudioError
-from app.core.model import RobotModel
-from app.core.trajectory import Trajectory
 
 
 class ServoModelError(StudioError):

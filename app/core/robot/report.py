@@ -6,8 +6,8 @@ import dataclasses
 
 import numpy as np
 
-from app.core.loops import loop_residual
-from app.core.model import RobotModel
+from app.core.robot.loops import loop_residual
+from app.core.robot.model import RobotModel
 
 MASSLESS_KG = 1e-6
 """Links lighter than this are treated as frames, not bodies (e.g. SigmaBan's 1e-9 kg tips)."""

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from app.core.packages import PackageResolver
-from app.core.urdf_xml import Geometry
+from app.core.robot.packages import PackageResolver
+from app.core.robot.urdf_xml import Geometry
 
 MAX_MESH_FILE_BYTES = 200 * 1024 * 1024
 

@@ -13,8 +13,8 @@ import dataclasses
 import numpy as np
 
 from app.core.errors import NoFeetFound, UrdfStructureError
-from app.core.meshes import LinkMesh
-from app.core.urdf_xml import UrdfTree
+from app.core.robot.meshes import LinkMesh
+from app.core.robot.urdf_xml import UrdfTree
 
 NAME_SCORES = (("sole", 3.0), ("foot", 2.0), ("feet", 2.0), ("ankle", 1.0))
 SIDE_MARGIN_M = 0.005

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from app.core.model import RobotModel
-from app.core.trajectory import Trajectory
+from app.core.motions.trajectory import Trajectory
+from app.core.robot.model import RobotModel
 
 
 def task_space_paths(robot: RobotModel, trajectory: Trajectory) -> dict[str, np.ndarray]:

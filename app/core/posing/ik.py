@@ -8,7 +8,7 @@ Built on placo's KinematicsSolver (a QP per step over the configuration incremen
   soles' corners, shrunk by a margin), when that option is on: a hard inequality once inside,
   a pull towards the polygon while outside (see COM_PULL_WEIGHT);
 - joint limits are hard; declared loop closures are heavily weighted relative-position tasks,
-  polished to numerical precision by app.core.loops;
+  polished to numerical precision by app.core.robot.loops;
 - a light posture task towards the standing pose keeps the redundancy from wandering.
 
 Each `solve` iterates the QP from the given configuration until the step vanishes.
@@ -24,10 +24,10 @@ import pinocchio as pin
 import placo
 from scipy.spatial import ConvexHull
 
-from app.core.loops import close_loops
-from app.core.model import RobotModel
-from app.core.stance import anchor_on_foot
-from app.core.urdf_xml import canonical_urdf
+from app.core.posing.stance import anchor_on_foot
+from app.core.robot.loops import close_loops
+from app.core.robot.model import RobotModel
+from app.core.robot.urdf_xml import canonical_urdf
 
 Stance = Literal["left", "right", "both"]
 REACHED_M = 1e-3

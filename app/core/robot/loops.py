@@ -13,7 +13,7 @@ import dataclasses
 import numpy as np
 import pinocchio as pin
 
-from app.core.model import RobotModel
+from app.core.robot.model import RobotModel
 
 DAMPING = 1e-10
 TOLERANCE_M = 1e-10

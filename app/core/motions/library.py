@@ -9,7 +9,7 @@ profile, forward distance 0, mean foot speed 41.7 mm/s (Exp. A).
 
 The papers give no timings, squat depth, lift height or swing amplitude: ours are the
 constants below, lengths as fractions of the robot's leg length (hip height) so that every
-motion fits every robot. Every motion starts from the ready pose (app.core.ready_pose). An
+motion fits every robot. Every motion starts from the ready pose (app.core.posing.ready_pose). An
 amplitude that cannot work on a robot (a 5 cm shift short of the stance sole of a
 wide-hipped robot) is adapted, with a note; a motion the robot physically cannot do (no ankle
 roll: the CoM cannot go over one flat foot) is returned as the IK's closest motion, with its
@@ -24,11 +24,11 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from app.core.keyframes import interpolate
-from app.core.model import RobotModel
-from app.core.motion_params import Param, parse_params
-from app.core.motion_poses import KeyframeSequence, MotionError, Plan, Side
-from app.core.motion_result import MotionResult
+from app.core.motions.keyframes import interpolate
+from app.core.motions.params import Param, parse_params
+from app.core.motions.poses import KeyframeSequence, MotionError, Plan, Side
+from app.core.motions.result import MotionResult
+from app.core.robot.model import RobotModel
 
 SHIFT_S, LIFT_S, HOLD_S, SQUAT_HALF_S, SWING_HALF_S, STEP_SHIFT_S = 2.0, 1.5, 2.0, 1.0, 1.0, 1.0
 """Segment durations [s] at speed 1 (ours: the paper's plots give no time values)."""

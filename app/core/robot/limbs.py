@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.core.urdf_xml import UrdfTree
+from app.core.robot.urdf_xml import UrdfTree
 
 ARM_WORDS = ("arm", "shoulder", "elbow", "wrist", "hand", "gripper", "finger")
 HEAD_WORDS = ("head", "neck", "camera")

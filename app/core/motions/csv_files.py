@@ -40,8 +40,8 @@ import numpy as np
 import pinocchio as pin
 
 from app.core.errors import StudioError
-from app.core.model import RobotModel
-from app.core.trajectory import Trajectory, from_configurations
+from app.core.motions.trajectory import Trajectory, from_configurations
+from app.core.robot.model import RobotModel
 
 BASE_Q_COLUMNS = ("base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw")
 BASE_V_NAMES = ("base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz")

@@ -2,7 +2,7 @@
 
 This is what every stage of the pipeline passes on: keyframed motions and gait plans produce
 it; playback, torque feed-forward, compensation and CSV export consume it. Configurations use
-pinocchio's layout (see app.core.model).
+pinocchio's layout (see app.core.robot.model).
 
 Velocities and accelerations are computed from the configurations by finite differences on
 the configuration manifold (pin.difference, so the base orientation is handled properly):

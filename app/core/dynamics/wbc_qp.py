@@ -36,8 +36,8 @@ import osqp
 import pinocchio as pin
 import scipy.sparse as sp
 
-from app.core.lqr import B_COM
-from app.core.model import RobotModel
+from app.core.dynamics.lqr import B_COM
+from app.core.robot.model import RobotModel
 
 N_EDGES = 4
 N_CORNERS = 4

@@ -14,12 +14,12 @@ from itertools import permutations
 
 import numpy as np
 
-from app.core.compensation import (
+from app.core.robot.model import RobotModel
+from app.core.servo.compensation import (
     PAPER_PHI_DEG,
     CompensationError,
     CompensationParams,
 )
-from app.core.model import RobotModel
 
 PAPER_TABLE3_K_DEG_PER_NM: dict[int, float] = {2: -4.0, 3: -650.0, 8: 20.0, 9: -1200.0}
 """Table 3: k of servos 2, 3, 8, 9 after trial-and-error calibration [°/(N·m)]."""
@@ -31,7 +31,7 @@ MIN_AXIS_ALIGNMENT = 0.5
 direction| reaches this at q = 0 (Roban S14's 45°-tilted hip joint has 0.71)."""
 TYPICAL_COMPLIANCE_DEG_PER_NM = 1.4
 """Mean |k| of the Table 2 servos whose torque is large enough to identify k (servos 2, 4 and
-10: 1.28, 1.55, 1.41 °/(N·m); app.core.calibration)."""
+10: 1.28, 1.55, 1.41 °/(N·m); app.core.servo.calibration)."""
 
 
 def servo_joint_names(robot: RobotModel) -> tuple[str, ...]:
@@ -149,7 +149,7 @@ def paper_table2_preset(robot: RobotModel) -> CompensationParams:
     the printed digits (`app.core.calibration.check_table2`); where they disagree (servo 11,
     printed −722.91, ten times its row's −72.29) the row's value is used and a note says so.
     """
-    from app.core.calibration import check_table2
+    from app.core.servo.calibration import check_table2
 
     servos = servo_joint_names(robot)
     k_by_joint, notes = {}, ["paper Table 2 (standing, servos 1–12)"]

@@ -12,8 +12,8 @@ import dataclasses
 import numpy as np
 import pinocchio as pin
 
-from app.core.ik import IkResult, IkTargets, Stance, WholeBodyIK
-from app.core.model import RobotModel
+from app.core.posing.ik import IkResult, IkTargets, Stance, WholeBodyIK
+from app.core.robot.model import RobotModel
 
 
 @dataclasses.dataclass(frozen=True)

@@ -40,12 +40,12 @@ import numpy as np
 import pinocchio as pin
 
 from app.core.errors import StudioError
-from app.core.ik import IkResult, IkTargets, Stance, WholeBodyIK
-from app.core.interpolant import blend, min_jerk, trapezoid
-from app.core.model import RobotModel
-from app.core.motion_result import MotionResult, SampleWarning
-from app.core.ready_pose import MOTION_POSTURE_WEIGHT, ready_pose
-from app.core.trajectory import from_configurations
+from app.core.motions.interpolant import blend, min_jerk, trapezoid
+from app.core.motions.result import MotionResult, SampleWarning
+from app.core.motions.trajectory import from_configurations
+from app.core.posing.ik import IkResult, IkTargets, Stance, WholeBodyIK
+from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT, ready_pose
+from app.core.robot.model import RobotModel
 
 Profile = Literal["min_jerk", "trapezoid"]
 CONTACT_BAND_M = 1e-3
@@ -163,7 +163,7 @@ def interpolate(
 
     Every sample is an IK solution, the first one of the first keyframe's targets, started
     from its captured configuration, or from the robot's ready pose when it has none
-    (app.core.ready_pose: from straight legs the IK cannot lower the pelvis). The last
+    (app.core.posing.ready_pose: from straight legs the IK cannot lower the pelvis). The last
     keyframe is reached at t = Σ durations; samples are at k·dt up to it, and one more
     holding the final targets when the total is not a multiple of dt. Pass `ik` to reuse a
     solver (its own posture weight is then used; see MOTION_POSTURE_WEIGHT).

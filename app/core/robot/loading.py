@@ -12,12 +12,12 @@ import numpy as np
 import pinocchio as pin
 
 from app.core.errors import RobotLoadError, UrdfStructureError
-from app.core.feet import Foot, find_foot_links, sole_corners
-from app.core.limbs import limb_of_joints
-from app.core.meshes import load_link_meshes
-from app.core.model import ActuatedJoint, RobotModel, neutral_joint_positions
-from app.core.packages import PackageResolver
-from app.core.urdf_xml import MOVING_JOINT_TYPES, UrdfTree, canonical_urdf, parse_urdf
+from app.core.robot.feet import Foot, find_foot_links, sole_corners
+from app.core.robot.limbs import limb_of_joints
+from app.core.robot.meshes import load_link_meshes
+from app.core.robot.model import ActuatedJoint, RobotModel, neutral_joint_positions
+from app.core.robot.packages import PackageResolver
+from app.core.robot.urdf_xml import MOVING_JOINT_TYPES, UrdfTree, canonical_urdf, parse_urdf
 from robots.catalogue import BUILTIN_ROBOTS
 
 MAX_URDF_BYTES = 20 * 1024 * 1024

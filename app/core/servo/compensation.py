@@ -13,7 +13,7 @@ N·m (Tables 2 and 3) and φ in degrees (8°, found by trial); this module takes
 units and converts inside, so joint angles are always radians.
 
 The paper's coefficients (Tables 2 and 3) and its servo numbering live in
-app.core.paper_presets; coefficient and torque files in app.core.compensation_files.
+app.core.servo.presets; coefficient and torque files in app.core.compensation_files.
 
 Pure numpy: no pinocchio, no GUI.
 """
@@ -73,7 +73,7 @@ class CompensationParams:
       spring compensation", section 5.4). It depends on where the joint's zero is.
     - "torque": φ·sign(τ): towards the side the servo pushes. The load holds the gear train
       against the face of the dead band opposite to τ, so this is the exact inverse of the
-      backlash model in `app.core.servo_model` with φ = b/2 (half the dead band).
+      backlash model in `app.core.servo.model` with φ = b/2 (half the dead band).
 
     Both add nothing where their argument is exactly zero."""
     notes: tuple[str, ...] = ()

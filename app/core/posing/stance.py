@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from app.core.model import RobotModel
+from app.core.robot.model import RobotModel
 
 
 def anchor_on_foot(
