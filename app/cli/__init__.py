@@ -1,0 +1,84 @@
+"""biped-studio: the studio server and the headless commands.
+
+Every command prints one line and exits non-zero on bad input (no traceback); `--json`
+gives machine-readable output. One module per stage; `COMMANDS` maps each command to the
+function that runs it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable
+
+from app.cli import compensate, feedforward, motion, plan, robots, serve
+from app.cli.common import DEFAULTS
+from app.core.errors import StudioError
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from app.bench import run_bench
+
+    return run_bench(args)
+
+
+def _add_bench_parser(sub) -> None:
+    bench = sub.add_parser("bench", help="measure the studio's speed targets")
+    bench.add_argument(
+        "--robot", default=None, help="URDF to time loading on (default: Roban S14 if found)"
+    )
+    bench.add_argument("--repeats", type=int, default=200)
+    bench.add_argument("--json", action="store_true")
+
+
+PARSERS: tuple[Callable[..., None], ...] = (
+    serve.add_parser,
+    robots.add_parser,
+    motion.add_parser,
+    _add_bench_parser,
+    feedforward.add_parser,
+    compensate.add_parser,
+    plan.add_parser,
+)
+COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
+    "serve": serve.run,
+    "robots": robots.run,
+    "check": robots.run_check,
+    "motion": motion.run,
+    "feedforward": feedforward.run,
+    "compensate": compensate.run,
+    "calibrate": compensate.run_calibrate,
+    "plan": plan.run,
+    "bench": _bench,
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = _parser()
+    args = parser.parse_args(argv)
+    command = args.command or "serve"
+    try:
+        return COMMANDS[command](args)
+    except StudioError as error:
+        if getattr(args, "json", False):
+            print(json.dumps({"ok": False, "error": str(error)}))
+        print(f"biped-studio {command}: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:  # output piped into `head` and the like
+        sys.stderr.close()
+        return 0
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="biped-studio", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command")
+    for add_parser in PARSERS:
+        add_parser(sub)
+    # Plain `biped-studio` serves the default robot.
+    parser.set_defaults(
+        robot=DEFAULTS.robot, host=DEFAULTS.host, port=DEFAULTS.port, package_root=[], feet=None
+    )
+    return parser

@@ -1,0 +1,59 @@
+"""What the headless commands share: robot options, --param pairs, output limits."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from app.config import StudioConfig
+from app.core.errors import StudioError
+from app.core.robot.model import RobotModel
+
+DEFAULTS = StudioConfig()
+"""The studio's configuration defaults: the one source of the CLI's defaults."""
+MAX_WARNING_LINES = 12
+"""Commands print at most this many warning lines on stderr (--json lists them all)."""
+
+
+def add_robot_argument(parser: argparse.ArgumentParser) -> None:
+    """--robot (built-in name or URDF path), --package-root and --feet."""
+    parser.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
+    add_robot_options(parser)
+
+
+def add_robot_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--package-root",
+        action="append",
+        default=[],
+        type=Path,
+        help="folder holding package://NAME folders (repeatable)",
+    )
+    parser.add_argument(
+        "--feet", default=None, help="LEFT,RIGHT foot link names, overriding detection"
+    )
+
+
+def parse_feet(value: str | None) -> tuple[str, str] | None:
+    if value is None:
+        return None
+    names = [name.strip() for name in value.split(",")]
+    if len(names) != 2 or not all(names):
+        raise StudioError(f"--feet takes two link names separated by a comma, got {value!r}")
+    return names[0], names[1]
+
+
+def load_robot_from_args(args: argparse.Namespace, name: str | None = None) -> RobotModel:
+    """The robot named by --robot (or `name`) with --package-root and --feet."""
+    from app.core.robot.loading import load_robot
+
+    return load_robot(
+        name if name is not None else args.robot,
+        package_roots=tuple(args.package_root),
+        feet=parse_feet(args.feet),
+    )
+
+
+def output_target(out: Path | None) -> str:
+    """' -> PATH', or a note that nothing was written."""
+    return f" -> {out}" if out is not None else " (no --out: nothing written)"

@@ -1,0 +1,190 @@
+"""`compensate` and `calibrate`: servo commands q + k·τ (+ φ·sign), and k from measurements."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from app.cli.common import (
+    DEFAULTS,
+    add_robot_options,
+    load_robot_from_args,
+    output_target,
+)
+from app.core.errors import StudioError
+
+
+def add_parser(sub) -> None:
+    """The `compensate` and `calibrate` subcommands (servo spring/clearance compensation)."""
+    compensate = sub.add_parser(
+        "compensate",
+        help="servo commands q + k·τ (+ φ·sign) for a motion and its torque feed-forward",
+    )
+    compensate.add_argument("trajectory", type=Path, help="motion CSV (biped-studio motion --out)")
+    compensate.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
+    compensate.add_argument(
+        "--tau", type=Path, required=True, help="torque CSV: t [s], tau:<joint> [N·m]…, status"
+    )
+    source = compensate.add_mutually_exclusive_group(required=True)
+    source.add_argument(
+        "--coeffs", type=Path, help="k.toml: [joints.<name>] k_deg_per_Nm, phi_deg, enabled"
+    )
+    source.add_argument(
+        "--preset",
+        choices=("table3", "table2"),
+        help="the paper's coefficients: Table 3 (servos 2, 3, 8, 9) or Table 2 (all 12)",
+    )
+    compensate.add_argument(
+        "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
+    )
+    compensate.add_argument("--out", type=Path, default=None, help="command CSV to write")
+    compensate.add_argument("--json", action="store_true")
+    add_robot_options(compensate)
+    calibrate = sub.add_parser(
+        "calibrate", help="fit each servo's k from measured commands, angles and torques"
+    )
+    calibrate.add_argument(
+        "measured", type=Path, help="CSV with header frame,joint,q_cmd_deg,q_meas_deg,tau_Nm"
+    )
+    calibrate.add_argument(
+        "--min-tau", type=float, default=None, help="smallest useful max |τ| [N·m] (0.05)"
+    )
+    calibrate.add_argument(
+        "--resolution-deg", type=float, default=None, help="encoder step [°] (0.078125)"
+    )
+    calibrate.add_argument(
+        "--out", type=Path, default=None, help="write the identifiable k as a k.toml"
+    )
+    calibrate.add_argument("--json", action="store_true")
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from app.core.motions.csv_files import read_trajectory_csv
+    from app.core.servo.compensation import command_limit_violations, compensated_command
+    from app.core.servo.files import (
+        read_coefficients_toml,
+        read_torque_csv,
+        write_command_csv,
+    )
+    from app.core.servo.model import joint_angles
+    from app.core.servo.presets import paper_table2_preset, paper_table3_preset
+
+    if args.clearance and args.preset != "table3":
+        raise StudioError("--clearance goes with --preset table3 (a k.toml sets phi_deg itself)")
+    robot = load_robot_from_args(args)
+    traj = read_trajectory_csv(args.trajectory, robot)
+    torques = read_torque_csv(args.tau, robot.joint_names)
+    if len(torques.t) != traj.n_samples:
+        raise StudioError(
+            f"{args.tau} has {len(torques.t)} samples but {args.trajectory} has {traj.n_samples}"
+        )
+    t_tau = torques.t - torques.t[0]
+    worst = int(np.argmax(np.abs(t_tau - traj.t)))
+    if abs(t_tau[worst] - traj.t[worst]) > 1e-3 * traj.dt + 1e-9:
+        raise StudioError(
+            f"{args.tau}: sample {worst} is at t = {torques.t[worst]:g} s, the motion's at "
+            f"{traj.t[worst]:g} s; the torques must come from this motion"
+        )
+    if args.preset == "table3":
+        params = paper_table3_preset(robot, clearance=args.clearance)
+    elif args.preset == "table2":
+        params = paper_table2_preset(robot)
+    else:
+        params = read_coefficients_toml(args.coeffs).for_joints(robot.joint_names)
+    q_plan = joint_angles(robot, traj.q)
+    q_cmd = compensated_command(q_plan, torques.tau_Nm, params)
+    lower = np.array([joint.lower for joint in robot.joints])
+    upper = np.array([joint.upper for joint in robot.joints])
+    warnings = command_limit_violations(params, q_cmd, lower, upper)
+    odd = sorted({s for s in torques.status if s and s.lower() not in ("ok", "solved")})
+    for status in odd:
+        count = sum(s == status for s in torques.status)
+        warnings.append(f"{count} torque sample(s) have status {status!r}")
+    if args.out is not None:
+        write_command_csv(args.out, traj.t, robot.joint_names, q_cmd)
+    correction = np.degrees(np.abs(q_cmd - q_plan)).max(axis=0)
+    joints = [
+        {
+            "joint": name,
+            "k_deg_per_Nm": float(params.k_deg_per_Nm[i]),
+            "phi_deg": float(params.phi_deg[i]),
+            "max_correction_deg": float(correction[i]),
+        }
+        for i, name in enumerate(robot.joint_names)
+        if params.enabled[i]
+    ]
+    if args.json:
+        report = {
+            "ok": True,
+            "robot": robot.name,
+            "n_samples": traj.n_samples,
+            "clearance_sign": params.clearance_sign,
+            "compensated": joints,
+            "notes": list(params.notes),
+            "warnings": warnings,
+            "out": None if args.out is None else str(args.out),
+        }
+        print(json.dumps(report, indent=2))
+        return 0
+    target = output_target(args.out)
+    print(
+        f"{len(joints)} of {robot.n_actuated} joints compensated, {traj.n_samples} samples{target}"
+    )
+    for row in joints:
+        print(
+            f"  {row['joint']:20s} k {row['k_deg_per_Nm']:9.3f} °/(N·m)  φ {row['phi_deg']:4.1f}°  "
+            f"max correction {row['max_correction_deg']:7.2f}°"
+        )
+    for note in params.notes:
+        print(f"note: {note}")
+    for line in warnings:
+        print(f"warning: {line}", file=sys.stderr)
+    return 0
+
+
+def run_calibrate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from app.core.servo import calibration
+    from app.core.servo.compensation import CompensationParams
+
+    options = {}
+    for option, key, value in (
+        ("--min-tau", "min_abs_tau_Nm", args.min_tau),
+        ("--resolution-deg", "resolution_deg", args.resolution_deg),
+    ):
+        if value is not None:
+            if not value >= 0.0:
+                raise StudioError(f"{option} must be a number ≥ 0, got {value}")
+            options[key] = value
+    measured = calibration.read_measured_csv(args.measured)
+    results = calibration.calibrate(measured, **options)
+    if args.out is not None:
+        names = tuple(c.joint for c in results)
+        params = CompensationParams(
+            names,
+            np.array([c.k_deg_per_Nm if c.identifiable else 0.0 for c in results]),
+            np.zeros(len(results)),
+            np.array([c.identifiable for c in results]),
+            notes=(f"calibrated from {args.measured}; unidentifiable joints disabled",),
+        )
+        try:
+            args.out.write_text(params.to_toml(), encoding="utf-8")
+        except OSError as error:
+            raise StudioError(f"cannot write {args.out}: {error.strerror}") from None
+    if args.json:
+        print(json.dumps([c.to_json() for c in results], indent=2))
+        return 0
+    for c in results:
+        se = "   —   " if np.isnan(c.se_deg_per_Nm) else f"{c.se_deg_per_Nm:7.3g}"
+        verdict = "identifiable" if c.identifiable else "NOT identifiable"
+        reason = f": {c.reason}" if c.reason else ""
+        print(
+            f"{c.joint:20s} k {c.k_deg_per_Nm:10.4g} ± {se} °/(N·m)  {c.n_frames:4d} frame(s)  "
+            f"{verdict}{reason}"
+        )
+    return 0

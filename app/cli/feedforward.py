@@ -1,0 +1,79 @@
+"""`feedforward`: joint torques of a motion by the whole-body QP."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from app.cli.common import (
+    DEFAULTS,
+    MAX_WARNING_LINES,
+    add_robot_options,
+    load_robot_from_args,
+    output_target,
+)
+
+
+def add_parser(sub) -> None:
+    feedforward = sub.add_parser(
+        "feedforward",
+        help="joint torques of a motion CSV by the whole-body QP (LQR CoM, friction pyramids)",
+    )
+    feedforward.add_argument("trajectory", type=Path, help="motion CSV (as written by `motion`)")
+    feedforward.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
+    feedforward.add_argument(
+        "--out", type=Path, default=None, help="torque CSV: t [s], tau:<joint> [N·m]…, status"
+    )
+    feedforward.add_argument("--json", action="store_true")
+    add_robot_options(feedforward)
+
+
+def run(args: argparse.Namespace) -> int:
+    import time
+
+    import numpy as np
+
+    from app.core.dynamics.wbc import torque_feedforward, write_torque_csv
+    from app.core.motions.csv_files import read_trajectory_csv
+
+    robot = load_robot_from_args(args)
+    traj = read_trajectory_csv(args.trajectory, robot)
+    begin = time.perf_counter()
+    ff = torque_feedforward(robot, traj)
+    seconds = time.perf_counter() - begin
+    if args.out is not None:
+        write_torque_csv(args.out, ff)
+    bad = [int(k) for k in ff.infeasible_samples]
+    peaks = np.max(np.abs(ff.tau_Nm), axis=0, initial=0.0, where=np.isfinite(ff.tau_Nm))
+    if args.json:
+        report = {
+            "ok": True,
+            "robot": robot.name,
+            "trajectory": str(args.trajectory),
+            "n_samples": traj.n_samples,
+            "out": None if args.out is None else str(args.out),
+            "max_abs_tau_Nm": {n: float(p) for n, p in zip(ff.joint_names, peaks, strict=True)},
+            "infeasible_samples": bad,
+            "first_problems": [
+                {"index": k, "status": ff.status[k]} for k in bad[:MAX_WARNING_LINES]
+            ],
+            "solve_time_s": seconds,
+            "qp_time_median_ms": float(np.median(ff.qp_time_s) * 1e3),
+            "qp_time_p95_ms": float(np.percentile(ff.qp_time_s, 95) * 1e3),
+            "notes": list(ff.notes),
+        }
+        print(json.dumps(report, indent=2))
+        return 0
+    worst = int(np.argmax(peaks))
+    target = output_target(args.out)
+    print(
+        f"feedforward {traj.name} on {robot.name}: {traj.n_samples} samples in {seconds:.2f} s, "
+        f"{len(bad)} not solved, max |tau| {peaks[worst]:.3g} N·m ({ff.joint_names[worst]}){target}"
+    )
+    for line in [*ff.notes, *(f"sample {k}: {ff.status[k]}" for k in bad)][:MAX_WARNING_LINES]:
+        print(f"warning: {line}", file=sys.stderr)
+    if len(ff.notes) + len(bad) > MAX_WARNING_LINES:
+        print("warning: … more (--json lists every sample not solved)", file=sys.stderr)
+    return 0
