@@ -36,9 +36,9 @@ from app.studio import Studio
 from panels.quiet import set_value
 
 ROBAN_CANDIDATES = (
-    Path(__file__).resolve().parents[2]
-    / "shared"
-    / "robots"
+    Path(__file__).resolve().parents[1]
+    / "tests"
+    / "third_party"
     / "roban_s14"
     / "urdf"
     / "robanS14.urdf",

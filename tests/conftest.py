@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED_ROBOTS = REPO.parent / "shared" / "robots"
-ROBAN_URDF = SHARED_ROBOTS / "roban_s14" / "urdf" / "robanS14.urdf"
-SIGMABAN_URDF = SHARED_ROBOTS / "sigmaban" / "robot.urdf"
+THIRD_PARTY_ROBOTS = REPO / "tests" / "third_party"
+ROBAN_URDF = THIRD_PARTY_ROBOTS / "roban_s14" / "urdf" / "robanS14.urdf"
+SIGMABAN_URDF = THIRD_PARTY_ROBOTS / "sigmaban" / "robot.urdf"
 
 
 def _link(name: str, mass: float = 0.5, geometry: str = "") -> str:

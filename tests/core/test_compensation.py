@@ -193,7 +193,6 @@ def test_table2_preset_corrects_servo_11(servo_biped):
     assert any("servo 11" in note and "-722.91" in note for note in p.notes)
 
 
-@pytest.mark.skipif(not ROBAN_URDF.exists(), reason="Roban S14 not in ../shared")
 def test_servo_numbering_on_roban_s14_follows_axes_not_position():
     """Roban S14's legs hang below a waist joint and start with a 45°-tilted hip joint; Leju
     names its meshes l_leg_pitch, l_leg_roll, l_leg_yaw for links l1, l2, l3."""

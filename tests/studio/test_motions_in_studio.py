@@ -10,7 +10,7 @@ import pinocchio as pin
 import pytest
 
 from app.studio import Studio
-from tests.conftest import ROBAN_URDF, SHARED_ROBOTS
+from tests.conftest import ROBAN_URDF, THIRD_PARTY_ROBOTS
 from tests.studio.conftest import start_studio
 
 
@@ -104,7 +104,7 @@ def test_bad_motion_file_keeps_the_motion(studio):
 
 def test_roban_dance_imports_on_roban(studio):
     studio.load(ROBAN_URDF)
-    path = SHARED_ROBOTS / "roban_s14" / "motions" / "new_year_dance_100fps.csv"
+    path = THIRD_PARTY_ROBOTS / "roban_s14" / "motions" / "new_year_dance_100fps.csv"
     assert studio.motions.import_file(path.name, path.read_bytes(), "xyzw")
     assert studio.trajectory.dt == pytest.approx(0.01)  # 100 fps, from the file name
     assert studio.trajectory.n_samples == len(path.read_text().splitlines())
