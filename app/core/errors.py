@@ -27,16 +27,6 @@ class NoFeetFound(RobotLoadError):
     """No pair of left/right foot frames could be found, and none was given."""
 
 
-class FrameNotFound(StudioError):
-    """A frame or link name that the robot does not have."""
-
-    def __init__(self, name: str, available: list[str]) -> None:
-        shown = ", ".join(available[:12]) + (" …" if len(available) > 12 else "")
-        super().__init__(f"no link or frame named {name!r}; the robot has: {shown}")
-        self.name = name
-        self.available = available
-
-
 class UploadError(StudioError):
     """An uploaded file was refused (too large, wrong kind, unsafe archive)."""
 

@@ -8,12 +8,6 @@ from __future__ import annotations
 import numpy as np
 
 
-def xyzw_to_wxyz(quat_xyzw: np.ndarray) -> np.ndarray:
-    """pinocchio order (x, y, z, w) -> viser order (w, x, y, z)."""
-    q = np.asarray(quat_xyzw, dtype=float)
-    return np.concatenate([q[..., 3:4], q[..., 0:3]], axis=-1)
-
-
 def wxyz_to_xyzw(quat_wxyz: np.ndarray) -> np.ndarray:
     """viser order (w, x, y, z) -> pinocchio order (x, y, z, w)."""
     q = np.asarray(quat_wxyz, dtype=float)

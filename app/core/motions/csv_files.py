@@ -41,6 +41,7 @@ import pinocchio as pin
 
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory, from_configurations
+from app.core.quaternions import wxyz_to_xyzw
 from app.core.robot.model import RobotModel
 
 BASE_Q_COLUMNS = ("base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw")
@@ -380,7 +381,7 @@ def read_roban_motion_csv(
         raise MotionFileError(f"{source}: {len(values)} frame(s); a motion needs at least 2")
     lines = [line for line, _ in table]
 
-    quats = values[:, 3:7] if quaternion_order == "xyzw" else values[:, [4, 5, 6, 3]]
+    quats = values[:, 3:7] if quaternion_order == "xyzw" else wxyz_to_xyzw(values[:, 3:7])
     q = np.tile(robot.q_neutral, (len(values), 1))
     q[:, :3] = values[:, :3]
     q[:, 3:7] = _normalised(quats, lines, source)

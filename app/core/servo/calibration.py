@@ -30,6 +30,7 @@ from typing import IO, TypeAlias
 import numpy as np
 
 from app.core.errors import StudioError, finite_float
+from app.core.papers import TABLE2_TEXT
 
 PathOrFile: TypeAlias = str | os.PathLike[str] | IO[str]
 MEASURED_COLUMNS = ("frame", "joint", "q_cmd_deg", "q_meas_deg", "tau_Nm")
@@ -273,22 +274,6 @@ def _fit(
 
 
 # --- the paper's Table 2 -------------------------------------------------------------------
-
-TABLE2_TEXT = """\
-1 -0.00026 -0.23438 -0.00197 -118.74
-2 0.6226 0.15625 -0.36474 -1.28
-3 -37.9075 -36.6406 0.01779 -71.21
-4 68.7407 71.6406 -1.86625 1.55
-5 -30.8239 -28.9844 0.00371 -495.82
-6 -0.6245 -1.40625 0.01724 45.36
-7 0.00017 0.23438 0.00198 -118.29
-8 -0.60888 -0.46874 -0.39568 0.35
-9 -37.9126 -37.1875 -0.004 181.28
-10 68.7484 71.4062 1.88342 -1.41
-11 -30.8266 -29.375 0.02008 -722.91
-12 0.60647 1.0156 -0.01592 25.70
-"""
-"""Table 2 of the paper as printed: servo, q_des [°], q [°], τ [N·m], k [°/(N·m)] (standing)."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -29,6 +29,7 @@ from typing import IO, Literal, TypeAlias
 import numpy as np
 
 from app.core.errors import StudioError
+from app.core.papers import PHI_DEG
 
 ClearanceSign: TypeAlias = Literal["command", "torque"]
 CLEARANCE_SIGNS: tuple[str, ...] = ("command", "torque")
@@ -36,16 +37,8 @@ MAX_ABS_K_DEG_PER_NM = 5000.0
 """Largest |k| accepted [°/(N·m)]. The paper's largest is 1200 (Table 3, servo 9)."""
 MAX_PHI_DEG = 45.0
 """Largest clearance angle φ accepted [°]. The paper's is 8°."""
-PAPER_PHI_DEG = 8.0
-"""Clearance compensation angle of eq 23, found by trial (paper, section 5.4) [°]."""
-PAPER_TABLE3_K_DEG_PER_NM: dict[int, float] = {2: -4.0, 3: -650.0, 8: 20.0, 9: -1200.0}
-"""Table 3: k of servos 2, 3, 8, 9 after trial-and-error calibration [°/(N·m)]."""
-LEG_ROLES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
-"""The paper's servo order within a leg; servo i (1–12) is LEG_ROLES[(i - 1) % 6] of the left
-(1–6) or right (7–12) leg."""
-MIN_AXIS_ALIGNMENT = 0.5
-"""A joint takes a role (roll about x, pitch about y, yaw about z) only when |axis · that
-direction| reaches this at q = 0 (Roban S14's 45°-tilted hip joint has 0.71)."""
+PAPER_PHI_DEG = PHI_DEG
+"""Clearance compensation angle of eq 23 (app.core.papers) [°]."""
 
 PathOrFile: TypeAlias = str | os.PathLike[str] | IO[bytes]
 

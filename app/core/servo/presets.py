@@ -14,6 +14,8 @@ from itertools import permutations
 
 import numpy as np
 
+from app.core.papers import TABLE3_K_DEG_PER_NM as PAPER_TABLE3_K_DEG_PER_NM
+from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import (
     PAPER_PHI_DEG,
@@ -21,17 +23,12 @@ from app.core.servo.compensation import (
     CompensationParams,
 )
 
-PAPER_TABLE3_K_DEG_PER_NM: dict[int, float] = {2: -4.0, 3: -650.0, 8: 20.0, 9: -1200.0}
-"""Table 3: k of servos 2, 3, 8, 9 after trial-and-error calibration [°/(N·m)]."""
 LEG_ROLES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
 """The paper's servo order within a leg; servo i (1–12) is LEG_ROLES[(i - 1) % 6] of the left
 (1–6) or right (7–12) leg."""
 MIN_AXIS_ALIGNMENT = 0.5
 """A joint takes a role (roll about x, pitch about y, yaw about z) only when |axis · that
 direction| reaches this at q = 0 (Roban S14's 45°-tilted hip joint has 0.71)."""
-TYPICAL_COMPLIANCE_DEG_PER_NM = 1.4
-"""Mean |k| of the Table 2 servos whose torque is large enough to identify k (servos 2, 4 and
-10: 1.28, 1.55, 1.41 °/(N·m); app.core.servo.calibration)."""
 
 
 def servo_joint_names(robot: RobotModel) -> tuple[str, ...]:
