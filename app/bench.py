@@ -25,6 +25,7 @@ import json
 import socket
 import statistics
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -167,14 +168,23 @@ def _bench_plan() -> dict:
     }
 
 
+def _compute_torques(studio: Studio) -> None:
+    """Compute the torques of the current motion and wait for them."""
+    done = threading.Event()
+    disconnect = studio.compensation.torques_done.connect(lambda _result: done.set())
+    studio.compensation.compute_torques()
+    done.wait()
+    disconnect()
+
+
 def _bench_compensation_slider(studio: Studio, repeats: int = 20) -> dict:
     """A k slider moved on a 10 s motion (1000 samples): re-prediction, ghosts and plots."""
-    studio.load("servo_biped")
-    set_value(studio.motions_panel.motion, "one_leg_squats")
-    set_value(studio.motions_panel.generate, True)
-    studio.compensation.compute_torques(wait=True)
+    studio.robots.load("servo_biped")
+    set_value(studio.motions.panel.motion, "one_leg_squats")
+    set_value(studio.motions.panel.generate, True)
+    _compute_torques(studio)
     panel = studio.compensation.panel
-    assert studio.trajectory is not None
+    assert studio.state.trajectory is not None
     times = []
     for k in range(repeats):
         begin = time.perf_counter()
@@ -182,7 +192,7 @@ def _bench_compensation_slider(studio: Studio, repeats: int = 20) -> dict:
         times.append(time.perf_counter() - begin)
     ms = np.array(times) * 1000.0
     return {
-        "samples": studio.trajectory.n_samples,
+        "samples": studio.state.trajectory.n_samples,
         "p50_ms": float(np.percentile(ms, 50)),
         "p95_ms": float(np.percentile(ms, 95)),
     }
@@ -192,11 +202,13 @@ def _bench_interpolate(studio: Studio) -> dict:
     from app.core.motions.keyframes import interpolate
     from app.core.motions.library import MOTIONS, resolve_params
 
-    studio.load("servo_biped")
-    assert studio.robot is not None
-    plan = MOTIONS["one_leg_squats"].build(studio.robot, **resolve_params("one_leg_squats", {}))
+    studio.robots.load("servo_biped")
+    assert studio.state.robot is not None
+    plan = MOTIONS["one_leg_squats"].build(
+        studio.state.robot, **resolve_params("one_leg_squats", {})
+    )
     begin = time.perf_counter()
-    result = interpolate(studio.robot, plan.keyframes, dt=0.01)
+    result = interpolate(studio.state.robot, plan.keyframes, dt=0.01)
     seconds = time.perf_counter() - begin
     duration = result.trajectory.duration
     return {
@@ -209,17 +221,19 @@ def _bench_interpolate(studio: Studio) -> dict:
 
 def _bench_drag(studio: Studio, robot: str, repeats: int) -> dict:
     """Drag the left foot around a 3 cm circle, 2 cm up, one event per target."""
-    studio.load(robot)
-    assert studio.robot is not None
-    foot = studio.robot.feet[0].link
-    start = studio.robot.link_placements(studio.q, studio.robot.model.createData())[foot]
+    studio.robots.load(robot)
+    assert studio.state.robot is not None
+    foot = studio.state.robot.feet[0].link
+    start = studio.state.robot.link_placements(
+        studio.state.q, studio.state.robot.model.createData()
+    )[foot]
     times = []
     for k in range(repeats):
         angle = 2.0 * np.pi * k / 50.0
         target = start.copy()
         target[:3, 3] += [0.03 * np.cos(angle), 0.03 * np.sin(angle), 0.02 + 0.01 * np.sin(angle)]
         begin = time.perf_counter()
-        studio.request_drag("left", target)
+        studio.pose.request_drag("left", target)
         times.append(time.perf_counter() - begin)
     ms = np.array(times[5:]) * 1000.0  # the first events lift the foot from the ground
     return {
@@ -232,9 +246,9 @@ def _bench_drag(studio: Studio, robot: str, repeats: int) -> dict:
 def _bench_playback(studio: Studio, robot: str, seconds: float = 2.0) -> dict:
     from app.core.motions.trajectory import from_configurations
 
-    studio.load(robot)
-    assert studio.robot is not None
-    model, q0 = studio.robot, studio.robot.q_neutral
+    studio.robots.load(robot)
+    assert studio.state.robot is not None
+    model, q0 = studio.state.robot, studio.state.robot.q_neutral
     qs = []
     for t in np.arange(0.0, 4.0, 0.01):
         angles = model.joint_angles(q0) + 0.2 * np.sin(2.0 * np.pi * t)
@@ -247,10 +261,11 @@ def _bench_playback(studio: Studio, robot: str, seconds: float = 2.0) -> dict:
     trajectory = from_configurations(
         model.model, "bench", model.joint_names, 0.01, np.array(qs), np.ones((len(qs), 2), bool)
     )
-    studio.set_trajectory(trajectory, "bench")
+    studio.state.set_motion(trajectory, "bench", model)
     count, begin = 0, time.perf_counter()
     while time.perf_counter() - begin < seconds:
-        studio.show_time((count * 0.01) % trajectory.duration, playing=True)
+        with studio.state.lock, studio.server.atomic():
+            studio.state.set_time((count * 0.01) % trajectory.duration)
         count += 1
     return {"pushes": count, "pushes_per_s": count / (time.perf_counter() - begin)}
 
@@ -259,18 +274,18 @@ def _bench_load(studio: Studio, robot: str, runs: int = 5) -> dict:
     times = []
     for _ in range(runs):
         start = time.perf_counter()
-        ok = studio.load(robot)
+        ok = studio.robots.load(robot)
         studio.server.flush()
         times.append(time.perf_counter() - start)
         if not ok:
-            raise SystemExit(f"bench: cannot load {robot}: {studio.last_error}")
+            raise SystemExit(f"bench: cannot load {robot}: {studio.notifier.last_error}")
     return {"robot": robot, "runs": runs, "median_s": statistics.median(times), "max_s": max(times)}
 
 
 def _bench_slider(studio: Studio, robot: str, repeats: int) -> dict:
-    studio.load(robot)
-    panel = studio.joints_panel
-    assert panel is not None and studio.robot is not None
+    studio.robots.load(robot)
+    panel = studio.joints.panel
+    assert panel is not None and studio.state.robot is not None
     names = list(panel.sliders)
     times = []
     for k in range(repeats):

@@ -8,44 +8,58 @@ which value changed; the studio's compensation session recomputes.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 import viser
 
-from app.views.ghosts_view import GHOSTS, legend_markdown
+from app.core.servo.compensation import MAX_ABS_K_DEG_PER_NM, MAX_PHI_DEG
+from app.core.servo.presets import PRESETS
 from panels.quiet import Quiet, set_value
 
-if TYPE_CHECKING:
-    from app.compensation_session import CompensationSession
+K_SLIDER_DEG_PER_NM = 20.0
+"""The k and compliance sliders span ±this [°/(N·m)]: a hand can tune values around the
+paper's identifiable 1.3–1.6 at 0.01 per step; larger values (Table 3's −650) are typed."""
 
-PRESETS = (
-    "uniform k = 1.4 °/(N·m) (Table 2's identifiable servos)",
-    "paper Table 3 (servos 2, 3, 8, 9)",
-    "paper Table 3 + clearance φ = 8°",
-    "paper Table 2 (standing)",
-    "none",
-)
+
+class CompensationActions(Protocol):
+    """What the Compensation panel asks for."""
+
+    def compute_torques(self, client: viser.ClientHandle | None) -> None: ...
+    def export_commands(self, client: viser.ClientHandle | None) -> bytes | None: ...
+    def export_torques(self, client: viser.ClientHandle | None) -> bytes | None: ...
+    def apply_preset(self, key: str) -> None: ...
+    def set_clearance_sign(self, sign: str) -> None: ...
+    def select_joint(self, joint: str) -> None: ...
+    def edit_joint(self, joint: str, field: str, value: float) -> None: ...
+    def set_ghost_visible(self, name: str, visible: bool) -> None: ...
+
+
 HELP = """**q_cmd = q + k·τ** (eq. 7): each servo sags like a spring under its load τ; the command
 is offset by k·τ so that it lands on the plan. k is in °/(N·m) as in the paper's tables
 (×π/180 for rad/(N·m)).
 **+ φ·sign(·)** (eq. 23): a servo's gear play (dead band) adds φ in the direction the load
 pushes. The paper takes the sign of q + k·τ; the *torque* variant takes the sign of τ,
-which is the exact inverse of a dead band loaded by τ (see `app/core/servo_model.py`).
+which is the exact inverse of a dead band loaded by τ (see `app/core/servo/model.py`).
 The servo model below is the virtual robot: its true compliance and backlash."""
 
 
 class CompensationPanel:
     """Owns the "Compensation" folder; the per-joint controls edit the selected joint."""
 
-    def __init__(self, gui: viser.GuiApi, session: CompensationSession) -> None:
+    def __init__(
+        self, gui: viser.GuiApi, session: CompensationActions, ghosts: dict[str, str], legend: str
+    ) -> None:
+        """ghosts: name -> legend text of each ghost; legend: markdown with their colours."""
         self._session = session
         self._quiet = Quiet()
         with gui.add_folder("Compensation", order=4, expand_by_default=False):
             self.compute = gui.add_button("Compute torque feed-forward", icon=viser.Icon.CALCULATOR)
             self.progress = gui.add_progress_bar(0.0, visible=False)
             self.status = gui.add_markdown("Generate or build a motion, then compute its torques.")
-            self.preset = gui.add_dropdown("Preset", PRESETS, initial_value=PRESETS[0])
+            labels = tuple(preset.label for preset in PRESETS.values())
+            self._preset_keys = {preset.label: key for key, preset in PRESETS.items()}
+            self.preset = gui.add_dropdown("Preset", labels, initial_value=labels[0])
             self.clearance_sign = gui.add_dropdown(
                 "Clearance sign",
                 ("q + kτ (paper)", "τ (dead-band inverse)"),
@@ -55,15 +69,36 @@ class CompensationPanel:
             with gui.add_folder("Selected joint"):
                 self.enabled = gui.add_checkbox("Compensate", False)
                 self.k = gui.add_slider(
-                    "k [°/(N·m)]", min=-1500.0, max=1500.0, step=0.1, initial_value=0.0
+                    "k [°/(N·m)]",
+                    min=-K_SLIDER_DEG_PER_NM,
+                    max=K_SLIDER_DEG_PER_NM,
+                    step=0.01,
+                    initial_value=0.0,
+                    hint="Spring compensation of eq 7: q_cmd = q + k·τ. Drag here, or type any "
+                    "value below",
+                )
+                self.k_exact = gui.add_number(
+                    "k, typed [°/(N·m)]",
+                    0.0,
+                    min=-MAX_ABS_K_DEG_PER_NM,
+                    max=MAX_ABS_K_DEG_PER_NM,
+                    step=0.001,
+                    hint="Any k (the paper's Table 3 has −650 and −1200)",
                 )
                 self.k_rad = gui.add_markdown("")
-                self.phi = gui.add_slider("φ [°]", min=0.0, max=15.0, step=0.1, initial_value=0.0)
+                self.phi = gui.add_slider(
+                    "φ [°]",
+                    min=0.0,
+                    max=min(15.0, MAX_PHI_DEG),
+                    step=0.1,
+                    initial_value=0.0,
+                    hint="Clearance compensation of eq 23: + φ·sign(·) (the paper found 8°)",
+                )
                 self.compliance = gui.add_slider(
                     "servo compliance [°/(N·m)]",
-                    min=-1500.0,
-                    max=1500.0,
-                    step=1.0,
+                    min=-K_SLIDER_DEG_PER_NM,
+                    max=K_SLIDER_DEG_PER_NM,
+                    step=0.01,
                     initial_value=0.0,
                     hint="The virtual servo's true k: how far it sags per N·m",
                 )
@@ -76,10 +111,8 @@ class CompensationPanel:
                     hint="Full width of the virtual servo's dead band",
                 )
             with gui.add_folder("Ghosts", expand_by_default=True):
-                gui.add_markdown(legend_markdown())
-                self.ghosts = {
-                    name: gui.add_checkbox(text, True) for name, (_, text) in GHOSTS.items()
-                }
+                gui.add_markdown(legend)
+                self.ghosts = {name: gui.add_checkbox(text, True) for name, text in ghosts.items()}
             self.export_commands = gui.add_button(
                 "Export servo commands CSV", icon=viser.Icon.DOWNLOAD
             )
@@ -100,23 +133,28 @@ class CompensationPanel:
             session.export_torques(event.client)
 
         self.preset.on_update(
-            lambda _: None if self._quiet.quiet else session.apply_preset(self.preset.value)
+            lambda _: (
+                None
+                if self._quiet.is_quiet()
+                else session.apply_preset(self._preset_keys[self.preset.value])
+            )
         )
         self.clearance_sign.on_update(
             lambda _: (
                 None
-                if self._quiet.quiet
+                if self._quiet.is_quiet()
                 else session.set_clearance_sign(
                     "torque" if self.clearance_sign.value.startswith("τ") else "command"
                 )
             )
         )
         self.joint.on_update(
-            lambda _: None if self._quiet.quiet else session.select_joint(self.joint.value)
+            lambda _: None if self._quiet.is_quiet() else session.select_joint(self.joint.value)
         )
         for handle, field in (
             (self.enabled, "enabled"),
             (self.k, "k"),
+            (self.k_exact, "k"),
             (self.phi, "phi"),
             (self.compliance, "compliance"),
             (self.backlash, "backlash"),
@@ -133,7 +171,7 @@ class CompensationPanel:
 
     def _edit(self, field: str, handle: viser.GuiInputHandle) -> Callable[[object], None]:
         def callback(_event: object) -> None:
-            if not self._quiet.quiet:
+            if not self._quiet.is_quiet():
                 self._session.edit_joint(self.joint.value, field, handle.value)
 
         return callback
@@ -153,6 +191,7 @@ class CompensationPanel:
         with self._quiet.quietly():
             set_value(self.enabled, enabled)
             set_value(self.k, float(np.clip(k, self.k.min, self.k.max)))
+            set_value(self.k_exact, float(k))
             set_value(self.phi, float(np.clip(phi, self.phi.min, self.phi.max)))
             set_value(
                 self.compliance,

@@ -1,69 +1,63 @@
-"""Gait panel: the symmetric DIRCON planner's settings (the gait paper's case by default),
-Solve / Solve baseline / Cancel, live convergence, and the results beside the paper's Table 4."""
+"""Gait panel: the DIRCON planner's settings (sliders built from app.core.collocation.controls,
+the gait paper's case by default), Solve / Solve baseline / Cancel, live convergence, and the
+results beside the paper's Table 4."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 import viser
 import viser.uplot as uplot
 
-from panels.quiet import set_value
+from app.core.collocation.controls import CONTROLS, SLACK_HINT, SLACK_RANGE, settings_with
+from app.core.collocation.settings import GaitSettings
+from panels.quiet import Quiet, set_value
 
-if TYPE_CHECKING:
-    from app.gait_session import GaitSession
 
-PAPER_TABLE4 = {"max_abs_tau_Nm": (9.8, 11.5), "sr": (0.772, 1.299)}
-"""Table 4 of the gait paper: (symmetric planner, previous planner)."""
+class GaitActions(Protocol):
+    """What the Gait panel asks for."""
+
+    def solve(self, baseline: bool, client: viser.ClientHandle | None) -> str | None: ...
+    def cancel(self) -> None: ...
+    def play_result(self, client: viser.ClientHandle | None) -> None: ...
+    def load_planner_robot(self, client: viser.ClientHandle | None) -> None: ...
+    def settings_changed(self) -> None: ...
 
 
 class GaitPanel:
     """Owns the "Gait (DIRCON)" folder; callbacks only hand the settings to the session."""
 
-    def __init__(self, gui: viser.GuiApi, session: GaitSession) -> None:
+    def __init__(self, gui: viser.GuiApi, actions: GaitActions) -> None:
         self._gui = gui
+        self._quiet = Quiet()
+        self._base = GaitSettings()
         self.folder = gui.add_folder("Gait (DIRCON)", order=6, expand_by_default=False)
         with self.folder:
             self.robot_note = gui.add_markdown("")
             self.load_robot = gui.add_button(
                 "Load dircon_biped", icon=viser.Icon.ROBOT, visible=False
             )
+            low, high, step = SLACK_RANGE
             self.slack = gui.add_multi_slider(
                 "slack0 bounds [a, b]",
-                min=-0.5,
-                max=0.5,
-                step=0.01,
-                initial_value=(-0.05, 0.05),
-                hint="Foothold slack: x1 = (0.5 + slack0)(x0 + x2), a ≤ slack0 ≤ b (paper: ±0.05). With "
-                "identical legs and exchanged joint states the two steps mirror each other, so slack0 "
-                "is 0: the bounds must include 0",
+                min=low,
+                max=high,
+                step=step,
+                initial_value=(self._base.slack_a, self._base.slack_b),
+                hint=SLACK_HINT,
             )
-            self.k0 = gui.add_slider("K0 energy", min=0.0, max=20.0, step=0.1, initial_value=6.5)
-            self.k1 = gui.add_slider("K1 slack", min=0.0, max=20.0, step=0.1, initial_value=3.0)
-            self.k2 = gui.add_slider(
-                "K2 smoothness", min=0.0, max=20.0, step=0.1, initial_value=1.5
-            )
-            self.duration = gui.add_slider(
-                "H, two steps [s]", min=0.3, max=2.0, step=0.01, initial_value=0.72
-            )
-            self.step = gui.add_slider(
-                "advance, two steps [m]", min=0.0, max=0.6, step=0.01, initial_value=0.2
-            )
-            self.swing = gui.add_slider(
-                "swing height ≤ [m]", min=0.02, max=0.2, step=0.005, initial_value=0.10
-            )
-            self.clearance = gui.add_slider(
-                "swing clearance ≥ [m]",
-                min=0.0,
-                max=0.1,
-                step=0.005,
-                initial_value=0.04,
-                hint="Lowest the swing sole may be at mid-swing (not in the paper: without it the "
-                "optimum shuffles the foot along the floor)",
-            )
-            self.knots = gui.add_slider("knots", min=5, max=80, step=1, initial_value=38)
-            self.mu = gui.add_slider("μ", min=0.1, max=1.5, step=0.05, initial_value=0.6)
+            self.sliders: dict[str, viser.GuiSliderHandle] = {
+                c.field: gui.add_slider(
+                    c.label,
+                    min=c.minimum,
+                    max=c.maximum,
+                    step=c.step,
+                    initial_value=getattr(self._base, c.field),
+                    hint=c.hint or None,
+                )
+                for c in CONTROLS
+            }
             self.solve = gui.add_button("Solve", icon=viser.Icon.PLAYER_PLAY)
             self.baseline = gui.add_button(
                 "Solve baseline (original DIRCON)", icon=viser.Icon.PLAYER_PLAY
@@ -81,53 +75,47 @@ class GaitPanel:
 
         @self.solve.on_click
         def _(event: viser.GuiEvent) -> None:
-            session.solve(baseline=False, client=event.client)
+            actions.solve(baseline=False, client=event.client)
 
         @self.baseline.on_click
         def _(event: viser.GuiEvent) -> None:
-            session.solve(baseline=True, client=event.client)
+            actions.solve(baseline=True, client=event.client)
 
         @self.cancel.on_click
         def _(_event: viser.GuiEvent) -> None:
-            session.cancel()
+            actions.cancel()
 
         @self.use.on_click
-        def _(_event: viser.GuiEvent) -> None:
-            session.play_result()
+        def _(event: viser.GuiEvent) -> None:
+            actions.play_result(event.client)
 
         @self.load_robot.on_click
         def _(event: viser.GuiEvent) -> None:
-            session.load_planner_robot(event.client)
+            actions.load_planner_robot(event.client)
 
-        for handle in (
-            self.slack,
-            self.k0,
-            self.k1,
-            self.k2,
-            self.duration,
-            self.step,
-            self.swing,
-            self.clearance,
-            self.knots,
-            self.mu,
-        ):
-            handle.on_update(lambda _: session.settings_changed())
+        for handle in (self.slack, *self.sliders.values()):
+            handle.on_update(
+                lambda _: None if self._quiet.is_quiet() else actions.settings_changed()
+            )
 
     def values(self) -> dict[str, float]:
+        """The sliders' values by GaitSettings field."""
         a, b = self.slack.value
-        return {
-            "slack_a": float(a),
-            "slack_b": float(b),
-            "K0": float(self.k0.value),
-            "K1": float(self.k1.value),
-            "K2": float(self.k2.value),
-            "H_s": float(self.duration.value),
-            "step_length_m": float(self.step.value),
-            "swing_height_m": float(self.swing.value),
-            "swing_clearance_m": float(self.clearance.value),
-            "knots": int(self.knots.value),
-            "mu": float(self.mu.value),
-        }
+        values = {"slack_a": float(a), "slack_b": float(b)}
+        values.update({name: float(handle.value) for name, handle in self.sliders.items()})
+        return values
+
+    def settings(self, baseline: bool) -> GaitSettings:
+        """The settings the sliders describe (GaitSettingsError if they describe no gait)."""
+        return settings_with(self._base, {**self.values(), "baseline": baseline})
+
+    def show_settings(self, settings: GaitSettings) -> None:
+        """Show a robot's default settings without calling back."""
+        self._base = settings
+        with self._quiet.quietly():
+            set_value(self.slack, (settings.slack_a, settings.slack_b))
+            for name, handle in self.sliders.items():
+                set_value(handle, float(np.clip(getattr(settings, name), handle.min, handle.max)))
 
     def show_running(self, running: bool) -> None:
         self.cancel.disabled = not running

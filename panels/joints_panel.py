@@ -32,6 +32,7 @@ class JointsPanel:
         self._quiet = Quiet()
         self.folder = gui.add_folder("Joints", order=1)
         with self.folder:
+            self.status = gui.add_markdown("")
             limbs = sorted({j.limb for j in robot.joints}, key=lambda limb: LIMB_ORDER.index(limb))
             for limb in limbs:
                 with gui.add_folder(limb, expand_by_default=limb.endswith("leg")):
@@ -66,7 +67,7 @@ class JointsPanel:
 
         @slider.on_update
         def _(_event: viser.GuiEvent) -> None:
-            if not self._quiet.quiet:
+            if not self._quiet.is_quiet():
                 on_change(index, slider.value / scale)
 
         return slider
@@ -80,6 +81,9 @@ class JointsPanel:
                     np.clip(round(angles[i] * self._scales[i], 1), slider.min, slider.max)
                 )
                 set_value(slider, value)
+
+    def show_status(self, text: str) -> None:
+        self.status.content = text
 
     def remove(self) -> None:
         self.folder.remove()

@@ -2,21 +2,28 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import viser
 
+from app.core.motions.keyframes import Keyframe
 from panels.quiet import set_value
 
-if TYPE_CHECKING:
-    from app.core.motions.keyframes import Keyframe
-    from app.studio import Studio
+
+class KeyframeActions(Protocol):
+    """What the Keyframes panel asks for."""
+
+    def capture(self, duration_s: float) -> None: ...
+    def move(self, index: int, offset: int) -> None: ...
+    def delete(self, index: int) -> None: ...
+    def set_duration(self, index: int, duration_s: float) -> None: ...
+    def build(self, client: viser.ClientHandle | None) -> bool: ...
 
 
 class KeyframesPanel:
-    """Owns the "Keyframes" folder. The studio holds the keyframe list."""
+    """Owns the "Keyframes" folder. The motion session holds the keyframe list."""
 
-    def __init__(self, gui: viser.GuiApi, studio: Studio) -> None:
+    def __init__(self, gui: viser.GuiApi, actions: KeyframeActions) -> None:
         with gui.add_folder("Keyframes", order=2.6, expand_by_default=False):
             self.duration = gui.add_number(
                 "Duration [s]",
@@ -34,17 +41,17 @@ class KeyframesPanel:
                 self.set_duration = gui.add_button("Set duration", icon=viser.Icon.CLOCK)
                 self.delete = gui.add_button("Delete", icon=viser.Icon.TRASH, color="red")
             self.build = gui.add_button("Build motion", icon=viser.Icon.PLAYER_PLAY)
-        self.capture.on_click(lambda _: studio.motions.capture(float(self.duration.value)))
-        self.up.on_click(lambda _: studio.motions.move(self.index(), -1))
-        self.down.on_click(lambda _: studio.motions.move(self.index(), +1))
-        self.delete.on_click(lambda _: studio.motions.delete(self.index()))
+        self.capture.on_click(lambda _: actions.capture(float(self.duration.value)))
+        self.up.on_click(lambda _: actions.move(self.index(), -1))
+        self.down.on_click(lambda _: actions.move(self.index(), +1))
+        self.delete.on_click(lambda _: actions.delete(self.index()))
         self.set_duration.on_click(
-            lambda _: studio.motions.set_duration(self.index(), float(self.duration.value))
+            lambda _: actions.set_duration(self.index(), float(self.duration.value))
         )
 
         @self.build.on_click
         def _(event: viser.GuiEvent) -> None:
-            studio.motions.build(event.client)
+            actions.build(event.client)
 
     def index(self) -> int:
         """Index of the selected keyframe, -1 if none."""

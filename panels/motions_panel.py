@@ -2,21 +2,34 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import viser
 
 from app.core.motions.library import MOTIONS
 from app.core.motions.params import Param
 
-if TYPE_CHECKING:
-    from app.studio import Studio
+
+class MotionActions(Protocol):
+    """What the Motions panel asks for."""
+
+    def generate(
+        self, name: str, params: dict[str, object], client: viser.ClientHandle | None
+    ) -> bool: ...
+    def export(self, client: viser.ClientHandle | None) -> bytes | None: ...
+    def import_file(
+        self,
+        filename: str,
+        content: bytes,
+        quaternion_order: str,
+        client: viser.ClientHandle | None,
+    ) -> bool: ...
 
 
 class MotionsPanel:
     """Owns the "Motions" folder; parameter inputs are rebuilt for the chosen motion."""
 
-    def __init__(self, gui: viser.GuiApi, studio: Studio) -> None:
+    def __init__(self, gui: viser.GuiApi, actions: MotionActions) -> None:
         self._gui = gui
         with gui.add_folder("Motions", order=2.5, expand_by_default=False) as self.folder:
             self.motion = gui.add_dropdown(
@@ -37,21 +50,22 @@ class MotionsPanel:
             self.upload = gui.add_upload_button(
                 "Import motion CSV", icon=viser.Icon.UPLOAD, mime_type=".csv"
             )
+            self.status = gui.add_markdown("")
         self._show_params()
         self.motion.on_update(lambda _: self._show_params())
 
         @self.generate.on_click
         def _(event: viser.GuiEvent) -> None:
-            studio.motions.generate(self.motion.value, self.values(), event.client)
+            actions.generate(self.motion.value, self.values(), event.client)
 
         @self.export.on_click
         def _(event: viser.GuiEvent) -> None:
-            studio.motions.export(event.client)
+            actions.export(event.client)
 
         @self.upload.on_upload
         def _(event: viser.GuiEvent) -> None:
             uploaded = self.upload.value
-            studio.motions.import_file(
+            actions.import_file(
                 uploaded.name, uploaded.content, self.quaternion.value, event.client
             )
 

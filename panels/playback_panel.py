@@ -2,23 +2,29 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import viser
 
+from app.core.motions.trajectory import Trajectory
 from panels.quiet import Quiet, set_value
 
-if TYPE_CHECKING:
-    from app.core.motions.trajectory import Trajectory
-    from app.studio import Studio
+
+class PlaybackActions(Protocol):
+    """What the Playback panel asks for."""
+
+    def seek(self, time_s: float) -> None: ...
+    def toggle_play(self) -> None: ...
+    def set_traces_visible(self, visible: bool) -> None: ...
+
 
 SPEEDS = ("0.25", "0.5", "1", "2")
 
 
 class PlaybackPanel:
-    """Owns the "Playback" folder. The studio's player moves the timeline while playing."""
+    """Owns the "Playback" folder. The player moves the timeline while playing."""
 
-    def __init__(self, gui: viser.GuiApi, studio: Studio) -> None:
+    def __init__(self, gui: viser.GuiApi, actions: PlaybackActions) -> None:
         with gui.add_folder("Playback", order=3):
             self.info = gui.add_markdown(
                 "No motion yet: pick one in *Motions* or capture keyframes."
@@ -31,9 +37,17 @@ class PlaybackPanel:
             self.loop = gui.add_checkbox("Loop", True)
             self.traces = gui.add_checkbox("Show traces", True)
         self._quiet = Quiet()
-        self.time.on_update(lambda _: None if self._quiet.quiet else studio.seek(self.time.value))
-        self.play.on_click(lambda _: studio.toggle_play())
-        self.traces.on_update(lambda _: studio.set_traces_visible(self.traces.value))
+        self.time.on_update(
+            lambda _: None if self._quiet.is_quiet() else actions.seek(self.time.value)
+        )
+        self.play.on_click(lambda _: actions.toggle_play())
+        self.traces.on_update(lambda _: actions.set_traces_visible(self.traces.value))
+
+    def show_none(self) -> None:
+        self.time.disabled = True
+        self.play.disabled = True
+        self.show_playing(False)
+        self.info.content = "No motion yet: pick one in *Motions* or capture keyframes."
 
     def show_trajectory(self, trajectory: Trajectory, summary: str) -> None:
         self.time.max = round(trajectory.duration, 2)
@@ -49,8 +63,10 @@ class PlaybackPanel:
             set_value(self.time, min(round(time_s, 2), self.time.max))
 
     def show_playing(self, playing: bool) -> None:
-        self.play.label = "Pause" if playing else "Play"
-        self.play.icon = viser.Icon.PLAYER_PAUSE if playing else viser.Icon.PLAYER_PLAY
+        label = "Pause" if playing else "Play"
+        if self.play.label != label:  # called every frame: send only a change
+            self.play.label = label
+            self.play.icon = viser.Icon.PLAYER_PAUSE if playing else viser.Icon.PLAYER_PLAY
 
     @property
     def speed_factor(self) -> float:

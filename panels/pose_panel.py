@@ -2,22 +2,31 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import viser
 
 from panels.quiet import Quiet, set_value
 
-if TYPE_CHECKING:
-    from app.studio import Studio
-
 STANCES = ("both", "left", "right")
 
 
-class PosePanel:
-    """Owns the "Pose" folder. Callbacks forward to the studio, which owns the state."""
+class PoseActions(Protocol):
+    """What the Pose panel asks for."""
 
-    def __init__(self, gui: viser.GuiApi, studio: Studio) -> None:
+    def set_com_in_support(self, on: bool) -> None: ...
+    def set_stance(self, stance: str) -> None: ...
+    def set_handles_visible(self, visible: bool) -> None: ...
+    def reset_pose(self) -> None: ...
+    def ready_pose(self) -> None: ...
+    def snap_feet(self) -> None: ...
+    def swap_stance(self) -> None: ...
+
+
+class PosePanel:
+    """Owns the "Pose" folder. Callbacks only forward the request."""
+
+    def __init__(self, gui: viser.GuiApi, actions: PoseActions) -> None:
         with gui.add_folder("Pose (drag the feet)", order=0.5):
             self.com_in_support = gui.add_checkbox(
                 "Keep CoM over support",
@@ -42,16 +51,16 @@ class PosePanel:
             self.status = gui.add_markdown("")
         self._quiet = Quiet()
         self.com_in_support.on_update(
-            lambda _: studio.set_com_in_support(self.com_in_support.value)
+            lambda _: actions.set_com_in_support(self.com_in_support.value)
         )
         self.stance.on_update(
-            lambda _: None if self._quiet.quiet else studio.set_stance(self.stance.value)
+            lambda _: None if self._quiet.is_quiet() else actions.set_stance(self.stance.value)
         )
-        self.handles.on_update(lambda _: studio.set_handles_visible(self.handles.value))
-        self.reset.on_click(lambda _: studio.reset_pose())
-        self.ready.on_click(lambda _: studio.ready_pose())
-        self.snap.on_click(lambda _: studio.snap_feet())
-        self.swap.on_click(lambda _: studio.swap_stance())
+        self.handles.on_update(lambda _: actions.set_handles_visible(self.handles.value))
+        self.reset.on_click(lambda _: actions.reset_pose())
+        self.ready.on_click(lambda _: actions.ready_pose())
+        self.snap.on_click(lambda _: actions.snap_feet())
+        self.swap.on_click(lambda _: actions.swap_stance())
 
     def show_stance(self, stance: str) -> None:
         """Reflect a stance changed by the studio (e.g. by a foot drag) without calling back."""

@@ -2,22 +2,31 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import viser
 
+from app.core.robot.report import RobotReport
+from panels.quiet import Quiet, set_value
 from robots.catalogue import BUILTIN_ROBOTS
 
-if TYPE_CHECKING:
-    from app.core.robot.report import RobotReport
-    from app.studio import Studio
+
+class RobotActions(Protocol):
+    """What the Robot panel asks for."""
+
+    def load(self, source: str, client: viser.ClientHandle | None) -> bool: ...
+
+    def load_upload(
+        self, filename: str, content: bytes, client: viser.ClientHandle | None
+    ) -> bool: ...
 
 
 class RobotPanel:
-    """Owns the "Robot" folder. Callbacks only forward the request to the studio."""
+    """Owns the "Robot" folder. Callbacks only forward the request."""
 
-    def __init__(self, gui: viser.GuiApi, studio: Studio, max_upload_bytes: int) -> None:
-        self._studio = studio
+    def __init__(self, gui: viser.GuiApi, actions: RobotActions, max_upload_bytes: int) -> None:
+        self._actions = actions
+        self._quiet = Quiet()
         with gui.add_folder("Robot", order=0):
             self.builtin = gui.add_dropdown(
                 "Built-in",
@@ -42,11 +51,11 @@ class RobotPanel:
 
         @self.load_builtin.on_click
         def _(event: viser.GuiEvent) -> None:
-            studio.load(self.builtin.value, client=event.client)
+            actions.load(self.builtin.value, client=event.client)
 
         @self.open_path.on_click
         def _(event: viser.GuiEvent) -> None:
-            studio.load(self.path.value.strip(), client=event.client)
+            actions.load(self.path.value.strip(), client=event.client)
 
         @self.upload.on_upload
         def _(event: viser.GuiEvent) -> None:
@@ -56,7 +65,7 @@ class RobotPanel:
         self, uploaded: viser.UploadedFile, client: viser.ClientHandle | None = None
     ) -> None:
         """What the upload button does with a file the browser sent."""
-        self._studio.load_upload(uploaded.name, uploaded.content, client=client)
+        self._actions.load_upload(uploaded.name, uploaded.content, client=client)
 
     def show_report(self, report: RobotReport) -> None:
         lines = report.lines()
@@ -64,3 +73,9 @@ class RobotPanel:
 
     def show_status(self, text: str) -> None:
         self.status.content = text
+
+    def show_builtin(self, name: str) -> None:
+        """Show which built-in is loaded (the dropdown follows loads from anywhere)."""
+        if name in BUILTIN_ROBOTS:
+            with self._quiet.quietly():
+                set_value(self.builtin, name)

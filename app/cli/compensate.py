@@ -15,6 +15,9 @@ from app.cli.common import (
 )
 from app.core.errors import StudioError
 
+PRESET_CHOICES = ("uniform", "table3", "table2")
+"""Keys of app.core.servo.presets.PRESETS offered here (Table 3 + φ is --clearance)."""
+
 
 def add_parser(sub) -> None:
     """The `compensate` and `calibrate` subcommands (servo spring/clearance compensation)."""
@@ -33,8 +36,9 @@ def add_parser(sub) -> None:
     )
     source.add_argument(
         "--preset",
-        choices=("table3", "table2"),
-        help="the paper's coefficients: Table 3 (servos 2, 3, 8, 9) or Table 2 (all 12)",
+        choices=PRESET_CHOICES,
+        help="a preset: uniform k (Table 2's identifiable servos), the paper's Table 3 "
+        "(servos 2, 3, 8, 9) or Table 2 (all 12)",
     )
     compensate.add_argument(
         "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
@@ -64,46 +68,22 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from app.core.motions.csv_files import read_trajectory_csv
-    from app.core.servo.compensation import command_limit_violations, compensated_command
-    from app.core.servo.files import (
-        read_coefficients_toml,
-        read_torque_csv,
-        write_command_csv,
-    )
-    from app.core.servo.model import joint_angles
-    from app.core.servo.presets import paper_table2_preset, paper_table3_preset
+    from app.core.servo.commands import servo_commands, torques_of_motion
+    from app.core.servo.files import read_coefficients_toml, read_torque_csv, write_command_csv
+    from app.core.servo.presets import preset_params
 
     if args.clearance and args.preset != "table3":
         raise StudioError("--clearance goes with --preset table3 (a k.toml sets phi_deg itself)")
     robot = load_robot_from_args(args)
     traj = read_trajectory_csv(args.trajectory, robot)
     torques = read_torque_csv(args.tau, robot.joint_names)
-    if len(torques.t) != traj.n_samples:
-        raise StudioError(
-            f"{args.tau} has {len(torques.t)} samples but {args.trajectory} has {traj.n_samples}"
-        )
-    t_tau = torques.t - torques.t[0]
-    worst = int(np.argmax(np.abs(t_tau - traj.t)))
-    if abs(t_tau[worst] - traj.t[worst]) > 1e-3 * traj.dt + 1e-9:
-        raise StudioError(
-            f"{args.tau}: sample {worst} is at t = {torques.t[worst]:g} s, the motion's at "
-            f"{traj.t[worst]:g} s; the torques must come from this motion"
-        )
-    if args.preset == "table3":
-        params = paper_table3_preset(robot, clearance=args.clearance)
-    elif args.preset == "table2":
-        params = paper_table2_preset(robot)
+    tau = torques_of_motion(traj, torques, str(args.tau))
+    if args.preset is not None:
+        params = preset_params("table3_clearance" if args.clearance else args.preset, robot)
     else:
         params = read_coefficients_toml(args.coeffs).for_joints(robot.joint_names)
-    q_plan = joint_angles(robot, traj.q)
-    q_cmd = compensated_command(q_plan, torques.tau_Nm, params)
-    lower = np.array([joint.lower for joint in robot.joints])
-    upper = np.array([joint.upper for joint in robot.joints])
-    warnings = command_limit_violations(params, q_cmd, lower, upper)
-    odd = sorted({s for s in torques.status if s and s.lower() not in ("ok", "solved")})
-    for status in odd:
-        count = sum(s == status for s in torques.status)
-        warnings.append(f"{count} torque sample(s) have status {status!r}")
+    commands = servo_commands(robot, traj, tau, params, torques.status)
+    q_plan, q_cmd, warnings = commands.q_plan_rad, commands.q_cmd_rad, list(commands.warnings)
     if args.out is not None:
         write_command_csv(args.out, traj.t, robot.joint_names, q_cmd)
     correction = np.degrees(np.abs(q_cmd - q_plan)).max(axis=0)

@@ -66,7 +66,7 @@ def select_option(page, label: str, option: str) -> None:
 
 def single_support_time(studio: Studio) -> float:
     """The middle of the motion's longest stretch on one foot, on the 0.01 s timeline."""
-    trajectory = studio.trajectory
+    trajectory = studio.state.trajectory
     assert trajectory is not None
     single = trajectory.contacts[:, 0] != trajectory.contacts[:, 1]
     assert single.any(), f"{trajectory.name} never lifts a foot"
@@ -103,13 +103,13 @@ def test_generate_a_motion_and_compute_its_torques(
     wanted = {param.name for param in MOTIONS[MOTION].params}
     wait_for(
         f"the studio to show {MOTION}'s parameters",
-        lambda: set(studio.motions_panel.inputs) == wanted,
+        lambda: set(studio.motions.panel.inputs) == wanted,
         UI_TIMEOUT_S,
     )
     click_button(page, "Generate")
     trajectory = wait_for(
         f"the generated {MOTION}",
-        lambda: (t := studio.trajectory) is not None and t.name == MOTION and t,
+        lambda: (t := studio.state.trajectory) is not None and t.name == MOTION and t,
         UI_TIMEOUT_S,
     )
 
@@ -118,7 +118,7 @@ def test_generate_a_motion_and_compute_its_torques(
     type_number(page, "Time [s]", t_show)
     wait_for(
         f"the studio to seek to {t_show} s",
-        lambda: studio.playback_panel.time.value == pytest.approx(t_show, abs=1e-9),
+        lambda: studio.playback.panel.time.value == pytest.approx(t_show, abs=1e-9),
         UI_TIMEOUT_S,
     )
     assert page_time_s(page) == pytest.approx(t_show)
@@ -156,12 +156,12 @@ def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
 ) -> None:
     session, panel = studio.compensation, studio.compensation.panel
     feedforward, before = session.feedforward, session.prediction
-    trajectory = studio.trajectory
+    trajectory = studio.state.trajectory
     assert feedforward is not None and before is not None and trajectory is not None, (
         "run with the previous test: it computes the torques edited here"
     )
     i = before.joint_names.index(JOINT)
-    k_shown = trajectory.index_at(studio.playback_panel.time.value)
+    k_shown = trajectory.index_at(studio.playback.panel.time.value)
     tau = feedforward.tau_Nm[:, i]
     assert abs(tau[k_shown]) > MIN_TAU_NM, f"τ of {JOINT} is {tau[k_shown]:.3f} N·m there"
 

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from app.gait_session import PLANNER_ROBOT
 from app.studio import Studio
+from app.studio.gait_session import PLANNER_ROBOT
 from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
@@ -108,7 +108,7 @@ def page(browser_page, studio_url: str):
 
 def test_solve_shows_progress_then_results(page, studio: Studio) -> None:
     session = studio.gait
-    assert session.running is None and not session.results
+    assert session.running is None and session.results.symmetric is None
     expand_folder(page, GAIT, "Solve")
     gait = folder(page, GAIT)
     assert not page.get_by_role("button", name="Play this gait", exact=True).is_enabled()
@@ -137,24 +137,24 @@ def test_solve_shows_progress_then_results(page, studio: Studio) -> None:
     assert seen_at(page, "Solving", clicked_ms) < seen_at(page, "Solved in", clicked_ms)
 
     assert session.running is None
-    result = session.results[False]
+    result = session.results.symmetric
     assert result.converged
     assert len(session.history[0]) >= 1  # convergence was reported live
     print(f"\nsolve: {result.iterations} IPOPT iterations, {result.solve_s:.2f} s in the worker")
 
 
 def test_play_this_gait_loads_dircon_biped(page, studio: Studio, tmp_path: Path) -> None:
-    assert studio.gait.results.get(False) is not None, "run with the previous test: it solves"
-    assert studio.robot is not None and studio.robot.name != PLANNER_ROBOT
-    before = wait_stable(page, f"{studio.robot.name} drawn", not_blank)
+    assert studio.gait.results.symmetric is not None, "run with the previous test: it solves"
+    assert studio.state.robot is not None and studio.state.robot.name != PLANNER_ROBOT
+    before = wait_stable(page, f"{studio.state.robot.name} drawn", not_blank)
 
     click_button(page, "Play this gait")  # enabled once a gait is solved
     trajectory = wait_for(
         "the gait played on dircon_biped",
         lambda: (
-            (r := studio.robot) is not None
+            (r := studio.state.robot) is not None
             and r.name == PLANNER_ROBOT
-            and (t := studio.trajectory) is not None
+            and (t := studio.state.trajectory) is not None
             and t
         ),
         UI_TIMEOUT_S,
@@ -176,7 +176,7 @@ def test_play_this_gait_loads_dircon_biped(page, studio: Studio, tmp_path: Path)
 
 def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio) -> None:
     session = studio.gait
-    good = session.results.get(False)
+    good = session.results.symmetric
     assert good is not None, "run with the previous tests: they solve the gait kept here"
     gait = folder(page, GAIT)
 
@@ -195,7 +195,7 @@ def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio) ->
         lambda: seen_at(page, "Solving", clicked_ms) is not None,
         UI_TIMEOUT_S,
     )
-    assert session.running is not None and session.running[2]["knots"] == BIG_KNOTS
+    assert session.running is not None and session.running.settings.knots == BIG_KNOTS
 
     click_button(page, "Cancel")  # waits until the page has enabled it
     gait.get_by_text("Cancelled", exact=False).wait_for(
@@ -212,5 +212,5 @@ def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio) ->
     assert seen_at(page, "Solved in", clicked_ms) is None  # the big solve never finished
 
     wait_for("the studio to be idle", lambda: session.running is None, UI_TIMEOUT_S)
-    assert session.results[False] is good
+    assert session.results.symmetric is good
     assert not page.get_by_role("button", name="Cancel", exact=True).is_enabled()

@@ -4,7 +4,7 @@ a motion from them, then play it back and pause it from the Playback folder.
 Everything a user would do is done by clicking and typing in the page, except posing the
 robot between the two captures: a user drags the foot's 3D gizmo, which Playwright cannot do
 practically (a drag in a WebGL canvas needs the gizmo's projected screen position and a
-software-rendered frame per mouse move), so the test calls `studio.request_drag` — the
+software-rendered frame per mouse move), so the test calls `studio.pose.request_drag` — the
 method the gizmo's drag callback calls — with the target such a drag would send.
 
 The page is loaded once for the module (software WebGL is slow) and the second test plays
@@ -50,9 +50,9 @@ MIN_PLAY_FRACTION = 0.01
 
 def lifted_left_foot(studio: Studio) -> np.ndarray:
     """Where dragging the left foot's gizmo straight up by LIFT_M would put it."""
-    robot = studio.robot
+    robot = studio.state.robot
     assert robot is not None
-    T = robot.link_placements(studio.q, robot.model.createData())[robot.feet[0].link]
+    T = robot.link_placements(studio.state.q, robot.model.createData())[robot.feet[0].link]
     T[:3, 3] += [0.0, 0.0, LIFT_M]
     return T
 
@@ -70,7 +70,7 @@ def page(browser_page, studio_url: str):
 
 def test_capture_two_keyframes_and_build_a_motion(page, studio: Studio) -> None:
     motions = studio.motions
-    assert studio.trajectory is None and not motions.keyframes
+    assert studio.state.trajectory is None and not motions.keyframes
     expand_folder(page, "Keyframes", "Capture pose")
     keyframes = folder(page, "Keyframes")
 
@@ -80,14 +80,14 @@ def test_capture_two_keyframes_and_build_a_motion(page, studio: Studio) -> None:
     keyframes.get_by_text("pose 1 — start", exact=False).wait_for(state="visible")
 
     # Lift the left foot 3 cm (in place of a gizmo drag, see the module docstring).
-    studio.request_drag("left", lifted_left_foot(studio))
-    assert studio.pose is not None and studio.pose.posing.stance == "right"
+    studio.pose.request_drag("left", lifted_left_foot(studio))
+    assert studio.pose is not None and studio.state.pose.stance == "right"
 
     # Keyframe 2, reached in SECOND_DURATION_S: type it, then capture.
     type_number(page, "Duration [s]", SECOND_DURATION_S)
     wait_for(
         "the studio to receive the typed duration",
-        lambda: studio.keyframes_panel.duration.value == SECOND_DURATION_S,
+        lambda: studio.motions.keyframes_panel.duration.value == SECOND_DURATION_S,
         UI_TIMEOUT_S,
     )
     click_button(page, "Capture pose")
@@ -105,7 +105,7 @@ def test_capture_two_keyframes_and_build_a_motion(page, studio: Studio) -> None:
     assert [kf.stance for kf in motions.keyframes] == ["both", "right"]
 
     click_button(page, "Build motion")
-    trajectory = wait_for("the built motion", lambda: studio.trajectory, UI_TIMEOUT_S)
+    trajectory = wait_for("the built motion", lambda: studio.state.trajectory, UI_TIMEOUT_S)
     # A motion lasts the sum of its keyframes' durations but the first's (samples every dt).
     expected = sum(kf.duration_s for kf in motions.keyframes[1:])
     assert trajectory.name == "keyframes"
@@ -121,14 +121,14 @@ def test_capture_two_keyframes_and_build_a_motion(page, studio: Studio) -> None:
 
 
 def test_play_moves_the_robot_and_pause_stops_it(page, studio: Studio) -> None:
-    trajectory = studio.trajectory
+    trajectory = studio.state.trajectory
     assert trajectory is not None, "run with the previous test: it builds the motion played here"
-    assert not studio.player.playing
+    assert not studio.playback.player.playing
     start = wait_stable(page, "the motion's first pose drawn", not_blank)
 
     click_button(page, "Play")
     page.get_by_role("button", name="Pause", exact=True).wait_for(state="visible")
-    assert studio.player.playing
+    assert studio.playback.player.playing
 
     # The page's timeline runs (it moves on again and again; the motion loops)...
     first = wait_for(
@@ -154,9 +154,9 @@ def test_play_moves_the_robot_and_pause_stops_it(page, studio: Studio) -> None:
 
     click_button(page, "Pause")
     page.get_by_role("button", name="Play", exact=True).wait_for(state="visible")
-    assert studio.player.playing is False
+    assert studio.playback.player.playing is False
     # The page's timeline stops where the studio paused.
-    paused_at = studio.playback_panel.time.value
+    paused_at = studio.playback.panel.time.value
     assert 0.0 <= paused_at <= trajectory.duration
     wait_for(
         f"the page's Time [s] to show the pause at {paused_at}",

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from app.studio import Studio, vars_of
+from app.studio import Studio
+from app.studio.robot_session import vars_of
 from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
@@ -39,7 +40,7 @@ MIN_MOTION_FRACTION = 0.01
 
 def joint_to_move(studio: Studio) -> tuple[int, str, float]:
     """A knee (else a hip pitch) joint and a target [deg] far from its current angle."""
-    robot = studio.robot
+    robot = studio.state.robot
     assert robot is not None
     names = [joint.name for joint in robot.joints]
     pick = next((n for n in names if "knee" in n), None) or next(
@@ -48,7 +49,7 @@ def joint_to_move(studio: Studio) -> tuple[int, str, float]:
     assert pick is not None, f"no knee or hip pitch joint in {names}"
     index = names.index(pick)
     joint = robot.joints[index]
-    current = float(np.degrees(robot.joint_angles(studio.q)[index]))
+    current = float(np.degrees(robot.joint_angles(studio.state.q)[index]))
     lower, upper = np.degrees(joint.lower), np.degrees(joint.upper)
     # 60 % of the way to the farther limit, rounded to the slider's 0.1° step, capped at 90°.
     far = upper if upper - current >= current - lower else lower
@@ -60,7 +61,7 @@ def joint_to_move(studio: Studio) -> tuple[int, str, float]:
 def page(browser_page, studio: Studio, studio_url: str):
     """The studio page, loaded once and connected (its GUI shows the joint sliders)."""
     browser_page.goto(studio_url)
-    first_joint = studio.robot.joints[0].name
+    first_joint = studio.state.robot.joints[0].name
     gui_row_input(browser_page, first_joint, "input.mantine-NumberInput-input").wait_for(
         state="visible", timeout=RENDER_TIMEOUT_S * 1000
     )
@@ -71,7 +72,7 @@ def test_robot_renders_and_a_joint_slider_moves_it(page, studio: Studio, tmp_pat
     # 1. The robot is drawn: the view is not blank and differs from the same view without it.
     dismiss_software_webgl_warning(page)
     with_robot = wait_stable(page, "a first render of the scene", not_blank)
-    view = studio.view
+    view = studio.robots.view
     assert view is not None
     view.set_visible(visual=False, collision=False, frames=False, com=False)
     try:
@@ -81,7 +82,7 @@ def test_robot_renders_and_a_joint_slider_moves_it(page, studio: Studio, tmp_pat
             lambda image: changed(image, with_robot).mean() > MIN_ROBOT_FRACTION,
         )
     finally:
-        view.set_visible(**vars_of(studio.display_panel.flags()))
+        view.set_visible(**vars_of(studio.robots.display.flags()))
     robot_mask = changed(with_robot, empty)
     assert robot_mask.mean() > MIN_ROBOT_FRACTION, (
         f"the robot covers only {robot_mask.mean():.2%} of the view: it did not render"
@@ -101,21 +102,21 @@ def test_robot_renders_and_a_joint_slider_moves_it(page, studio: Studio, tmp_pat
 
     # 2. Type a new angle into the number box next to the joint's slider, as a user would.
     index, name, target_deg = joint_to_move(studio)
-    assert studio.joints_panel is not None
+    assert studio.joints.panel is not None
     number = gui_row_input(page, name, "input.mantine-NumberInput-input")
     number.scroll_into_view_if_needed()
     number.fill(f"{target_deg:g}")
     number.press("Enter")
 
-    robot = studio.robot
+    robot = studio.state.robot
     assert robot is not None
 
     # (a) The server received it: the studio's configuration has the new angle.
     def server_angle() -> bool:
-        return abs(np.degrees(robot.joint_angles(studio.q)[index]) - target_deg) < 0.2
+        return abs(np.degrees(robot.joint_angles(studio.state.q)[index]) - target_deg) < 0.2
 
     wait_for(f"the studio to set {name} to {target_deg}°", server_angle, UI_TIMEOUT_S)
-    assert studio.joints_panel.sliders[name].value == pytest.approx(target_deg, abs=0.1)
+    assert studio.joints.panel.sliders[name].value == pytest.approx(target_deg, abs=0.1)
 
     # (b) The browser redrew the robot: its part of the view changed.
     region = box_of(robot_mask)
@@ -130,7 +131,7 @@ def test_robot_renders_and_a_joint_slider_moves_it(page, studio: Studio, tmp_pat
 
 
 def test_opening_a_missing_path_notifies_and_keeps_the_robot(page, studio: Studio) -> None:
-    robot_before, view_before = studio.robot, studio.view
+    robot_before, view_before = studio.state.robot, studio.robots.view
     missing = "/nonexistent/biped_studio_missing.urdf"
 
     path_box = gui_row_input(page, "URDF path", "input")
@@ -140,7 +141,7 @@ def test_opening_a_missing_path_notifies_and_keeps_the_robot(page, studio: Studi
     # says which half broke.
     wait_for(
         "the studio to receive the typed path",
-        lambda: studio.robot_panel.path.value == missing,
+        lambda: studio.robots.panel.path.value == missing,
         UI_TIMEOUT_S,
     )
     page.get_by_role("button", name="Open path").click()
@@ -148,6 +149,6 @@ def test_opening_a_missing_path_notifies_and_keeps_the_robot(page, studio: Studi
     notification = page.locator(".mantine-Notification-root", has_text="Could not load the robot")
     notification.wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
     assert missing in notification.inner_text()
-    assert studio.robot is robot_before
-    assert studio.view is view_before
-    assert missing in studio.last_error
+    assert studio.state.robot is robot_before
+    assert studio.robots.view is view_before
+    assert missing in studio.notifier.last_error

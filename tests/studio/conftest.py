@@ -1,12 +1,20 @@
-"""A real studio on a free local port, for the server-side tests."""
+"""A real studio on a free local port, for the server-side tests, and waits on the events the
+studio announces (no sleeps)."""
 
 from __future__ import annotations
 
 import socket
+import threading
+from collections.abc import Callable
 from pathlib import Path
+
+import pytest
 
 from app.config import StudioConfig
 from app.studio import Studio
+
+GUARD_S = 300.0
+"""A wait that takes longer than this fails the test instead of hanging the suite."""
 
 
 def free_port() -> int:
@@ -18,3 +26,45 @@ def free_port() -> int:
 def start_studio(data_dir: Path) -> Studio:
     """A studio on the default robot, serving on a free port of 127.0.0.1."""
     return Studio(StudioConfig(port=free_port(), data_dir=data_dir))
+
+
+@pytest.fixture
+def studio(tmp_path):
+    studio = start_studio(tmp_path / "data")
+    yield studio
+    studio.stop()
+
+
+def wait_for_signal(signal, start: Callable[[], object], accept=lambda _value: True):
+    """Connect to `signal`, call `start`, and return the first emitted value `accept`s."""
+    got: list = []
+    done = threading.Event()
+
+    def receive(value) -> None:
+        if not done.is_set() and accept(value):
+            got.append(value)
+            done.set()
+
+    disconnect = signal.connect(receive)
+    try:
+        start()
+        assert done.wait(GUARD_S), f"{signal.name} was not emitted"
+    finally:
+        disconnect()
+    return got[0]
+
+
+def compute_torques(studio: Studio):
+    """Compute the torque feed-forward of the current motion from the panel; its result."""
+    session = studio.compensation
+    return wait_for_signal(
+        session.torques_done, lambda: setattr(session.panel.compute, "value", True)
+    )
+
+
+def solve_gait(studio: Studio, button: str = "solve"):
+    """Press a gait panel button ("solve" or "baseline") and wait for that solve to end."""
+    panel = studio.gait.panel
+    return wait_for_signal(
+        studio.gait.finished, lambda: setattr(getattr(panel, button), "value", True)
+    )

@@ -8,15 +8,16 @@ import io
 import numpy as np
 import pytest
 
-from tests.studio.conftest import start_studio
+from tests.studio.conftest import compute_torques, start_studio
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    studio = start_studio(tmp_path_factory.mktemp("data"))
-    studio.motions_panel.motion.value = "one_leg_stand"
-    studio.motions_panel.generate.value = True
-    studio.compensation.compute_torques(wait=True)
+@pytest.fixture
+def studio(tmp_path):
+    """A studio with the one-leg stand and its torques (each test gets its own)."""
+    studio = start_studio(tmp_path / "data")
+    studio.motions.panel.motion.value = "one_leg_stand"
+    studio.motions.panel.generate.value = True
+    compute_torques(studio)
     yield studio
     studio.stop()
 
@@ -25,17 +26,20 @@ def test_torques_plots_and_ghosts_follow_the_motion(studio):
     session = studio.compensation
     feedforward, prediction = session.feedforward, session.prediction
     assert feedforward is not None and prediction is not None
-    assert feedforward.tau_Nm.shape == (studio.trajectory.n_samples, studio.robot.n_actuated)
-    assert session.plots.torques is not None and session.plots.attitude is not None
-    assert len(session.plots.torques.data) == 1 + studio.robot.n_actuated
-    # The ghosts stand where the prediction says at the shown sample.
-    studio.seek(3.0)
-    k = studio.trajectory.index_at(3.0)
-    position, _ = session.ghosts._views["with"].link_pose(studio.robot.tree.root)
-    expected = studio.robot.link_placements(
-        prediction.q_world_compensated[k], studio.robot.model.createData()
+    assert feedforward.tau_Nm.shape == (
+        studio.state.trajectory.n_samples,
+        studio.state.robot.n_actuated,
     )
-    np.testing.assert_allclose(position, expected[studio.robot.tree.root][:3, 3], atol=1e-9)
+    assert session.plots.torques is not None and session.plots.attitude is not None
+    assert len(session.plots.torques.data) == 1 + studio.state.robot.n_actuated
+    # The ghosts stand where the prediction says at the shown sample.
+    studio.playback.seek(3.0)
+    k = studio.state.trajectory.index_at(3.0)
+    position, _ = session.ghosts._views["with"].link_pose(studio.state.robot.tree.root)
+    expected = studio.state.robot.link_placements(
+        prediction.q_world_compensated[k], studio.state.robot.model.createData()
+    )
+    np.testing.assert_allclose(position, expected[studio.state.robot.tree.root][:3, 3], atol=1e-9)
 
 
 def test_compensation_reduces_the_torso_error(studio):
@@ -50,7 +54,7 @@ def test_a_k_slider_changes_the_command_by_k_tau_without_recomputing_torques(stu
     session, panel = studio.compensation, studio.compensation.panel
     feedforward = session.feedforward
     panel.joint.value = "left_hip_roll"
-    i = studio.robot.joint_names.index("left_hip_roll")
+    i = studio.state.robot.joint_names.index("left_hip_roll")
     before = session.prediction.q_cmd_rad[:, i].copy()
     k_before = session.params.k_deg_per_Nm[i]
     panel.enabled.value = True
@@ -71,7 +75,7 @@ def test_export_servo_commands(studio):
         and "q_cmd:left_knee [rad]" in header
         and "q_cmd:left_knee [deg]" in header
     )
-    assert len(rows) == 1 + studio.trajectory.n_samples
+    assert len(rows) == 1 + studio.state.trajectory.n_samples
     rad = float(rows[5][header.index("q_cmd:left_knee [rad]")])
     deg = float(rows[5][header.index("q_cmd:left_knee [deg]")])
     assert deg == pytest.approx(np.rad2deg(rad))
@@ -80,8 +84,9 @@ def test_export_servo_commands(studio):
 
 
 def test_a_new_motion_drops_the_stale_torques(studio):
-    studio.motions_panel.motion.value = "com_shift"
-    studio.motions_panel.generate.value = True
+    studio.motions.panel.motion.value = "com_shift"
+    studio.motions.panel.generate.value = True
     assert studio.compensation.feedforward is None and studio.compensation.prediction is None
-    studio.compensation.compute_torques(wait=True)
+    result = compute_torques(studio)
+    assert result is studio.compensation.feedforward
     assert studio.compensation.feedforward.trajectory_name == "com_shift"

@@ -11,47 +11,38 @@ import pytest
 
 from app.studio import Studio
 from tests.conftest import ROBAN_URDF, THIRD_PARTY_ROBOTS
-from tests.studio.conftest import start_studio
-
-
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    studio = start_studio(tmp_path_factory.mktemp("data"))
-    yield studio
-    studio.stop()
 
 
 def _sole_centre(studio: Studio, q: np.ndarray, side: str) -> np.ndarray:
-    foot = studio.robot.foot(side)
-    T = studio.robot.link_placements(q, studio.robot.model.createData())[foot.link]
+    foot = studio.state.robot.foot(side)
+    T = studio.state.robot.link_placements(q, studio.state.robot.model.createData())[foot.link]
     return T[:3, :3] @ foot.sole_corners_m.mean(axis=0) + T[:3, 3]
 
 
 def test_generate_a_builtin_motion_from_the_panel(studio):
-    panel = studio.motions_panel
+    panel = studio.motions.panel
     panel.motion.value = "com_shift"
     panel.inputs["shift_m"].value = 0.043
     panel.generate.value = True
-    trajectory = studio.trajectory
+    trajectory = studio.state.trajectory
     assert trajectory is not None and trajectory.name == "com_shift"
-    data = studio.robot.model.createData()
-    start = pin.centerOfMass(studio.robot.model, data, trajectory.q[0])
-    end = pin.centerOfMass(studio.robot.model, data, trajectory.q[-1])
+    data = studio.state.robot.model.createData()
+    start = pin.centerOfMass(studio.state.robot.model, data, trajectory.q[0])
+    end = pin.centerOfMass(studio.state.robot.model, data, trajectory.q[-1])
     assert abs(end[1] - start[1]) == pytest.approx(0.043, abs=2e-3)  # the paper's second shift
-    assert "com_shift" in studio.playback_panel.info.content
+    assert "com_shift" in studio.playback.panel.info.content
 
 
 def test_keyframes_capture_reorder_and_build(studio):
-    motions, panel = studio.motions, studio.keyframes_panel
-    motions.clear()
-    studio.reset_pose()
+    motions, panel = studio.motions, studio.motions.keyframes_panel
+    studio.pose.reset_pose()
     panel.duration.value = 0.5
     panel.capture.value = True
-    foot = studio.robot.link_placements(studio.q, studio.robot.model.createData())[
-        studio.robot.feet[0].link
-    ]
+    foot = studio.state.robot.link_placements(
+        studio.state.q, studio.state.robot.model.createData()
+    )[studio.state.robot.feet[0].link]
     foot[:3, 3] += [0.0, 0.0, 0.03]
-    studio.request_drag("left", foot)
+    studio.pose.request_drag("left", foot)
     panel.capture.value = True
     panel.capture.value = True
     assert [kf.name for kf in motions.keyframes] == ["pose 1", "pose 2", "pose 3"]
@@ -61,7 +52,7 @@ def test_keyframes_capture_reorder_and_build(studio):
     panel.delete.value = True  # the selection followed the moved keyframe
     assert [kf.name for kf in motions.keyframes] == ["pose 1", "pose 2"]
     panel.build.value = True
-    trajectory = studio.trajectory
+    trajectory = studio.state.trajectory
     assert trajectory.name == "keyframes"
     assert trajectory.duration == pytest.approx(0.5, abs=0.011)
     # The right foot was the stance foot throughout: planted.
@@ -71,40 +62,41 @@ def test_keyframes_capture_reorder_and_build(studio):
     assert left[-1, 2] - left[0, 2] == pytest.approx(0.03, abs=1e-3)
 
 
-def test_zero_duration_keyframe_is_refused_with_a_message(studio):
-    studio.motions.clear()
-    studio.reset_pose()
-    studio.keyframes_panel.duration.value = 0.5
-    studio.keyframes_panel.capture.value = True
-    studio.keyframes_panel.capture.value = True
-    studio.motions.set_duration(1, 0.0)
-    before = studio.trajectory
-    studio.keyframes_panel.build.value = True
-    assert studio.trajectory is before
-    assert "pose 2" in studio.last_error
+@pytest.mark.parametrize("duration_s", [0.0, -1.0, float("nan"), 1e9])
+def test_a_bad_keyframe_duration_is_refused_with_a_message(studio, duration_s):
+    panel = studio.motions.keyframes_panel
+    panel.duration.value = 0.5
+    panel.capture.value = True
+    panel.capture.value = True
+    studio.motions.set_duration(1, duration_s)  # what a crafted client could send
+    assert studio.motions.keyframes[1].duration_s == 0.5
+    assert "duration" in studio.notifier.last_error
+    assert "duration" in studio.motions.panel.status.content
 
 
 def test_export_then_import_round_trip(studio):
-    studio.motions_panel.motion.value = "com_shift"
-    studio.motions_panel.generate.value = True
+    studio.motions.panel.motion.value = "com_shift"
+    studio.motions.panel.generate.value = True
     content = studio.motions.export()
     header = next(csv.reader(io.StringIO(content.decode())))
     assert header[0] == "t [s]" and "q:left_knee [rad]" in header
-    original = studio.trajectory
+    original = studio.state.trajectory
     studio.motions.import_file("shift.csv", content, "xyzw")
-    np.testing.assert_allclose(studio.trajectory.q, original.q, atol=1e-12)
+    np.testing.assert_allclose(studio.state.trajectory.q, original.q, atol=1e-12)
 
 
 def test_bad_motion_file_keeps_the_motion(studio):
-    before = studio.trajectory
+    studio.motions.panel.generate.value = True
+    before = studio.state.trajectory
+    assert before is not None
     studio.motions.import_file("bad.csv", b"t [s],q:nonexistent [rad]\n0,1\n", "xyzw")
-    assert studio.trajectory is before
-    assert "nonexistent" in studio.last_error
+    assert studio.state.trajectory is before
+    assert "nonexistent" in studio.notifier.last_error
 
 
 def test_roban_dance_imports_on_roban(studio):
-    studio.load(ROBAN_URDF)
+    studio.robots.load(ROBAN_URDF)
     path = THIRD_PARTY_ROBOTS / "roban_s14" / "motions" / "new_year_dance_100fps.csv"
     assert studio.motions.import_file(path.name, path.read_bytes(), "xyzw")
-    assert studio.trajectory.dt == pytest.approx(0.01)  # 100 fps, from the file name
-    assert studio.trajectory.n_samples == len(path.read_text().splitlines())
+    assert studio.state.trajectory.dt == pytest.approx(0.01)  # 100 fps, from the file name
+    assert studio.state.trajectory.n_samples == len(path.read_text().splitlines())

@@ -10,72 +10,66 @@ import pytest
 import viser
 
 from app.studio import Studio
+from app.studio.state import MotionMismatch
 from tests.conftest import SIGMABAN_URDF, tiny_biped_urdf
-from tests.studio.conftest import start_studio
-
-
-@pytest.fixture
-def studio(tmp_path):
-    studio = start_studio(tmp_path / "data")
-    yield studio
-    studio.stop()
+from tests.studio.conftest import wait_for_signal
 
 
 def _world_position(studio: Studio, link: str) -> np.ndarray:
-    data = studio.robot.model.createData()
-    return studio.robot.link_placements(studio.q, data)[link][:3, 3]
+    data = studio.state.robot.model.createData()
+    return studio.state.robot.link_placements(studio.state.q, data)[link][:3, 3]
 
 
 def test_serves_on_localhost_by_default(studio):
     assert studio.server.get_host() == "127.0.0.1"
-    assert studio.robot.name == "servo_biped"
+    assert studio.state.robot.name == "servo_biped"
 
 
 def test_joint_slider_moves_the_robot_in_the_scene(studio):
-    slider = studio.joints_panel.sliders["left_knee"]
-    foot = studio.robot.feet[0].link
-    before = studio.view.link_pose(foot)[0].copy()
+    slider = studio.joints.panel.sliders["left_knee"]
+    foot = studio.state.robot.feet[0].link
+    before = studio.robots.view.link_pose(foot)[0].copy()
     slider.value = 40.0
-    i = studio.robot.joint_names.index("left_knee")
-    assert studio.robot.joint_angles(studio.q)[i] == pytest.approx(np.deg2rad(40.0))
-    position, wxyz = studio.view.link_pose(foot)
+    i = studio.state.robot.joint_names.index("left_knee")
+    assert studio.state.robot.joint_angles(studio.state.q)[i] == pytest.approx(np.deg2rad(40.0))
+    position, wxyz = studio.robots.view.link_pose(foot)
     # The scene node is where pinocchio puts the foot, independently recomputed here.
-    data = studio.robot.model.createData()
-    T = studio.robot.link_placements(studio.q, data)[foot]
+    data = studio.state.robot.model.createData()
+    T = studio.state.robot.link_placements(studio.state.q, data)[foot]
     np.testing.assert_allclose(position, T[:3, 3], atol=1e-9)
     quat = pin.Quaternion(T[:3, :3])
     np.testing.assert_allclose(np.abs(wxyz), np.abs([quat.w, quat.x, quat.y, quat.z]), atol=1e-9)
     assert np.linalg.norm(position - before) > 0.01
     # The other foot did not move.
-    right = studio.robot.feet[1].link
+    right = studio.state.robot.feet[1].link
     np.testing.assert_allclose(
-        studio.view.link_pose(right)[0], _world_position(studio, right), atol=1e-9
+        studio.robots.view.link_pose(right)[0], _world_position(studio, right), atol=1e-9
     )
 
 
 def test_slider_values_outside_limits_are_clamped(studio):
-    joint = studio.robot.joints[0]
-    studio.set_joint_angle(0, joint.upper + 1.0)
-    assert studio.robot.joint_angles(studio.q)[0] == pytest.approx(joint.upper)
-    studio.set_joint_angle(0, float("nan"))
-    assert studio.robot.joint_angles(studio.q)[0] == pytest.approx(joint.upper)
+    joint = studio.state.robot.joints[0]
+    studio.joints.set_joint_angle(0, joint.upper + 1.0)
+    assert studio.state.robot.joint_angles(studio.state.q)[0] == pytest.approx(joint.upper)
+    studio.joints.set_joint_angle(0, float("nan"))
+    assert studio.state.robot.joint_angles(studio.state.q)[0] == pytest.approx(joint.upper)
 
 
 def test_reset_pose_button(studio):
-    studio.joints_panel.sliders["right_hip_pitch"].value = -30.0
-    assert not np.allclose(studio.q, studio.robot.q_neutral)
-    studio.pose_panel.reset.value = True
-    np.testing.assert_allclose(studio.q, studio.robot.q_neutral)
-    assert studio.joints_panel.sliders["right_hip_pitch"].value == 0.0
+    studio.joints.panel.sliders["right_hip_pitch"].value = -30.0
+    assert not np.allclose(studio.state.q, studio.state.robot.q_neutral)
+    studio.pose.panel.reset.value = True
+    np.testing.assert_allclose(studio.state.q, studio.state.robot.q_neutral)
+    assert studio.joints.panel.sliders["right_hip_pitch"].value == 0.0
 
 
 def test_open_path_loads_a_third_party_robot_and_rebuilds_sliders(studio):
-    studio.robot_panel.path.value = str(SIGMABAN_URDF)
-    studio.robot_panel.open_path.value = True
-    assert studio.robot.n_actuated == 20
-    assert set(studio.joints_panel.sliders) == set(studio.robot.joint_names)
-    assert "onshape" in studio.robot_panel.report.content
-    assert studio.last_error == ""
+    studio.robots.panel.path.value = str(SIGMABAN_URDF)
+    studio.robots.panel.open_path.value = True
+    assert studio.state.robot.n_actuated == 20
+    assert set(studio.joints.panel.sliders) == set(studio.state.robot.joint_names)
+    assert "onshape" in studio.robots.panel.report.content
+    assert studio.notifier.last_error == ""
 
 
 @pytest.mark.parametrize(
@@ -89,18 +83,21 @@ def test_open_path_loads_a_third_party_robot_and_rebuilds_sliders(studio):
     ],
 )
 def test_bad_file_keeps_the_previous_robot(studio, tmp_path, text, message):
-    before_robot, before_q = studio.robot, studio.q.copy()
-    studio.joints_panel.sliders["left_knee"].value = 20.0
-    posed_q = studio.q.copy()
+    before_robot, before_q = studio.state.robot, studio.state.q.copy()
+    studio.joints.panel.sliders["left_knee"].value = 20.0
+    posed_q = studio.state.q.copy()
     bad = tmp_path / "bad.urdf"
     bad.write_text(text)
-    studio.robot_panel.path.value = str(bad)
-    studio.robot_panel.open_path.value = True
-    assert studio.robot is before_robot
-    np.testing.assert_allclose(studio.q, posed_q)
+    studio.robots.panel.path.value = str(bad)
+    studio.robots.panel.open_path.value = True
+    assert studio.state.robot is before_robot
+    np.testing.assert_allclose(studio.state.q, posed_q)
     assert not np.allclose(posed_q, before_q)
-    assert message in studio.last_error and "previous robot is still loaded" in studio.last_error
-    assert "⚠️" in studio.robot_panel.status.content
+    assert (
+        message in studio.notifier.last_error
+        and "previous robot is still loaded" in studio.notifier.last_error
+    )
+    assert "⚠️" in studio.robots.panel.status.content
 
 
 def test_upload_zip_through_the_panel_and_refused_upload(studio):
@@ -110,154 +107,173 @@ def test_upload_zip_through_the_panel_and_refused_upload(studio):
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as archive:
         archive.writestr("tiny/tiny.urdf", tiny_biped_urdf())
-    studio.robot_panel.receive_upload(viser.UploadedFile("tiny.zip", buffer.getvalue()))
-    assert studio.robot.name == "tiny"
-    assert studio.robot.source.is_relative_to(studio.config.uploads_dir.resolve())
+    studio.robots.panel.receive_upload(viser.UploadedFile("tiny.zip", buffer.getvalue()))
+    assert studio.state.robot.name == "tiny"
+    assert studio.state.robot.source.is_relative_to(studio.config.uploads_dir.resolve())
 
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as archive:
         archive.writestr("../../evil.urdf", tiny_biped_urdf())
-    studio.robot_panel.receive_upload(viser.UploadedFile("evil.zip", buffer.getvalue()))
-    assert studio.robot.name == "tiny"
-    assert "outside the archive" in studio.last_error
+    studio.robots.panel.receive_upload(viser.UploadedFile("evil.zip", buffer.getvalue()))
+    assert studio.state.robot.name == "tiny"
+    assert "outside the archive" in studio.notifier.last_error
 
 
 def test_builtin_dropdown(studio):
-    studio.robot_panel.builtin.value = "dircon_biped"
-    studio.robot_panel.load_builtin.value = True
-    assert studio.robot.name == "dircon_biped"
-    assert studio.robot.n_actuated == 10
+    studio.robots.panel.builtin.value = "dircon_biped"
+    studio.robots.panel.load_builtin.value = True
+    assert studio.state.robot.name == "dircon_biped"
+    assert studio.state.robot.n_actuated == 10
 
 
 def test_display_toggles(studio):
-    studio.display_panel.collision.value = True
-    studio.display_panel.frames.value = True
-    assert studio.display_panel.flags().collision and studio.display_panel.flags().frames
+    studio.robots.display.collision.value = True
+    studio.robots.display.frames.value = True
+    assert studio.robots.display.flags().collision and studio.robots.display.flags().frames
 
 
 def test_concurrent_slider_updates_leave_a_consistent_state(studio):
     """Callbacks from two tabs overlap on viser's thread pool; the lock keeps q consistent."""
-    names = list(studio.joints_panel.sliders)
+    names = list(studio.joints.panel.sliders)
 
     def drag(offset: int) -> None:
         for k in range(50):
-            studio.set_joint_angle((k + offset) % len(names), 0.01 * k)
+            studio.joints.set_joint_angle((k + offset) % len(names), 0.01 * k)
 
     threads = [threading.Thread(target=drag, args=(i,)) for i in range(4)]
     for t in threads:
         t.start()
     for t in threads:
         t.join()
-    for link in (studio.robot.feet[0].link, studio.robot.feet[1].link):
+    for link in (studio.state.robot.feet[0].link, studio.state.robot.feet[1].link):
         np.testing.assert_allclose(
-            studio.view.link_pose(link)[0], _world_position(studio, link), atol=1e-9
+            studio.robots.view.link_pose(link)[0], _world_position(studio, link), atol=1e-9
         )
 
 
 def test_knee_slider_keeps_the_hybrid_legs_four_bars_closed(studio):
     from app.core.robot.loops import loop_residual
 
-    studio.robot_panel.builtin.value = "hybrid_leg_biped"
-    studio.robot_panel.load_builtin.value = True
-    studio.joints_panel.sliders["left_knee"].value = 20.0
-    studio.joints_panel.sliders["left_ankle"].value = -15.0
-    angles = studio.robot.joint_angles(studio.q)
-    assert angles[studio.robot.joint_names.index("left_knee")] == pytest.approx(np.deg2rad(20.0))
-    gap = loop_residual(studio.robot, studio.q, studio.robot.model.createData())
+    studio.robots.panel.builtin.value = "hybrid_leg_biped"
+    studio.robots.panel.load_builtin.value = True
+    studio.joints.panel.sliders["left_knee"].value = 20.0
+    studio.joints.panel.sliders["left_ankle"].value = -15.0
+    angles = studio.state.robot.joint_angles(studio.state.q)
+    assert angles[studio.state.robot.joint_names.index("left_knee")] == pytest.approx(
+        np.deg2rad(20.0)
+    )
+    gap = loop_residual(studio.state.robot, studio.state.q, studio.state.robot.model.createData())
     assert np.abs(gap).max() < 1e-9
     # The passive joints really moved: the loop would be open with them at the neutral values.
-    opened = studio.q.copy()
-    for name in studio.robot.passive_joints:
-        opened[studio.robot.model.joints[studio.robot.model.getJointId(name)].idx_q] = 0.0
-    assert np.abs(loop_residual(studio.robot, opened, studio.robot.model.createData())).max() > 1e-3
+    opened = studio.state.q.copy()
+    for name in studio.state.robot.passive_joints:
+        opened[studio.state.robot.model.joints[studio.state.robot.model.getJointId(name)].idx_q] = (
+            0.0
+        )
+    assert (
+        np.abs(
+            loop_residual(studio.state.robot, opened, studio.state.robot.model.createData())
+        ).max()
+        > 1e-3
+    )
 
 
 def _placement(studio: Studio, link: str) -> np.ndarray:
-    return studio.robot.link_placements(studio.q, studio.robot.model.createData())[link]
+    return studio.state.robot.link_placements(
+        studio.state.q, studio.state.robot.model.createData()
+    )[link]
 
 
 def test_dragging_a_foot_moves_it_and_keeps_the_other_planted(studio):
-    left, right = (foot.link for foot in studio.robot.feet)
+    left, right = (foot.link for foot in studio.state.robot.feet)
     right_before = _placement(studio, right)
     target = _placement(studio, left)
     target[:3, 3] += [0.02, 0.0, 0.03]
-    studio.request_drag("left", target)
+    studio.pose.request_drag("left", target)
     np.testing.assert_allclose(_placement(studio, left)[:3, 3], target[:3, 3], atol=1e-3)
     np.testing.assert_allclose(_placement(studio, right), right_before, atol=1e-6)
-    assert studio.pose.posing.stance == "right"
-    assert studio.pose_panel.stance.value == "right"
+    assert studio.state.pose.stance == "right"
+    assert studio.pose.panel.stance.value == "right"
     # The CoM's ground projection is over the right sole (checked against its corners).
-    com = pin.centerOfMass(studio.robot.model, studio.robot.model.createData(), studio.q)
-    corners = studio.robot.feet[1].sole_corners_m
+    com = pin.centerOfMass(
+        studio.state.robot.model, studio.state.robot.model.createData(), studio.state.q
+    )
+    corners = studio.state.robot.feet[1].sole_corners_m
     T = _placement(studio, right)
     world = (T[:3, :3] @ corners.T + T[:3, 3:4]).T
     assert world[:, 0].min() < com[0] < world[:, 0].max()
     assert world[:, 1].min() < com[1] < world[:, 1].max()
     # The sliders show the solved angles.
-    knee = studio.robot.joint_names.index("left_knee")
-    assert studio.joints_panel.sliders["left_knee"].value == pytest.approx(
-        np.rad2deg(studio.robot.joint_angles(studio.q)[knee]), abs=0.051
+    knee = studio.state.robot.joint_names.index("left_knee")
+    assert studio.joints.panel.sliders["left_knee"].value == pytest.approx(
+        np.rad2deg(studio.state.robot.joint_angles(studio.state.q)[knee]), abs=0.051
     )
 
 
 def test_unreachable_drag_keeps_a_finite_pose_and_says_so(studio):
-    target = _placement(studio, studio.robot.feet[0].link)
+    target = _placement(studio, studio.state.robot.feet[0].link)
     target[:3, 3] += [1.0, 0.5, 0.4]
-    studio.request_drag("left", target)
-    assert np.all(np.isfinite(studio.q))
-    assert "out of reach" in studio.pose_panel.status.content
-    for joint, angle in zip(studio.robot.joints, studio.robot.joint_angles(studio.q), strict=True):
+    studio.pose.request_drag("left", target)
+    assert np.all(np.isfinite(studio.state.q))
+    assert "out of reach" in studio.pose.panel.status.content
+    for joint, angle in zip(
+        studio.state.robot.joints, studio.state.robot.joint_angles(studio.state.q), strict=True
+    ):
         assert joint.lower - 1e-9 <= angle <= joint.upper + 1e-9
 
 
 def test_snap_feet_and_swap_stance_buttons(studio):
-    target = _placement(studio, studio.robot.feet[0].link)
+    target = _placement(studio, studio.state.robot.feet[0].link)
     target[:3, 3] += [0.0, 0.0, 0.04]
-    studio.request_drag("left", target)
-    studio.pose_panel.swap.value = True
-    assert studio.pose.posing.stance == "left"
-    studio.pose_panel.snap.value = True
-    for foot in studio.robot.feet:
+    studio.pose.request_drag("left", target)
+    studio.pose.panel.swap.value = True
+    assert studio.state.pose.stance == "left"
+    studio.pose.panel.snap.value = True
+    for foot in studio.state.robot.feet:
         T = _placement(studio, foot.link)
         sole = (T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T
         np.testing.assert_allclose(sole[:, 2], 0.0, atol=1e-3)
-    assert studio.pose.posing.stance == "both"
+    assert studio.state.pose.stance == "both"
 
 
 def test_two_tabs_dragging_at_once_latest_target_wins(studio):
-    """Targets queued while the studio is busy are replaced by newer ones, never replayed."""
-    base = _placement(studio, studio.robot.feet[0].link)
+    """Targets that arrive while a solve runs replace each other: only the newest is solved
+    next, and the callbacks that brought them return at once instead of queueing."""
+    base = _placement(studio, studio.state.robot.feet[0].link)
     targets = []
     for k in range(1, 6):
         T = base.copy()
         T[2, 3] += 0.005 * k
         targets.append(T)
     solved = []
+    first_started, release = threading.Event(), threading.Event()
     original = studio.pose.posing.drag
 
     def recording_drag(q, which, T):
         solved.append(T[2, 3])
+        if len(solved) == 1:
+            first_started.set()
+            assert release.wait(60.0)
         return original(q, which, T)
 
     studio.pose.posing.drag = recording_drag
-    studio.lock.acquire()
-    threads = [threading.Thread(target=studio.request_drag, args=("left", T)) for T in targets]
-    for t in threads:
-        t.start()
-        t.join(timeout=0.05)  # each callback stores its target, then waits for the lock
-    studio.lock.release()
-    for t in threads:
-        t.join()
-    assert solved == [targets[-1][2, 3]]
+    first = threading.Thread(target=studio.pose.request_drag, args=("left", targets[0]))
+    first.start()
+    assert first_started.wait(60.0)
+    for T in targets[1:]:
+        studio.pose.request_drag("left", T)  # another tab: returns without solving
+    release.set()
+    first.join()
+    assert solved == [targets[0][2, 3], targets[-1][2, 3]]
     np.testing.assert_allclose(
-        _placement(studio, studio.robot.feet[0].link)[:3, 3], targets[-1][:3, 3], atol=1e-3
+        _placement(studio, studio.state.robot.feet[0].link)[:3, 3], targets[-1][:3, 3], atol=1e-3
     )
 
 
 def _knee_bend(studio: Studio, duration_s: float = 1.0, dt: float = 0.01):
     from app.core.motions.trajectory import from_configurations
 
-    robot = studio.robot
+    robot = studio.state.robot
     knee = robot.joint_names.index("left_knee")
     qs = []
     for t in np.arange(0.0, duration_s + 1e-9, dt):
@@ -272,48 +288,48 @@ def _knee_bend(studio: Studio, duration_s: float = 1.0, dt: float = 0.01):
 
 def test_timeline_slider_seeks_and_the_player_plays(studio):
     trajectory = _knee_bend(studio)
-    studio.set_trajectory(trajectory, "knee bend")
-    assert studio.playback_panel.time.max == pytest.approx(1.0)
-    studio.playback_panel.time.value = 0.5
-    np.testing.assert_allclose(studio.q, trajectory.q[50])
-    studio.playback_panel.speed.value = "2"
-    studio.playback_panel.time.value = 0.0
-    studio.playback_panel.play.value = True
-    assert studio.player.playing
-    import time
-
-    deadline = time.monotonic() + 10.0
-    while studio.playback_panel.time.value < 0.2 and time.monotonic() < deadline:
-        time.sleep(0.02)
-    studio.playback_panel.play.value = True  # pause
-    assert not studio.player.playing
-    k = trajectory.index_at(studio.playback_panel.time.value)
-    np.testing.assert_allclose(studio.q, trajectory.q[k])
+    studio.state.set_motion(trajectory, "knee bend", studio.state.robot)
+    assert studio.playback.panel.time.max == pytest.approx(1.0)
+    studio.playback.panel.time.value = 0.5
+    np.testing.assert_allclose(studio.state.q, trajectory.q[50])
+    studio.playback.panel.speed.value = "2"
+    studio.playback.panel.time.value = 0.0
+    wait_for_signal(
+        studio.state.on_time,
+        lambda: setattr(studio.playback.panel.play, "value", True),
+        accept=lambda time_s: time_s >= 0.2,
+    )
+    assert studio.playback.player.playing
+    studio.playback.panel.play.value = True  # pause
+    assert not studio.playback.player.playing
+    k = trajectory.index_at(studio.playback.panel.time.value)
+    np.testing.assert_allclose(studio.state.q, trajectory.q[k])
     assert k > 0
 
 
 def test_a_motion_for_another_robot_is_refused(studio):
     trajectory = _knee_bend(studio)
-    studio.robot_panel.builtin.value = "dircon_biped"
-    studio.robot_panel.load_builtin.value = True
-    assert studio.trajectory is None  # the old motion went with the old robot
-    studio.set_trajectory(trajectory, "knee bend")
-    assert studio.trajectory is None
-    assert "joints differ" in studio.last_error
+    old_robot = studio.state.robot
+    studio.robots.panel.builtin.value = "dircon_biped"
+    studio.robots.panel.load_builtin.value = True
+    assert studio.state.trajectory is None  # the old motion went with the old robot
+    with pytest.raises(MotionMismatch, match="another robot"):
+        studio.state.set_motion(trajectory, "knee bend", old_robot)
+    assert studio.state.trajectory is None
 
 
 def test_ready_pose_bends_the_knees_with_feet_in_place(studio):
-    robot = studio.robot
+    robot = studio.state.robot
     feet_before = {f.link: _placement(studio, f.link) for f in robot.feet}
     pelvis_before = _placement(studio, robot.tree.root)[2, 3]
-    studio.pose_panel.ready.value = True
+    studio.pose.panel.ready.value = True
     for link, T in feet_before.items():
         np.testing.assert_allclose(_placement(studio, link), T, atol=1e-5)
     assert _placement(studio, robot.tree.root)[2, 3] < pelvis_before - 0.005
     knee = robot.joint_names.index("left_knee")
-    assert robot.joint_angles(studio.q)[knee] > 0.1
+    assert robot.joint_angles(studio.state.q)[knee] > 0.1
     # From the ready pose the pelvis can be dragged down (from straight legs it cannot).
     T = _placement(studio, robot.tree.root)
     T[2, 3] -= 0.02
-    studio.request_drag("pelvis", T)
+    studio.pose.request_drag("pelvis", T)
     assert _placement(studio, robot.tree.root)[2, 3] == pytest.approx(T[2, 3], abs=1e-3)

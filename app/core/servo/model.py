@@ -37,6 +37,7 @@ import pinocchio as pin
 
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
+from app.core.posing.stance import anchor_on_foot, stance_link
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import (
     MAX_ABS_K_DEG_PER_NM,
@@ -343,3 +344,17 @@ def predict(
         roll_compensated_rad=roll_comp,
         pitch_compensated_rad=pitch_comp,
     )
+
+
+def command_configuration(
+    robot: RobotModel, trajectory: Trajectory, prediction: Prediction, k: int
+) -> np.ndarray:
+    """The whole robot (nq,) at sample k with its joints at the servo commands and its stance
+    foot where the plan puts it: what the robot would look like if the servos reached the
+    command. One sample at a time (the studio's command ghost follows the timeline)."""
+    k = int(np.clip(k, 0, trajectory.n_samples - 1))
+    planned = trajectory.q[k]
+    q = with_joint_angles(robot, planned[None, :], prediction.q_cmd_rad[k][None, :])[0]
+    foot = stance_link(robot, trajectory.contacts[k])
+    data = robot.model.createData()
+    return anchor_on_foot(robot, q, foot, robot.link_placements(planned, data)[foot], data)

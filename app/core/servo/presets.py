@@ -10,6 +10,8 @@ torque sign conventions (same axes on both legs, like `servo_biped`).
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
 from itertools import permutations
 
 import numpy as np
@@ -21,6 +23,7 @@ from app.core.servo.compensation import (
     PAPER_PHI_DEG,
     CompensationError,
     CompensationParams,
+    disabled_params,
 )
 
 LEG_ROLES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
@@ -184,3 +187,42 @@ def uniform_preset(
         "command",
         (f"k = {k_deg_per_Nm:g} °/(N·m) on every leg joint (Table 2's identifiable servos)",),
     )
+
+
+@dataclasses.dataclass(frozen=True)
+class Preset:
+    """A named set of coefficients that can be put on any robot it fits."""
+
+    key: str
+    """Short name for the CLI (`--preset KEY`) and project files."""
+    label: str
+    """What the studio's dropdown shows."""
+    build: Callable[[RobotModel], CompensationParams]
+
+
+PRESETS: dict[str, Preset] = {
+    preset.key: preset
+    for preset in (
+        Preset(
+            "uniform",
+            f"uniform k = {TYPICAL_COMPLIANCE_DEG_PER_NM} °/(N·m) (Table 2's identifiable servos)",
+            lambda robot: uniform_preset(robot),
+        ),
+        Preset("table3", "paper Table 3 (servos 2, 3, 8, 9)", paper_table3_preset),
+        Preset(
+            "table3_clearance",
+            f"paper Table 3 + clearance φ = {PAPER_PHI_DEG:g}°",
+            lambda robot: paper_table3_preset(robot, clearance=True),
+        ),
+        Preset("table2", "paper Table 2 (standing)", paper_table2_preset),
+        Preset("none", "none", lambda robot: disabled_params(robot.joint_names)),
+    )
+}
+"""Every preset, in the order the studio offers them; the first is the studio's default."""
+
+
+def preset_params(key: str, robot: RobotModel) -> CompensationParams:
+    """The preset `key` put on the robot's joints (CompensationError if it does not fit)."""
+    if key not in PRESETS:
+        raise CompensationError(f"no preset {key!r}; the presets are {', '.join(PRESETS)}")
+    return PRESETS[key].build(robot).for_joints(robot.joint_names)

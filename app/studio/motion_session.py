@@ -1,19 +1,21 @@
-"""Motions in the studio: built-in motions, keyframes captured from poses, motion files.
+"""Motions in the studio: the papers' built-in motions, keyframes captured from poses, motion
+files in and out.
 
-Heavy work (IK at every sample) runs in the calling callback's thread, outside the studio
-lock, on the robot that was loaded when it started; the result is only installed if that
-robot is still the loaded one.
+Heavy work (IK at every sample) runs in the calling callback's thread, outside the state lock,
+on the robot that was loaded when it started; the result is only installed if that robot is
+still the loaded one. Keyframes belong to their robot and go when another is loaded.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import io
+import math
 import re
 import tempfile
 import threading
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, cast
+from typing import Any, Literal, cast
 
 import viser
 
@@ -25,46 +27,62 @@ from app.core.motions.csv_files import (
 )
 from app.core.motions.keyframes import Keyframe, MotionResult, capture_keyframe, interpolate
 from app.core.motions.library import run_motion
-
-if TYPE_CHECKING:
-    from app.studio import Studio
+from app.core.robot.model import RobotModel
+from app.studio.notifier import Notifier
+from app.studio.state import LoadedRobot, StudioState
+from panels.keyframes_panel import KeyframesPanel
+from panels.motions_panel import MotionsPanel
 
 MAX_MOTION_FILE_BYTES = 50 * 1024 * 1024
+MAX_KEYFRAME_S = 60.0
+"""Longest time between two keyframes [s]."""
 
 
 class MotionSession:
-    def __init__(self, studio: Studio) -> None:
-        self._studio = studio
+    """Owns the Motions and Keyframes panels and the keyframe list."""
+
+    def __init__(self, server: viser.ViserServer, state: StudioState, notifier: Notifier) -> None:
+        self._state, self._notifier = state, notifier
+        self.panel = MotionsPanel(server.gui, self)
+        self.keyframes_panel = KeyframesPanel(server.gui, self)
         self.keyframes: list[Keyframe] = []
         self._lock = threading.Lock()
-        """Guards the keyframe list (the studio lock guards the pose)."""
+        """Guards the keyframe list (the state lock guards the pose)."""
+        state.on_robot.connect(self._on_robot)
 
-    # --- built-in motions and keyframes ----------------------------------------------------
+    def _on_robot(self, _loaded: LoadedRobot) -> None:
+        with self._lock:
+            self.keyframes = []
+            self._show(-1)
+
+    # --- built-in motions (MotionActions) -----------------------------------------------------
 
     def generate(
         self, name: str, params: dict[str, object], client: viser.ClientHandle | None = None
     ) -> bool:
-        studio = self._studio
-        robot = studio.robot
+        robot = self._state.robot
         if robot is None:
             return False
-        note = studio.notify_progress(f"Generating {name}", "IK at every sample…", client)
+        progress = self._notifier.progress(f"Generating {name}", "IK at every sample…", client)
         try:
             result = run_motion(robot, name, **cast(dict[str, Any], params))
         except StudioError as error:
-            note.remove()
-            studio.report_error(f"Cannot generate {name}", str(error), client)
-            return False
-        note.remove()
+            return self._fail(f"Cannot generate {name}", str(error), client)
+        finally:
+            progress.done()
         return self._install(robot, result, client)
 
+    # --- keyframes (KeyframeActions) ------------------------------------------------------------
+
     def capture(self, duration_s: float) -> None:
-        studio = self._studio
-        with studio.lock:
-            robot, pose = studio.robot, studio.pose
+        if not _valid_duration(duration_s):
+            self._fail("Keyframe refused", _duration_message(duration_s), None)
+            return
+        with self._state.lock:
+            robot, pose = self._state.robot, self._state.pose
             if robot is None or pose is None:
                 return
-            q, stance = studio.q.copy(), pose.posing.stance
+            q, stance = pose.q.copy(), pose.stance
         with self._lock:
             keyframe = capture_keyframe(
                 robot, q, stance, f"pose {len(self.keyframes) + 1}", duration_s
@@ -89,6 +107,9 @@ class MotionSession:
                 self._show(index - 1)
 
     def set_duration(self, index: int, duration_s: float) -> None:
+        if not _valid_duration(duration_s):
+            self._fail("Duration refused", _duration_message(duration_s), None)
+            return
         with self._lock:
             if 0 <= index < len(self.keyframes):
                 self.keyframes[index] = dataclasses.replace(
@@ -97,8 +118,7 @@ class MotionSession:
                 self._show(index)
 
     def build(self, client: viser.ClientHandle | None = None) -> bool:
-        studio = self._studio
-        robot = studio.robot
+        robot = self._state.robot
         with self._lock:
             keyframes = list(self.keyframes)
         if robot is None:
@@ -106,25 +126,17 @@ class MotionSession:
         try:
             result = interpolate(robot, keyframes, name="keyframes")
         except StudioError as error:
-            studio.report_error("Cannot build the motion", str(error), client)
-            return False
+            return self._fail("Cannot build the motion", str(error), client)
         return self._install(robot, result, client)
 
-    def clear(self) -> None:
-        """Forget the keyframes (they belong to the robot that was loaded)."""
-        with self._lock:
-            self.keyframes = []
-            self._show(-1)
-
-    # --- files -----------------------------------------------------------------------------
+    # --- files ------------------------------------------------------------------------------
 
     def export(self, client: viser.ClientHandle | None = None) -> bytes | None:
         """The current motion as CSV; sent to the browser as a download when a client asks."""
-        studio = self._studio
-        with studio.lock:
-            trajectory, robot = studio.trajectory, studio.robot
+        with self._state.lock:
+            trajectory, robot = self._state.trajectory, self._state.robot
         if trajectory is None or robot is None:
-            studio.report_error("Nothing to export", "generate or build a motion first", client)
+            self._fail("Nothing to export", "generate or build a motion first", client)
             return None
         buffer = io.StringIO()
         write_trajectory_csv(trajectory, buffer, robot)
@@ -141,17 +153,15 @@ class MotionSession:
         client: viser.ClientHandle | None = None,
     ) -> bool:
         """A motion CSV of ours (with a header), or a headerless Roban S14 motion file."""
-        studio = self._studio
-        robot = studio.robot
+        robot = self._state.robot
         if robot is None:
             return False
         if len(content) > MAX_MOTION_FILE_BYTES:
-            studio.report_error(
+            return self._fail(
                 "Motion file refused",
                 f"{filename} is over {MAX_MOTION_FILE_BYTES // 2**20} MB",
                 client,
             )
-            return False
         with tempfile.TemporaryDirectory() as folder:
             path = Path(folder) / _slug(Path(filename).name)
             path.write_bytes(content)
@@ -164,27 +174,46 @@ class MotionSession:
                     )
                     trajectory = read_roban_motion_csv(path, robot, quaternion_order=order)
             except StudioError as error:
-                studio.report_error("Cannot import the motion", str(error), client)
-                return False
+                return self._fail("Cannot import the motion", str(error), client)
         return self._install(robot, MotionResult(trajectory, ()), client)
 
-    # --- helpers ---------------------------------------------------------------------------
+    # --- helpers ----------------------------------------------------------------------------
 
-    def _install(self, robot, result: MotionResult, client: viser.ClientHandle | None) -> bool:
-        studio = self._studio
-        if studio.robot is not robot:
-            studio.report_error("Motion discarded", "another robot was loaded meanwhile", client)
-            return False
+    def _install(
+        self, robot: RobotModel, result: MotionResult, client: viser.ClientHandle | None
+    ) -> bool:
         trajectory = result.trajectory
         lines = [
-            f"**{trajectory.name}** — {trajectory.duration:.2f} s, {trajectory.n_samples} samples at {1 / trajectory.dt:.0f} Hz"
+            f"**{trajectory.name}** — {trajectory.duration:.2f} s, {trajectory.n_samples} "
+            f"samples at {1 / trajectory.dt:.0f} Hz"
         ]
         lines.extend(f"⚠️ {line}" for line in result.summary())
-        studio.set_trajectory(trajectory, "  \n".join(lines))
+        try:
+            self._state.set_motion(trajectory, "  \n".join(lines), robot)
+        except StudioError as error:
+            return self._fail("Motion discarded", str(error), client)
+        self.panel.status.content = lines[0]
         return True
 
+    def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> bool:
+        self.panel.status.content = f"⚠️ {body}"
+        self._notifier.error(title, body, client)
+        return False
+
     def _show(self, selected: int) -> None:
-        self._studio.keyframes_panel.show(self.keyframes, selected)
+        self.keyframes_panel.show(self.keyframes, selected)
+
+
+def _valid_duration(duration_s: float) -> bool:
+    return (
+        isinstance(duration_s, int | float)
+        and math.isfinite(duration_s)
+        and (0.0 < duration_s <= MAX_KEYFRAME_S)
+    )
+
+
+def _duration_message(duration_s: object) -> str:
+    return f"a keyframe duration of {duration_s!r} s: give a time in (0, {MAX_KEYFRAME_S:g}] s"
 
 
 def _slug(name: str) -> str:

@@ -1,0 +1,374 @@
+"""Torque feed-forward and compensation in the studio: compute τ for the current motion (in a
+named worker thread, with progress), keep the coefficients and the virtual servos, predict the
+motion with and without compensation on every edit, and drive the ghosts and plots.
+
+Editing a coefficient never recomputes the torques: τ depends on the plan only. Edits from
+several tabs are coalesced like drags: a prediction that has not started yet is replaced by
+the newest one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import itertools
+import math
+import threading
+
+import numpy as np
+import viser
+
+from app.core.dynamics.wbc import FeedForward, torque_feedforward, write_torque_csv
+from app.core.errors import StudioError
+from app.core.motions.trajectory import Trajectory
+from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
+from app.core.robot.model import RobotModel
+from app.core.servo.compensation import (
+    CLEARANCE_SIGNS,
+    MAX_ABS_K_DEG_PER_NM,
+    MAX_PHI_DEG,
+    CompensationParams,
+    disabled_params,
+)
+from app.core.servo.files import write_command_csv
+from app.core.servo.model import Prediction, ServoModel, command_configuration, predict
+from app.core.servo.presets import PRESETS, preset_params
+from app.studio.coalesce import Coalescer
+from app.studio.notifier import Notifier
+from app.studio.signals import Signal
+from app.studio.state import LoadedRobot, Motion, StudioState
+from app.views.ghosts_view import GHOSTS, GhostsView, legend_markdown
+from panels.compensation_panel import CompensationPanel
+from panels.plots_panel import PlotsPanel
+
+DEFAULT_PRESET = next(iter(PRESETS))
+DEFAULT_BACKLASH_DEG = 0.5
+"""Dead band of the default virtual servos [°] (a typical hobby servo's gear play)."""
+MAX_BACKLASH_DEG = 20.0
+FIELD_RANGES = {
+    "k": (-MAX_ABS_K_DEG_PER_NM, MAX_ABS_K_DEG_PER_NM),
+    "phi": (0.0, MAX_PHI_DEG),
+    "compliance": (-MAX_ABS_K_DEG_PER_NM, MAX_ABS_K_DEG_PER_NM),
+    "backlash": (0.0, MAX_BACKLASH_DEG),
+    "enabled": (0.0, 1.0),
+}
+"""What each per-joint value may be, re-checked on arrival (a crafted client can send any)."""
+
+
+class CompensationSession:
+    """Owns the Compensation and Plots panels and the ghosts."""
+
+    def __init__(self, server: viser.ViserServer, state: StudioState, notifier: Notifier) -> None:
+        self._server, self._state, self._notifier = server, state, notifier
+        self.panel = CompensationPanel(
+            server.gui, self, {name: text for name, (_, text) in GHOSTS.items()}, legend_markdown()
+        )
+        self.plots = PlotsPanel(server.gui)
+        self.feedforward: FeedForward | None = None
+        self.prediction: Prediction | None = None
+        self.params: CompensationParams | None = None
+        self.servo: ServoModel | None = None
+        self.ghosts: GhostsView | None = None
+        self.torques_done: Signal[FeedForward | None] = Signal("torques_done")
+        """Emitted when a torque computation ends: its result, or None if it failed or was
+        dropped because the motion changed meanwhile."""
+        self._robot: RobotModel | None = None
+        self._trajectory: Trajectory | None = None
+        self._selected = ""
+        self._lock = threading.Lock()
+        """Guards coefficients, servos, torques and prediction (edits come from viser's pool)."""
+        self._worker: threading.Thread | None = None
+        self._predictions: Coalescer[str, None] = Coalescer(lambda _key, _value: self._repredict())
+        self._generation = itertools.count()
+        state.on_robot.connect(self._on_robot)
+        state.on_motion.connect(self._on_motion)
+        state.on_time.connect(self._on_time)
+
+    # --- state changes ------------------------------------------------------------------------
+
+    def _on_robot(self, loaded: LoadedRobot) -> None:
+        robot = loaded.robot
+        params, servo = default_params(robot)
+        with self._lock:
+            self._robot, self.params, self.servo = robot, params, servo
+            self._selected = _first_enabled(params) or (
+                robot.joint_names[0] if robot.n_actuated else ""
+            )
+        self.panel.show_joints(robot.joint_names, self._selected)
+        self._show_selected()
+
+    def _on_motion(self, motion: Motion | None) -> None:
+        with self._lock:
+            if self.ghosts is not None:
+                self.ghosts.remove()
+            self.ghosts, self.feedforward, self.prediction = None, None, None
+            self._trajectory = motion.trajectory if motion is not None else None
+        self.plots.clear()
+        self.panel.status.content = (
+            "Compute the torques of this motion."
+            if motion is not None
+            else "Generate or build a motion first."
+        )
+
+    def _on_time(self, time_s: float) -> None:
+        trajectory = self._trajectory
+        if trajectory is not None:
+            self.show_sample(trajectory.index_at(time_s))
+
+    # --- torques -----------------------------------------------------------------------------
+
+    def compute_torques(self, client: viser.ClientHandle | None = None) -> None:
+        """Start the torque feed-forward of the current motion in a worker thread; the result
+        is announced by `torques_done`."""
+        with self._state.lock:
+            robot, trajectory = self._state.robot, self._state.trajectory
+        if robot is None or trajectory is None:
+            self._fail("No motion", "generate or build a motion first", client)
+            return
+        if self._worker is not None and self._worker.is_alive():
+            return
+        self.panel.show_progress(0.0)
+        self.panel.status.content = (
+            f"Computing τ for **{trajectory.name}** ({trajectory.n_samples} samples)…"
+        )
+        self._worker = threading.Thread(
+            target=self._compute, args=(robot, trajectory, client), name="feedforward", daemon=True
+        )
+        self._worker.start()
+
+    def _compute(
+        self, robot: RobotModel, trajectory: Trajectory, client: viser.ClientHandle | None
+    ) -> None:
+        result: FeedForward | None = None
+        try:
+            result = torque_feedforward(robot, trajectory, progress=self.panel.show_progress)
+        except StudioError as error:
+            self._fail("Torque feed-forward failed", str(error), client)
+        finally:
+            self.panel.show_progress(None)
+        if result is not None:
+            with self._lock:
+                if self._robot is not robot or self._trajectory is not trajectory:
+                    result = None  # the motion changed meanwhile: this result is stale
+                else:
+                    self.feedforward = result
+                    if self.ghosts is None:
+                        self.ghosts = GhostsView(
+                            self._server, robot, root=f"/ghosts/{next(self._generation)}"
+                        )
+                        for name, checkbox in self.panel.ghosts.items():
+                            self.ghosts.set_visible(name, checkbox.value)
+        if result is not None:
+            self._repredict()
+            self.panel.status.content = _torque_summary(trajectory, result)
+        self.torques_done.emit(result)
+
+    # --- coefficients (CompensationActions) -----------------------------------------------------
+
+    def apply_preset(self, key: str) -> None:
+        robot = self._robot
+        if robot is None:
+            return
+        try:
+            params = preset_params(key, robot)
+        except StudioError as error:
+            self._fail("Preset not available", str(error), None)
+            return
+        with self._lock:
+            self.params = params
+        self._show_selected()
+        self._predictions.submit("predict", None)
+
+    def set_clearance_sign(self, sign: str) -> None:
+        if sign not in CLEARANCE_SIGNS:
+            return
+        with self._lock:
+            if self.params is None:
+                return
+            self.params = dataclasses.replace(self.params, clearance_sign=sign)  # type: ignore[arg-type]
+        self._predictions.submit("predict", None)
+
+    def select_joint(self, joint: str) -> None:
+        self._selected = joint
+        self._show_selected()
+
+    def edit_joint(self, joint: str, field: str, value: float) -> None:
+        """One value of one joint changed ("enabled", "k", "phi", "compliance", "backlash"):
+        check it, update it and re-predict (τ is unchanged)."""
+        low, high = FIELD_RANGES.get(field, (math.nan, math.nan))
+        if not (isinstance(value, int | float) and low <= float(value) <= high):
+            self._fail(
+                "Value refused", f"{field} = {value!r}: give a value in [{low:g}, {high:g}]", None
+            )
+            self._show_selected()
+            return
+        with self._lock:
+            params, servo = self.params, self.servo
+            if params is None or servo is None or joint not in params.joint_names:
+                return
+            i = params.joint_names.index(joint)
+            k, phi, enabled = (
+                params.k_deg_per_Nm.copy(),
+                params.phi_deg.copy(),
+                params.enabled.copy(),
+            )
+            compliance, backlash = servo.compliance_deg_per_Nm.copy(), servo.backlash_deg.copy()
+            column = {"k": k, "phi": phi, "compliance": compliance, "backlash": backlash}
+            if field == "enabled":
+                enabled[i] = bool(value)
+            else:
+                column[field][i] = float(value)
+            self.params = dataclasses.replace(params, k_deg_per_Nm=k, phi_deg=phi, enabled=enabled)
+            self.servo = ServoModel(servo.joint_names, compliance, backlash)
+        if joint == self._selected:
+            self._show_selected()
+        self._predictions.submit("predict", None)
+
+    def _show_selected(self) -> None:
+        params, servo = self.params, self.servo
+        if params is None or servo is None or self._selected not in params.joint_names:
+            return
+        i = params.joint_names.index(self._selected)
+        self.panel.show_joint(
+            bool(params.enabled[i]),
+            float(params.k_deg_per_Nm[i]),
+            float(params.phi_deg[i]),
+            float(servo.compliance_deg_per_Nm[i]),
+            float(servo.backlash_deg[i]),
+        )
+
+    # --- prediction, ghosts, plots -----------------------------------------------------------
+
+    def _repredict(self) -> None:
+        with self._lock:
+            feedforward, params, servo = self.feedforward, self.params, self.servo
+            robot, trajectory = self._robot, self._trajectory
+            if None in (feedforward, params, servo, robot, trajectory):
+                return
+            assert feedforward is not None and params is not None and servo is not None
+            assert robot is not None and trajectory is not None
+            try:
+                prediction = predict(
+                    robot, trajectory, np.nan_to_num(feedforward.tau_Nm), params, servo
+                )
+            except StudioError as error:
+                self._fail("Cannot predict the motion", str(error), None)
+                return
+            self.prediction = prediction
+        deg = np.rad2deg
+        t = prediction.t
+        self.plots.info.content = _attitude_summary(prediction)
+        self.plots.show_torques(t, prediction.joint_names, prediction.tau_Nm)
+        self.plots.show_attitude(
+            t,
+            [
+                deg(prediction.roll_planned_rad),
+                deg(prediction.pitch_planned_rad),
+                deg(prediction.roll_uncompensated_rad),
+                deg(prediction.pitch_uncompensated_rad),
+                deg(prediction.roll_compensated_rad),
+                deg(prediction.pitch_compensated_rad),
+            ],
+        )
+        self.plots.show_offsets(
+            t, prediction.joint_names, deg(prediction.q_cmd_rad - prediction.q_plan_rad)
+        )
+        self.show_sample(trajectory.index_at(self._state.time_s))
+
+    def show_sample(self, k: int) -> None:
+        """Place the ghosts at sample k of the current motion."""
+        with self._lock:
+            prediction, ghosts, robot, trajectory = (
+                self.prediction,
+                self.ghosts,
+                self._robot,
+                self._trajectory,
+            )
+            if prediction is None or ghosts is None or robot is None or trajectory is None:
+                return
+            k = int(np.clip(k, 0, trajectory.n_samples - 1))
+            with self._server.atomic():
+                ghosts.update(
+                    {
+                        "planned": trajectory.q[k],
+                        "command": command_configuration(robot, trajectory, prediction, k),
+                        "without": prediction.q_world_uncompensated[k],
+                        "with": prediction.q_world_compensated[k],
+                    }
+                )
+
+    def set_ghost_visible(self, name: str, visible: bool) -> None:
+        with self._lock:
+            if self.ghosts is not None and name in GHOSTS:
+                self.ghosts.set_visible(name, bool(visible))
+
+    # --- files -------------------------------------------------------------------------------
+
+    def export_commands(self, client: viser.ClientHandle | None = None) -> bytes | None:
+        prediction, trajectory = self.prediction, self._trajectory
+        if prediction is None or trajectory is None:
+            self._fail("Nothing to export", "compute the torque feed-forward first", client)
+            return None
+        buffer = io.StringIO()
+        write_command_csv(buffer, prediction.t, prediction.joint_names, prediction.q_cmd_rad)
+        content = buffer.getvalue().encode()
+        if client is not None:
+            client.send_file_download(f"{trajectory.name}_servo_commands.csv", content)
+        return content
+
+    def export_torques(self, client: viser.ClientHandle | None = None) -> bytes | None:
+        feedforward = self.feedforward
+        if feedforward is None:
+            self._fail("Nothing to export", "compute the torque feed-forward first", client)
+            return None
+        buffer = io.StringIO()
+        write_torque_csv(buffer, feedforward)
+        content = buffer.getvalue().encode()
+        if client is not None:
+            client.send_file_download(f"{feedforward.trajectory_name}_tau.csv", content)
+        return content
+
+    def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
+        self.panel.status.content = f"⚠️ {body}"
+        self._notifier.error(title, body, client)
+
+
+def default_params(robot: RobotModel) -> tuple[CompensationParams, ServoModel]:
+    """The default preset on the robot (no compensation where it does not fit), and virtual
+    servos as compliant as the paper's identifiable servos with a small dead band on the
+    compensated joints, so that compensation has work to do."""
+    try:
+        params = preset_params(DEFAULT_PRESET, robot)
+    except StudioError:
+        params = disabled_params(robot.joint_names)
+    legs = params.enabled
+    servo = ServoModel(
+        robot.joint_names,
+        np.where(legs, TYPICAL_COMPLIANCE_DEG_PER_NM, 0.0),
+        np.where(legs, DEFAULT_BACKLASH_DEG, 0.0),
+    )
+    return params, servo
+
+
+def _first_enabled(params: CompensationParams) -> str:
+    return next((n for n, on in zip(params.joint_names, params.enabled, strict=True) if on), "")
+
+
+def _torque_summary(trajectory: Trajectory, result: FeedForward) -> str:
+    bad = result.infeasible_samples
+    warning = (
+        f" ⚠️ QP infeasible at {len(bad)} sample(s), first at t = {result.t[bad[0]]:.2f} s"
+        if len(bad)
+        else ""
+    )
+    peak = np.nanmax(np.abs(result.tau_Nm))
+    return f"τ of **{trajectory.name}**: max |τ| {peak:.2f} N·m.{warning}"
+
+
+def _attitude_summary(prediction: Prediction) -> str:
+    errors = prediction.attitude_errors_deg()
+    return (
+        "Largest torso error vs plan — "
+        f"no compensation: roll {errors['roll_uncompensated']:.2f}°, pitch {errors['pitch_uncompensated']:.2f}°; "
+        f"compensated: roll {errors['roll_compensated']:.2f}°, pitch {errors['pitch_compensated']:.2f}°"
+    )

@@ -1,0 +1,269 @@
+"""The gait planner in the studio: settings from the gait panel, solves in the worker process
+(app.jobs), live convergence, results beside the paper's Table 4, and the gait played like any
+motion.
+
+The planner works on dircon_biped (the gait paper's robot). A result is marked stale when the
+settings change after its solve was launched; a failed solve keeps the last good gait.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import threading
+from typing import Any
+
+import viser
+
+from app.core.collocation.result import GaitResult
+from app.core.collocation.settings import GaitSettings
+from app.core.errors import StudioError
+from app.core.papers import TABLE4
+from app.core.robot.loading import load_robot
+from app.core.robot.report import robot_report
+from app.gait_jobs import build_gait_problem
+from app.jobs import SolverWorker
+from app.studio.notifier import Notifier
+from app.studio.signals import Signal
+from app.studio.state import LoadedRobot, StudioState
+from panels.gait_panel import GaitPanel
+
+PLANNER_ROBOT = "dircon_biped"
+MAX_PROGRESS_ITERATIONS = 200.0
+"""The progress bar is full after this many IPOPT iterations (most solves take 10–70)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Solve:
+    """One solve: what was asked, and (when it ended) what came back."""
+
+    job_id: str
+    settings: GaitSettings
+    result: GaitResult | None = None
+    error: str = ""
+    """Why the solve failed (worker crash, refused settings) or "cancelled"."""
+
+
+@dataclasses.dataclass
+class GaitResults:
+    symmetric: GaitResult | None = None
+    """Last good (converged) symmetric gait."""
+    baseline: GaitResult | None = None
+    """Last good (converged) baseline gait."""
+
+    def of(self, baseline: bool) -> GaitResult | None:
+        return self.baseline if baseline else self.symmetric
+
+
+class GaitSession:
+    """Owns the Gait panel and the solver worker."""
+
+    def __init__(self, server: viser.ViserServer, state: StudioState, notifier: Notifier) -> None:
+        self._server, self._state, self._notifier = server, state, notifier
+        self.panel = GaitPanel(server.gui, self)
+        self._lock = threading.Lock()
+        self._worker: SolverWorker | None = None
+        self._ids = itertools.count(1)
+        self.running: Solve | None = None
+        """The solve under way."""
+        self.last: Solve | None = None
+        """The last solve that ended, good or not."""
+        self.results = GaitResults()
+        self.history: tuple[list[int], list[float], list[float]] = ([], [], [])
+        """Iteration, objective, constraint violation of the solve under way (or the last)."""
+        self.finished: Signal[Solve] = Signal("gait_finished")
+        """Emitted once per solve when it ends (converged, failed or cancelled), after the
+        panel shows it."""
+        state.on_robot.connect(self._on_robot)
+
+    # --- worker --------------------------------------------------------------------------------
+
+    def _ensure_worker(self) -> SolverWorker:
+        if self._worker is None:
+            worker = SolverWorker(build_gait_problem)
+            worker.on_progress(self._on_progress)
+            worker.on_done(self._on_done)
+            worker.on_failed(self._on_failed)
+            worker.on_cancelled(self._on_cancelled)
+            self._worker = worker
+        return self._worker
+
+    def solve(self, baseline: bool, client: viser.ClientHandle | None = None) -> str | None:
+        """Launch a solve with the panel's settings; returns its job id."""
+        try:
+            settings = self.panel.settings(baseline)
+        except StudioError as error:
+            self.panel.status.content = f"⚠️ {error}"
+            self._notifier.error("Gait settings refused", str(error), client)
+            return None
+        job_id = f"gait-{next(self._ids)}"
+        with self._lock:
+            self.running = Solve(job_id, settings)
+            self.history = ([], [], [])
+        kind = "baseline (original DIRCON)" if baseline else "symmetric gait"
+        self.panel.status.content = f"Solving the {kind} (job {job_id})…"
+        self.panel.show_running(True)
+        self._ensure_worker().submit(job_id, settings, settings.structure)
+        return job_id
+
+    def cancel(self) -> None:
+        if self._worker is not None:
+            self._worker.cancel()
+
+    def close(self) -> None:
+        if self._worker is not None:
+            self._worker.close()
+            self._worker = None
+
+    # --- events from the worker (the "solver-events" thread) ------------------------------------
+
+    def _on_progress(self, job_id: str, iteration: int, objective: float, violation: float) -> None:
+        with self._lock:
+            if self.running is None or self.running.job_id != job_id:
+                return
+            iterations, objectives, violations = self.history
+            iterations.append(iteration)
+            objectives.append(objective)
+            violations.append(violation)
+            history = (list(iterations), list(objectives), list(violations))
+        self.panel.show_progress(min(1.0, iteration / MAX_PROGRESS_ITERATIONS))
+        if len(history[0]) % 5 == 1:
+            self.panel.show_convergence(*history)
+
+    def _end(self, job_id: str, result: GaitResult | None = None, error: str = "") -> None:
+        with self._lock:
+            running = self.running
+            if running is None or running.job_id != job_id:
+                return
+            ended = dataclasses.replace(running, result=result, error=error)
+            self.running, self.last = None, ended
+            if result is not None and result.converged:
+                if running.settings.baseline:
+                    self.results.baseline = result
+                else:
+                    self.results.symmetric = result
+            history = self.history
+        self.panel.show_running(False)
+        self.panel.show_convergence(*history)
+        self.panel.status.content = _status_line(ended, self.results)
+        self.show_results()
+        self.finished.emit(ended)
+
+    def _on_done(self, job_id: str, result: Any) -> None:
+        self._end(job_id, result=result)
+
+    def _on_failed(self, job_id: str, message: str) -> None:
+        self._end(job_id, error=message)
+
+    def _on_cancelled(self, job_id: str) -> None:
+        self._end(job_id, error="cancelled")
+
+    # --- results -------------------------------------------------------------------------------
+
+    def settings_changed(self) -> None:
+        """Mark shown results stale when the settings no longer match them."""
+        self.show_results()
+
+    def _stale(self) -> bool:
+        last = self.last
+        if last is None:
+            return False
+        try:
+            return self.panel.settings(last.settings.baseline) != last.settings
+        except StudioError:
+            return True
+
+    def show_results(self) -> None:
+        sym, base = self.results.symmetric, self.results.baseline
+
+        def cell(result: GaitResult | None, attribute: str, fmt: str) -> str:
+            return fmt.format(getattr(result, attribute)) if result is not None else "—"
+
+        low, high = TABLE4.solve_s
+        tau_paper, sr_paper = TABLE4.max_abs_tau_Nm, TABLE4.sr
+        rows = [
+            "| | this planner | baseline | paper (sym. / prev.) |",
+            "|---|---|---|---|",
+            f"| solve time [s] | {cell(sym, 'solve_s', '{:.1f}')} | {cell(base, 'solve_s', '{:.1f}')} | {low:g}–{high:g} |",
+            f"| max \\|τ\\| [N·m] | {cell(sym, 'max_abs_tau_Nm', '{:.2f}')} | {cell(base, 'max_abs_tau_Nm', '{:.2f}')} "
+            f"| {tau_paper[0]} / {tau_paper[1]} |",
+            f"| SR | {cell(sym, 'sr', '{:.3f}')} | {cell(base, 'sr', '{:.3f}')} | {sr_paper[0]} / {sr_paper[1]} |",
+        ]
+        for result, label in ((sym, "this planner"), (base, "baseline")):
+            if result is not None:
+                lsp, rsp = result.step_lengths_m
+                rows.append(f"| steps LSP / RSP [m] ({label}) | {lsp:.3f} / {rsp:.3f} | | |")
+        if sym is not None:
+            rows.append(f"| slack0 | {sym.slack0:+.3f} | | |")
+        rows.append(
+            f"| symmetry residuals: exchange / periodicity | {_residuals(sym)} | {_residuals(base)} | |"
+        )
+        note = (
+            "\n\n⚠️ The settings changed since this solve: results are stale."
+            if self._stale()
+            else ""
+        )
+        self.panel.results.content = "\n".join(rows) + note
+        self.panel.use.disabled = sym is None and base is None
+
+    def play_result(self, client: viser.ClientHandle | None = None) -> None:
+        """Send the last good gait to playback (and torque feed-forward) on dircon_biped, and
+        start playing it."""
+        from app.core.collocation.dircon import to_trajectory
+
+        result = self.results.symmetric or self.results.baseline
+        if result is None:
+            return
+        robot = self._state.robot
+        if robot is None or robot.name != PLANNER_ROBOT:
+            robot = self.load_planner_robot(client)
+            if robot is None:
+                return
+        trajectory = to_trajectory(robot, result)
+        try:
+            self._state.set_motion(
+                trajectory, f"**gait** — {trajectory.duration:.2f} s, from the planner", robot
+            )
+        except StudioError as error:
+            self.panel.status.content = f"⚠️ {error}"
+            self._notifier.error("Cannot play the gait", str(error), client)
+
+    def load_planner_robot(self, client: viser.ClientHandle | None) -> Any:
+        """Load the planner's robot into the studio; the robot, or None if it failed."""
+        try:
+            robot = load_robot(PLANNER_ROBOT)
+            report = robot_report(robot)
+        except StudioError as error:
+            self._notifier.error(f"Cannot load {PLANNER_ROBOT}", str(error), client)
+            return None
+        with self._state.lock, self._server.atomic():
+            self._state.set_robot(robot, report)
+        return robot
+
+    def _on_robot(self, loaded: LoadedRobot) -> None:
+        """Offer to load dircon_biped when another robot is loaded."""
+        other = loaded.robot.name != PLANNER_ROBOT
+        self.panel.robot_note.content = (
+            "The planner plans for **dircon_biped**, the gait paper's robot (planar, 10 DOF)."
+            + (" Load it to watch the gait." if other else "")
+        )
+        self.panel.load_robot.visible = other
+
+
+def _status_line(solve: Solve, results: GaitResults) -> str:
+    kept = " The last good gait is kept." if results.of(solve.settings.baseline) else ""
+    if solve.error == "cancelled":
+        return "Cancelled." + kept
+    if solve.error:
+        return f"⚠️ {solve.error}{kept}"
+    result = solve.result
+    assert result is not None
+    if result.converged:
+        return f"Solved in {result.solve_s:.1f} s, {result.iterations} IPOPT iterations."
+    return f"⚠️ Not solved: {result.status}.{kept}"
+
+
+def _residuals(result: GaitResult | None) -> str:
+    if result is None:
+        return "—"
+    return f"{result.exchange_residual:.1e} / {result.periodicity_residual:.1e}"

@@ -1,0 +1,73 @@
+"""Notifications: what went wrong, said in the tab that asked (or in every tab).
+
+Every failure the user can cause reaches them twice: in the status line of the panel of the
+feature that failed (the session writes it) and as a notification from here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from typing import Literal
+
+import viser
+
+log = logging.getLogger(__name__)
+
+Colour = Literal["red", "green", "yellow", "blue"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Message:
+    title: str
+    body: str
+    colour: Colour
+
+
+class Notifier:
+    def __init__(self, server: viser.ViserServer) -> None:
+        self._server = server
+        self.last: Message | None = None
+        """The last message sent (the studio log shows them all)."""
+
+    def _targets(self, client: viser.ClientHandle | None) -> list[viser.ClientHandle]:
+        return [client] if client is not None else list(self._server.get_clients().values())
+
+    def notify(
+        self,
+        title: str,
+        body: str,
+        client: viser.ClientHandle | None = None,
+        colour: Colour = "green",
+    ) -> None:
+        self.last = Message(title, body, colour)
+        (log.warning if colour == "red" else log.info)("%s: %s", title, body)
+        for target in self._targets(client):
+            target.add_notification(title, body, color=colour, auto_close_seconds=8.0)
+
+    def error(self, title: str, body: str, client: viser.ClientHandle | None = None) -> None:
+        self.notify(title, body, client, "red")
+
+    @property
+    def last_error(self) -> str:
+        """Body of the last error, "" when the last message was not one."""
+        last = self.last
+        return last.body if last is not None and last.colour == "red" else ""
+
+    def progress(self, title: str, body: str, client: viser.ClientHandle | None) -> Progress:
+        """A loading notification, removed by `Progress.done()`."""
+        return Progress(
+            [
+                c.add_notification(title, body, loading=True, with_close_button=False)
+                for c in self._targets(client)
+            ]
+        )
+
+
+class Progress:
+    def __init__(self, handles: list[viser.NotificationHandle]) -> None:
+        self._handles = handles
+
+    def done(self) -> None:
+        for handle in self._handles:
+            handle.remove()

@@ -1,0 +1,149 @@
+"""Playback in the studio: the timeline, play/pause, speed, loop, and the traces of the current
+motion. The player is one named thread that moves the state's time at display rate; the pose
+of each sample is set here, and every other feature follows the time through the state."""
+
+from __future__ import annotations
+
+import itertools
+import threading
+import time
+from collections.abc import Callable
+
+import viser
+
+from app.core.motions.paths import task_space_paths
+from app.studio.state import Motion, StudioState
+from app.views.traces_view import TracesView
+from panels.playback_panel import PlaybackPanel
+
+DISPLAY_RATE_HZ = 60.0
+
+
+class PlaybackSession:
+    """Owns the Playback panel, the player thread and the traces overlay."""
+
+    def __init__(self, server: viser.ViserServer, state: StudioState) -> None:
+        self._server, self._state = server, state
+        self.panel = PlaybackPanel(server.gui, self)
+        self.player = Player(self._advance)
+        self.traces: TracesView | None = None
+        self._generation = itertools.count()
+        state.on_motion.connect(self._on_motion)
+        state.on_time.connect(self._on_time)
+
+    # --- state changes ----------------------------------------------------------------------
+
+    def _on_motion(self, motion: Motion | None) -> None:
+        self.player.pause()
+        if self.traces is not None:
+            self.traces.remove()
+            self.traces = None
+        if motion is None:
+            self.panel.show_none()
+            return
+        robot = self._state.robot
+        assert robot is not None
+        self.traces = TracesView(
+            self._server,
+            task_space_paths(robot, motion.trajectory),
+            root=f"/traces/{next(self._generation)}",
+        )
+        self.traces.set_visible(self.panel.traces.value)
+        self.panel.show_trajectory(motion.trajectory, motion.summary)
+
+    def _on_time(self, time_s: float) -> None:
+        state = self._state
+        trajectory, robot = state.trajectory, state.robot
+        if trajectory is None or robot is None:
+            return
+        k = trajectory.index_at(time_s)
+        left, right = trajectory.contacts[k]
+        stance = "both" if left == right else ("left" if left else "right")
+        state.set_pose(trajectory.q[k], stance, "playback", robot)  # type: ignore[arg-type]
+        self.panel.show_time(time_s)
+        self.panel.show_playing(self.player.playing)
+
+    # --- actions (PlaybackActions) -------------------------------------------------------------
+
+    def seek(self, time_s: float) -> None:
+        self.player.pause()
+        with self._state.lock, self._server.atomic():
+            self._state.set_time(float(time_s))
+
+    def toggle_play(self) -> None:
+        if self.player.playing:
+            self.player.pause()
+            self.panel.show_playing(False)
+            self.seek(self.panel.time.value)
+            return
+        trajectory = self._state.trajectory
+        if trajectory is not None:
+            start = float(self.panel.time.value)
+            self.player.play(0.0 if start >= trajectory.duration else start)
+            self.panel.show_playing(True)
+
+    def set_traces_visible(self, visible: bool) -> None:
+        with self._state.lock:
+            if self.traces is not None:
+                self.traces.set_visible(bool(visible))
+
+    # --- the player's tick ----------------------------------------------------------------------
+
+    def _advance(self, elapsed_s: float, start_s: float, stop: threading.Event) -> bool | None:
+        """Show the motion at start + elapsed·speed. None to stop (the end, without loop),
+        True to restart the clock from 0 (loop), False to go on."""
+        with self._state.lock, self._server.atomic():
+            trajectory = self._state.trajectory
+            if trajectory is None or stop.is_set():
+                return None
+            now = start_s + elapsed_s * float(self.panel.speed.value)
+            if now <= trajectory.duration:
+                self._state.set_time(now)
+                return False
+            if self.panel.loop.value:
+                self._state.set_time(0.0)
+                return True
+            stop.set()
+            self._state.set_time(trajectory.duration)
+            return None
+
+    def stop(self) -> None:
+        self.player.pause()
+
+
+class Player:
+    """One named thread, "playback", calling `tick(elapsed_s, start_s, stop)` at display rate
+    until it returns None or `pause()` sets `stop`. `pause` never waits for the thread (it may
+    be called from a state signal while the thread waits for the state's lock); `tick` checks
+    `stop` under that lock, so no frame is shown after a pause."""
+
+    def __init__(self, tick: Callable[[float, float, threading.Event], bool | None]) -> None:
+        self._tick = tick
+        self._stop = threading.Event()
+        self._stop.set()
+
+    @property
+    def playing(self) -> bool:
+        return not self._stop.is_set()
+
+    def play(self, from_time_s: float) -> None:
+        self.pause()
+        stop = self._stop = threading.Event()
+        threading.Thread(
+            target=self._run, args=(from_time_s, stop), name="playback", daemon=True
+        ).start()
+
+    def pause(self) -> None:
+        self._stop.set()
+
+    def _run(self, from_time_s: float, stop: threading.Event) -> None:
+        start_wall, start_time = time.perf_counter(), from_time_s
+        period = 1.0 / DISPLAY_RATE_HZ
+        while not stop.is_set():
+            restart = self._tick(time.perf_counter() - start_wall, start_time, stop)
+            if restart is None:
+                stop.set()
+                return
+            if restart:
+                start_wall, start_time = time.perf_counter(), 0.0
+            stop.wait(period)

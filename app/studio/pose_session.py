@@ -1,0 +1,175 @@
+"""Drag-to-pose in the studio: gizmos on the feet and pelvis, whole-body IK, the balance
+overlay, and the Pose panel's buttons.
+
+Gizmo drags arrive on viser's thread pool, at most every 50 ms per tab, possibly from several
+tabs at once. Only the latest target per handle matters: a Coalescer keeps it, and a target
+that has not been solved yet is replaced by a newer one, so a backlog of stale drags is never
+worked through and no callback waits behind another tab's solve.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import viser
+
+from app.core.errors import StudioError
+from app.core.posing.drag import Posing
+from app.core.posing.ik import IkResult
+from app.core.posing.ready_pose import ready_pose
+from app.core.robot.model import RobotModel
+from app.studio.coalesce import Coalescer
+from app.studio.notifier import Notifier
+from app.studio.state import STANCES, LoadedRobot, Pose, Stance, StudioState
+from app.views.balance_view import BalanceView
+from app.views.drag_handles import DragHandles
+from panels.pose_panel import PosePanel
+
+
+class PoseSession:
+    """Owns the Pose panel, the drag handles and the balance overlay of the loaded robot."""
+
+    def __init__(self, server: viser.ViserServer, state: StudioState, notifier: Notifier) -> None:
+        self._server, self._state, self._notifier = server, state, notifier
+        self.panel = PosePanel(server.gui, self)
+        self.posing: Posing | None = None
+        self.handles: DragHandles | None = None
+        self.balance: BalanceView | None = None
+        self.last_result: IkResult | None = None
+        self._drags: Coalescer[str, np.ndarray] = Coalescer(self._solve_drag)
+        state.on_robot.connect(self._on_robot)
+        state.on_pose.connect(self._on_pose)
+
+    # --- state changes ----------------------------------------------------------------------
+
+    def _on_robot(self, loaded: LoadedRobot) -> None:
+        robot = loaded.robot
+        for overlay in (self.handles, self.balance):
+            if overlay is not None:
+                overlay.remove()
+        self.posing = Posing(robot, com_in_support=self.panel.com_in_support.value)
+        lower, upper = robot.bounds_m(robot.q_neutral, robot.model.createData())
+        frames = {
+            "left": robot.feet[0].link,
+            "right": robot.feet[1].link,
+            "pelvis": robot.tree.root,
+        }
+        self.handles = DragHandles(
+            self._server, frames, 0.15 * float(upper[2] - lower[2]), self.request_drag
+        )
+        self.handles.set_visible(self.panel.handles.value)
+        self.balance = BalanceView(self._server, robot.n_actuated)
+        self.last_result = None
+
+    def _on_pose(self, pose: Pose) -> None:
+        posing, handles, balance = self.posing, self.handles, self.balance
+        if posing is None or handles is None or balance is None:
+            return
+        if pose.dragged is None:
+            self.last_result = None
+        posing.stance = pose.stance
+        robot = posing.robot
+        handles.place(robot.link_placements(pose.q, robot.model.createData()), skip=pose.dragged)
+        state = posing.balance(pose.q)
+        balance.update(
+            state.polygon_xy,
+            state.com_world,
+            state.com_margin_m >= 0.0,
+            state.joint_positions_near_limit,
+            state.contact_frames,
+        )
+        self.panel.show_stance(pose.stance)
+        self.panel.show_status(self._status(pose.stance))
+
+    # --- dragging ---------------------------------------------------------------------------
+
+    def request_drag(self, which: str, T_world: np.ndarray) -> None:
+        """A handle ("left", "right", "pelvis") moved to T_world: solve IK and show the pose.
+        NaN targets or an unknown handle (a crafted client) are ignored."""
+        if which not in ("left", "right", "pelvis"):
+            return
+        T_world = np.asarray(T_world, dtype=float)
+        if T_world.shape != (4, 4) or not np.all(np.isfinite(T_world)):
+            return
+        self._drags.submit(which, T_world)
+
+    def _solve_drag(self, which: str, T_world: np.ndarray) -> None:
+        state = self._state
+        with state.lock:
+            posing, pose = self.posing, state.pose
+            if posing is None or pose is None or posing.robot is not state.robot:
+                return
+            posing.stance = pose.stance
+            result = posing.drag(pose.q, which, T_world)
+            self._apply(posing.robot, result, posing.stance, f"drag:{which}")
+
+    def _apply(self, robot: RobotModel, result: IkResult, stance: Stance, origin: str) -> None:
+        with self._server.atomic():
+            self._state.set_pose(result.q, stance, origin, robot)
+            self.last_result = result
+            self.panel.show_status(self._status(stance))
+
+    # --- buttons (PoseActions) ----------------------------------------------------------------
+
+    def reset_pose(self) -> None:
+        with self._state.lock:
+            robot = self._state.robot
+            if robot is not None:
+                with self._server.atomic():
+                    self._state.set_pose(robot.q_neutral.copy(), "both", "button", robot)
+
+    def ready_pose(self) -> None:
+        """Knees bent, pelvis lowered, feet where they stand (app.core.posing.ready_pose)."""
+        with self._state.lock:
+            robot = self._state.robot
+            if robot is None:
+                return
+            try:
+                ready = ready_pose(robot)
+            except StudioError as error:
+                self.panel.show_status(f"⚠️ {error}")
+                self._notifier.error("No ready pose", str(error))
+                return
+            with self._server.atomic():
+                self._state.set_pose(ready.q, "both", "button", robot)
+
+    def snap_feet(self) -> None:
+        with self._state.lock:
+            posing, pose = self.posing, self._state.pose
+            if posing is None or pose is None or posing.robot is not self._state.robot:
+                return
+            result = posing.snap_feet_to_ground(pose.q)
+            self._apply(posing.robot, result, "both", "button")
+
+    def swap_stance(self) -> None:
+        with self._state.lock:
+            pose = self._state.pose
+            if pose is not None:
+                swapped = {"left": "right", "right": "left", "both": "both"}[pose.stance]
+                self._state.set_stance(swapped)  # type: ignore[arg-type]
+
+    def set_stance(self, stance: str) -> None:
+        if stance in STANCES:
+            self._state.set_stance(stance)
+
+    def set_com_in_support(self, on: bool) -> None:
+        with self._state.lock:
+            if self.posing is not None:
+                self.posing.com_in_support = bool(on)
+
+    def set_handles_visible(self, visible: bool) -> None:
+        with self._state.lock:
+            if self.handles is not None:
+                self.handles.set_visible(bool(visible))
+
+    # --- status -----------------------------------------------------------------------------
+
+    def _status(self, stance: str) -> str:
+        result = self.last_result
+        lines = [f"Stance: **{stance}**"]
+        if result is not None:
+            lines.append("Target reached ✓" if result.reached else "Target **not reached**")
+            lines.append(f"CoM margin in support: {result.com_margin_m * 1000:.0f} mm")
+            if result.joints_near_limit:
+                lines.append("Near a limit: " + ", ".join(result.joints_near_limit))
+            lines.extend(f"⚠️ {warning}" for warning in result.warnings)
+        return "  \n".join(lines)

@@ -1,0 +1,151 @@
+"""The robot in the studio: loading (built-in, path, upload), the report, the robot's scene
+nodes and which of its layers are drawn.
+
+A load is all or nothing: the robot is parsed, checked and prepared for posing before it is
+installed; any failure leaves the previous robot, its pose and its work in place and says why
+in the Robot panel and as a notification.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+from pathlib import Path
+
+import viser
+
+from app.config import StudioConfig
+from app.core.errors import StudioError
+from app.core.posing.drag import Posing
+from app.core.robot.loading import load_robot
+from app.core.robot.model import RobotModel
+from app.core.robot.report import robot_report
+from app.core.robot.uploads import store_upload
+from app.studio.notifier import Notifier
+from app.studio.state import LoadedRobot, Pose, StudioState
+from app.views.robot_view import RobotView
+from panels.display_panel import DisplayFlags, DisplayPanel
+from panels.robot_panel import RobotPanel
+
+log = logging.getLogger(__name__)
+
+
+class RobotSession:
+    """Owns the Robot and Display panels and the robot's scene nodes."""
+
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        state: StudioState,
+        notifier: Notifier,
+        config: StudioConfig,
+    ) -> None:
+        self._server, self._state, self._notifier, self._config = server, state, notifier, config
+        self.panel = RobotPanel(server.gui, self, config.max_upload_bytes)
+        self.display = DisplayPanel(server.gui, self._on_display)
+        self.view: RobotView | None = None
+        self._generation = itertools.count()
+        state.on_robot.connect(self._on_robot)
+        state.on_pose.connect(self._on_pose)
+
+    # --- actions (RobotActions) ----------------------------------------------------------
+
+    def load(self, source: str | Path, client: viser.ClientHandle | None = None) -> bool:
+        """Load a robot; on failure say why and keep the current one. True on success."""
+        return self._load(source, client, sandbox=None)
+
+    def load_upload(
+        self, filename: str, content: bytes, client: viser.ClientHandle | None = None
+    ) -> bool:
+        """Store an uploaded .urdf/.zip in its own folder and load it from there."""
+        try:
+            urdf = store_upload(
+                filename, content, self._config.uploads_dir, self._config.max_upload_bytes
+            )
+        except StudioError as error:
+            self._fail("Upload refused", str(error), client)
+            return False
+        except (OSError, ValueError, RuntimeError, NotImplementedError, MemoryError) as error:
+            log.exception("upload %s", filename)
+            self._fail("Upload refused", f"{filename}: {type(error).__name__}: {error}", client)
+            return False
+        return self._load(urdf, client, sandbox=urdf.parent)
+
+    def _load(
+        self, source: str | Path, client: viser.ClientHandle | None, sandbox: Path | None
+    ) -> bool:
+        if not str(source).strip():
+            self._fail("Nothing to open", "type the path of a .urdf file first", client)
+            return False
+        options: dict = {"package_roots": self._config.package_roots, "feet": self._config.feet}
+        if sandbox is not None:
+            options = {**options, "sandbox": sandbox, "feet": None}
+        progress = self._notifier.progress("Loading", str(Path(str(source)).name), client)
+        try:
+            robot = load_robot(source, **options)
+            report = robot_report(robot)
+            prepare(robot)
+        except StudioError as error:
+            self._fail("Could not load the robot", str(error), client)
+            return False
+        except Exception as error:  # a third-party parser or mesh library failed: same answer
+            log.exception("loading %s", source)
+            self._fail(
+                "Could not load the robot", f"{type(error).__name__}: {error}".strip(), client
+            )
+            return False
+        finally:
+            progress.done()
+        with self._state.lock, self._server.atomic():
+            self._state.set_robot(robot, report)
+        problems = f", {len(report.problems)} problem(s) in the report" if report.problems else ""
+        self._notifier.notify(
+            "Robot loaded",
+            f"{robot.name}: {robot.n_actuated} actuated joints, {robot.mass_kg:.2f} kg{problems}.",
+            client,
+            "yellow" if report.problems else "green",
+        )
+        return True
+
+    def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
+        kept = " — the previous robot is still loaded." if self._state.robot is not None else "."
+        self.panel.show_status(f"⚠️ {body}{kept}")
+        self._notifier.error(title, f"{body}{kept}", client)
+
+    # --- state changes --------------------------------------------------------------------
+
+    def _on_robot(self, loaded: LoadedRobot) -> None:
+        robot = loaded.robot
+        if self.view is not None:
+            self.view.remove()
+        # A fresh root per robot: nodes re-added under a reused name can keep stale poses.
+        self.view = RobotView(self._server, robot, root=f"/robot/{next(self._generation)}")
+        self.view.set_visible(**vars_of(self.display.flags()))
+        self.panel.show_report(loaded.report)
+        self.panel.show_builtin(robot.name)
+        self.panel.show_status(f"**{robot.name}** — {robot.n_actuated} DOF, {robot.mass_kg:.2f} kg")
+
+    def _on_pose(self, pose: Pose) -> None:
+        if self.view is not None:
+            self.view.update(pose.q)
+
+    def _on_display(self, flags: DisplayFlags) -> None:
+        with self._state.lock:
+            if self.view is not None:
+                self.view.set_visible(**vars_of(flags))
+                self.view.update(self._state.q)
+
+
+def prepare(robot: RobotModel) -> None:
+    """Everything the studio computes for a new robot before showing it, so that a robot that
+    cannot be posed (degenerate soles, …) is refused before it replaces the current one."""
+    Posing(robot).balance(robot.q_neutral)
+
+
+def vars_of(flags: DisplayFlags) -> dict[str, bool]:
+    return {
+        "visual": flags.visual,
+        "collision": flags.collision,
+        "frames": flags.frames,
+        "com": flags.com,
+    }

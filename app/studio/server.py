@@ -1,0 +1,79 @@
+"""The studio: one viser server, its theme, camera and notifications, the shared state, and one
+session per feature. It holds no feature state of its own.
+
+Where things go: a new feature is a session module beside the others (its panel in `panels/`,
+its overlays in `app/views/`), constructed here, talking only to the state.
+"""
+
+from __future__ import annotations
+
+import viser
+
+from app.config import StudioConfig
+from app.core.robot.loading import load_robot
+from app.core.robot.model import RobotModel
+from app.core.robot.report import robot_report
+from app.studio.compensation_session import CompensationSession
+from app.studio.gait_session import GaitSession
+from app.studio.joints_session import JointsSession
+from app.studio.motion_session import MotionSession
+from app.studio.notifier import Notifier
+from app.studio.playback_session import PlaybackSession
+from app.studio.pose_session import PoseSession
+from app.studio.robot_session import RobotSession, prepare
+from app.studio.state import LoadedRobot, StudioState
+
+
+class Studio:
+    """A running studio. All browser tabs share its state."""
+
+    def __init__(self, config: StudioConfig, robot: RobotModel | None = None) -> None:
+        self.config = config
+        self.server = viser.ViserServer(
+            host=config.host, port=config.port, label="Biped Studio", verbose=False
+        )
+        self.server.gui.configure_theme(control_width="medium", dark_mode=False, show_logo=False)
+        self.server.scene.set_up_direction("+z")
+        self.server.scene.add_grid(
+            "/ground",
+            width=4.0,
+            height=4.0,
+            cell_size=0.1,
+            section_size=0.5,
+            plane="xy",
+            shadow_opacity=0.2,
+        )
+        self.notifier = Notifier(self.server)
+        self.state = StudioState()
+        self.state.on_robot.connect(self._frame_camera)
+        server, state, notifier = self.server, self.state, self.notifier
+        self.robots = RobotSession(server, state, notifier, config)
+        self.pose = PoseSession(server, state, notifier)
+        self.joints = JointsSession(server, state)
+        self.motions = MotionSession(server, state, notifier)
+        self.playback = PlaybackSession(server, state)
+        self.compensation = CompensationSession(server, state, notifier)
+        self.gait = GaitSession(server, state, notifier)
+        if robot is None:
+            robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)
+            prepare(robot)
+        with self.state.lock, self.server.atomic():
+            self.state.set_robot(robot, robot_report(robot))
+
+    def _frame_camera(self, loaded: LoadedRobot) -> None:
+        robot = loaded.robot
+        lower, upper = robot.bounds_m(robot.q_neutral, robot.model.createData())
+        height = max(float(upper[2] - min(lower[2], 0.0)), 0.3)
+        centre = 0.5 * (lower + upper)
+        look_at = (float(centre[0]), float(centre[1]), 0.45 * height)
+        position = (centre[0] + 0.95 * height, centre[1] + 0.7 * height, 0.7 * height)
+        self.server.initial_camera.position = position
+        self.server.initial_camera.look_at = look_at
+        for client in self.server.get_clients().values():
+            client.camera.position = position
+            client.camera.look_at = look_at
+
+    def stop(self) -> None:
+        self.playback.stop()
+        self.gait.close()
+        self.server.stop()

@@ -1,0 +1,150 @@
+"""StudioState: what every feature of the studio shares, and the signals that announce it.
+
+The state holds the loaded robot (and its report), the current pose, the current motion and
+the playback time, under one re-entrant lock: viser runs callbacks on a thread pool, so
+changes from several tabs overlap. Each setter changes the state and emits its signal while
+holding the lock, so subscribers see every change in order and never half of one.
+
+Sessions (one per feature) own their panel and overlays, subscribe to these signals, and
+change the state only through the setters; they never reach into one another.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+from typing import Literal
+
+import numpy as np
+
+from app.core.errors import StudioError
+from app.core.motions.trajectory import Trajectory
+from app.core.robot.model import RobotModel
+from app.core.robot.report import RobotReport
+from app.studio.signals import Signal
+
+Stance = Literal["both", "left", "right"]
+STANCES: tuple[Stance, ...] = ("both", "left", "right")
+
+
+class MotionMismatch(StudioError):
+    """A motion whose joints are not the loaded robot's."""
+
+
+@dataclasses.dataclass(frozen=True)
+class LoadedRobot:
+    robot: RobotModel
+    report: RobotReport
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Pose:
+    """The robot's current configuration and which feet hold it."""
+
+    q: np.ndarray
+    """Configuration, pinocchio layout (base xyz, quaternion xyzw, joints)."""
+    stance: Stance
+    origin: str
+    """Who set it: "load", "slider", "drag:left" / "drag:right" / "drag:pelvis", "button",
+    "playback". Subscribers use it to avoid echoing a change back to where it came from."""
+
+    @property
+    def dragged(self) -> str | None:
+        """The drag handle the user holds, if the pose comes from a drag."""
+        return self.origin.split(":", 1)[1] if self.origin.startswith("drag:") else None
+
+
+@dataclasses.dataclass(frozen=True)
+class Motion:
+    trajectory: Trajectory
+    summary: str
+    """Markdown: name, duration, samples, warnings."""
+
+
+class StudioState:
+    """The shared state; see the module docstring."""
+
+    def __init__(self) -> None:
+        self.lock = threading.RLock()
+        self.loaded: LoadedRobot | None = None
+        self.pose: Pose | None = None
+        self.motion: Motion | None = None
+        self.time_s = 0.0
+        self.on_robot: Signal[LoadedRobot] = Signal("on_robot")
+        self.on_pose: Signal[Pose] = Signal("on_pose")
+        self.on_motion: Signal[Motion | None] = Signal("on_motion")
+        self.on_time: Signal[float] = Signal("on_time")
+
+    # --- reading ------------------------------------------------------------------------
+
+    @property
+    def robot(self) -> RobotModel | None:
+        loaded = self.loaded
+        return loaded.robot if loaded is not None else None
+
+    @property
+    def q(self) -> np.ndarray:
+        pose = self.pose
+        return pose.q if pose is not None else np.zeros(0)
+
+    @property
+    def trajectory(self) -> Trajectory | None:
+        motion = self.motion
+        return motion.trajectory if motion is not None else None
+
+    # --- changing -----------------------------------------------------------------------
+
+    def set_robot(self, robot: RobotModel, report: RobotReport) -> None:
+        """Install a robot: its motion is dropped (a motion belongs to its robot) and it
+        stands in its neutral pose."""
+        with self.lock:
+            self.loaded = LoadedRobot(robot, report)
+            self.motion, self.time_s = None, 0.0
+            self.on_robot.emit(self.loaded)
+            self.on_motion.emit(None)
+            self.set_pose(robot.q_neutral.copy(), "both", "load")
+
+    def set_pose(
+        self, q: np.ndarray, stance: Stance, origin: str, robot: RobotModel | None = None
+    ) -> bool:
+        """Make q the current pose. With `robot`, only if that robot is still the loaded one
+        (work that started before another robot was loaded is dropped): False then."""
+        with self.lock:
+            if self.loaded is None or (robot is not None and robot is not self.loaded.robot):
+                return False
+            if q.shape != (self.loaded.robot.model.nq,) or not np.all(np.isfinite(q)):
+                raise StudioError(f"a pose of shape {q.shape} with finite values is needed")
+            self.pose = Pose(q, stance, origin)
+            self.on_pose.emit(self.pose)
+            return True
+
+    def set_stance(self, stance: Stance) -> None:
+        with self.lock:
+            if self.pose is not None and stance != self.pose.stance:
+                self.set_pose(self.pose.q, stance, "button")
+
+    def set_motion(self, trajectory: Trajectory, summary: str, robot: RobotModel) -> None:
+        """Make a motion of `robot` the current one and show its first sample. Raises
+        MotionMismatch when `robot` is no longer loaded or the joints differ."""
+        with self.lock:
+            loaded = self.loaded
+            if loaded is None or loaded.robot is not robot:
+                raise MotionMismatch("another robot was loaded meanwhile; the motion is discarded")
+            if trajectory.joint_names != robot.joint_names:
+                raise MotionMismatch(
+                    f"motion {trajectory.name!r}: its joints differ from {robot.name}'s"
+                )
+            self.motion = Motion(trajectory, summary)
+            self.on_motion.emit(self.motion)
+            self.set_time(0.0)
+
+    def set_time(self, time_s: float) -> int | None:
+        """Move the current motion to the sample nearest time_s (clamped); its index, or None
+        without a motion."""
+        with self.lock:
+            trajectory = self.trajectory
+            if trajectory is None or not np.isfinite(time_s):
+                return None
+            self.time_s = float(np.clip(time_s, 0.0, trajectory.duration))
+            self.on_time.emit(self.time_s)
+            return trajectory.index_at(self.time_s)
