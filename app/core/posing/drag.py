@@ -56,9 +56,11 @@ class Posing:
             other = "right" if which == "left" else "left"
             if self.stance in (which, "both"):
                 self.stance = other  # type: ignore[assignment]
-            targets = IkTargets(**{f"T_world_{which}": T_world_target}, stance=self.stance)
+            targets = IkTargets(
+                **{f"T_world_{which}": T_world_target}, stance=self.stance, posture_q=q
+            )
         else:
-            targets = IkTargets(T_world_pelvis=T_world_target, stance=self.stance)
+            targets = IkTargets(T_world_pelvis=T_world_target, stance=self.stance, posture_q=q)
         return self.ik.solve(q, targets)
 
     def snap_feet_to_ground(self, q: np.ndarray) -> IkResult:
@@ -77,7 +79,12 @@ class Posing:
         self.stance = "both"
         return self.ik.solve(
             q,
-            IkTargets(T_world_left=targets["left"], T_world_right=targets["right"], stance="both"),
+            IkTargets(
+                T_world_left=targets["left"],
+                T_world_right=targets["right"],
+                stance="both",
+                posture_q=q,
+            ),
         )
 
     def swap_stance(self) -> Stance:

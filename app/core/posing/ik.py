@@ -70,6 +70,11 @@ class IkTargets:
     stance: Stance = "both"
     """Feet held (overwhelming weight) at their target, or where they are when they have none;
     the other foot follows its target (soft)."""
+    posture_q: np.ndarray | None = None
+    """Configuration whose joint angles the light posture task pulls towards (the redundancy:
+    what the targets leave free); None for the standing pose. Drag posing passes the pose
+    before the drag, so that moving a foot moves its leg and leaves the rest near where it
+    was."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -126,10 +131,7 @@ class WholeBodyIK:
             task.configure(f"loop {loop.name}", "soft", LOOP_WEIGHT)
         self._posture = self._solver.add_joints_task()
         self._posture.configure("posture", "soft", posture_weight)
-        neutral_angles = robot.joint_angles(robot.q_neutral)
-        for joint, angle in zip(robot.joints, neutral_angles, strict=True):
-            if joint.kind != "continuous":
-                self._posture.set_joint(joint.name, float(angle))
+        self._set_posture(robot.q_neutral)
         self._damping = self._solver.add_regularization_task(DAMPING_MIN)
         self._polygon = self._solver.add_com_polygon_constraint([np.zeros(2)] * 3, com_margin_m)
         self._polygon.configure("com polygon", "hard", 1.0)
@@ -146,6 +148,12 @@ class WholeBodyIK:
         self._soft_goals: list[tuple[placo.FrameTask, str, np.ndarray]] = []
         """(task, frame, target) of soft frame targets, approached at most MAX_STEP per step."""
         """Stance feet are hard equalities unless that proved rank-deficient for this robot."""
+
+    def _set_posture(self, q: np.ndarray) -> None:
+        angles = self.robot.joint_angles(q)
+        for joint, angle in zip(self.robot.joints, angles, strict=True):
+            if joint.kind != "continuous":
+                self._posture.set_joint(joint.name, float(angle))
 
     def support_polygon(self, q: np.ndarray, stance: Stance) -> np.ndarray:
         """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q."""
@@ -298,6 +306,7 @@ class WholeBodyIK:
         """Iterate the QP from q_start towards the targets; never returns NaN."""
         robot, wrapper = self.robot, self._wrapper
         start = np.array(q_start, dtype=float)
+        self._set_posture(robot.q_neutral if targets.posture_q is None else targets.posture_q)
         wrapper.state.q = start.copy()
         wrapper.update_kinematics()
         placements = robot.link_placements(start, self._data)

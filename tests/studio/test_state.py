@@ -1,0 +1,138 @@
+"""The studio's plumbing: the state and its signals, latest-only coalescing, the per-thread
+quiet flag. No server: these are plain objects."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from app.core.errors import StudioError
+from app.core.motions.trajectory import from_configurations
+from app.core.robot.loading import load_robot
+from app.core.robot.report import robot_report
+from app.studio.coalesce import Coalescer
+from app.studio.signals import Signal
+from app.studio.state import MotionMismatch, StudioState
+from panels.quiet import Quiet
+
+
+@pytest.fixture(scope="module")
+def robots():
+    return load_robot("servo_biped"), load_robot("dircon_biped")
+
+
+def _motion(robot, n=11):
+    q = np.tile(robot.q_neutral, (n, 1))
+    return from_configurations(
+        robot.model, "still", robot.joint_names, 0.1, q, np.ones((n, 2), bool)
+    )
+
+
+def test_loading_a_robot_announces_robot_then_no_motion_then_the_neutral_pose(robots):
+    robot = robots[0]
+    state = StudioState()
+    events = []
+    state.on_robot.connect(lambda loaded: events.append(("robot", loaded.robot.name)))
+    state.on_motion.connect(lambda motion: events.append(("motion", motion)))
+    state.on_pose.connect(lambda pose: events.append(("pose", pose.origin)))
+    state.set_robot(robot, robot_report(robot))
+    assert events == [("robot", "servo_biped"), ("motion", None), ("pose", "load")]
+    np.testing.assert_array_equal(state.q, robot.q_neutral)
+
+
+def test_a_motion_goes_with_its_robot(robots):
+    servo, dircon = robots
+    state = StudioState()
+    state.set_robot(servo, robot_report(servo))
+    motion = _motion(servo)
+    state.set_motion(motion, "still", servo)
+    assert state.trajectory is motion and state.time_s == 0.0
+    state.set_robot(dircon, robot_report(dircon))
+    assert state.trajectory is None
+    with pytest.raises(MotionMismatch, match="another robot"):
+        state.set_motion(motion, "still", servo)
+    with pytest.raises(MotionMismatch, match="joints differ"):
+        state.set_motion(motion, "still", dircon)
+
+
+def test_time_is_clamped_to_the_motion_and_nan_is_ignored(robots):
+    robot = robots[0]
+    state = StudioState()
+    state.set_robot(robot, robot_report(robot))
+    motion = _motion(robot)
+    state.set_motion(motion, "still", robot)
+    assert state.set_time(99.0) == motion.n_samples - 1 and state.time_s == motion.duration
+    assert state.set_time(-5.0) == 0
+    assert state.set_time(float("nan")) is None and state.time_s == 0.0
+
+
+def test_a_pose_of_a_robot_no_longer_loaded_is_dropped_and_nan_is_refused(robots):
+    servo, dircon = robots
+    state = StudioState()
+    state.set_robot(servo, robot_report(servo))
+    state.set_robot(dircon, robot_report(dircon))
+    assert state.set_pose(servo.q_neutral, "both", "slider", servo) is False
+    bad = dircon.q_neutral.copy()
+    bad[8] = np.nan
+    with pytest.raises(StudioError):
+        state.set_pose(bad, "both", "slider", dircon)
+    np.testing.assert_array_equal(state.q, dircon.q_neutral)
+
+
+def test_a_failing_subscriber_does_not_stop_the_others():
+    signal: Signal[int] = Signal("test")
+    got = []
+
+    def broken(_value: int) -> None:
+        raise RuntimeError("a bug in one feature")
+
+    signal.connect(broken)
+    disconnect = signal.connect(got.append)
+    signal.emit(1)
+    disconnect()
+    signal.emit(2)
+    assert got == [1]
+
+
+def test_coalescer_hands_over_only_the_newest_value_and_never_blocks_a_caller():
+    handled, started, release = [], threading.Event(), threading.Event()
+
+    def handle(key: str, value: int) -> None:
+        handled.append((key, value))
+        if len(handled) == 1:
+            started.set()
+            assert release.wait(60.0)
+
+    coalescer: Coalescer[str, int] = Coalescer(handle)
+    first = threading.Thread(target=coalescer.submit, args=("a", 0))
+    first.start()
+    assert started.wait(60.0)
+    for value in range(1, 6):  # while "a" = 0 is being handled: these return at once
+        coalescer.submit("a", value)
+    coalescer.submit("b", 7)
+    release.set()
+    first.join()
+    assert handled == [("a", 0), ("a", 5), ("b", 7)]
+    assert (coalescer.received, coalescer.handled) == (7, 3)
+
+
+def test_quiet_is_per_thread():
+    """A value set quietly in one thread must not silence a browser event handled meanwhile
+    in another thread of viser's pool."""
+    quiet = Quiet()
+    inside, seen_elsewhere = threading.Event(), []
+
+    def elsewhere() -> None:
+        assert inside.wait(60.0)
+        seen_elsewhere.append(quiet.is_quiet())
+
+    other = threading.Thread(target=elsewhere)
+    other.start()
+    with quiet.quietly():
+        assert quiet.is_quiet()
+        inside.set()
+        other.join()
+    assert seen_elsewhere == [False]
+    assert not quiet.is_quiet()
