@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import threading
+import time
 from typing import Any
 
 import viser
@@ -39,6 +40,9 @@ class Solve:
 
     job_id: str
     settings: GaitSettings
+    started_s: float = 0.0
+    """time.monotonic() at the click."""
+    ended_s: float = 0.0
     result: GaitResult | None = None
     error: str = ""
     """Why the solve failed (worker crash, refused settings) or "cancelled"."""
@@ -98,10 +102,13 @@ class GaitSession:
             return None
         job_id = f"gait-{next(self._ids)}"
         with self._lock:
-            self.running = Solve(job_id, settings)
+            self.running = Solve(job_id, settings, started_s=time.monotonic())
             self.history = ([], [], [])
         kind = "baseline (original DIRCON)" if baseline else "symmetric gait"
-        self.panel.status.content = f"Solving the {kind} (job {job_id})…"
+        self.panel.status.content = (
+            f"Solving the {kind} (job {job_id}): starting the worker and building the NLP "
+            f"({settings.knots} knots) if this structure is new, then IPOPT…"
+        )
         self.panel.show_running(True)
         self._ensure_worker().submit(job_id, settings, settings.structure)
         return job_id
@@ -135,7 +142,9 @@ class GaitSession:
             running = self.running
             if running is None or running.job_id != job_id:
                 return
-            ended = dataclasses.replace(running, result=result, error=error)
+            ended = dataclasses.replace(
+                running, result=result, error=error, ended_s=time.monotonic()
+            )
             self.running, self.last = None, ended
             if result is not None and result.converged:
                 if running.settings.baseline:
@@ -258,9 +267,13 @@ def _status_line(solve: Solve, results: GaitResults) -> str:
         return f"⚠️ {solve.error}{kept}"
     result = solve.result
     assert result is not None
+    waited = solve.ended_s - solve.started_s
+    parts = f"IPOPT {result.solve_s:.1f} s, {result.iterations} iterations"
+    if waited > result.solve_s:
+        parts += f"; worker start and NLP build {waited - result.solve_s:.1f} s"
     if result.converged:
-        return f"Solved in {result.solve_s:.1f} s, {result.iterations} IPOPT iterations."
-    return f"⚠️ Not solved: {result.status}.{kept}"
+        return f"Solved in {waited:.1f} s ({parts})."
+    return f"⚠️ Not solved after {waited:.1f} s: {result.status} ({parts}).{kept}"
 
 
 def _residuals(result: GaitResult | None) -> str:

@@ -59,7 +59,8 @@ class PlaybackSession:
         k = trajectory.index_at(time_s)
         left, right = trajectory.contacts[k]
         stance = "both" if left == right else ("left" if left else "right")
-        state.set_pose(trajectory.q[k], stance, "playback", robot)  # type: ignore[arg-type]
+        origin = "playback" if self.player.playing else "timeline"
+        state.set_pose(trajectory.q[k], stance, origin, robot)  # type: ignore[arg-type]
         self.panel.show_time(time_s)
         self.panel.show_playing(self.player.playing)
 

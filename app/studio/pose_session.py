@@ -35,6 +35,7 @@ class PoseSession:
         self.handles: DragHandles | None = None
         self.balance: BalanceView | None = None
         self.last_result: IkResult | None = None
+        self._hidden_for_playback = False
         self._drags: Coalescer[str, np.ndarray] = Coalescer(self._solve_drag)
         state.on_robot.connect(self._on_robot)
         state.on_pose.connect(self._on_pose)
@@ -57,6 +58,7 @@ class PoseSession:
             self._server, frames, 0.15 * float(upper[2] - lower[2]), self.request_drag
         )
         self.handles.set_visible(self.panel.handles.value)
+        self._hidden_for_playback = False
         self.balance = BalanceView(self._server, robot.n_actuated)
         self.last_result = None
 
@@ -79,6 +81,10 @@ class PoseSession:
         )
         self.panel.show_stance(pose.stance)
         self.panel.show_status(self._status(pose.stance))
+        playing = pose.origin == "playback"
+        if playing != self._hidden_for_playback:  # no gizmos over a motion being played
+            self._hidden_for_playback = playing
+            handles.set_visible(self.panel.handles.value and not playing)
 
     # --- dragging ---------------------------------------------------------------------------
 

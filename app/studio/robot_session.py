@@ -21,6 +21,7 @@ from app.core.robot.loading import load_robot
 from app.core.robot.model import RobotModel
 from app.core.robot.report import robot_report
 from app.core.robot.uploads import store_upload
+from app.studio.admission import Admission, Busy
 from app.studio.notifier import Notifier
 from app.studio.state import LoadedRobot, Pose, StudioState
 from app.views.robot_view import RobotView
@@ -45,14 +46,46 @@ class RobotSession:
         self.display = DisplayPanel(server.gui, self._on_display)
         self.view: RobotView | None = None
         self._generation = itertools.count()
+        self._admission = Admission()
         state.on_robot.connect(self._on_robot)
         state.on_pose.connect(self._on_pose)
 
     # --- actions (RobotActions) ----------------------------------------------------------
 
     def load(self, source: str | Path, client: viser.ClientHandle | None = None) -> bool:
-        """Load a robot; on failure say why and keep the current one. True on success."""
+        """Load a robot; on failure say why and keep the current one. True on success.
+        When other tabs are open, the tab that asks confirms first (the load replaces their
+        robot and work too): False then, and the load happens on confirmation."""
+        if self._needs_confirmation(client):
+            assert client is not None
+            self._confirm(client, str(source), lambda: self._load(source, client, sandbox=None))
+            return False
         return self._load(source, client, sandbox=None)
+
+    def _needs_confirmation(self, client: viser.ClientHandle | None) -> bool:
+        if client is None or self._state.robot is None:
+            return False
+        return any(other != client.client_id for other in self._server.get_clients())
+
+    def _confirm(self, client: viser.ClientHandle, what: str, load) -> None:
+        """Ask the tab whether to replace every tab's robot and work."""
+        others = len(self._server.get_clients()) - 1
+        with client.gui.add_modal("Replace the robot for every tab?") as modal:
+            client.gui.add_markdown(
+                f"{others} other tab(s) use this studio. Loading **{Path(what).name}** replaces "
+                "the robot there too and drops its motion, keyframes and torques."
+            )
+            replace = client.gui.add_button("Load it", color="red")
+            cancel = client.gui.add_button("Cancel")
+
+        @replace.on_click
+        def _(_event: viser.GuiEvent) -> None:
+            modal.close()
+            load()
+
+        @cancel.on_click
+        def _(_event: viser.GuiEvent) -> None:
+            modal.close()
 
     def load_upload(
         self, filename: str, content: bytes, client: viser.ClientHandle | None = None
@@ -69,6 +102,10 @@ class RobotSession:
             log.exception("upload %s", filename)
             self._fail("Upload refused", f"{filename}: {type(error).__name__}: {error}", client)
             return False
+        if self._needs_confirmation(client):
+            assert client is not None
+            self._confirm(client, filename, lambda: self._load(urdf, client, sandbox=urdf.parent))
+            return False
         return self._load(urdf, client, sandbox=urdf.parent)
 
     def _load(
@@ -77,6 +114,16 @@ class RobotSession:
         if not str(source).strip():
             self._fail("Nothing to open", "type the path of a .urdf file first", client)
             return False
+        try:
+            with self._admission.admit(client.client_id if client is not None else None):
+                return self._load_admitted(source, client, sandbox)
+        except Busy as busy:
+            self._fail("Not now", str(busy), client)
+            return False
+
+    def _load_admitted(
+        self, source: str | Path, client: viser.ClientHandle | None, sandbox: Path | None
+    ) -> bool:
         options: dict = {"package_roots": self._config.package_roots, "feet": self._config.feet}
         if sandbox is not None:
             options = {**options, "sandbox": sandbox, "feet": None}
@@ -105,6 +152,15 @@ class RobotSession:
             client,
             "yellow" if report.problems else "green",
         )
+        if client is not None:
+            for other in self._server.get_clients().values():
+                if other.client_id != client.client_id:
+                    self._notifier.notify(
+                        "Robot replaced by another tab",
+                        f"{robot.name} is now loaded.",
+                        other,
+                        "blue",
+                    )
         return True
 
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:

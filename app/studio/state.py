@@ -46,7 +46,7 @@ class Pose:
     stance: Stance
     origin: str
     """Who set it: "load", "slider", "drag:left" / "drag:right" / "drag:pelvis", "button",
-    "playback". Subscribers use it to avoid echoing a change back to where it came from."""
+    "playback" (the player), "timeline" (a seek). Subscribers use it to avoid echoing a change back to where it came from."""
 
     @property
     def dragged(self) -> str | None:

@@ -20,7 +20,7 @@ class TracesView:
                     f"{root}/{name}",
                     segments,
                     COLOURS.get(name, (90, 90, 90)),
-                    thickness=2.0,
+                    thickness=4.0,
                     thickness_units="screen",
                 )
             )

@@ -184,7 +184,7 @@ def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio) ->
     type_number(page, "knots", BIG_KNOTS)
     wait_for(
         f"the studio to receive {BIG_KNOTS} knots",
-        lambda: session.panel.knots.value == BIG_KNOTS,
+        lambda: session.panel.sliders["knots"].value == BIG_KNOTS,
         UI_TIMEOUT_S,
     )
 

@@ -12,6 +12,7 @@ from app.core.errors import StudioError
 from app.core.motions.trajectory import from_configurations
 from app.core.robot.loading import load_robot
 from app.core.robot.report import robot_report
+from app.studio.admission import Admission, Busy
 from app.studio.coalesce import Coalescer
 from app.studio.signals import Signal
 from app.studio.state import MotionMismatch, StudioState
@@ -136,3 +137,14 @@ def test_quiet_is_per_thread():
         other.join()
     assert seen_elsewhere == [False]
     assert not quiet.is_quiet()
+
+
+def test_admission_limits_jobs_per_tab_and_in_all():
+    admission = Admission(per_client=2, total=3)
+    with admission.admit(1), admission.admit(1):
+        with pytest.raises(Busy, match="this tab already has 2 jobs"), admission.admit(1):
+            pass
+        with admission.admit(2), pytest.raises(Busy, match="busy"), admission.admit(3):
+            pass
+    with admission.admit(1), admission.admit(1), admission.admit(3):
+        pass  # everything was released, also after a refusal
