@@ -31,6 +31,7 @@ from app.player import Player
 from app.pose_session import PoseSession
 from app.views.robot_view import RobotView
 from app.views.traces_view import TracesView
+from app.web.guard import guarded_server
 from panels.display_panel import DisplayFlags, DisplayPanel
 from panels.joints_panel import JointsPanel
 from panels.keyframes_panel import KeyframesPanel
@@ -50,9 +51,14 @@ class Studio:
 
     def __init__(self, config: StudioConfig, robot: RobotModel | None = None) -> None:
         self.config = config
-        self.server = viser.ViserServer(
-            host=config.host, port=config.port, label="Biped Studio", verbose=False
+        self.web = guarded_server(
+            config.host,
+            config.port,
+            config.access_token,
+            label="Biped Studio",
+            max_upload_bytes=config.max_upload_bytes,
         )
+        self.server = self.web.server
         self.lock = threading.RLock()
         self.server.gui.configure_theme(control_width="medium", dark_mode=False, show_logo=False)
         self.server.scene.set_up_direction("+z")
