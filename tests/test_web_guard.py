@@ -513,3 +513,55 @@ def test_a_200_mb_stream_does_not_grow_the_server(tmp_path: Path) -> None:
     finally:
         server.kill()
         server.wait()
+
+
+# --- through the studio and the CLI ----------------------------------------------------
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_the_studio_serves_only_its_tokened_link(tmp_path: Path) -> None:
+    from app.config import StudioConfig
+    from app.studio import Studio
+
+    config = StudioConfig(port=_free_port(), data_dir=tmp_path)
+    studio = Studio(config)
+    try:
+        port = studio.server.get_port()
+        assert studio.web.url == f"http://127.0.0.1:{port}/?token={config.token}"
+        assert http_get(port, "/")[0] == 401
+        assert http_get(port, f"/?token={config.token}")[0] == 200
+        foreign = {
+            "Origin": "http://evil.example.com",
+            "Cookie": f"{cookie_name(port)}={config.token}",
+        }
+        assert handshake(port, foreign) == 403
+    finally:
+        studio.stop()
+
+
+def test_the_studio_refuses_no_token_beyond_loopback(tmp_path: Path) -> None:
+    from app.config import StudioConfig
+    from app.studio import Studio
+
+    with pytest.raises(InsecureServeError):
+        Studio(StudioConfig(host="0.0.0.0", port=_free_port(), data_dir=tmp_path, no_token=True))
+
+
+def test_serve_refuses_no_token_on_the_network_before_starting() -> None:
+    cli = subprocess.run(
+        [sys.executable, "-m", "app", "serve", "--host", "0.0.0.0", "--no-token"],
+        capture_output=True,
+        text=True,
+        cwd=Path(__file__).resolve().parents[1],
+        timeout=300,
+    )
+    assert cli.returncode == 1
+    assert "--no-token with --host 0.0.0.0" in cli.stderr
+    assert "http://" not in cli.stdout
