@@ -443,6 +443,30 @@ def test_at_most_two_unfinished_uploads_per_tab(web: GuardedServer, button: Butt
     ]
 
 
+def test_many_tabs_cannot_add_up_past_the_total(web: GuardedServer, button: Button) -> None:
+    """Two tabs keep two 1 MB uploads open each (the 4 MB total); a third tab's start is
+    refused, its empty upload (sent next) still passes."""
+    port, cookie = web.server.get_port(), own(web)["Cookie"]
+
+    def starts(n: int) -> list[bytes]:
+        return [start_frame(button.uuid, LIMIT, 1, uuid.uuid4().hex) for _ in range(n)]
+
+    def then_empty(frames: list[bytes], then: Callable[[], bool]) -> Callable[[], bool]:
+        """A tab sending `frames` then an empty upload (viser finishes it at once); once
+        that arrived (so were `frames`), run `then` with the tab still open."""
+        empty = start_frame(button.uuid, 0, 0, uuid.uuid4().hex)
+        return lambda: stream(port, cookie, [*frames, empty], lambda: button.wait() and then())
+
+    dropped = len(web.uploads.dropped)
+    third_tab = then_empty(starts(1), lambda: True)
+    second_tab = then_empty(starts(2), third_tab)
+    assert then_empty(starts(2), second_tab)()
+    assert button.received[-1] == b""
+    assert [d.reason for d in web.uploads.dropped[dropped:]] == [
+        "the studio is already receiving 4.0 MB of uploads; try again when they finish"
+    ]
+
+
 def test_a_flood_of_tiny_parts_is_refused(web: GuardedServer, button: Button) -> None:
     transfer = uuid.uuid4().hex
     dropped = len(web.uploads.dropped)

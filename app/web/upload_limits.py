@@ -9,8 +9,9 @@ nothing else sees the state in between) and drop a transfer, freeing its parts, 
 
 - at the start: the declared size is over the limit (or negative), the part count is
   implausible (`part_count > size_bytes // MIN_AVERAGE_PART_BYTES + 1`: a flood of tiny
-  parts would cost memory per part, not per byte), or the client already has
-  `max_unfinished` transfers in flight;
+  parts would cost memory per part, not per byte), the client already has
+  `max_unfinished` transfers in flight, or the sizes declared by all unfinished
+  transfers of all tabs would pass `max_total_bytes` (many tabs cannot add up either);
 - on every part: the bytes received so far exceed the declared size or the limit.
 
 A dropped transfer's later parts are ignored by viser (unknown transfer id), so the
@@ -30,6 +31,8 @@ from viser import _messages as viser_messages
 
 MIN_AVERAGE_PART_BYTES = 1024
 MAX_UNFINISHED_UPLOADS = 2
+TOTAL_PER_FILE_LIMIT = 4
+"""Default `max_total_bytes`: this many files at the size limit, over all tabs."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -38,6 +41,14 @@ class UploadLimits:
     """Largest file accepted, in bytes (declared and received)."""
     max_unfinished: int = MAX_UNFINISHED_UPLOADS
     """Transfers one client may have in flight at once."""
+    max_total_bytes: int | None = None
+    """Sum of the declared sizes of all unfinished transfers; None: 4 x `max_bytes`."""
+
+    @property
+    def total_bytes(self) -> int:
+        if self.max_total_bytes is not None:
+            return self.max_total_bytes
+        return TOTAL_PER_FILE_LIMIT * self.max_bytes
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,6 +86,10 @@ class UploadGuard:
             for part in list(state["parts"].values())
         )
 
+    def declared_bytes(self) -> int:
+        """Sum of the sizes declared by the unfinished uploads of all clients."""
+        return sum(int(state["total_bytes"]) for state in list(self._states.values()))
+
     def unfinished(self, client_id: int) -> int:
         return sum(1 for state in list(self._states.values()) if state["client_id"] == client_id)
 
@@ -95,6 +110,11 @@ class UploadGuard:
             reason = (
                 f"more than {self.limits.max_unfinished} uploads at once from this tab; "
                 "wait for one to finish"
+            )
+        elif self.declared_bytes() > self.limits.total_bytes:
+            reason = (
+                f"the studio is already receiving {_mb(self.declared_bytes() - message.size_bytes)} "
+                "of uploads; try again when they finish"
             )
         else:
             return
