@@ -130,7 +130,9 @@ def test_a_page_of_another_origin_cannot_connect_or_frame(
         # X-Frame-Options: DENY: Chromium replaces the framed studio by its error page.
         framed = wait_for(
             "the framed studio to settle",
-            lambda: next((f.url for f in page.frames[1:] if f.url not in ("", "about:blank")), None),
+            lambda: next(
+                (f.url for f in page.frames[1:] if f.url not in ("", "about:blank")), None
+            ),
             UI_TIMEOUT_S,
         )
         assert framed.startswith("chrome-error://")
