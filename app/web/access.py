@@ -24,6 +24,7 @@ Rules, in order (the first failing one refuses the request):
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hmac
 import ipaddress
 import secrets
@@ -118,13 +119,16 @@ class AccessPolicy:
     def __post_init__(self) -> None:
         if self.token is not None and len(self.token) < 16:
             raise ValueError("an access token must be at least 16 characters")
+        _ = self.host_names  # resolve now, not on the server's event loop
 
     @property
     def wildcard(self) -> bool:
         return self.bound_host in WILDCARD_HOSTS
 
+    @functools.cached_property
     def host_names(self) -> frozenset[str]:
-        """Accepted host names (lower case, IPv6 literals in brackets)."""
+        """Accepted host names (lower case, IPv6 literals in brackets); computed once, as
+        `getfqdn` may ask the resolver."""
         names = set(LOOPBACK_NAMES) | {_bracketed(h.lower()) for h in self.extra_hosts}
         if not self.wildcard:
             names.add(_bracketed(self.bound_host.lower()))
@@ -141,7 +145,7 @@ class AccessPolicy:
             name, port_text = host_header.strip().lower(), "80"
         if not port_text.isdigit() or int(port_text) != port:
             return False
-        if name in self.host_names():
+        if name in self.host_names:
             return True
         return self.wildcard and _is_ip_literal(name)
 
