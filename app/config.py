@@ -7,6 +7,7 @@ import os
 from pathlib import Path
 
 from app.core.robot.uploads import MAX_UPLOAD_BYTES
+from app.web.access import new_token
 from robots.catalogue import DEFAULT_ROBOT
 
 LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
@@ -31,6 +32,15 @@ class StudioConfig:
     """(left, right) foot links, overriding detection."""
     data_dir: Path = dataclasses.field(default_factory=default_data_dir)
     max_upload_bytes: int = MAX_UPLOAD_BYTES
+    token: str = dataclasses.field(default_factory=new_token, repr=False)
+    """Access token a browser must present (`?token=` once, then a cookie); random per run."""
+    no_token: bool = False
+    """Serve without the token (`--no-token`): loopback only, refused on other hosts."""
+
+    @property
+    def access_token(self) -> str | None:
+        """The token the server requires, None when the user turned it off."""
+        return None if self.no_token else self.token
 
     @property
     def uploads_dir(self) -> Path:

@@ -79,6 +79,12 @@ def _parser() -> argparse.ArgumentParser:
         add_parser(sub)
     # Plain `biped-studio` serves the default robot.
     parser.set_defaults(
-        robot=DEFAULTS.robot, host=DEFAULTS.host, port=DEFAULTS.port, package_root=[], feet=None
+        robot=DEFAULTS.robot,
+        host=DEFAULTS.host,
+        port=DEFAULTS.port,
+        package_root=[],
+        feet=None,
+        no_token=False,
+        open_browser=False,
     )
     return parser

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import webbrowser
 
 from app.cli.common import (
     DEFAULTS,
@@ -12,6 +13,7 @@ from app.cli.common import (
     parse_feet,
 )
 from app.config import StudioConfig
+from app.web.access import check_bind
 
 
 def add_parser(sub) -> None:
@@ -21,6 +23,15 @@ def add_parser(sub) -> None:
         "--host", default=DEFAULTS.host, help="interface; 0.0.0.0 exposes the studio to the network"
     )
     serve.add_argument("--port", type=int, default=DEFAULTS.port)
+    serve.add_argument(
+        "--no-token",
+        action="store_true",
+        help="serve without the access token (loopback only: any program on this machine "
+        "could then drive the studio)",
+    )
+    serve.add_argument(
+        "--open-browser", action="store_true", help="open the studio's link in the browser"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -32,20 +43,28 @@ def run(args: argparse.Namespace) -> int:
         port=args.port,
         package_roots=tuple(args.package_root),
         feet=parse_feet(args.feet),
+        no_token=args.no_token,
     )
+    check_bind(config.host, config.access_token)
     robot = load_robot_from_args(args)
+    if config.no_token:
+        print(
+            "warning: --no-token: any program running on this machine can drive the studio "
+            "(web pages of other origins are still refused)",
+            file=sys.stderr,
+        )
     if not config.is_local:
         print(
-            f"warning: serving on {config.host}: anyone who can reach this machine can use the studio "
-            "and read robot files it can open",
+            f"warning: serving on {config.host}: anyone who can reach this machine and has the "
+            "link can use the studio and read robot files it can open",
             file=sys.stderr,
         )
     studio = Studio(config, robot)
-    host = "127.0.0.1" if config.host in ("0.0.0.0", "::") else config.host
-    print(
-        f"Biped Studio on http://{host}:{studio.server.get_port()} — {robot.name}. Ctrl+C stops it.",
-        flush=True,
-    )
+    url = studio.web.url
+    print(f"Biped Studio — {robot.name}. Open this link (Ctrl+C stops the studio):", flush=True)
+    print(f"    {url}", flush=True)
+    if args.open_browser:
+        webbrowser.open(url)
     try:
         studio.server.sleep_forever()
     finally:

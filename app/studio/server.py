@@ -7,8 +7,6 @@ its overlays in `app/views/`), constructed here, talking only to the state.
 
 from __future__ import annotations
 
-import viser
-
 from app.config import StudioConfig
 from app.core.robot.loading import load_robot
 from app.core.robot.model import RobotModel
@@ -22,6 +20,7 @@ from app.studio.playback_session import PlaybackSession
 from app.studio.pose_session import PoseSession
 from app.studio.robot_session import RobotSession, prepare
 from app.studio.state import LoadedRobot, StudioState
+from app.web.guard import guarded_server
 
 
 class Studio:
@@ -29,9 +28,15 @@ class Studio:
 
     def __init__(self, config: StudioConfig, robot: RobotModel | None = None) -> None:
         self.config = config
-        self.server = viser.ViserServer(
-            host=config.host, port=config.port, label="Biped Studio", verbose=False
+        self.web = guarded_server(
+            config.host,
+            config.port,
+            config.access_token,
+            label="Biped Studio",
+            max_upload_bytes=config.max_upload_bytes,
         )
+        """The viser server behind the Host/Origin/token checks (app.web), and its URL."""
+        self.server = self.web.server
         self.server.gui.configure_theme(control_width="medium", dark_mode=False, show_logo=False)
         self.server.scene.set_up_direction("+z")
         self.server.scene.add_grid(

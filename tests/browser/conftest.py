@@ -87,7 +87,8 @@ def studio(studio_robot: str, tmp_path_factory: pytest.TempPathFactory) -> Itera
 
 @pytest.fixture(scope="module")
 def studio_url(studio: Studio) -> str:
-    return f"http://127.0.0.1:{studio.server.get_port()}/"
+    """The studio's link with its access token (without it the page is only a notice)."""
+    return studio.web.url
 
 
 @pytest.fixture(scope="module")
