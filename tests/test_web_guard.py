@@ -362,8 +362,9 @@ class Button:
         return all(self._done.acquire(timeout=120) for _ in range(n))
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def button(web: GuardedServer) -> Button:
+    """A fresh button per test: an upload still finishing from another test cannot count."""
     return Button(web.server)
 
 
@@ -437,7 +438,9 @@ def test_at_most_two_unfinished_uploads_per_tab(web: GuardedServer, button: Butt
     frames.append(part_frame(button.uuid, transfers[0], 0, b"x" * 1000))  # the first ends
     dropped = len(web.uploads.dropped)
     arrived, held = hostile_then_honest(web, button, frames, n=2)
-    assert arrived and b"x" * 1000 in button.received[-2:] and held == 0
+    # Both the finished upload and the honest one arrived (viser's callbacks read the button's
+    # last value, so which content each callback saw depends on the thread pool's timing).
+    assert (arrived, held, len(button.received)) == (True, 0, 2)
     assert [d.reason for d in web.uploads.dropped[dropped:]] == [
         "more than 2 uploads at once from this tab; wait for one to finish"
     ]
