@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import io
-import itertools
 import math
 import threading
 
@@ -38,6 +37,7 @@ from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.state import LoadedRobot, Motion, StudioState
 from app.views.ghosts_view import GHOSTS, GhostsView, legend_markdown
+from app.views.roots import AlternatingRoot
 from panels.compensation_panel import CompensationPanel
 from panels.plots_panel import PlotsPanel
 
@@ -79,7 +79,7 @@ class CompensationSession:
         """Guards coefficients, servos, torques and prediction (edits come from viser's pool)."""
         self._worker: threading.Thread | None = None
         self._predictions: Coalescer[str, None] = Coalescer(lambda _key, _value: self._repredict())
-        self._generation = itertools.count()
+        self._roots = AlternatingRoot("/ghosts")
         state.on_robot.connect(self._on_robot)
         state.on_motion.connect(self._on_motion)
         state.on_time.connect(self._on_time)
@@ -153,9 +153,7 @@ class CompensationSession:
                 else:
                     self.feedforward = result
                     if self.ghosts is None:
-                        self.ghosts = GhostsView(
-                            self._server, robot, root=f"/ghosts/{next(self._generation)}"
-                        )
+                        self.ghosts = GhostsView(self._server, robot, root=self._roots.next())
                         for name, checkbox in self.panel.ghosts.items():
                             self.ghosts.set_visible(name, checkbox.value)
         if result is not None:

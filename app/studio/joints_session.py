@@ -19,24 +19,20 @@ LOOP_TOLERANCE_M = 1e-6
 class JointsSession:
     def __init__(self, server: viser.ViserServer, state: StudioState) -> None:
         self._server, self._state = server, state
-        self.panel: JointsPanel | None = None
+        self.panel = JointsPanel(server.gui, self.set_joint_angle)
         self._robot: RobotModel | None = None
         self._data = None
         state.on_robot.connect(self._on_robot)
         state.on_pose.connect(self._on_pose)
 
     def _on_robot(self, loaded: LoadedRobot) -> None:
-        if self.panel is not None:
-            self.panel.remove()
         robot = loaded.robot
         self._robot, self._data = robot, robot.model.createData()
-        self.panel = JointsPanel(
-            self._server.gui, robot, robot.joint_angles(robot.q_neutral), self.set_joint_angle
-        )
+        self.panel.show_robot(robot, robot.joint_angles(robot.q_neutral))
 
     def _on_pose(self, pose: Pose) -> None:
         robot, panel = self._robot, self.panel
-        if robot is not None and panel is not None and pose.origin != "slider":
+        if robot is not None and pose.origin != "slider":
             panel.set_angles(robot, robot.joint_angles(pose.q))
 
     def set_joint_angle(self, index: int, value: float) -> None:
@@ -56,15 +52,13 @@ class JointsSession:
             if robot.tree.loops:
                 closure = close_loops(robot, q, self._data)
                 if closure.residual_m > LOOP_TOLERANCE_M:
-                    if self.panel is not None:
-                        self.panel.show_status(
-                            f"⚠️ {joint.name} at {np.rad2deg(angles[index]):.1f}° cannot close "
-                            f"the robot's loops (gap {closure.residual_m * 1000:.1f} mm): pose kept."
-                        )
-                        self.panel.set_angles(robot, robot.joint_angles(pose.q))
+                    self.panel.show_status(
+                        f"⚠️ {joint.name} at {np.rad2deg(angles[index]):.1f}° cannot close "
+                        f"the robot's loops (gap {closure.residual_m * 1000:.1f} mm): pose kept."
+                    )
+                    self.panel.set_angles(robot, robot.joint_angles(pose.q))
                     return
                 q = closure.q
-            if self.panel is not None:
-                self.panel.show_status("")
+            self.panel.show_status("")
             with self._server.atomic():
                 state.set_pose(q, pose.stance, "slider", robot)

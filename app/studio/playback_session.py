@@ -4,7 +4,6 @@ of each sample is set here, and every other feature follows the time through the
 
 from __future__ import annotations
 
-import itertools
 import threading
 import time
 from collections.abc import Callable
@@ -13,6 +12,7 @@ import viser
 
 from app.core.motions.paths import task_space_paths
 from app.studio.state import Motion, StudioState
+from app.views.roots import AlternatingRoot
 from app.views.traces_view import TracesView
 from panels.playback_panel import PlaybackPanel
 
@@ -27,7 +27,7 @@ class PlaybackSession:
         self.panel = PlaybackPanel(server.gui, self)
         self.player = Player(self._advance)
         self.traces: TracesView | None = None
-        self._generation = itertools.count()
+        self._roots = AlternatingRoot("/traces")
         state.on_motion.connect(self._on_motion)
         state.on_time.connect(self._on_time)
 
@@ -46,7 +46,7 @@ class PlaybackSession:
         self.traces = TracesView(
             self._server,
             task_space_paths(robot, motion.trajectory),
-            root=f"/traces/{next(self._generation)}",
+            root=self._roots.next(),
         )
         self.traces.set_visible(self.panel.traces.value)
         self.panel.show_trajectory(motion.trajectory, motion.summary)

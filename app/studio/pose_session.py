@@ -22,6 +22,7 @@ from app.studio.notifier import Notifier
 from app.studio.state import STANCES, LoadedRobot, Pose, Stance, StudioState
 from app.views.balance_view import BalanceView
 from app.views.drag_handles import DragHandles
+from app.views.roots import AlternatingRoot
 from panels.pose_panel import PosePanel
 
 
@@ -36,6 +37,7 @@ class PoseSession:
         self.balance: BalanceView | None = None
         self.last_result: IkResult | None = None
         self._hidden_for_playback = False
+        self._roots = AlternatingRoot("/pose")
         self._drags: Coalescer[str, np.ndarray] = Coalescer(self._solve_drag)
         state.on_robot.connect(self._on_robot)
         state.on_pose.connect(self._on_pose)
@@ -54,12 +56,17 @@ class PoseSession:
             "right": robot.feet[1].link,
             "pelvis": robot.tree.root,
         }
+        root = self._roots.next()
         self.handles = DragHandles(
-            self._server, frames, 0.15 * float(upper[2] - lower[2]), self.request_drag
+            self._server,
+            frames,
+            0.15 * float(upper[2] - lower[2]),
+            self.request_drag,
+            root=f"{root}/drag",
         )
         self.handles.set_visible(self.panel.handles.value)
         self._hidden_for_playback = False
-        self.balance = BalanceView(self._server, robot.n_actuated)
+        self.balance = BalanceView(self._server, robot.n_actuated, root=f"{root}/balance")
         self.last_result = None
 
     def _on_pose(self, pose: Pose) -> None:

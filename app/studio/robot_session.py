@@ -8,7 +8,6 @@ in the Robot panel and as a notification.
 
 from __future__ import annotations
 
-import itertools
 import logging
 from pathlib import Path
 
@@ -25,6 +24,7 @@ from app.studio.admission import Admission, Busy
 from app.studio.notifier import Notifier
 from app.studio.state import LoadedRobot, Pose, StudioState
 from app.views.robot_view import RobotView
+from app.views.roots import AlternatingRoot
 from panels.display_panel import DisplayFlags, DisplayPanel
 from panels.robot_panel import RobotPanel
 
@@ -45,7 +45,7 @@ class RobotSession:
         self.panel = RobotPanel(server.gui, self, config.max_upload_bytes)
         self.display = DisplayPanel(server.gui, self._on_display)
         self.view: RobotView | None = None
-        self._generation = itertools.count()
+        self._roots = AlternatingRoot("/robot")
         self._admission = Admission()
         state.on_robot.connect(self._on_robot)
         state.on_pose.connect(self._on_pose)
@@ -175,7 +175,7 @@ class RobotSession:
         if self.view is not None:
             self.view.remove()
         # A fresh root per robot: nodes re-added under a reused name can keep stale poses.
-        self.view = RobotView(self._server, robot, root=f"/robot/{next(self._generation)}")
+        self.view = RobotView(self._server, robot, root=self._roots.next())
         self.view.set_visible(**vars_of(self.display.flags()))
         self.panel.show_report(loaded.report)
         self.panel.show_builtin(robot.name)

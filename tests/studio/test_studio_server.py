@@ -333,3 +333,20 @@ def test_ready_pose_bends_the_knees_with_feet_in_place(studio):
     T[2, 3] -= 0.02
     studio.pose.request_drag("pelvis", T)
     assert _placement(studio, robot.tree.root)[2, 3] == pytest.approx(T[2, 3], abs=1e-3)
+
+
+def test_switching_robots_all_day_does_not_grow_what_a_new_tab_replays(studio):
+    """viser keeps a replay buffer that every new tab receives; removed scene nodes and GUI
+    elements leave messages in it. After one round of every built-in, more rounds must not add
+    any (the buffer is viser's private state: read only to measure it)."""
+    buffer = studio.server._websock_server._broadcast_buffer
+
+    def round_of_loads() -> int:
+        for name in ("dircon_biped", "hybrid_leg_biped", "servo_biped"):
+            assert studio.robots.load(name)
+        return len(buffer.message_from_id)
+
+    round_of_loads()
+    after_one = round_of_loads()
+    for _ in range(3):
+        assert round_of_loads() == after_one
