@@ -32,6 +32,7 @@ from app.core.servo.compensation import (
 from app.core.servo.files import write_command_csv
 from app.core.servo.model import Prediction, ServoModel, command_configuration, predict
 from app.core.servo.presets import PRESETS, preset_params
+from app.core.thinning import thin_minmax
 from app.studio.coalesce import Coalescer
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
@@ -256,9 +257,9 @@ class CompensationSession:
         deg = np.rad2deg
         t = prediction.t
         self.plots.info.content = _attitude_summary(prediction)
-        self.plots.show_torques(t, prediction.joint_names, prediction.tau_Nm)
-        self.plots.show_attitude(
-            t,
+        keep = thin_minmax(t, prediction.tau_Nm.T)  # plots get ≤ 2000 points, every peak kept
+        self.plots.show_torques(t[keep], prediction.joint_names, prediction.tau_Nm[keep])
+        attitude = np.stack(
             [
                 deg(prediction.roll_planned_rad),
                 deg(prediction.pitch_planned_rad),
@@ -266,11 +267,13 @@ class CompensationSession:
                 deg(prediction.pitch_uncompensated_rad),
                 deg(prediction.roll_compensated_rad),
                 deg(prediction.pitch_compensated_rad),
-            ],
+            ]
         )
-        self.plots.show_offsets(
-            t, prediction.joint_names, deg(prediction.q_cmd_rad - prediction.q_plan_rad)
-        )
+        keep = thin_minmax(t, attitude)
+        self.plots.show_attitude(t[keep], list(attitude[0::2, keep]), list(attitude[1::2, keep]))
+        offsets = deg(prediction.q_cmd_rad - prediction.q_plan_rad)
+        keep = thin_minmax(t, offsets.T)
+        self.plots.show_offsets(t[keep], prediction.joint_names, offsets[keep])
         self.show_sample(trajectory.index_at(self._state.time_s))
 
     def show_sample(self, k: int) -> None:

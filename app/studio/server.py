@@ -37,7 +37,7 @@ class Studio:
         )
         """The viser server behind the Host/Origin/token checks (app.web), and its URL."""
         self.server = self.web.server
-        self.server.gui.configure_theme(control_width="medium", dark_mode=False, show_logo=False)
+        self.server.gui.configure_theme(control_width="large", dark_mode=False, show_logo=False)
         self.server.scene.set_up_direction("+z")
         self.server.scene.add_grid(
             "/ground",

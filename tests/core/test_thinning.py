@@ -1,0 +1,42 @@
+"""Thinned plot series keep every extremum."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.core.thinning import thin_minmax
+
+
+def test_short_series_are_kept_whole():
+    t = np.arange(100.0)
+    np.testing.assert_array_equal(thin_minmax(t, np.sin(t)[None], 2000), np.arange(100))
+
+
+def test_every_bucket_extremum_and_the_global_ones_survive():
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 600.0, 60_000)
+    curves = np.stack(
+        [np.sin(t) + 0.1 * rng.standard_normal(t.size), np.cumsum(rng.standard_normal(t.size))]
+    )
+    curves[0, 31_234] = 50.0  # a one-sample spike
+    curves[1, 7] = np.nan
+    keep = thin_minmax(t, curves, 2000)
+    assert len(keep) <= 2000
+    assert np.all(np.diff(keep) > 0) and keep[0] == 0 and keep[-1] == t.size - 1
+    for curve in curves:
+        assert np.nanargmax(curve) in keep and np.nanargmin(curve) in keep
+        kept = curve[keep]
+        assert np.nanmax(kept) == np.nanmax(curve) and np.nanmin(kept) == np.nanmin(curve)
+    # No peak hides between kept samples: with 2000 points for 2 curves, one drawn min/max pair
+    # per curve covers at most 2·2·60000/2000 = 120 samples; every window's extremes show up
+    # within that distance of the window.
+    reach = 2 * len(curves) * t.size // 2000
+    for start in range(0, t.size, 600):
+        stop = start + 600
+        inside = keep[(keep >= start - reach) & (keep < stop + reach)]
+        for curve in curves:
+            window = curve[start:stop]
+            if np.all(np.isnan(window)):
+                continue
+            assert np.nanmax(curve[inside]) >= np.nanmax(window)
+            assert np.nanmin(curve[inside]) <= np.nanmin(window)
