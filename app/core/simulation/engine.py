@@ -56,6 +56,9 @@ class EngineInput:
     pitch_planned_rad: np.ndarray
     linear_hold: bool = False
     """Ramp the set point linearly from one command to the next instead of holding it."""
+    on_floor: bool = True
+    """Put the lowest sole corner `DROP_M` above the floor first (else start at q0 as is)."""
+    detect_falls: bool = True
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -135,7 +138,7 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
     pin_to_qpos(sim, inp.q0, d.qpos)
     mujoco.mj_forward(m, d)
     soles = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name) for name in sim.sole_geoms]
-    if sim.floating_base:
+    if sim.floating_base and inp.on_floor:
         d.qpos[2] += DROP_M - min(_lowest_corner_z(d, m, g) for g in soles)
         mujoco.mj_forward(m, d)
     floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
@@ -197,7 +200,7 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
             forces[k, soles.index(other)] += world if pair[0] == floor else -world
         if non_foot.size and d.xpos[non_foot, 2].min() < NON_FOOT_CLEARANCE_M:
             touching[k] = True
-        if fall_index < 0:
+        if fall_index < 0 and inp.detect_falls:
             reason = _fall_reason(inp, k, roll[k], pitch[k], d.xpos[root, 2], touching[k], sim)
             if reason:
                 fall_index = k
@@ -244,7 +247,11 @@ def _lowest_corner_z(d, m, geom: int) -> float:
 
 
 def _check(d, m, t_s: float) -> None:
-    if not (np.all(np.isfinite(d.qpos)) and np.all(np.abs(d.qvel) < MAX_SPEED)):
+    """MuJoCo resets the state when its accelerations turn NaN (mjWARN_BADQACC): a blow-up."""
+    import mujoco
+
+    reset = d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
+    if reset or not (np.all(np.isfinite(d.qpos)) and np.all(np.abs(d.qvel) < MAX_SPEED)):
         raise SimulationDiverged(
             f"the simulation blew up at t = {t_s:.3f} s (NaN or runaway speed); the servos are "
             "too stiff for the time step: lower the stiffness or the time step"

@@ -73,7 +73,8 @@ def prepare(
         raise SimulationInputError(
             f"{int(outside.sum())} command(s) outside the joint limits, first {joint.name} at "
             f"t = {trajectory.t[k]:.2f} s: {math.degrees(q_cmd[k, j]):.1f}° not in "
-            f"[{math.degrees(joint.lower):.1f}°, {math.degrees(joint.upper):.1f}°]; lower k"
+            f"[{math.degrees(joint.lower):.1f}°, {math.degrees(joint.upper):.1f}°] (a large k can "
+            "push a command out)"
         )
     if not (math.isfinite(settle_s) and 0.0 <= settle_s <= 10.0):
         raise SimulationInputError(f"settling time {settle_s} s; give 0 … 10 s")

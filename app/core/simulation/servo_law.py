@@ -103,7 +103,7 @@ def servo_law(
         )
     effort = np.array([e if e else DEFAULT_EFFORT_NM for e in effort_Nm], dtype=float)
     velocity = np.array([v if v else DEFAULT_VELOCITY_RAD_S for v in velocity_rad_s], dtype=float)
-    compliance_rad = np.deg2rad(np.maximum(compliance, RIGID_COMPLIANCE_DEG_PER_NM))
+    compliance_rad = np.deg2rad(np.where(compliance > 0.0, compliance, RIGID_COMPLIANCE_DEG_PER_NM))
     return ServoLaw(
         stiffness_Nm_per_rad=1.0 / compliance_rad,
         half_backlash_rad=np.deg2rad(0.5 * np.asarray(servos.backlash_deg, dtype=float)),
