@@ -27,8 +27,8 @@ import numpy as np
 
 from app.core.quaternions import wxyz_to_xyzw
 from app.core.simulation.errors import SimulationDiverged, SimulationInputError
-from app.core.simulation.mjcf import SimModel
 from app.core.simulation.servo_law import ServoLaw
+from app.core.simulation.sim_model import SimModel
 
 DROP_M = 0.0005
 FALL_TILT_DEG = 30.0
@@ -178,6 +178,7 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
     k = 0
     for k in range(n_samples):
         _check(d, m, k * inp.dt_cmd_s)
+        mujoco.mj_forward(m, d)  # after mj_step, positions and contacts lag qpos by a step
         R = d.xmat[root].reshape(3, 3) if sim.floating_base else np.eye(3)
         out_q[k] = qpos_to_pin(sim, d.qpos)
         out_v[k] = qvel_to_pin(sim, d.qvel, R)

@@ -37,6 +37,7 @@ from app.core.quaternions import matrix_to_wxyz
 from app.core.robot.model import RobotModel
 from app.core.simulation.errors import SimulationInputError
 from app.core.simulation.servo_law import servo_damping_Nms_per_rad
+from app.core.simulation.sim_model import SimModel
 
 FLOOR_FRICTION = 0.6
 """Default floor friction coefficient μ (the whole-body QP's friction pyramids use 0.6)."""
@@ -66,37 +67,6 @@ class SimOptions:
     command_hold: str = "zoh"
     """"zoh": each command is held until the next one arrives (a 100 Hz staircase);
     "linear": the set point ramps from one command to the next."""
-
-
-@dataclasses.dataclass(frozen=True)
-class SimModel:
-    """The MJCF text of a robot and how its coordinates map to pinocchio's (picklable)."""
-
-    robot_name: str
-    xml: str
-    floating_base: bool
-    nq_pin: int
-    nv_pin: int
-    joint_names: tuple[str, ...]
-    """Actuated joints, in the robot's order."""
-    actuated_qpos: np.ndarray
-    """MuJoCo qpos address of each actuated joint, shape (n,)."""
-    actuated_dof: np.ndarray
-    """MuJoCo dof address of each actuated joint, shape (n,)."""
-    pin_scalar_q: np.ndarray
-    """Pairs (pinocchio q index, MuJoCo qpos address) of one-coordinate joints, shape (k, 2)."""
-    pin_continuous_q: np.ndarray
-    """Pairs (pinocchio q index of cos, MuJoCo qpos address) of continuous joints, (c, 2)."""
-    pin_dof: np.ndarray
-    """Pairs (pinocchio v index, MuJoCo dof address) of the non-base joints, shape (d, 2)."""
-    sole_geoms: tuple[str, str]
-    """Names of the (left, right) sole boxes."""
-    sole_sites: tuple[str, str]
-    """Names of the sites at the (left, right) sole centres, on the sole plane."""
-    foot_bodies: tuple[tuple[str, ...], tuple[str, ...]]
-    """MuJoCo bodies that belong to the (left, right) foot (its body and what hangs below)."""
-    root_body: str
-    notes: tuple[str, ...] = ()
 
 
 def _f(values) -> str:

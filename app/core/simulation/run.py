@@ -22,9 +22,10 @@ from app.core.servo.compensation import CompensationParams, compensated_command
 from app.core.servo.model import ServoModel, base_roll_pitch, joint_angles
 from app.core.simulation.engine import EngineInput, EngineRun, run_engine
 from app.core.simulation.errors import SimulationInputError
-from app.core.simulation.mjcf import SimModel, SimOptions, build_sim_model
+from app.core.simulation.mjcf import SimOptions, build_sim_model
 from app.core.simulation.result import SimulationResult, slip_m
 from app.core.simulation.servo_law import servo_law
+from app.core.simulation.sim_model import SimModel
 
 SETTLE_S = 1.0
 """The first command is held this long before the motion starts [s]."""
@@ -172,6 +173,36 @@ def simulate(
     return finish(robot, trajectory, inp, run_engine(inp, progress), label)
 
 
+def simulate_commands(
+    robot: RobotModel,
+    trajectory: Trajectory,
+    commands: dict[str, np.ndarray],
+    servo: ServoModel,
+    options: SimOptions | None = None,
+    parallel: bool | None = None,
+) -> dict[str, SimulationResult]:
+    """Several command sequences (label → q_cmd (T, n) [rad]) on one robot and motion. With
+    `parallel` (default: two or more commands and at least two cores) each runs in a spawned
+    process; the results are the same either way."""
+    sim = build_sim_model(robot, options)
+    labels = list(commands)
+    inputs = [
+        prepare(robot, trajectory, commands[label], servo, options, sim=sim) for label in labels
+    ]
+    if parallel is None:
+        parallel = len(inputs) > 1 and (os.cpu_count() or 1) >= 2
+    if parallel:
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(min(len(inputs), 4), mp_context=context) as pool:
+            runs = list(pool.map(run_engine, inputs))
+    else:
+        runs = [run_engine(inp) for inp in inputs]
+    return {
+        label: finish(robot, trajectory, inp, run, label)
+        for label, inp, run in zip(labels, inputs, runs, strict=True)
+    }
+
+
 def simulate_plan_and_compensated(
     robot: RobotModel,
     trajectory: Trajectory,
@@ -182,23 +213,18 @@ def simulate_plan_and_compensated(
     parallel: bool | None = None,
 ) -> tuple[SimulationResult, SimulationResult]:
     """(without, with compensation): q_cmd = q_plan, and q_cmd = compensated_command(q_plan,
-    τ, params) (eq 7, eq 23). `parallel` (default: when there are ≥ 2 cores) runs the two in
-    two spawned processes; the results are the same either way."""
+    τ, params) (eq 7, eq 23), side by side (`simulate_commands`)."""
     q_plan = joint_angles(robot, trajectory.q)
     q_comp = compensated_command(
         q_plan, np.asarray(tau_Nm, float), params.for_joints(robot.joint_names)
     )
-    sim = build_sim_model(robot, options)
-    inputs = [prepare(robot, trajectory, q, servo, options, sim=sim) for q in (q_plan, q_comp)]
-    if parallel is None:
-        parallel = (os.cpu_count() or 1) >= 2
-    if parallel:
-        with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:
-            runs = list(pool.map(run_engine, inputs))
-    else:
-        runs = [run_engine(inp) for inp in inputs]
-    labels = ("simulated without compensation", "simulated with compensation")
-    return (
-        finish(robot, trajectory, inputs[0], runs[0], labels[0]),
-        finish(robot, trajectory, inputs[1], runs[1], labels[1]),
+    labels = ("without compensation", "with compensation")
+    results = simulate_commands(
+        robot,
+        trajectory,
+        dict(zip(labels, (q_plan, q_comp), strict=True)),
+        servo,
+        options,
+        parallel,
     )
+    return results[labels[0]], results[labels[1]]
