@@ -27,7 +27,7 @@ import numpy as np
 
 from app.core.quaternions import wxyz_to_xyzw
 from app.core.simulation.errors import SimulationDiverged, SimulationInputError
-from app.core.simulation.servo_law import ServoLaw
+from app.core.simulation.servo_law import ServoLaw, ServoLoop
 from app.core.simulation.sim_model import SimModel
 
 DROP_M = 0.0005
@@ -153,18 +153,21 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
     aq, av = sim.actuated_qpos, sim.actuated_dof
     commands = np.asarray(inp.q_cmd_rad, dtype=float)
     n_samples, n = commands.shape
-    setpoint = commands[0].copy()
-    tau = np.zeros(n)
+    servo = ServoLoop(law, dt, commands[0])
+    # Contiguous actuated coordinates are read and written through views (no copies).
+    qpos_view = d.qpos[aq[0] : aq[-1] + 1] if _contiguous(aq) else None
+    qfrc_view = d.qfrc_applied[av[0] : av[-1] + 1] if _contiguous(av) else None
 
-    def tick(command: np.ndarray) -> None:
-        nonlocal setpoint, tau
-        setpoint = law.slew(setpoint, command, dt)
-        tau = law.torque(setpoint, d.qpos[aq])
-        d.qfrc_applied[av] = tau
+    def tick() -> None:
+        tau = servo.torque(d.qpos[aq] if qpos_view is None else qpos_view)
+        if qfrc_view is None:
+            d.qfrc_applied[av] = tau
+        else:
+            qfrc_view[:] = tau
         mujoco.mj_step(m, d)
 
     for _ in range(round(inp.settle_s / dt)):
-        tick(commands[0])
+        tick()
     _check(d, m, -inp.settle_s)
     nq, nv = sim.nq_pin, sim.nv_pin
     out_q, out_v = np.zeros((n_samples, nq)), np.zeros((n_samples, nv))
@@ -213,11 +216,13 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
         if inp.linear_hold:
             step = (commands[min(k + 1, n_samples - 1)] - commands[k]) / ticks
             for i in range(1, ticks + 1):
-                tick(commands[k] + i * step)
+                servo.set_command(commands[k] + i * step)
+                tick()
         else:
+            servo.set_command(commands[k])
             for _ in range(ticks):
-                tick(commands[k])
-        out_tau[k] = tau
+                tick()
+        out_tau[k] = servo.tau
     last = k
     for array in (out_q, out_v, out_qj, out_tau, roll, pitch, forces, sole_pos, touching):
         array[last + 1 :] = array[last]
@@ -238,6 +243,10 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
         n_simulated=last + 1,
         wall_time_s=time.perf_counter() - begin,
     )
+
+
+def _contiguous(indices: np.ndarray) -> bool:
+    return len(indices) > 0 and bool(np.all(np.diff(indices) == 1))
 
 
 def _lowest_corner_z(d, m, geom: int) -> float:

@@ -30,6 +30,9 @@ from app.core.simulation.sim_model import SimModel
 SETTLE_S = 1.0
 """The first command is held this long before the motion starts [s]."""
 LIMIT_TOLERANCE_RAD = 1e-6
+PARALLEL_MIN_SIMULATED_S = 60.0
+"""Total simulated time [s] from which runs go to worker processes by default (below it the
+process start-up costs more than it saves)."""
 
 
 def prepare(
@@ -182,15 +185,21 @@ def simulate_commands(
     parallel: bool | None = None,
 ) -> dict[str, SimulationResult]:
     """Several command sequences (label → q_cmd (T, n) [rad]) on one robot and motion. With
-    `parallel` (default: two or more commands and at least two cores) each runs in a spawned
-    process; the results are the same either way."""
+    `parallel` each runs in a spawned process; the results are the same either way. A fresh
+    process pays ~0.5 s of imports (numpy, mujoco), so the default runs in parallel only
+    when there are two cores and the runs are long (`PARALLEL_MIN_SIMULATED_S` in all)."""
     sim = build_sim_model(robot, options)
     labels = list(commands)
     inputs = [
         prepare(robot, trajectory, commands[label], servo, options, sim=sim) for label in labels
     ]
     if parallel is None:
-        parallel = len(inputs) > 1 and (os.cpu_count() or 1) >= 2
+        simulated_s = len(inputs) * (trajectory.duration + SETTLE_S)
+        parallel = (
+            len(inputs) > 1
+            and (os.cpu_count() or 1) >= 2
+            and simulated_s >= PARALLEL_MIN_SIMULATED_S
+        )
     if parallel:
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(min(len(inputs), 4), mp_context=context) as pool:

@@ -56,21 +56,47 @@ class ServoLaw:
     velocity_rad_s: np.ndarray
     notes: tuple[str, ...] = ()
 
-    def torque(self, setpoint: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """Drive torque [N·m] = clip(K·dz(s − q, b/2), ±τ_max); the damping −D·q̇ is added by
-        MuJoCo's joint damping."""
-        e = setpoint - q
-        spring = (
-            self.stiffness_Nm_per_rad
-            * np.sign(e)
-            * np.maximum(np.abs(e) - self.half_backlash_rad, 0.0)
-        )
-        return np.clip(spring, -self.effort_Nm, self.effort_Nm)
 
-    def slew(self, setpoint: np.ndarray, command: np.ndarray, dt_s: float) -> np.ndarray:
-        """The set point moved towards the command by at most ω_max·Δt."""
-        step = self.velocity_rad_s * dt_s
-        return setpoint + np.clip(command - setpoint, -step, step)
+class ServoLoop:
+    """The servo law ticking: set point, slew, drive torque, with preallocated arrays (the
+    step loop calls it 1000 times per simulated second, so it avoids numpy temporaries)."""
+
+    def __init__(self, law: ServoLaw, dt_s: float, initial_command: np.ndarray) -> None:
+        self.law = law
+        self.max_step = law.velocity_rad_s * dt_s
+        self.setpoint = np.array(initial_command, dtype=float)
+        self.command = self.setpoint.copy()
+        self.settled = True
+        self.has_play = bool(np.any(law.half_backlash_rad > 0.0))
+        self.tau = np.zeros(len(self.setpoint))
+        self._play = np.zeros(len(self.setpoint))
+        self._lo_play, self._hi_play = -law.half_backlash_rad, law.half_backlash_rad
+        self._lo_tau, self._hi_tau = -law.effort_Nm, law.effort_Nm
+
+    def set_command(self, command: np.ndarray) -> None:
+        """A new command arrives (it is then held)."""
+        self.command = command
+        self.settled = bool(np.array_equal(self.setpoint, command))
+
+    def torque(self, q: np.ndarray) -> np.ndarray:
+        """Drive torque [N·m] at joint positions q: slew the set point, then
+        clip(K·dz(s − q, b/2), ±τ_max), with dz(e, h) = e − clip(e, −h, h)."""
+        law = self.law
+        if not self.settled:
+            diff = self.command - self.setpoint
+            if np.all(np.abs(diff) <= self.max_step):
+                self.setpoint = np.array(self.command, dtype=float)
+                self.settled = True
+            else:
+                self.setpoint += np.clip(diff, -self.max_step, self.max_step)
+        # ufuncs with out= rather than np.clip: its Python wrapper costs more than the maths.
+        e = np.subtract(self.setpoint, q, out=self.tau)
+        if self.has_play:
+            play = np.maximum(e, self._lo_play, out=self._play)
+            e -= np.minimum(play, self._hi_play, out=play)
+        e *= law.stiffness_Nm_per_rad
+        np.maximum(e, self._lo_tau, out=e)
+        return np.minimum(e, self._hi_tau, out=e)
 
 
 def servo_damping_Nms_per_rad(effort_Nm: float | None, velocity_rad_s: float | None) -> float:
