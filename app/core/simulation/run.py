@@ -183,11 +183,14 @@ def simulate_commands(
     servo: ServoModel,
     options: SimOptions | None = None,
     parallel: bool | None = None,
+    progress: Callable[[float], None] | None = None,
 ) -> dict[str, SimulationResult]:
     """Several command sequences (label → q_cmd (T, n) [rad]) on one robot and motion. With
     `parallel` each runs in a spawned process; the results are the same either way. A fresh
     process pays ~0.5 s of imports (numpy, mujoco), so the default runs in parallel only
-    when there are two cores and the runs are long (`PARALLEL_MIN_SIMULATED_S` in all)."""
+    when there are two cores and the runs are long (`PARALLEL_MIN_SIMULATED_S` in all).
+    `progress(fraction of all runs)` is called as they go (in parallel: when each ends);
+    raising from it stops a sequential run."""
     sim = build_sim_model(robot, options)
     labels = list(commands)
     inputs = [
@@ -203,13 +206,25 @@ def simulate_commands(
     if parallel:
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(min(len(inputs), 4), mp_context=context) as pool:
-            runs = list(pool.map(run_engine, inputs))
+            runs = []
+            for run in pool.map(run_engine, inputs):
+                runs.append(run)
+                if progress is not None:
+                    progress(len(runs) / len(inputs))
     else:
-        runs = [run_engine(inp) for inp in inputs]
+        runs = [
+            run_engine(inp, None if progress is None else _scaled(progress, i, len(inputs)))
+            for i, inp in enumerate(inputs)
+        ]
     return {
         label: finish(robot, trajectory, inp, run, label)
         for label, inp, run in zip(labels, inputs, runs, strict=True)
     }
+
+
+def _scaled(progress: Callable[[float], None], i: int, n: int) -> Callable[[float], None]:
+    """Progress of run i of n as a fraction of all n."""
+    return lambda fraction: progress((i + fraction) / n)
 
 
 def simulate_plan_and_compensated(
