@@ -208,6 +208,8 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
             reason = _fall_reason(inp, k, roll[k], pitch[k], d.xpos[root, 2], touching[k], sim)
             if reason:
                 fall_index = k
+                if k == 0:
+                    reason = f"while settling on the first pose: {reason}"
                 stop_index = min(n_samples, k + max(1, round(POST_FALL_S / inp.dt_cmd_s)))
         if k + 1 >= stop_index:
             break
