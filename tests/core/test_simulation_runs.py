@@ -81,3 +81,34 @@ def test_the_compared_compensations_invert_the_servo_model(robot):
     assert params is not None
     np.testing.assert_allclose(servo_response(compensated_command(q, tau, params), tau, servo), q)
     assert {e.paper_without for e in PAPER_EXPERIMENTS} == {"stays up", "falls"}
+
+
+def test_the_studio_worker_runs_a_simulation_job(robot, traj):
+    """Through app.jobs.SolverWorker (a spawned process): progress arrives, and the finished
+    results equal the same runs made here."""
+    import threading
+
+    from app.core.simulation.worker import SIMULATION_KEY, finish_job, simulation_job
+    from app.jobs import SolverWorker
+
+    q_plan = joint_angles(robot, traj.q)
+    servo = default_servos(robot)
+    job = simulation_job(robot, traj, {"without": q_plan}, servo)
+    ended = threading.Event()
+    events: list[tuple] = []
+    worker = SolverWorker("app.core.simulation.worker:build_simulation_problem")
+    try:
+        worker.on_progress(lambda job_id, percent, fraction, _: events.append(("p", fraction)))
+        worker.on_done(lambda job_id, runs: (events.append(("done", runs)), ended.set()))
+        worker.on_failed(lambda job_id, message: (events.append(("failed", message)), ended.set()))
+        worker.submit("sim-1", job, SIMULATION_KEY)
+        assert ended.wait(120.0), events
+    finally:
+        worker.close()
+    assert events[-1][0] == "done", events[-1]
+    fractions = [e[1] for e in events if e[0] == "p"]
+    assert fractions and fractions[-1] == 1.0
+    results = finish_job(robot, traj, job, events[-1][1])
+    here = simulate_commands(robot, traj, {"without": q_plan}, servo, parallel=False)
+    np.testing.assert_array_equal(results["without"].q, here["without"].q)
+    assert results["without"].verdict() == here["without"].verdict()
