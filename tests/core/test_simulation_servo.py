@@ -154,6 +154,18 @@ def _free_fall_momentum_error(robot, start, timestep_s: float) -> tuple[float, f
     return float(np.abs(h[:, :3] - expected).max()), float(np.abs(h[:, 3:]).max())
 
 
+def test_with_convex_hulls_the_feet_still_carry_the_robot(servo_biped, com_shift):
+    """The feet's own hulls touch the floor with their soles: they count as feet (no false
+    fall) and their forces as the feet's (the two still carry the weight)."""
+    q_plan = joint_angles(servo_biped, com_shift.q)
+    servo = ServoModel.rigid(servo_biped.joint_names)
+    options = SimOptions(hulls=True, command_hold="linear")
+    result = simulate(servo_biped, com_shift, q_plan, servo, options)
+    assert not result.fell
+    total = result.contact_force_N[:, :, 2].sum(axis=1)
+    assert total == pytest.approx(servo_biped.mass_kg * G, rel=0.05)
+
+
 def test_free_fall_conserves_momentum(servo_biped, com_shift):
     """The servos' torques are internal: centroidal angular momentum stays 0 and linear
     momentum grows by m·g·t. MuJoCo's integrator is first order: the deviation shrinks

@@ -144,10 +144,17 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
     floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
     root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, sim.root_body) if sim.floating_base else 0
     sites = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name) for name in sim.sole_sites]
-    foot_bodies = {
-        mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
-        for names in sim.foot_bodies
+    side_of_body = {
+        mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name): side
+        for side, names in enumerate(sim.foot_bodies)
         for name in names
+    }
+    foot_bodies = set(side_of_body)
+    # Every geom on a foot (its sole box, and its hull with `hulls`) counts for that foot.
+    side_of_geom = {
+        g: side_of_body[int(m.geom_bodyid[g])]
+        for g in range(m.ngeom)
+        if int(m.geom_bodyid[g]) in side_of_body
     }
     non_foot = np.array([b for b in range(1, m.nbody) if b not in foot_bodies], dtype=int)
     aq, av = sim.actuated_qpos, sim.actuated_dof
@@ -196,12 +203,13 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
             if floor not in pair:
                 continue
             other = pair[1] if pair[0] == floor else pair[0]
-            if other not in soles:
+            foot = side_of_geom.get(other)
+            if foot is None:
                 touching[k] = True
                 continue
             mujoco.mj_contactForce(m, d, c, force6)
             world = contact.frame.reshape(3, 3).T @ force6[:3]
-            forces[k, soles.index(other)] += world if pair[0] == floor else -world
+            forces[k, foot] += world if pair[0] == floor else -world
         if non_foot.size and d.xpos[non_foot, 2].min() < NON_FOOT_CLEARANCE_M:
             touching[k] = True
         if fall_index < 0 and inp.detect_falls:
