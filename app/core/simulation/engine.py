@@ -121,7 +121,21 @@ def qvel_to_pin(sim: SimModel, qvel: np.ndarray, R_world_base: np.ndarray) -> np
 
 def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None) -> EngineRun:
     """Simulate the motion (module docstring). `progress(fraction)` is called about 50 times;
-    raising from it stops the run."""
+    raising from it stops the run. MuJoCo's warnings are kept in memory for the run (by
+    default MuJoCo appends them to MUJOCO_LOG.TXT in the working folder); a blow-up is
+    reported as SimulationDiverged."""
+    import mujoco
+
+    messages: list[str] = []  # MuJoCo's warning hook is process-wide: set for this run only
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(messages.append)
+    try:
+        return _run(inp, progress)
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRun:
     import mujoco
 
     begin = time.perf_counter()
