@@ -225,9 +225,10 @@ def test_bad_inputs_say_what_is_wrong(servo_biped, com_shift):
         simulate(robot, traj, q_plan, negative)
 
 
-def test_a_blow_up_is_an_error_not_nan(stool, tmp_path):
+def test_a_blow_up_is_an_error_not_nan(stool, tmp_path, monkeypatch):
     """A servo far too stiff (and strong) for a 10 ms step diverges: reported, not returned
-    as NaN or as MuJoCo's silent reset."""
+    as NaN or as MuJoCo's silent reset, and no MUJOCO_LOG.TXT is left in the folder."""
+    monkeypatch.chdir(tmp_path)
     path = tmp_path / "strong.urdf"
     path.write_text(STOOL_WITH_ARM.replace('effort="20"', 'effort="1e9"'))
     robot = load_robot(str(path))
@@ -241,3 +242,4 @@ def test_a_blow_up_is_an_error_not_nan(stool, tmp_path):
             servo,
             SimOptions(timestep_s=0.01, armature_kgm2=0.0),
         )
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
