@@ -31,9 +31,32 @@ def _velocity_map(sim, q: np.ndarray, nv_mj: int) -> np.ndarray:
     return T
 
 
-@pytest.mark.parametrize("source", ROBOTS)
-def test_mass_com_and_joint_space_inertia_match_pinocchio(source):
-    robot = load_robot(source)
+def _unseen_urdf(write_urdf) -> str:
+    """A robot none of the others is like: the tiny biped with a continuous head joint
+    (pinocchio stores it as cos, sin) on a prismatic neck, about tilted axes."""
+    extra = (
+        '<link name="neck"><inertial><mass value="0.3"/><inertia ixx="0.002" iyy="0.002" '
+        'izz="0.003" ixy="0.0001" ixz="0" iyz="0"/></inertial></link>'
+        '<link name="head"><inertial><origin xyz="0.02 0 0.05"/><mass value="0.4"/>'
+        '<inertia ixx="0.002" iyy="0.0015" izz="0.0015" ixy="0" ixz="0.0002" iyz="0"/>'
+        "</inertial></link>"
+        '<joint name="neck_slide" type="prismatic"><origin xyz="0 0 0.05"/><axis xyz="0 0.6 0.8"/>'
+        '<parent link="pelvis"/><child link="neck"/>'
+        '<limit lower="-0.05" upper="0.05" effort="50" velocity="1"/></joint>'
+        '<joint name="head_spin" type="continuous"><origin xyz="0 0 0.05" rpy="0.3 0 0"/>'
+        '<axis xyz="1 0 0"/><parent link="neck"/><child link="head"/>'
+        '<limit effort="2" velocity="6"/></joint>'
+    )
+    return str(write_urdf(tiny_biped_urdf(extra=extra)))
+
+
+@pytest.mark.parametrize("source", [*ROBOTS, "unseen"])
+def test_mass_com_and_joint_space_inertia_match_pinocchio(source, write_urdf):
+    robot = load_robot(_unseen_urdf(write_urdf) if source == "unseen" else source)
+    if source == "unseen":
+        kinds = {joint.kind for joint in robot.joints}
+        assert {"continuous", "prismatic", "revolute"} <= kinds
+    assert not [note for note in build_sim_model(robot).notes if "inertia" in note]
     armature = 0.02
     sim = build_sim_model(robot, SimOptions(armature_kgm2=armature))
     m = mujoco.MjModel.from_xml_string(sim.xml)
@@ -90,6 +113,19 @@ def test_loops_become_equality_constraints_that_hold_at_the_closed_pose():
     for i in range(m.neq):
         gap = d.site(f"loop{i}_a").xpos - d.site(f"loop{i}_b").xpos
         assert np.linalg.norm(gap) < 1e-9
+
+
+def test_an_impossible_inertia_converts_with_a_note(write_urdf):
+    """URDFs in the wild break the triangle inequality; MuJoCo refuses them unless balanced."""
+    text = tiny_biped_urdf().replace(
+        '<link name="left_thigh"><inertial><mass value="0.4"/><inertia ixx="0.001" iyy="0.001" '
+        'izz="0.001"',
+        '<link name="left_thigh"><inertial><mass value="0.4"/><inertia ixx="0.001" iyy="0.001" '
+        'izz="0.005"',
+    )
+    assert text != tiny_biped_urdf()
+    sim = build_sim_model(load_robot(str(write_urdf(text))))
+    assert any("impossible inertia" in note and "left_hip_pitch" in note for note in sim.notes)
 
 
 def test_a_foot_without_sole_geometry_is_refused(write_urdf):

@@ -119,7 +119,15 @@ def _inertial_xml(inertia: pin.Inertia, name: str, notes: list[str]) -> str:
     if mass < MIN_MASS_KG:
         notes.append(f"body {name!r} has no mass; simulated with {MIN_MASS_KG:g} kg")
         mass, full = MIN_MASS_KG, np.eye(3) * MIN_INERTIA_KGM2
-    full = full + np.eye(3) * MIN_INERTIA_KGM2 * (np.linalg.eigvalsh(full).min() < MIN_INERTIA_KGM2)
+    moments = np.linalg.eigvalsh(full)
+    if moments[0] < MIN_INERTIA_KGM2:
+        notes.append(f"body {name!r} has a principal inertia below {MIN_INERTIA_KGM2:g} kg·m²")
+        full = full + np.eye(3) * MIN_INERTIA_KGM2
+    elif moments[0] + moments[1] < moments[2] * (1.0 - 1e-9):
+        notes.append(
+            f"body {name!r} has an impossible inertia (principal moments {moments[0]:.3g} + "
+            f"{moments[1]:.3g} < {moments[2]:.3g}); MuJoCo balances it"
+        )
     return (
         f'<inertial pos="{_f(inertia.lever)}" mass="{mass!r}" fullinertia="'
         f'{_f([full[0, 0], full[1, 1], full[2, 2], full[0, 1], full[0, 2], full[1, 2]])}"/>'
@@ -246,7 +254,7 @@ def build_sim_model(robot: RobotModel, options: SimOptions | None = None) -> Sim
         for i in range(len(robot.tree.loops))
     )
     xml = (
-        f'<mujoco model={quoteattr(robot.name)}><compiler angle="radian" autolimits="true"/>'
+        f'<mujoco model={quoteattr(robot.name)}><compiler angle="radian" autolimits="true" balanceinertia="true"/>'
         f'<option timestep="{options.timestep_s!r}" integrator="implicitfast"/>'
         f"<asset>{''.join(assets)}</asset>"
         '<default><geom friction="' + f'{options.friction!r} 0.005 0.0001"/></default>'
