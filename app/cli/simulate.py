@@ -1,0 +1,140 @@
+"""`simulate`: a motion on the robot's servos, in MuJoCo, with a fall verdict."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from app.cli.common import DEFAULTS, add_robot_options, load_robot_from_args, output_target
+from app.core.errors import StudioError
+
+PRESETS = ("plan", "uniform", "table3", "table2")
+
+
+def add_parser(sub) -> None:
+    simulate = sub.add_parser(
+        "simulate",
+        help="simulate a motion on compliant servos with dead bands (MuJoCo): does it stay up?",
+    )
+    simulate.add_argument("trajectory", type=Path, help="motion CSV (biped-studio motion --out)")
+    simulate.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
+    source = simulate.add_mutually_exclusive_group(required=True)
+    source.add_argument("--cmd", type=Path, help="servo commands CSV (biped-studio compensate)")
+    source.add_argument(
+        "--compensation", type=Path, help="k.toml: command q + k·τ (+ φ·sign) from these"
+    )
+    source.add_argument(
+        "--preset",
+        choices=PRESETS,
+        help="plan: the plan as it is (no compensation); uniform: k = 1.4 °/(N·m) on the legs; "
+        "table3 / table2: the paper's coefficients",
+    )
+    simulate.add_argument(
+        "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
+    )
+    simulate.add_argument(
+        "--tau", type=Path, default=None, help="torque CSV (default: computed by the whole-body QP)"
+    )
+    simulate.add_argument(
+        "--servo",
+        type=Path,
+        default=None,
+        help="servo.toml: true compliance and dead band (default 1.4 °/(N·m), 0.5° on the legs)",
+    )
+    simulate.add_argument(
+        "--baseline", action="store_true", help="also run the plan uncompensated (in parallel)"
+    )
+    simulate.add_argument("--friction", type=float, default=0.6, help="floor friction μ")
+    simulate.add_argument(
+        "--hold",
+        choices=("zoh", "linear"),
+        default="zoh",
+        help="commands held until the next one (zoh) or ramped (linear)",
+    )
+    simulate.add_argument("--hulls", action="store_true", help="collide the links' convex hulls")
+    simulate.add_argument("--out", type=Path, default=None, help="simulation CSV to write")
+    simulate.add_argument("--json", action="store_true")
+    add_robot_options(simulate)
+
+
+def _torques(args: argparse.Namespace, robot, traj):
+    import numpy as np
+
+    if args.tau is None:
+        from app.core.dynamics.wbc import torque_feedforward
+
+        return torque_feedforward(robot, traj).tau_Nm
+    from app.core.servo.files import read_torque_csv
+
+    table = read_torque_csv(args.tau, robot.joint_names)
+    if len(table.t) != traj.n_samples or not np.allclose(
+        table.t - table.t[0], traj.t, atol=1e-3 * traj.dt
+    ):
+        raise StudioError(f"{args.tau} does not have the motion's {traj.n_samples} sample times")
+    return table.tau_Nm
+
+
+def run(args: argparse.Namespace) -> int:
+    from app.core.motions.csv_files import read_trajectory_csv
+    from app.core.servo.compensation import compensated_command
+    from app.core.servo.files import read_coefficients_toml
+    from app.core.servo.model import joint_angles
+    from app.core.servo.presets import paper_table2_preset, paper_table3_preset, uniform_preset
+    from app.core.simulation.files import (
+        default_servos,
+        read_command_csv,
+        read_servo_toml,
+        write_simulation_csv,
+    )
+    from app.core.simulation.mjcf import SimOptions
+    from app.core.simulation.run import simulate_commands
+
+    if args.clearance and args.preset != "table3":
+        raise StudioError("--clearance goes with --preset table3 (a k.toml sets phi_deg itself)")
+    robot = load_robot_from_args(args)
+    traj = read_trajectory_csv(args.trajectory, robot)
+    servo = default_servos(robot) if args.servo is None else read_servo_toml(args.servo, robot)
+    options = SimOptions(friction=args.friction, hulls=args.hulls, command_hold=args.hold)
+    q_plan = joint_angles(robot, traj.q)
+    if args.cmd is not None:
+        q_cmd, label = read_command_csv(args.cmd, robot.joint_names, traj.n_samples), "commands"
+    elif args.preset == "plan":
+        q_cmd, label = q_plan, "without compensation"
+    else:
+        if args.preset == "table3":
+            params = paper_table3_preset(robot, clearance=args.clearance)
+        elif args.preset == "table2":
+            params = paper_table2_preset(robot)
+        elif args.preset == "uniform":
+            params = uniform_preset(robot)
+        else:
+            params = read_coefficients_toml(args.compensation).for_joints(robot.joint_names)
+        q_cmd = compensated_command(q_plan, _torques(args, robot, traj), params)
+        label = "with compensation"
+    commands = {label: q_cmd}
+    if args.baseline and args.preset != "plan":
+        commands = {"without compensation": q_plan, **commands}
+    results = simulate_commands(robot, traj, commands, servo, options)
+    main = results[label]
+    if args.out is not None:
+        write_simulation_csv(args.out, main)
+    if args.json:
+        report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
+        report["out"] = None if args.out is None else str(args.out)
+        if len(results) > 1:
+            report["baseline"] = results["without compensation"].summary()
+        print(json.dumps(report, indent=2))
+        return 0
+    for result in results.values():
+        s = result.summary()
+        print(
+            f"{robot.name}, {traj.name} {result.label}: {result.verdict()}; max |roll| "
+            f"{s['max_abs_roll_deg']:.2f}°, max |pitch| {s['max_abs_pitch_deg']:.2f}°, rms joint "
+            f"error {s['rms_joint_error_deg']:.2f}°, {s['real_time_factor']:.1f}× real time"
+            + (output_target(args.out) if result is main else "")
+        )
+    for note in main.notes:
+        print(f"note: {note}", file=sys.stderr)
+    return 0

@@ -1,0 +1,145 @@
+"""The position servo as it is, per joint, in the simulation's step loop (numpy only).
+
+Commands q_cmd arrive at the motion's sample rate (100 Hz) and are held (zero-order hold)
+into the servo loop, which runs at the physics rate (1 kHz). Per joint, at each tick:
+
+    s ← s + clip(q_cmd − s, −ω_max·Δt, +ω_max·Δt)        speed saturation of the set point
+    e = s − q                                              position error [rad]
+    τ_spring = K · dz(e, b/2),   dz(e, h) = sign(e)·max(|e| − h, 0)
+    τ = clip(τ_spring, −τ_max, +τ_max) − D·q̇                torque and speed saturation
+
+K = 1/c is the stiffness of the position loop (c the servo's true compliance, the same
+`ServoModel.compliance_deg_per_Nm` the quasi-static model uses; a rigid servo, c = 0, gets
+c = RIGID_COMPLIANCE_DEG_PER_NM), b the full width of the dead band (`ServoModel.backlash_deg`):
+inside ±b/2 the gear train is loose and transmits no spring torque. D = τ_max/ω_max is a
+DC motor's back-EMF damping (stall torque over no-load speed; Dynamixel XM430: 4.1 N·m over
+4.8 rad/s = 0.85 N·m·s/rad, MuJoCo Menagerie's OP3 identifies 1.08): with the drive torque
+saturated the joint follows a DC motor's torque-speed line τ = τ_max·(1 − q̇/ω_max), so no
+joint turns faster than ω_max under its own drive. The damping term is MuJoCo's joint
+damping (integrated implicitly, `mjcf`); the rest is computed here. τ_max and ω_max are the
+URDF's effort and velocity limits (DEFAULT_EFFORT_NM, DEFAULT_VELOCITY_RAD_S where the URDF
+gives none).
+
+At rest (q̇ = 0, |τ| < τ_max) under a load torque τ: q = q_cmd − c·τ − (b/2)·sign(τ),
+exactly the quasi-static model of `app.core.servo.model`, so both take the same parameters.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from app.core.simulation.errors import SimulationInputError
+
+if TYPE_CHECKING:  # the step loop's workers need numpy only, not pinocchio
+    from app.core.servo.model import ServoModel
+
+RIGID_COMPLIANCE_DEG_PER_NM = 0.02
+"""Compliance [°/(N·m)] given to a servo modelled as rigid (c = 0): K ≈ 2900 N·m/rad, stable
+at a 1 ms step with the default armature."""
+DEFAULT_EFFORT_NM = 20.0
+"""Torque limit [N·m] of a joint whose URDF gives none (a large hobby servo's stall torque)."""
+DEFAULT_VELOCITY_RAD_S = 6.0
+"""Speed limit [rad/s] of a joint whose URDF gives none (about 57 rpm, a hobby servo's)."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ServoLaw:
+    """Per-joint servo parameters in SI units, shape (n,) each (module docstring)."""
+
+    stiffness_Nm_per_rad: np.ndarray
+    half_backlash_rad: np.ndarray
+    damping_Nms_per_rad: np.ndarray
+    effort_Nm: np.ndarray
+    velocity_rad_s: np.ndarray
+    notes: tuple[str, ...] = ()
+
+
+class ServoLoop:
+    """The servo law ticking: set point, slew, drive torque, with preallocated arrays (the
+    step loop calls it 1000 times per simulated second, so it avoids numpy temporaries)."""
+
+    def __init__(self, law: ServoLaw, dt_s: float, initial_command: np.ndarray) -> None:
+        self.law = law
+        self.max_step = law.velocity_rad_s * dt_s
+        self.setpoint = np.array(initial_command, dtype=float)
+        self.command = self.setpoint.copy()
+        self.settled = True
+        self.has_play = bool(np.any(law.half_backlash_rad > 0.0))
+        self.tau = np.zeros(len(self.setpoint))
+        self._play = np.zeros(len(self.setpoint))
+        self._lo_play, self._hi_play = -law.half_backlash_rad, law.half_backlash_rad
+        self._lo_tau, self._hi_tau = -law.effort_Nm, law.effort_Nm
+
+    def set_command(self, command: np.ndarray) -> None:
+        """A new command arrives (it is then held)."""
+        self.command = command
+        self.settled = bool(np.array_equal(self.setpoint, command))
+
+    def torque(self, q: np.ndarray) -> np.ndarray:
+        """Drive torque [N·m] at joint positions q: slew the set point, then
+        clip(K·dz(s − q, b/2), ±τ_max), with dz(e, h) = e − clip(e, −h, h)."""
+        law = self.law
+        if not self.settled:
+            diff = self.command - self.setpoint
+            if np.all(np.abs(diff) <= self.max_step):
+                self.setpoint = np.array(self.command, dtype=float)
+                self.settled = True
+            else:
+                self.setpoint += np.clip(diff, -self.max_step, self.max_step)
+        # ufuncs with out= rather than np.clip: its Python wrapper costs more than the maths.
+        e = np.subtract(self.setpoint, q, out=self.tau)
+        if self.has_play:
+            play = np.maximum(e, self._lo_play, out=self._play)
+            e -= np.minimum(play, self._hi_play, out=play)
+        e *= law.stiffness_Nm_per_rad
+        np.maximum(e, self._lo_tau, out=e)
+        return np.minimum(e, self._hi_tau, out=e)
+
+
+def servo_damping_Nms_per_rad(effort_Nm: float | None, velocity_rad_s: float | None) -> float:
+    """Back-EMF damping D = τ_max/ω_max [N·m·s/rad], defaults where the URDF gives none."""
+    return (effort_Nm or DEFAULT_EFFORT_NM) / (velocity_rad_s or DEFAULT_VELOCITY_RAD_S)
+
+
+def servo_law(
+    servo: ServoModel,
+    joint_names: tuple[str, ...],
+    effort_Nm: list[float | None],
+    velocity_rad_s: list[float | None],
+) -> ServoLaw:
+    """The servo law of each joint from the virtual servos and the URDF's limits."""
+    servos = servo.for_joints(joint_names)
+    compliance = np.array(servos.compliance_deg_per_Nm, dtype=float)
+    if np.any(compliance < 0.0):
+        bad = joint_names[int(np.argmin(compliance))]
+        raise SimulationInputError(
+            f"the compliance of {bad} is negative; a servo's true compliance is ≥ 0 °/(N·m)"
+        )
+    notes = []
+    missing = [
+        n for n, e, v in zip(joint_names, effort_Nm, velocity_rad_s, strict=True) if not (e and v)
+    ]
+    if missing:
+        notes.append(
+            f"{len(missing)} joint(s) without URDF effort/velocity limits simulated with "
+            f"{DEFAULT_EFFORT_NM:g} N·m and {DEFAULT_VELOCITY_RAD_S:g} rad/s"
+        )
+    effort = np.array([e if e else DEFAULT_EFFORT_NM for e in effort_Nm], dtype=float)
+    velocity = np.array([v if v else DEFAULT_VELOCITY_RAD_S for v in velocity_rad_s], dtype=float)
+    compliance_rad = np.deg2rad(np.where(compliance > 0.0, compliance, RIGID_COMPLIANCE_DEG_PER_NM))
+    return ServoLaw(
+        stiffness_Nm_per_rad=1.0 / compliance_rad,
+        half_backlash_rad=np.deg2rad(0.5 * np.asarray(servos.backlash_deg, dtype=float)),
+        damping_Nms_per_rad=np.array(
+            [
+                servo_damping_Nms_per_rad(e, v)
+                for e, v in zip(effort_Nm, velocity_rad_s, strict=True)
+            ]
+        ),
+        effort_Nm=effort,
+        velocity_rad_s=velocity,
+        notes=tuple(notes),
+    )
