@@ -57,6 +57,8 @@ class PlotsPanel:
         self.pitch: viser.GuiUplotHandle | None = None
         self.offsets: viser.GuiUplotHandle | None = None
         self._joint_data: dict[str, tuple[np.ndarray, tuple[str, ...], np.ndarray]] = {}
+        self._labels: dict[int, tuple[str, ...]] = {}
+        """id(plot) -> the joints it draws, to update data in place when they are the same."""
         self.joints.on_update(lambda _: self._redraw_joints())
 
     # --- joints: torques and offsets ----------------------------------------------------------
@@ -151,8 +153,7 @@ class PlotsPanel:
         colours: list[int],
     ):
         data = (np.asarray(t, dtype=float), *(np.asarray(row, dtype=float) for row in rows))
-        labels = tuple(s.label for s in handle.series[1:]) if handle is not None else ()
-        if handle is not None and labels == tuple(names):
+        if handle is not None and self._labels.get(id(handle)) == tuple(names):
             handle.data = data
             return handle
         if handle is not None:
@@ -165,7 +166,9 @@ class PlotsPanel:
             ),
         )
         with self.folder:
-            return self._gui.add_uplot(data, series, title=title, aspect=1.6, scales=SECONDS_AXIS)
+            handle = self._gui.add_uplot(data, series, title=title, aspect=1.6, scales=SECONDS_AXIS)
+        self._labels[id(handle)] = tuple(names)
+        return handle
 
     def clear(self) -> None:
         for handle in (self.torques, self.roll, self.pitch, self.offsets):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import io
+import logging
 import math
 import threading
 
@@ -41,6 +42,8 @@ from app.views.ghosts_view import GHOSTS, GhostsView, legend_markdown
 from app.views.roots import AlternatingRoot
 from panels.compensation_panel import CompensationPanel
 from panels.plots_panel import PlotsPanel
+
+log = logging.getLogger(__name__)
 
 DEFAULT_PRESET = next(iter(PRESETS))
 DEFAULT_BACKLASH_DEG = 0.5
@@ -143,24 +146,30 @@ class CompensationSession:
         result: FeedForward | None = None
         try:
             result = torque_feedforward(robot, trajectory, progress=self.panel.show_progress)
+            self._accept(robot, trajectory, result)
         except StudioError as error:
+            result = None
             self._fail("Torque feed-forward failed", str(error), client)
+        except Exception as error:  # a bug: say so in the panel, and still announce the end
+            log.exception("torque feed-forward")
+            result = None
+            self._fail("Torque feed-forward failed", f"{type(error).__name__}: {error}", client)
         finally:
             self.panel.show_progress(None)
-        if result is not None:
-            with self._lock:
-                if self._robot is not robot or self._trajectory is not trajectory:
-                    result = None  # the motion changed meanwhile: this result is stale
-                else:
-                    self.feedforward = result
-                    if self.ghosts is None:
-                        self.ghosts = GhostsView(self._server, robot, root=self._roots.next())
-                        for name, checkbox in self.panel.ghosts.items():
-                            self.ghosts.set_visible(name, checkbox.value)
-        if result is not None:
-            self._repredict()
-            self.panel.status.content = _torque_summary(trajectory, result)
-        self.torques_done.emit(result)
+            self.torques_done.emit(result if result is self.feedforward else None)
+
+    def _accept(self, robot: RobotModel, trajectory: Trajectory, result: FeedForward) -> None:
+        """Keep a computed τ if the motion is still the one it was computed for; predict."""
+        with self._lock:
+            if self._robot is not robot or self._trajectory is not trajectory:
+                return  # the motion changed meanwhile: this result is stale
+            self.feedforward = result
+            if self.ghosts is None:
+                self.ghosts = GhostsView(self._server, robot, root=self._roots.next())
+                for name, checkbox in self.panel.ghosts.items():
+                    self.ghosts.set_visible(name, checkbox.value)
+        self._repredict()
+        self.panel.status.content = _torque_summary(trajectory, result)
 
     # --- coefficients (CompensationActions) -----------------------------------------------------
 
