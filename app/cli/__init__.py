@@ -65,6 +65,9 @@ def main(argv: list[str] | None = None) -> int:
             print(json.dumps({"ok": False, "error": str(error)}))
         print(f"biped-studio {command}: {error}", file=sys.stderr)
         return 1
+    except MemoryError:  # a budget this code does not know yet; still one line, no traceback
+        print(f"biped-studio {command}: out of memory; the input is too large", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:  # output piped into `head` and the like

@@ -39,6 +39,7 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 
+from app.core.budgets import check_dt, check_samples
 from app.core.errors import StudioError
 from app.core.motions.interpolant import blend, min_jerk, trapezoid
 from app.core.motions.result import MotionResult, SampleWarning
@@ -173,6 +174,9 @@ def interpolate(
     validate(keyframes)
     if not (math.isfinite(dt) and dt > 0.0):
         raise KeyframeError(f"time step {dt} s; it must be a positive number of seconds")
+    check_dt(dt, "time step")
+    total_s = float(sum(kf.duration_s for kf in keyframes[1:]))
+    check_samples(total_s / dt + 1, robot.model.nq, f"a {total_s:.6g} s motion at dt {dt:g} s")
     ik = ik or WholeBodyIK(
         robot, com_in_support=com_in_support, posture_weight=MOTION_POSTURE_WEIGHT
     )

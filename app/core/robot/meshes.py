@@ -1,21 +1,23 @@
 """Geometry of a robot's links as triangle meshes (trimesh), with missing files reported.
 
-Primitive shapes are tessellated; mesh files (STL, DAE, OBJ, …) are loaded through trimesh,
+Primitive shapes are tessellated; mesh files (STL, DAE, OBJ, …) pass the mesh gate
+(app.core.robot.mesh_gate: format, size, triangle count) and are then loaded through trimesh,
 scaled as the URDF says, and cached by path and scale within one load.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import io
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
+from app.core.errors import StudioError
+from app.core.robot.mesh_gate import MAX_MESH_TRIANGLES, read_mesh_file
 from app.core.robot.packages import PackageResolver
 from app.core.robot.urdf_xml import Geometry
-
-MAX_MESH_FILE_BYTES = 200 * 1024 * 1024
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,17 +79,20 @@ def primitive_mesh(geom: Geometry) -> trimesh.Trimesh:
 
 def _load_file(path: Path, scale: np.ndarray) -> trimesh.Trimesh | str:
     """The mesh in the file, scaled; or a one-line reason it cannot be used."""
-    size = path.stat().st_size
-    if size > MAX_MESH_FILE_BYTES:
-        return f"mesh file {path.name} is {size / 2**20:.0f} MB, over the {MAX_MESH_FILE_BYTES // 2**20} MB limit"
     try:
-        loaded = trimesh.load(str(path), force="mesh", process=False)
+        data, file_type = read_mesh_file(path)
+    except StudioError as exc:
+        return str(exc)
+    try:
+        loaded = trimesh.load(io.BytesIO(data), file_type=file_type, force="mesh", process=False)
     except (
         Exception
     ) as exc:  # trimesh raises many types for corrupt files; report which file failed.
         return f"cannot read mesh {path.name}: {type(exc).__name__}: {exc}"
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         return f"mesh {path.name} holds no triangles"
+    if len(loaded.faces) > MAX_MESH_TRIANGLES:
+        return f"mesh {path.name} has {len(loaded.faces)} triangles, over the limit of {MAX_MESH_TRIANGLES}"
     if not np.all(np.isfinite(loaded.vertices)):
         return f"mesh {path.name} has non-finite vertices"
     if not np.allclose(scale, 1.0):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import os
 import re
 import stat
 import zipfile
@@ -20,6 +21,18 @@ from app.core.errors import UploadError
 MAX_UPLOAD_BYTES = 100 * 1024 * 1024
 MAX_UNPACKED_BYTES = 500 * 1024 * 1024
 MAX_ENTRIES = 5000
+UPLOAD_MARKER = ".biped-studio-upload"
+"""Empty file at the top of every upload folder: a URDF below it is confined to that folder."""
+
+
+def upload_sandbox_of(path: Path) -> Path | None:
+    """The outermost upload folder holding `path` (links followed), or None."""
+    resolved = Path(os.path.realpath(path))
+    found = None
+    for ancestor in resolved.parents:
+        if (ancestor / UPLOAD_MARKER).is_file():
+            found = ancestor
+    return found
 
 
 def store_upload(
