@@ -65,8 +65,8 @@ def load_robot(
     access: FileAccess | None = None,
 ) -> RobotModel:
     """Load and check a robot. `feet` names the (left, right) foot links to override detection;
-    `sandbox` confines mesh look-ups to a folder (uploads; a URDF inside an upload folder gets
-    that folder as sandbox anyway); `access` confines the URDF and its meshes to the studio's
+    `sandbox` confines mesh look-ups to a folder (a URDF inside an upload's folder is always
+    confined to exactly that whole folder instead, whatever is given); `access` confines the URDF and its meshes to the studio's
     allowed folders (paths typed by a user)."""
     path = resolve_source(source, access)
     text = input_gate.read_bytes(path, input_gate.URDF, RobotLoadError)
@@ -80,7 +80,7 @@ def load_robot(
             link_frame_ids[link] = model.getFrameId(link, pin.BODY)
 
     upload = upload_sandbox_of(path)
-    if upload is not None and (sandbox is None or upload.is_relative_to(sandbox.resolve())):
+    if upload is not None:  # the whole unpacked archive, however the URDF was opened
         sandbox = upload
     resolver = PackageResolver(
         path.parent, package_roots, sandbox, access.allows if access is not None else None
