@@ -11,7 +11,7 @@ Limits, one per kind of file (the README's Safety section lists them):
 
     URDF                      20 MiB
     mesh (STL, DAE, PLY, GLB, OFF)  64 MiB; binary STL ≤ 1 000 000 triangles (header checked
-                              against the file size); OBJ 32 MiB (text, parsed in memory)
+                              against the file size); OBJ 16 MiB (text: ~25× its size in memory)
     compressed meshes (.gz .bz2 .xz .zip .zst .7z .tar.*): refused, unpack them first
     motion / torque CSV       64 MiB
     measurement CSV           16 MiB
@@ -49,7 +49,7 @@ class FileKind:
 
 URDF = FileKind("URDF", 20 * MiB)
 MESH = FileKind("mesh", 64 * MiB)
-OBJ_MESH = FileKind("OBJ mesh", 32 * MiB)
+OBJ_MESH = FileKind("OBJ mesh", 16 * MiB)
 MOTION_CSV = FileKind("motion CSV", 64 * MiB)
 TORQUE_CSV = FileKind("torque CSV", 64 * MiB)
 MEASURED_CSV = FileKind("measurement CSV", 16 * MiB)

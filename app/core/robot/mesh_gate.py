@@ -6,7 +6,9 @@ triangle count; a 1.5 KB file can thus claim gigabytes. Here:
 - compressed meshes (.gz .bz2 .xz .zip .zst .7z .tar .tgz .lzma, also inside a double suffix
   such as `.stl.gz`) are refused: unpack them first;
 - only STL, OBJ, DAE, PLY, OFF and GLB are read (GLTF is not: it names further files);
-- sizes: 64 MiB per file, 32 MiB for OBJ (text parsed in memory), see app.core.input_gate;
+- sizes: 64 MiB per file, 16 MiB for OBJ (text parsed in memory), see app.core.input_gate;
+- one robot reads at most MAX_ROBOT_MESH_BYTES (256 MiB) of mesh files and keeps at most
+  MAX_ROBOT_TRIANGLES (4 000 000) triangles (app.core.robot.meshes);
 - a binary STL's 32-bit triangle count (bytes 80–84) must match the file size
   (84 + 50·n bytes) and be ≤ MAX_MESH_TRIANGLES; a PLY header's element counts too;
 - after loading, any mesh over MAX_MESH_TRIANGLES faces is dropped.
@@ -26,6 +28,10 @@ from app.core.input_gate import InputRefused
 
 MAX_MESH_TRIANGLES = 1_000_000
 """Triangles in one mesh file."""
+MAX_ROBOT_MESH_BYTES = 256 * 2**20
+"""Mesh file bytes read for one robot (the same file at several scales counts each time)."""
+MAX_ROBOT_TRIANGLES = 4_000_000
+"""Triangles kept for one robot, primitives included."""
 MESH_FORMATS = (".stl", ".obj", ".dae", ".ply", ".off", ".glb")
 COMPRESSED_SUFFIXES = (".gz", ".bz2", ".xz", ".zip", ".zst", ".7z", ".tar", ".tgz", ".lzma")
 

@@ -15,7 +15,12 @@ import numpy as np
 import trimesh
 
 from app.core.errors import StudioError
-from app.core.robot.mesh_gate import MAX_MESH_TRIANGLES, read_mesh_file
+from app.core.robot.mesh_gate import (
+    MAX_MESH_TRIANGLES,
+    MAX_ROBOT_MESH_BYTES,
+    MAX_ROBOT_TRIANGLES,
+    read_mesh_file,
+)
 from app.core.robot.packages import PackageResolver
 from app.core.robot.urdf_xml import Geometry
 
@@ -48,6 +53,7 @@ def load_link_meshes(
     meshes: list[LinkMesh] = []
     missing: list[MissingMesh] = []
     cache: dict[tuple[Path, tuple[float, ...]], trimesh.Trimesh | str] = {}
+    budget = _Budget()
     for geom in geometries:
         if geom.kind != "mesh":
             meshes.append(
@@ -60,13 +66,43 @@ def load_link_meshes(
             continue
         key = (resolution.path, geom.size)
         if key not in cache:
-            cache[key] = _load_file(resolution.path, np.array(geom.size))
+            cache[key] = budget.load(resolution.path, np.array(geom.size))
         loaded = cache[key]
         if isinstance(loaded, str):
             missing.append(MissingMesh(geom.link, geom.role, geom.uri, loaded))
         else:
             meshes.append(LinkMesh(geom.link, geom.role, geom.T_link_geom, loaded, geom.rgba))
     return meshes, missing
+
+
+class _Budget:
+    """Mesh bytes read and triangles kept for one robot, against the robot-wide limits."""
+
+    def __init__(self) -> None:
+        self.bytes_read = 0
+        self.triangles = 0
+
+    def load(self, path: Path, scale: np.ndarray) -> trimesh.Trimesh | str:
+        try:
+            size = path.stat().st_size
+        except OSError as exc:
+            return f"cannot read mesh {path.name}: {exc.strerror}"
+        if self.bytes_read + size > MAX_ROBOT_MESH_BYTES:
+            return (
+                f"mesh {path.name} skipped: the robot's meshes exceed "
+                f"{MAX_ROBOT_MESH_BYTES // 2**20} MiB in all"
+            )
+        self.bytes_read += size
+        loaded = _load_file(path, scale)
+        if isinstance(loaded, str):
+            return loaded
+        if self.triangles + len(loaded.faces) > MAX_ROBOT_TRIANGLES:
+            return (
+                f"mesh {path.name} skipped: the robot's meshes exceed {MAX_ROBOT_TRIANGLES} "
+                "triangles in all"
+            )
+        self.triangles += len(loaded.faces)
+        return loaded
 
 
 def primitive_mesh(geom: Geometry) -> trimesh.Trimesh:
