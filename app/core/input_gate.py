@@ -58,7 +58,7 @@ UPLOAD = FileKind("upload", 100 * MiB)
 KINDS = (URDF, MESH, OBJ_MESH, MOTION_CSV, TORQUE_CSV, MEASURED_CSV, TOML, UPLOAD)
 
 TOML_MAX_DEPTH = 16
-"""Deepest nesting of tables and arrays accepted in a TOML file."""
+"""Deepest nesting of tables and arrays accepted in a TOML file (`a = [[1]]` is 2 deep)."""
 TOML_MAX_INT = 2**63
 """Integers in TOML must lie strictly within ±TOML_MAX_INT."""
 
@@ -178,10 +178,11 @@ def parse_toml(text: str, name: str, error: type[StudioError] = InputRefused) ->
 
 
 def _check_toml_values(data: dict[str, Any], name: str, error: type[StudioError]) -> None:
-    stack: list[tuple[str, Any, int]] = [("", data, 1)]
+    # depth: how many tables / arrays a container is inside of, the document itself at 0
+    stack: list[tuple[str, Any, int]] = [("", data, 0)]
     while stack:
         key, value, depth = stack.pop()
-        if depth > TOML_MAX_DEPTH:
+        if isinstance(value, dict | list) and depth > TOML_MAX_DEPTH:
             raise error(
                 f"{name}: {key or 'a value'} is nested {depth} levels deep; "
                 f"at most {TOML_MAX_DEPTH} are accepted"
