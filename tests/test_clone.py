@@ -18,8 +18,8 @@ SAMPLE = (
     "tests/core/test_real_robots.py::test_roban_feet_are_the_last_leg_links",
     "tests/core/test_real_robots.py::test_sigmaban_feet_and_fk_against_pinocchio_parser",
     "tests/core/test_uploads.py",
-    "tests/hostile/test_uploads.py",
-    "tests/hostile/test_cli_inputs.py::test_check_refuses_in_one_line[fifo]",
+    "tests/hostile/test_hostile_uploads.py",
+    "tests/hostile/test_hostile_cli.py::test_check_refuses_in_one_line[fifo]",
 )
 
 
