@@ -94,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
             "n_samples": traj.n_samples,
             "out": None if args.out is None else str(args.out),
             "n_warnings": len(result.warnings),
+            "jump_samples": list(result.jump_samples),
             "notes": list(result.notes),
             "warnings": list(summary[len(result.notes) :]),
         }

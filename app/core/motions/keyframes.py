@@ -21,6 +21,8 @@ previous keyframe. `interpolate` samples the motion every dt seconds:
   orientation are;
 - a foot is in contact when it is a stance foot of the segment, or when its sole's lowest
   corner is within CONTACT_BAND_M of the ground (z = 0);
+- no joint moves further in one sample than its speed limit allows: a larger IK step is
+  clipped and the sample flagged (app.core.motions.continuity);
 - v and a come from app.core.trajectory.from_configurations (finite differences on the
   configuration manifold, as the spring-compensation paper does, eqs. 19–22).
 
@@ -41,6 +43,7 @@ import pinocchio as pin
 
 from app.core.budgets import check_dt, check_samples
 from app.core.errors import StudioError
+from app.core.motions.continuity import limit_joint_steps
 from app.core.motions.interpolant import blend, min_jerk, trapezoid
 from app.core.motions.result import MotionResult, SampleWarning
 from app.core.motions.trajectory import from_configurations
@@ -215,7 +218,12 @@ def interpolate(
         messages: list[str] = []
         if k > 0:
             result, messages = _keep_stance(robot, ik, q, start, targets, result, com_in_support)
-        q = result.q
+            q_next, jump = _continuous(robot, ik, q, result.q, start, targets, dt, com_in_support)
+            if jump is not None:
+                messages.append(jump)
+            q = q_next
+        else:
+            q = result.q
         pin.framesForwardKinematics(robot.model, data, q)
         contacts[k] = _contacts(robot, data, after.stance)
         messages += _shortfalls(robot, data, targets, result.warnings)
@@ -354,6 +362,29 @@ def _keep_stance(
         if _slide_m(robot, start, retry.q, targets.stance) <= STANCE_SLIDE_M:
             return retry, [f"{message}: solved without it"]
     return dataclasses.replace(result, q=q), [f"{message}: the previous pose is kept"]
+
+
+def _continuous(
+    robot: RobotModel,
+    ik: WholeBodyIK,
+    q_prev: np.ndarray,
+    q_new: np.ndarray,
+    start: dict[str, np.ndarray],
+    targets: IkTargets,
+    dt: float,
+    com_in_support: bool,
+) -> tuple[np.ndarray, str | None]:
+    """q_new with no joint faster than its limit (app.core.motions.continuity). When clipping
+    slides a stance foot, the IK is solved once more from the clipped pose and clipped again;
+    if a foot still slides, the previous pose is kept. Returns the flag message, if any."""
+    q, jump = limit_joint_steps(robot, q_prev, q_new, dt)
+    if jump is None or _slide_m(robot, start, q, targets.stance) <= STANCE_SLIDE_M:
+        return q, jump
+    retry = ik.solve(q, targets, com_in_support=com_in_support, max_iterations=SOLVE_ITERATIONS)
+    q_retry, _ = limit_joint_steps(robot, q_prev, retry.q, dt)
+    if _slide_m(robot, start, q_retry, targets.stance) <= STANCE_SLIDE_M:
+        return q_retry, jump
+    return q_prev.copy(), f"{jump}; it would slide a standing foot: the previous pose is kept"
 
 
 def _slide_m(
