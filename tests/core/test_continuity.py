@@ -21,9 +21,9 @@ def servo():
     return load_robot("servo_biped")
 
 
-def test_one_joint_step_is_clipped_to_its_limit(servo) -> None:
-    """Closed form: joint j moved by 1 rad in dt = 0.01 s with v_max = 10 rad/s → 0.1 rad;
-    a joint that moved 0.05 rad is left alone; the base keeps its solved step."""
+def test_a_fast_step_is_scaled_to_the_slowest_limit(servo) -> None:
+    """Closed form: joint a moved by 1 rad and joint b by −0.05 rad in dt = 0.01 s, base x by
+    0.3 m; a's limit v_a·dt sets α = v_a·dt / 1 rad, and every component is scaled by α."""
     dt = 0.01
     q0 = servo.q_neutral.copy()
     q1 = q0.copy()
@@ -31,11 +31,12 @@ def test_one_joint_step_is_clipped_to_its_limit(servo) -> None:
     q1[a.idx_q] += 1.0
     q1[b.idx_q] -= 0.05
     q1[0] += 0.3  # base x
-    v_a = servo.joints[3].velocity or DEFAULT_SPEED_LIMIT
+    v_a = a.velocity or DEFAULT_SPEED_LIMIT
+    alpha = v_a * dt / 1.0
     q, message = limit_joint_steps(servo, q0, q1, dt)
     assert q[a.idx_q] == pytest.approx(q0[a.idx_q] + v_a * dt, abs=1e-12)
-    assert q[b.idx_q] == pytest.approx(q1[b.idx_q], abs=1e-12)
-    assert q[0] == pytest.approx(q1[0], abs=1e-12)
+    assert q[b.idx_q] == pytest.approx(q0[b.idx_q] - 0.05 * alpha, abs=1e-12)
+    assert q[0] == pytest.approx(q0[0] + 0.3 * alpha, abs=1e-12)
     assert message is not None and a.name in message and "57.3°" in message
     unchanged, none = limit_joint_steps(servo, q0, q0, dt)
     assert none is None and np.array_equal(unchanged, q0)

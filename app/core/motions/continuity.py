@@ -3,16 +3,18 @@
 Whole-body IK solved sample by sample can switch to another solution between two samples: a
 joint the targets do not pin (an arm, when only the CoM is asked for) swings 40–70° in 10 ms.
 After each IK solve, the step from the previous sample is measured on the configuration
-manifold (δ = q_new ⊖ q_prev, pinocchio.difference) and every actuated joint's component is
-clipped to ±v_max·dt:
+manifold (δ = q_new ⊖ q_prev, pinocchio.difference) and, when an actuated joint's component
+exceeds its limit, the whole step is scaled down uniformly:
 
-    δ_j ← clip(δ_j, −v_max,j·dt, +v_max,j·dt),   q = q_prev ⊕ δ   (pinocchio.integrate)
+    α = min(1, min_j v_max,j·dt / |δ_j|),   q = q_prev ⊕ α·δ   (pinocchio.integrate)
 
 where v_max,j is the joint's URDF velocity limit [rad/s or m/s], or DEFAULT_SPEED_LIMIT when
-the URDF gives none. The base and the passive loop joints are left as solved. The next sample
-is warm-started from the clipped pose, so the IK catches up over the following samples. Every
-clipped sample is flagged (a SampleWarning starting with JUMP_PREFIX): its targets were
-missed on purpose, and its torques are excluded from peaks.
+the URDF gives none. Scaling every joint (and the base) by the same α keeps the motion's
+direction: a foot that stands still at both ends moves only to second order in α·δ, where
+clipping joints one by one would drag it. The next sample is warm-started from the scaled
+pose, so the IK catches up over the following samples. Every scaled sample is flagged (a
+SampleWarning starting with JUMP_PREFIX): its targets were missed on purpose, and its torques
+are excluded from peaks.
 """
 
 from __future__ import annotations
@@ -38,8 +40,9 @@ def speed_limits(robot: RobotModel) -> np.ndarray:
 def limit_joint_steps(
     robot: RobotModel, q_prev: np.ndarray, q_new: np.ndarray, dt: float
 ) -> tuple[np.ndarray, str | None]:
-    """(q, message): q_new with every actuated joint's step clipped to v_max·dt (module
-    docstring); message is None when nothing was clipped, else names the fastest joint."""
+    """(q, message): the step from q_prev to q_new scaled so that no actuated joint moves more
+    than v_max·dt (module docstring); message is None when the step was within the limits,
+    else names the joint that set the scale."""
     delta = pin.difference(robot.model, q_prev, q_new)
     idx_v = np.array([j.idx_v for j in robot.joints], dtype=int)
     limits = speed_limits(robot) * dt
@@ -47,13 +50,15 @@ def limit_joint_steps(
     over = np.abs(steps) > limits * (1.0 + 1e-9)
     if not over.any():
         return q_new, None
-    worst = int(np.argmax(np.where(over, np.abs(steps) / limits, 0.0)))
+    ratios = np.abs(steps) / limits
+    worst = int(np.argmax(ratios))
     joint = robot.joints[worst]
     unit = "m" if joint.kind == "prismatic" else "°"
     scale = 1.0 if joint.kind == "prismatic" else 180.0 / np.pi
-    delta[idx_v] = np.clip(steps, -limits, limits)
+    alpha = 1.0 / float(ratios[worst])
     message = (
         f"{JUMP_PREFIX} the IK moved {joint.name} {abs(steps[worst]) * scale:.1f}{unit} in one "
-        f"sample, its speed limit allows {limits[worst] * scale:.2g}{unit}; held to the limit"
+        f"sample, its speed limit allows {limits[worst] * scale:.2g}{unit}; the step was "
+        "scaled to the limit"
     )
-    return pin.integrate(robot.model, q_prev, delta), message
+    return pin.integrate(robot.model, q_prev, alpha * delta), message

@@ -22,7 +22,7 @@ previous keyframe. `interpolate` samples the motion every dt seconds:
 - a foot is in contact when it is a stance foot of the segment, or when its sole's lowest
   corner is within CONTACT_BAND_M of the ground (z = 0);
 - no joint moves further in one sample than its speed limit allows: a larger IK step is
-  clipped and the sample flagged (app.core.motions.continuity);
+  scaled down and the sample flagged (app.core.motions.continuity);
 - v and a come from app.core.trajectory.from_configurations (finite differences on the
   configuration manifold, as the spring-compensation paper does, eqs. 19–22).
 
@@ -374,16 +374,27 @@ def _continuous(
     dt: float,
     com_in_support: bool,
 ) -> tuple[np.ndarray, str | None]:
-    """q_new with no joint faster than its limit (app.core.motions.continuity). When clipping
-    slides a stance foot, the IK is solved once more from the clipped pose and clipped again;
-    if a foot still slides, the previous pose is kept. Returns the flag message, if any."""
+    """q_new with no joint faster than its limit (app.core.motions.continuity). When the
+    scaled step slides a stance foot, the standing feet are re-planted by the IK around the
+    scaled pose (its pelvis and free foot as targets) and the step scaled again, up to three
+    times; if a foot still slides, the previous pose is kept. Returns the flag, if any."""
     q, jump = limit_joint_steps(robot, q_prev, q_new, dt)
-    if jump is None or _slide_m(robot, start, q, targets.stance) <= STANCE_SLIDE_M:
+    if jump is None:
+        return q, None
+    for _ in range(3):
+        if _slide_m(robot, start, q, targets.stance) <= STANCE_SLIDE_M:
+            return q, jump
+        # re-plant the standing feet, keeping the scaled pose's pelvis and free foot
+        where = _where(robot, q, robot.model.createData())
+        held = {
+            side: start[side] if targets.stance in (side, "both") else where[side]
+            for side in ("left", "right")
+        }
+        fix = IkTargets(held["left"], held["right"], where["pelvis"], None, targets.stance)
+        solved = ik.solve(q, fix, com_in_support=com_in_support, max_iterations=SOLVE_ITERATIONS)
+        q, _ = limit_joint_steps(robot, q_prev, solved.q, dt)
+    if _slide_m(robot, start, q, targets.stance) <= STANCE_SLIDE_M:
         return q, jump
-    retry = ik.solve(q, targets, com_in_support=com_in_support, max_iterations=SOLVE_ITERATIONS)
-    q_retry, _ = limit_joint_steps(robot, q_prev, retry.q, dt)
-    if _slide_m(robot, start, q_retry, targets.stance) <= STANCE_SLIDE_M:
-        return q_retry, jump
     return q_prev.copy(), f"{jump}; it would slide a standing foot: the previous pose is kept"
 
 
