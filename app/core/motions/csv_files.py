@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import io
 import math
 import os
 import re
@@ -105,11 +104,10 @@ def _header_cell(name: str, unit: str) -> str:
 
 def _open(path_or_file: PathOrFile) -> tuple[IO[str], bool, str]:
     """(file to read, whether we opened it, name for messages); a path goes through the input
-    gate (regular file, ≤ 64 MiB, UTF-8)."""
+    gate (regular file, ≤ 256 MiB, UTF-8) and is streamed."""
     if isinstance(path_or_file, str | os.PathLike):
         path = Path(path_or_file)
-        text = input_gate.read_text(path, input_gate.MOTION_CSV, MotionFileError)
-        return io.StringIO(text, newline=""), True, path.name
+        return input_gate.open_text(path, input_gate.MOTION_CSV, MotionFileError), True, path.name
     return path_or_file, False, str(getattr(path_or_file, "name", "motion"))
 
 
@@ -196,13 +194,21 @@ def read_trajectory_csv(path_or_file: PathOrFile, robot: RobotModel) -> Trajecto
     """Read a CSV file written by write_trajectory_csv (or by hand in the same format)."""
     file, owned, source = _open(path_or_file)
     try:
-        table = list(_rows(file, source))
+        return _read_table(_rows(file, source), source, robot)
     finally:
         if owned:
             file.close()
-    if not table:
+
+
+def _read_table(
+    table: Iterator[tuple[int, list[str]]], source: str, robot: RobotModel
+) -> Trajectory:
+    """The trajectory in the rows of a motion CSV, parsed row by row (each row becomes numbers
+    as it is read: a 64 MiB file never sits in memory as millions of strings)."""
+    first = next(table, None)
+    if first is None:
         raise MotionFileError(f"{source}: the file is empty")
-    header_line, header = table[0]
+    header_line, header = first
     if all(_is_number(cell) for cell in header):
         raise MotionFileError(
             f"{source}: line {header_line} holds numbers, not a header row naming the columns "
@@ -248,15 +254,23 @@ def read_trajectory_csv(path_or_file: PathOrFile, robot: RobotModel) -> Trajecto
         )
 
     labels = [cell.strip() for cell in header]
-    values = np.empty((len(table) - 1, len(header)))
-    for k, (line, cells) in enumerate(table[1:]):
+    rows: list[np.ndarray] = []
+    lines: list[int] = []
+    for line, cells in table:
         if len(cells) != len(header):
             raise MotionFileError(
                 f"{source}, line {line}: {len(cells)} values, the header has {len(header)} columns"
             )
-        for column, cell in enumerate(cells):
-            values[k, column] = _number(cell, line, column + 1, labels[column], source)
-    lines = [line for line, _ in table[1:]]
+        rows.append(
+            np.array(
+                [
+                    _number(cell, line, column + 1, labels[column], source)
+                    for column, cell in enumerate(cells)
+                ]
+            )
+        )
+        lines.append(line)
+    values = np.array(rows).reshape(len(rows), len(header))
     if len(values) < 2:
         raise MotionFileError(f"{source}: {len(values)} sample row(s); a motion needs at least 2")
 

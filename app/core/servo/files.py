@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import io
 import math
 import os
 from collections.abc import Sequence
@@ -118,8 +117,13 @@ def read_torque_csv(
     column, and every `tau:` column must name one of them."""
     if isinstance(path_or_file, (str, os.PathLike)):
         source = os.fspath(path_or_file)
-        text = input_gate.read_text(source, input_gate.TORQUE_CSV, CompensationError)
-        return _read_torque(io.StringIO(text, newline=""), source, joint_names)
+        with input_gate.open_text(source, input_gate.TORQUE_CSV, CompensationError) as file:
+            try:
+                return _read_torque(file, source, joint_names)
+            except UnicodeDecodeError as exc:
+                raise CompensationError(
+                    f"{source}: not UTF-8 text (byte {exc.start} of a block); save it as UTF-8"
+                ) from None
     return _read_torque(path_or_file, str(getattr(path_or_file, "name", "torques")), joint_names)
 
 
