@@ -301,6 +301,9 @@ def test_feedforward_writes_torque_csv_and_reports_json(tmp_path):
     assert report["max_abs_tau_Nm"] == pytest.approx(
         dict(zip(robot.joint_names, peaks, strict=True))
     )
+    # nothing flagged in a slow CoM shift: the peaks over all samples are the same
+    assert report["flagged_samples"] == {"infeasible": [], "over_speed": []}
+    assert report["max_abs_tau_all_samples_Nm"] == report["max_abs_tau_Nm"]
     # the file holds the library's torques exactly (repr round trip); their physics is
     # checked in tests/core/test_wbc.py
     from app.core.dynamics.wbc import torque_feedforward
