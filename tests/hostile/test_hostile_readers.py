@@ -186,6 +186,16 @@ def test_a_link_out_of_an_allowed_folder_is_refused(tmp_path: Path) -> None:
         load_robot(inside / "robot.urdf", access=access)
 
 
+def test_a_folder_whose_urdf_links_outside_is_refused(tmp_path: Path) -> None:
+    inside, outside = tmp_path / "work", tmp_path / "elsewhere"
+    (inside / "robot").mkdir(parents=True)
+    outside.mkdir()
+    (outside / "robot.urdf").write_text(tiny_biped_urdf())
+    (inside / "robot" / "robot.urdf").symlink_to(outside / "robot.urdf")
+    with pytest.raises(PathNotAllowed):
+        load_robot(inside / "robot", access=FileAccess.for_studio(inside))
+
+
 def test_meshes_stay_in_the_allowed_folders(tmp_path: Path) -> None:
     inside, outside = tmp_path / "work", tmp_path / "elsewhere"
     inside.mkdir()

@@ -38,7 +38,7 @@ def resolve_source(source: str | Path, access: FileAccess | None = None) -> Path
         return BUILTIN_ROBOTS[source].urdf_path
     path = Path(source).expanduser()
     if access is not None:
-        access.check(path)
+        path = access.check(path)  # resolved: a link swapped in later is not followed out
     if not path.exists():
         names = ", ".join(BUILTIN_ROBOTS)
         raise RobotLoadError(f"{source}: no such file, and not a built-in robot ({names})")
@@ -48,7 +48,7 @@ def resolve_source(source: str | Path, access: FileAccess | None = None) -> Path
             raise RobotLoadError(
                 f"{path}: a folder; give the .urdf file inside it ({len(urdfs)} found)"
             )
-        path = urdfs[0]
+        path = urdfs[0] if access is None else access.check(urdfs[0])
     if path.suffix.lower() == ".xacro":
         raise RobotLoadError(
             f"{path.name}: a xacro file; expand it first (xacro {path.name} > robot.urdf)"
