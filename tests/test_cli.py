@@ -367,3 +367,21 @@ def test_plan_refuses_bad_settings_with_one_line(tmp_path, config, reason):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and reason in lines[0]
     assert not (tmp_path / "gait.csv").exists()
+
+
+def test_limits_lists_what_the_gate_enforces(tmp_path):
+    """`limits` names the URDF size limit, and a file one byte over it is refused with the
+    same number."""
+    import importlib
+
+    result = run("limits", "--json")
+    assert result.returncode == 0, result.stderr
+    rows = {row["what"]: row for row in json.loads(result.stdout)}
+    for row in rows.values():
+        importlib.import_module(row["where"])
+    assert rows["URDF file size"]["value"] == "20 MiB"
+    big = tmp_path / "big.urdf"
+    with open(big, "wb") as file:
+        file.truncate(20 * 2**20 + 1)
+    refused = run("check", str(big))
+    assert refused.returncode == 1 and "over 20.0 MiB" in refused.stderr

@@ -12,7 +12,7 @@ import json
 import sys
 from collections.abc import Callable
 
-from app.cli import compensate, feedforward, motion, plan, robots, serve
+from app.cli import compensate, feedforward, limits, motion, plan, robots, serve
 from app.cli.common import DEFAULTS
 from app.core.errors import StudioError
 
@@ -40,6 +40,7 @@ PARSERS: tuple[Callable[..., None], ...] = (
     feedforward.add_parser,
     compensate.add_parser,
     plan.add_parser,
+    limits.add_parser,
 )
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "serve": serve.run,
@@ -51,6 +52,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "calibrate": compensate.run_calibrate,
     "plan": plan.run,
     "bench": _bench,
+    "limits": limits.run,
 }
 
 
