@@ -11,7 +11,8 @@ Limits, one per kind of file (the README's Safety section lists them):
 
     URDF                      20 MiB
     mesh (STL, DAE, PLY, GLB, OFF)  64 MiB; binary STL ≤ 1 000 000 triangles (header checked
-                              against the file size); OBJ 16 MiB (text: ~25× its size in memory)
+                              against the file size); OBJ and DAE 16 MiB (text: ~25× its size
+                              in memory)
     compressed meshes (.gz .bz2 .xz .zip .zst .7z .tar.*): refused, unpack them first
     motion CSV                256 MiB, streamed (100 000 samples of a 30-joint robot)
     torque CSV                128 MiB, streamed
@@ -51,13 +52,13 @@ class FileKind:
 
 URDF = FileKind("URDF", 20 * MiB)
 MESH = FileKind("mesh", 64 * MiB)
-OBJ_MESH = FileKind("OBJ mesh", 16 * MiB)
+TEXT_MESH = FileKind("OBJ or DAE mesh", 16 * MiB)
 MOTION_CSV = FileKind("motion CSV", 256 * MiB)
 TORQUE_CSV = FileKind("torque CSV", 128 * MiB)
 MEASURED_CSV = FileKind("measurement CSV", 16 * MiB)
 TOML = FileKind("TOML", 1 * MiB)
 UPLOAD = FileKind("upload", 100 * MiB)
-KINDS = (URDF, MESH, OBJ_MESH, MOTION_CSV, TORQUE_CSV, MEASURED_CSV, TOML, UPLOAD)
+KINDS = (URDF, MESH, TEXT_MESH, MOTION_CSV, TORQUE_CSV, MEASURED_CSV, TOML, UPLOAD)
 
 TOML_MAX_DEPTH = 16
 """Deepest nesting of tables and arrays accepted in a TOML file (`a = [[1]]` is 2 deep)."""

@@ -44,6 +44,7 @@ MESHES = {
     "bz2-bomb-512MiB": ("foot.stl.bz2", lambda p: _bz2_bomb(p, 512), "compressed"),
     "stl-billions-of-triangles": ("foot.stl", _lying_stl, "claims 4294967295 triangles"),
     "obj-20MiB": ("foot.obj", lambda p: _sparse(p, 20 * 2**20), "over 16.0 MiB"),
+    "dae-20MiB": ("foot.dae", lambda p: _sparse(p, 20 * 2**20), "over 16.0 MiB"),
     "stl-200MiB": ("foot.stl", lambda p: _sparse(p, 200 * 2**20), "over 64.0 MiB"),
     "gltf": ("foot.gltf", lambda p: p.write_text("{}"), "is not read"),
 }

@@ -145,6 +145,16 @@ def test_ply_header_counts_are_bounded(tmp_path: Path) -> None:
         read_mesh_file(path)
 
 
+def test_dae_with_entities_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "m.dae"
+    path.write_text(
+        '<?xml version="1.0"?><!DOCTYPE c [<!ENTITY x SYSTEM "file:///etc/hostname">]>'
+        '<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema">&x;</COLLADA>'
+    )
+    with pytest.raises(InputRefused, match="DOCTYPE or XML entities"):
+        read_mesh_file(path)
+
+
 def test_mesh_is_read_without_its_folder(tmp_path: Path) -> None:
     """An OBJ naming a material library elsewhere loads, without trimesh reading that file:
     the loader is given bytes, not a path (an unreadable mtllib would make it fail)."""

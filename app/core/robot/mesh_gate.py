@@ -6,7 +6,9 @@ triangle count; a 1.5 KB file can thus claim gigabytes. Here:
 - compressed meshes (.gz .bz2 .xz .zip .zst .7z .tar .tgz .lzma, also inside a double suffix
   such as `.stl.gz`) are refused: unpack them first;
 - only STL, OBJ, DAE, PLY, OFF and GLB are read (GLTF is not: it names further files);
-- sizes: 64 MiB per file, 16 MiB for OBJ (text parsed in memory), see app.core.input_gate;
+- sizes: 64 MiB per file, 16 MiB for OBJ and DAE (text parsed in memory), see
+  app.core.input_gate;
+- a DAE (XML) declaring a DOCTYPE or entities is refused (entity expansion, external files);
 - one robot reads at most MAX_ROBOT_MESH_BYTES (256 MiB) of mesh files and keeps at most
   MAX_ROBOT_TRIANGLES (4 000 000) triangles (app.core.robot.meshes);
 - a binary STL's 32-bit triangle count (bytes 80–84) must match the file size
@@ -52,10 +54,15 @@ def read_mesh_file(path: Path) -> tuple[bytes, str]:
             f"mesh {path.name}: format {suffix or '(none)'} is not read; use one of "
             + ", ".join(MESH_FORMATS)
         )
-    kind = input_gate.OBJ_MESH if suffix == ".obj" else input_gate.MESH
+    kind = input_gate.TEXT_MESH if suffix in (".obj", ".dae") else input_gate.MESH
     data = input_gate.read_bytes(path, kind)
     if suffix == ".stl":
         check_stl(data, path.name)
+    elif suffix == ".dae" and (b"<!DOCTYPE" in data or b"<!ENTITY" in data):
+        raise InputRefused(
+            f"mesh {path.name} declares a DOCTYPE or XML entities; COLLADA needs neither, "
+            "remove them (entities can expand to gigabytes or read other files)"
+        )
     elif suffix == ".ply":
         check_ply_header(data, path.name)
     return data, suffix[1:]
