@@ -12,8 +12,9 @@ from app.core.posing.drag import DragTargetError, Posing, drag_target
 from app.core.robot.loading import load_robot
 
 
-def test_target_matches_pinocchio_quaternion() -> None:
-    quat = np.array([2.0, 0.0, 0.0, 2.0])  # not normalised: 90° about z
+@pytest.mark.parametrize("scale", [2.0, 1e-6, 1e308])
+def test_target_matches_pinocchio_quaternion(scale: float) -> None:
+    quat = np.array([1.0, 0.0, 0.0, 1.0]) * scale  # not normalised: 90° about z
     T = drag_target(np.array([0.1, 0.2, 0.3]), quat)
     expected = pin.SE3(
         pin.Quaternion(np.array([0.0, 0.0, 1.0, 1.0]) / np.sqrt(2)), np.array([0.1, 0.2, 0.3])

@@ -34,7 +34,9 @@ def drag_target(position_m: np.ndarray, quat_wxyz: np.ndarray) -> np.ndarray:
         raise DragTargetError("a drag target needs 3 position and 4 quaternion values")
     if not (np.all(np.isfinite(position)) and np.all(np.isfinite(quat))):
         raise DragTargetError("the drag target is not finite; drag the handle again")
-    norm = float(np.linalg.norm(quat))
+    largest = float(np.max(np.abs(quat)))
+    quat = quat / largest if largest > 0.0 else quat  # no overflow in the norm of 1e308s
+    norm = float(np.linalg.norm(quat)) * largest
     if norm < 1e-9:
         raise DragTargetError("the drag target's orientation is a zero quaternion")
     if float(np.max(np.abs(position))) > MAX_DRAG_DISTANCE_M:
@@ -42,7 +44,7 @@ def drag_target(position_m: np.ndarray, quat_wxyz: np.ndarray) -> np.ndarray:
             f"the drag target is {np.max(np.abs(position)):.3g} m away; at most "
             f"{MAX_DRAG_DISTANCE_M:g} m"
         )
-    w, x, y, z = quat / norm
+    w, x, y, z = quat / np.linalg.norm(quat)
     T = np.eye(4)
     T[:3, :3] = pin.Quaternion(w, x, y, z).toRotationMatrix()
     T[:3, 3] = position
