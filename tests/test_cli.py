@@ -120,9 +120,9 @@ def test_motion_bad_parameter_is_one_line_naming_the_valid_ones(tmp_path):
 # --- compensate / calibrate (servo spring and clearance compensation) -----------------------
 
 
-def _plan_and_torques(tmp_path, drop_joint=None):
+def _plan_and_torques(tmp_path, drop_joint=None, amplitude_Nm=0.4, shift_m=0.05):
     """A one-leg stand of servo_biped as motion CSV, and a made-up torque CSV for it:
-    τ_j(t) = 0.4·sin(t + j) N·m, every 7th sample with status 'max_iter'."""
+    τ_j(t) = amplitude·sin(t + j) N·m, every 7th sample with status 'max_iter'."""
     import math
 
     from app.core.motions.csv_files import write_trajectory_csv
@@ -130,12 +130,12 @@ def _plan_and_torques(tmp_path, drop_joint=None):
     from app.core.robot.loading import load_robot
 
     robot = load_robot("servo_biped")
-    traj = run_motion(robot, "one_leg_stand", dt=0.05).trajectory
+    traj = run_motion(robot, "one_leg_stand", dt=0.05, shift_m=shift_m).trajectory
     write_trajectory_csv(traj, tmp_path / "traj.csv", robot)
     names = [n for n in robot.joint_names if n != drop_joint]
     lines = [",".join(["t [s]", *(f"tau:{n} [N·m]" for n in names), "status"])]
     for k, t in enumerate(traj.t):
-        taus = [repr(0.4 * math.sin(t + robot.joint_names.index(n))) for n in names]
+        taus = [repr(amplitude_Nm * math.sin(t + robot.joint_names.index(n))) for n in names]
         lines.append(",".join([repr(float(t)), *taus, "max_iter" if k % 7 == 0 else "ok"]))
     (tmp_path / "tau.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     return robot, traj
@@ -149,10 +149,27 @@ def _read_columns(path):
     return {name: [float(row[i]) for row in rows[1:]] for i, name in enumerate(rows[0])}
 
 
+def test_compensate_refuses_commands_outside_the_joint_limits(tmp_path):
+    """Table 3's k = −650 °/(N·m) times 0.4 N·m asks the hip for −260°: no file is written."""
+    _plan_and_torques(tmp_path)
+    out = tmp_path / "cmd.csv"
+    result = run(
+        "compensate", str(tmp_path / "traj.csv"), "--robot", "servo_biped",
+        "--tau", str(tmp_path / "tau.csv"), "--preset", "table3", "--out", str(out),
+    )  # fmt: skip
+    assert result.returncode == 1
+    assert "hip_pitch at sample" in result.stderr and "outside its limits" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert not out.exists() and list(tmp_path.glob(".cmd.csv*")) == []
+
+
 def test_compensate_table3_with_clearance_writes_eq23_commands(tmp_path):
     import math
 
-    robot, traj = _plan_and_torques(tmp_path)
+    # k·τ of a few degrees and a small CoM shift: the commands, φ = 8° included, stay within
+    # the joint limits (otherwise nothing is written, see the test above)
+    amplitude = 0.01
+    robot, traj = _plan_and_torques(tmp_path, amplitude_Nm=amplitude, shift_m=0.01)
     out = tmp_path / "cmd.csv"
     result = run(
         "compensate", str(tmp_path / "traj.csv"), "--robot", "servo_biped",
@@ -175,7 +192,7 @@ def test_compensate_table3_with_clearance_writes_eq23_commands(tmp_path):
         j = robot.joint_names.index(name)
         for i, t in enumerate(traj.t):
             q_deg = math.degrees(traj.q[i, robot.joints[j].idx_q])
-            spring = q_deg + k_j * 0.4 * math.sin(t + j)  # eq 7
+            spring = q_deg + k_j * amplitude * math.sin(t + j)  # eq 7
             expected = spring + (8.0 * math.copysign(1.0, spring) if k_j else 0.0)  # eq 23
             assert columns[f"q_cmd:{name} [deg]"][i] == pytest.approx(expected, abs=1e-9)
             assert columns[f"q_cmd:{name} [rad]"][i] == pytest.approx(
@@ -284,6 +301,9 @@ def test_feedforward_writes_torque_csv_and_reports_json(tmp_path):
     assert report["max_abs_tau_Nm"] == pytest.approx(
         dict(zip(robot.joint_names, peaks, strict=True))
     )
+    # nothing flagged in a slow CoM shift: the peaks over all samples are the same
+    assert report["flagged_samples"] == {"infeasible": [], "over_speed": []}
+    assert report["max_abs_tau_all_samples_Nm"] == report["max_abs_tau_Nm"]
     # the file holds the library's torques exactly (repr round trip); their physics is
     # checked in tests/core/test_wbc.py
     from app.core.dynamics.wbc import torque_feedforward
@@ -347,3 +367,21 @@ def test_plan_refuses_bad_settings_with_one_line(tmp_path, config, reason):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and reason in lines[0]
     assert not (tmp_path / "gait.csv").exists()
+
+
+def test_limits_lists_what_the_gate_enforces(tmp_path):
+    """`limits` names the URDF size limit, and a file one byte over it is refused with the
+    same number."""
+    import importlib
+
+    result = run("limits", "--json")
+    assert result.returncode == 0, result.stderr
+    rows = {row["what"]: row for row in json.loads(result.stdout)}
+    for row in rows.values():
+        importlib.import_module(row["where"])
+    assert rows["URDF file size"]["value"] == "20 MiB"
+    big = tmp_path / "big.urdf"
+    with open(big, "wb") as file:
+        file.truncate(20 * 2**20 + 1)
+    refused = run("check", str(big))
+    assert refused.returncode == 1 and "over 20.0 MiB" in refused.stderr

@@ -12,7 +12,7 @@ import json
 import sys
 from collections.abc import Callable
 
-from app.cli import compensate, feedforward, motion, plan, robots, serve, simulate
+from app.cli import compensate, feedforward, limits, motion, plan, robots, serve, simulate
 from app.cli.common import DEFAULTS
 from app.core.errors import StudioError
 
@@ -41,6 +41,7 @@ PARSERS: tuple[Callable[..., None], ...] = (
     compensate.add_parser,
     plan.add_parser,
     simulate.add_parser,
+    limits.add_parser,
 )
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "serve": serve.run,
@@ -53,6 +54,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "plan": plan.run,
     "simulate": simulate.run,
     "bench": _bench,
+    "limits": limits.run,
 }
 
 
@@ -66,6 +68,9 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, "json", False):
             print(json.dumps({"ok": False, "error": str(error)}))
         print(f"biped-studio {command}: {error}", file=sys.stderr)
+        return 1
+    except MemoryError:  # a budget this code does not know yet; still one line, no traceback
+        print(f"biped-studio {command}: out of memory; the input is too large", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         return 130

@@ -13,6 +13,7 @@ from app.cli.common import (
     load_robot_from_args,
     output_target,
 )
+from app.core.atomic_write import write_atomically
 from app.core.errors import StudioError
 
 PRESET_CHOICES = ("uniform", "table3", "table2")
@@ -85,7 +86,9 @@ def run(args: argparse.Namespace) -> int:
     commands = servo_commands(robot, traj, tau, params, torques.status)
     q_plan, q_cmd, warnings = commands.q_plan_rad, commands.q_cmd_rad, list(commands.warnings)
     if args.out is not None:
-        write_command_csv(args.out, traj.t, robot.joint_names, q_cmd)
+        write_command_csv(
+            args.out, traj.t, robot.joint_names, q_cmd, commands.lower_rad, commands.upper_rad
+        )
     correction = np.degrees(np.abs(q_cmd - q_plan)).max(axis=0)
     joints = [
         {
@@ -152,10 +155,12 @@ def run_calibrate(args: argparse.Namespace) -> int:
             np.array([c.identifiable for c in results]),
             notes=(f"calibrated from {args.measured}; unidentifiable joints disabled",),
         )
-        try:
-            args.out.write_text(params.to_toml(), encoding="utf-8")
-        except OSError as error:
-            raise StudioError(f"cannot write {args.out}: {error.strerror}") from None
+        text = params.to_toml()
+
+        def write(file) -> None:
+            file.write(text)
+
+        write_atomically(args.out, write)
     if args.json:
         print(json.dumps([c.to_json() for c in results], indent=2))
         return 0

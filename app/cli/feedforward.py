@@ -35,6 +35,7 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from app.core.dynamics.peaks import torque_peaks
     from app.core.dynamics.wbc import torque_feedforward, write_torque_csv
     from app.core.motions.csv_files import read_trajectory_csv
 
@@ -46,7 +47,8 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         write_torque_csv(args.out, ff)
     bad = [int(k) for k in ff.infeasible_samples]
-    peaks = np.max(np.abs(ff.tau_Nm), axis=0, initial=0.0, where=np.isfinite(ff.tau_Nm))
+    summary = torque_peaks(robot, traj, ff)
+    peaks = summary.max_abs_tau_Nm  # over samples neither infeasible nor over the speed limits
     if args.json:
         report = {
             "ok": True,
@@ -54,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
             "trajectory": str(args.trajectory),
             "n_samples": traj.n_samples,
             "out": None if args.out is None else str(args.out),
-            "max_abs_tau_Nm": {n: float(p) for n, p in zip(ff.joint_names, peaks, strict=True)},
+            **summary.to_json(),
             "infeasible_samples": bad,
             "first_problems": [
                 {"index": k, "status": ff.status[k]} for k in bad[:MAX_WARNING_LINES]
@@ -70,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
     target = output_target(args.out)
     print(
         f"feedforward {traj.name} on {robot.name}: {traj.n_samples} samples in {seconds:.2f} s, "
-        f"{len(bad)} not solved, max |tau| {peaks[worst]:.3g} N·m ({ff.joint_names[worst]}){target}"
+        f"{len(bad)} not solved, max |tau| {peaks[worst]:.3g} N·m ({ff.joint_names[worst]}), "
+        f"{len(summary.flagged_samples)} flagged sample(s) left out of the peaks{target}"
     )
     for line in [*ff.notes, *(f"sample {k}: {ff.status[k]}" for k in bad)][:MAX_WARNING_LINES]:
         print(f"warning: {line}", file=sys.stderr)

@@ -13,6 +13,7 @@ from app.cli.common import (
     load_robot_from_args,
     output_target,
 )
+from app.core.budgets import check_dt
 from app.core.errors import StudioError
 
 
@@ -75,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
     from app.core.motions.csv_files import write_trajectory_csv
 
     params = resolve_params(args.name, _params(args.param))  # bad names fail before loading
+    check_dt(args.dt, "--dt")
     robot = load_robot_from_args(args)
     result = run_motion(robot, args.name, dt=args.dt, **_params(args.param))
     traj = result.trajectory
@@ -92,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
             "n_samples": traj.n_samples,
             "out": None if args.out is None else str(args.out),
             "n_warnings": len(result.warnings),
+            "jump_samples": list(result.jump_samples),
             "notes": list(result.notes),
             "warnings": list(summary[len(result.notes) :]),
         }

@@ -9,6 +9,7 @@ from pathlib import Path
 from app.cli.common import (
     output_target,
 )
+from app.core.budgets import check_dt, check_samples
 from app.core.errors import StudioError
 
 
@@ -38,12 +39,12 @@ def run(args: argparse.Namespace) -> int:
     from app.core.motions.csv_files import write_trajectory_csv
     from app.core.robot.loading import load_robot
 
+    check_dt(args.dt, "--dt")  # before the solve, not after minutes of it
     values = read_settings_toml(args.config) if args.config is not None else {}
     if args.baseline:
         values["baseline"] = True
     settings = GaitSettings.from_mapping(values, source=str(args.config or "settings"))
-    if not args.dt > 0.0:
-        raise StudioError(f"--dt must be > 0, got {args.dt}")
+    check_samples(settings.H_s / args.dt + 1, 20, f"the gait CSV at --dt {args.dt:g} s")
     robot = load_robot("dircon_biped")
     problem = GaitProblem(robot, settings.knots, settings.baseline)
     result = problem.solve(settings)

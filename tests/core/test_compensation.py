@@ -251,7 +251,7 @@ enabled = false
         (b"[joints.a]\nk = 1\n", "unknown key"),
         (b"[joints.a]\nphi_deg = 1\n", "has no k_deg_per_Nm"),
         (b'[joints.a]\nk_deg_per_Nm = "x"\n', "must be a number"),
-        (b"[joints.a]\nk_deg_per_Nm = nan\n", "k of a is nan"),
+        (b"[joints.a]\nk_deg_per_Nm = nan\n", "joints.a.k_deg_per_Nm is nan"),
         (b"[joints.a]\nk_deg_per_Nm = 1\nenabled = 1\n", "true or false"),
         (b"k_deg_per_Nm = 1\n", "unknown key"),
         (b"", "no \\[joints"),

@@ -297,7 +297,7 @@ def test_wrong_unit_zero_quaternion_and_bad_contact_are_refused(
 
 
 def test_missing_file_is_a_motion_file_error(servo, tmp_path) -> None:
-    with pytest.raises(MotionFileError, match="cannot open"):
+    with pytest.raises(MotionFileError, match="cannot read"):
         read_trajectory_csv(tmp_path / "nowhere.csv", servo)
 
 

@@ -19,6 +19,7 @@ import dataclasses
 
 import numpy as np
 
+from app.core.budgets import check_dt, check_samples
 from app.core.collocation.planar_model import PlanarModel
 from app.core.collocation.result import GaitResult
 from app.core.collocation.transcription import STANCE, GaitLayout, point_forces
@@ -149,8 +150,8 @@ def to_trajectory(robot: RobotModel, result: GaitResult, dt: float = 0.01) -> Tr
     base-frame twist; contacts follow the modes (left, right, left)."""
     if not result.has_gait:
         raise StudioError(f"no gait to sample: {result.status}")
-    if not dt > 0.0:
-        raise StudioError(f"dt must be > 0, got {dt}")
+    check_dt(dt)
+    check_samples(result.duration_s / dt + 1, robot.model.nq, f"the gait at dt {dt:g} s")
     planar = PlanarModel(robot)
     if planar.joint_names != result.joint_names:
         raise StudioError(

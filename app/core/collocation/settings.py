@@ -12,9 +12,13 @@ import dataclasses
 import math
 from pathlib import Path
 
+from app.core import input_gate
 from app.core.errors import StudioError
 
 MIN_KNOTS = 5
+MAX_ITER = 10_000
+MAX_KNOTS = 120
+"""More knots than this grow the NLP past minutes and gigabytes (400 knots: > 600 s, 2 GB)."""
 
 
 class GaitSettingsError(StudioError):
@@ -72,8 +76,10 @@ class GaitSettings:
             raise GaitSettingsError(
                 f"knots = {self.knots}: at least {MIN_KNOTS} knots are needed for three modes"
             )
-        if self.knots > 400:
-            raise GaitSettingsError(f"knots = {self.knots}: at most 400 (the paper uses 38)")
+        if self.knots > MAX_KNOTS:
+            raise GaitSettingsError(
+                f"knots = {self.knots}: at most {MAX_KNOTS} (the paper uses 38)"
+            )
         if not -0.5 <= self.slack_a <= 0.5 or not -0.5 <= self.slack_b <= 0.5:
             raise GaitSettingsError(
                 f"slack bounds a = {self.slack_a}, b = {self.slack_b} must lie in [−0.5, 0.5]"
@@ -110,8 +116,10 @@ class GaitSettings:
             raise GaitSettingsError(
                 f"step_length_m = {self.step_length_m}: give a forward advance in [0, 1.5] m"
             )
-        if not isinstance(self.max_iter, int) or self.max_iter < 1:
-            raise GaitSettingsError(f"max_iter = {self.max_iter}: give at least 1 iteration")
+        if not isinstance(self.max_iter, int) or not 1 <= self.max_iter <= MAX_ITER:
+            raise GaitSettingsError(
+                f"max_iter = {self.max_iter}: give between 1 and {MAX_ITER} iterations"
+            )
         return self
 
     @property
@@ -148,14 +156,4 @@ class GaitSettings:
 def read_settings_toml(path: Path) -> dict[str, object]:
     """The key/value pairs of a plan.toml (keys are GaitSettings fields, checked by
     `GaitSettings.from_mapping`)."""
-    try:
-        import tomllib  # Python ≥ 3.11
-    except ModuleNotFoundError:  # pragma: no cover - Python 3.10
-        raise GaitSettingsError("reading plan.toml files needs Python 3.11 or newer") from None
-    try:
-        with open(path, "rb") as file:
-            return dict(tomllib.load(file))
-    except OSError as error:
-        raise GaitSettingsError(f"cannot read {path}: {error.strerror}") from None
-    except tomllib.TOMLDecodeError as error:
-        raise GaitSettingsError(f"{path}: not valid TOML: {error}") from None
+    return dict(input_gate.read_toml(path, GaitSettingsError))

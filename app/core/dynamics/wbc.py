@@ -35,6 +35,7 @@ from typing import IO
 
 import numpy as np
 
+from app.core.atomic_write import write_atomically
 from app.core.dynamics.lqr import lqr_com
 from app.core.dynamics.wbc_qp import N_CORNERS, QpWeights, WholeBodyQp
 from app.core.errors import StudioError
@@ -347,11 +348,7 @@ def write_torque_csv(path_or_file: str | os.PathLike[str] | IO[str], ff: FeedFor
     if not isinstance(path_or_file, str | os.PathLike):
         _write_rows(path_or_file, header, ff)
         return
-    try:
-        with open(path_or_file, "w", newline="", encoding="utf-8") as file:
-            _write_rows(file, header, ff)
-    except OSError as exc:
-        raise WbcError(f"{path_or_file}: cannot write: {exc.strerror}") from None
+    write_atomically(path_or_file, lambda file: _write_rows(file, header, ff), WbcError)
 
 
 def _write_rows(file: IO[str], header: list[str], ff: FeedForward) -> None:

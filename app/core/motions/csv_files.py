@@ -39,6 +39,9 @@ from typing import IO, Literal, TypeAlias
 import numpy as np
 import pinocchio as pin
 
+from app.core import input_gate
+from app.core.atomic_write import write_atomically
+from app.core.budgets import MAX_SAMPLES
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory, from_configurations
 from app.core.quaternions import wxyz_to_xyzw
@@ -100,14 +103,12 @@ def _header_cell(name: str, unit: str) -> str:
     return f"{name} [{unit}]" if unit else name
 
 
-def _open(path_or_file: PathOrFile, mode: str) -> tuple[IO[str], bool, str]:
-    """(file, whether we opened it, name for messages)."""
+def _open(path_or_file: PathOrFile) -> tuple[IO[str], bool, str]:
+    """(file to read, whether we opened it, name for messages); a path goes through the input
+    gate (regular file, ≤ 256 MiB, UTF-8) and is streamed."""
     if isinstance(path_or_file, str | os.PathLike):
         path = Path(path_or_file)
-        try:
-            return open(path, mode, newline="", encoding="utf-8"), True, path.name
-        except OSError as exc:
-            raise MotionFileError(f"{path}: cannot open: {exc.strerror}") from None
+        return input_gate.open_text(path, input_gate.MOTION_CSV, MotionFileError), True, path.name
     return path_or_file, False, str(getattr(path_or_file, "name", "motion"))
 
 
@@ -120,8 +121,8 @@ def write_trajectory_csv(traj: Trajectory, path_or_file: PathOrFile, robot: Robo
         )
     joints = _moving_joints(robot)
     n_base_v = 6 if robot.floating_base else 0
-    file, owned, _ = _open(path_or_file, "w")
-    try:
+
+    def write(file: IO[str]) -> None:
         writer = csv.writer(file, lineterminator="\n")
         writer.writerow([_header_cell(name, unit) for name, unit in _columns(robot)])
         for k in range(traj.n_samples):
@@ -140,9 +141,11 @@ def write_trajectory_csv(traj: Trajectory, path_or_file: PathOrFile, robot: Robo
             cells = [repr(x) for x in row]
             cells += ["1" if contact else "0" for contact in traj.contacts[k]]
             writer.writerow(cells)
-    finally:
-        if owned:
-            file.close()
+
+    if isinstance(path_or_file, str | os.PathLike):
+        write_atomically(path_or_file, write, MotionFileError)
+    else:
+        write(path_or_file)
 
 
 _HEADER_CELL = re.compile(r"^\s*(?P<name>.*?)\s*(?:\[(?P<unit>[^\]]*)\])?\s*$")
@@ -151,9 +154,16 @@ _HEADER_CELL = re.compile(r"^\s*(?P<name>.*?)\s*(?:\[(?P<unit>[^\]]*)\])?\s*$")
 def _rows(file: IO[str], source: str) -> Iterator[tuple[int, list[str]]]:
     """(line number, cells) of every non-empty row."""
     reader = csv.reader(file)
+    count = 0
     try:
         for cells in reader:
             if cells and any(cell.strip() for cell in cells):
+                count += 1
+                if count > MAX_SAMPLES + 1:
+                    raise MotionFileError(
+                        f"{source}: more than {MAX_SAMPLES} rows; at most {MAX_SAMPLES} samples "
+                        "are read (split the motion, or resample it at a larger time step)"
+                    )
                 yield reader.line_num, cells
     except (UnicodeDecodeError, csv.Error) as exc:
         raise MotionFileError(f"{source}: not a readable CSV text file ({exc})") from None
@@ -183,15 +193,23 @@ def _is_number(cell: str) -> bool:
 
 def read_trajectory_csv(path_or_file: PathOrFile, robot: RobotModel) -> Trajectory:
     """Read a CSV file written by write_trajectory_csv (or by hand in the same format)."""
-    file, owned, source = _open(path_or_file, "r")
+    file, owned, source = _open(path_or_file)
     try:
-        table = list(_rows(file, source))
+        return _read_table(_rows(file, source), source, robot)
     finally:
         if owned:
             file.close()
-    if not table:
+
+
+def _read_table(
+    table: Iterator[tuple[int, list[str]]], source: str, robot: RobotModel
+) -> Trajectory:
+    """The trajectory in the rows of a motion CSV, parsed row by row (each row becomes numbers
+    as it is read: a 64 MiB file never sits in memory as millions of strings)."""
+    first = next(table, None)
+    if first is None:
         raise MotionFileError(f"{source}: the file is empty")
-    header_line, header = table[0]
+    header_line, header = first
     if all(_is_number(cell) for cell in header):
         raise MotionFileError(
             f"{source}: line {header_line} holds numbers, not a header row naming the columns "
@@ -237,15 +255,23 @@ def read_trajectory_csv(path_or_file: PathOrFile, robot: RobotModel) -> Trajecto
         )
 
     labels = [cell.strip() for cell in header]
-    values = np.empty((len(table) - 1, len(header)))
-    for k, (line, cells) in enumerate(table[1:]):
+    rows: list[np.ndarray] = []
+    lines: list[int] = []
+    for line, cells in table:
         if len(cells) != len(header):
             raise MotionFileError(
                 f"{source}, line {line}: {len(cells)} values, the header has {len(header)} columns"
             )
-        for column, cell in enumerate(cells):
-            values[k, column] = _number(cell, line, column + 1, labels[column], source)
-    lines = [line for line, _ in table[1:]]
+        rows.append(
+            np.array(
+                [
+                    _number(cell, line, column + 1, labels[column], source)
+                    for column, cell in enumerate(cells)
+                ]
+            )
+        )
+        lines.append(line)
+    values = np.array(rows).reshape(len(rows), len(header))
     if len(values) < 2:
         raise MotionFileError(f"{source}: {len(values)} sample row(s); a motion needs at least 2")
 
@@ -365,7 +391,7 @@ def read_roban_motion_csv(
     urdf_order = [actuated[name] for name in robot.tree.joints if name in actuated]
     width = 7 + len(urdf_order)
 
-    file, _, source = _open(path, "r")
+    file, _, source = _open(path)
     with file:
         table = list(_rows(file, path.name))
     values = np.empty((len(table), width))

@@ -21,6 +21,8 @@ previous keyframe. `interpolate` samples the motion every dt seconds:
   orientation are;
 - a foot is in contact when it is a stance foot of the segment, or when its sole's lowest
   corner is within CONTACT_BAND_M of the ground (z = 0);
+- no joint moves further in one sample than its speed limit allows: a larger IK step is
+  scaled down and the sample flagged (app.core.motions.continuity);
 - v and a come from app.core.trajectory.from_configurations (finite differences on the
   configuration manifold, as the spring-compensation paper does, eqs. 19–22).
 
@@ -39,7 +41,9 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 
+from app.core.budgets import check_dt, check_samples
 from app.core.errors import StudioError
+from app.core.motions.continuity import limit_joint_steps
 from app.core.motions.interpolant import blend, min_jerk, trapezoid
 from app.core.motions.result import MotionResult, SampleWarning
 from app.core.motions.trajectory import from_configurations
@@ -173,6 +177,9 @@ def interpolate(
     validate(keyframes)
     if not (math.isfinite(dt) and dt > 0.0):
         raise KeyframeError(f"time step {dt} s; it must be a positive number of seconds")
+    check_dt(dt, "time step")
+    total_s = float(sum(kf.duration_s for kf in keyframes[1:]))
+    check_samples(total_s / dt + 1, robot.model.nq, f"a {total_s:.6g} s motion at dt {dt:g} s")
     ik = ik or WholeBodyIK(
         robot, com_in_support=com_in_support, posture_weight=MOTION_POSTURE_WEIGHT
     )
@@ -211,7 +218,12 @@ def interpolate(
         messages: list[str] = []
         if k > 0:
             result, messages = _keep_stance(robot, ik, q, start, targets, result, com_in_support)
-        q = result.q
+            q_next, jump = _continuous(robot, ik, q, result.q, start, targets, dt, com_in_support)
+            if jump is not None:
+                messages.append(jump)
+            q = q_next
+        else:
+            q = result.q
         pin.framesForwardKinematics(robot.model, data, q)
         contacts[k] = _contacts(robot, data, after.stance)
         messages += _shortfalls(robot, data, targets, result.warnings)
@@ -350,6 +362,40 @@ def _keep_stance(
         if _slide_m(robot, start, retry.q, targets.stance) <= STANCE_SLIDE_M:
             return retry, [f"{message}: solved without it"]
     return dataclasses.replace(result, q=q), [f"{message}: the previous pose is kept"]
+
+
+def _continuous(
+    robot: RobotModel,
+    ik: WholeBodyIK,
+    q_prev: np.ndarray,
+    q_new: np.ndarray,
+    start: dict[str, np.ndarray],
+    targets: IkTargets,
+    dt: float,
+    com_in_support: bool,
+) -> tuple[np.ndarray, str | None]:
+    """q_new with no joint faster than its limit (app.core.motions.continuity). When the
+    scaled step slides a stance foot, the standing feet are re-planted by the IK around the
+    scaled pose (its pelvis and free foot as targets) and the step scaled again, up to three
+    times; if a foot still slides, the previous pose is kept. Returns the flag, if any."""
+    q, jump = limit_joint_steps(robot, q_prev, q_new, dt)
+    if jump is None:
+        return q, None
+    for _ in range(3):
+        if _slide_m(robot, start, q, targets.stance) <= STANCE_SLIDE_M:
+            return q, jump
+        # re-plant the standing feet, keeping the scaled pose's pelvis and free foot
+        where = _where(robot, q, robot.model.createData())
+        held = {
+            side: start[side] if targets.stance in (side, "both") else where[side]
+            for side in ("left", "right")
+        }
+        fix = IkTargets(held["left"], held["right"], where["pelvis"], None, targets.stance)
+        solved = ik.solve(q, fix, com_in_support=com_in_support, max_iterations=SOLVE_ITERATIONS)
+        q, _ = limit_joint_steps(robot, q_prev, solved.q, dt)
+    if _slide_m(robot, start, q, targets.stance) <= STANCE_SLIDE_M:
+        return q, jump
+    return q_prev.copy(), f"{jump}; it would slide a standing foot: the previous pose is kept"
 
 
 def _slide_m(

@@ -206,7 +206,12 @@ _SHIFT = Param(
     "shift_m", 0.05, "m", "sideways CoM shift towards the stance foot (paper: 0.05, 0.043)"
 )
 _SPEED = Param(
-    "speed", 1.0, "", "time scale: 2 runs the motion in half the time (paper: 1, 2)", minimum=1e-3
+    "speed",
+    1.0,
+    "",
+    "time scale: 2 runs the motion in half the time (paper: 1, 2)",
+    minimum=0.01,
+    maximum=100.0,
 )
 _LIFT = Param("lift_m", None, "m", f"foot lift; default {LIFT:g} × leg length")
 _SIDE_AMPLITUDE = Param(

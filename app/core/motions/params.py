@@ -12,6 +12,11 @@ from collections.abc import Mapping
 
 from app.core.motions.poses import MotionError
 
+MAX_COUNT = 100
+"""Largest count (squats, swings, steps) a motion takes: each adds keyframes and seconds."""
+MAX_MAGNITUDE = 10.0
+"""Largest |value| of a length [m] or speed [m/s] parameter: no biped moves 10 m in a step."""
+
 
 @dataclasses.dataclass(frozen=True)
 class Param:
@@ -25,6 +30,15 @@ class Param:
     choices: tuple[str, ...] = ()
     minimum: float | None = 0.0
     """Smallest accepted value (None: any)."""
+    maximum: float | None = None
+    """Largest accepted value (None: any; counts always have one, see MAX_COUNT)."""
+
+    @property
+    def upper_bound(self) -> float | None:
+        """`maximum`, or MAX_COUNT for a count without one."""
+        if self.maximum is None and self.kind is int:
+            return MAX_COUNT
+        return self.maximum
 
     def to_json(self) -> dict[str, object]:
         return {
@@ -37,6 +51,11 @@ class Param:
             **(
                 {"minimum": self.minimum}
                 if self.minimum is not None and self.kind is not str
+                else {}
+            ),
+            **(
+                {"maximum": self.upper_bound}
+                if self.upper_bound is not None and self.kind is not str
                 else {}
             ),
         }
@@ -75,6 +94,13 @@ def _value(param: Param, raw: object, motion: str) -> object:
         raise MotionError(f"{where}: {raw!r} is not a finite number")
     if param.minimum is not None and number < param.minimum:
         raise MotionError(f"{where}: {raw!r} is below its minimum {param.minimum:g}")
+    upper = param.upper_bound
+    if upper is None and param.unit in ("m", "m/s"):
+        upper = MAX_MAGNITUDE
+        if abs(number) > upper:
+            raise MotionError(f"{where}: {raw!r} is beyond ±{upper:g} {param.unit}")
+    if upper is not None and number > upper:
+        raise MotionError(f"{where}: {raw!r} is above its maximum {upper:g}")
     if param.kind is int:
         if number != round(number):
             raise MotionError(f"{where}: {raw!r} is not a whole number")

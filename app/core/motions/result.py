@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import re
 
+from app.core.motions.continuity import JUMP_PREFIX
 from app.core.motions.trajectory import Trajectory
 
 
@@ -27,6 +28,12 @@ class MotionResult:
     """One entry per IK warning per sample, in time order."""
     notes: tuple[str, ...] = ()
     """Motion-level remarks (e.g. how an amplitude was adapted to the robot)."""
+
+    @property
+    def jump_samples(self) -> tuple[int, ...]:
+        """Samples where the IK would have moved a joint faster than its limit (clipped, see
+        app.core.motions.continuity): their targets are missed, their torques are not peaks."""
+        return tuple(sorted({w.index for w in self.warnings if w.message.startswith(JUMP_PREFIX)}))
 
     def summary(self) -> tuple[str, ...]:
         """Notes, then warnings grouped per keyframe and kind, one line each."""

@@ -12,8 +12,43 @@ import dataclasses
 import numpy as np
 import pinocchio as pin
 
+from app.core.errors import StudioError
 from app.core.posing.ik import IkResult, IkTargets, Stance, WholeBodyIK
 from app.core.robot.model import RobotModel
+
+MAX_DRAG_DISTANCE_M = 100.0
+"""A drag target further than this from the origin is refused (a crafted client, not a hand)."""
+
+
+class DragTargetError(StudioError, ValueError):
+    """A drag target that is not a placement: NaN, infinite, a zero quaternion, far away."""
+
+
+def drag_target(position_m: np.ndarray, quat_wxyz: np.ndarray) -> np.ndarray:
+    """The 4x4 placement of a dragged handle from a position [m] and a (w, x, y, z) quaternion
+    (normalised here); DragTargetError when either is not finite, the quaternion's norm is
+    below 1e-9 or a coordinate of the position is beyond ±MAX_DRAG_DISTANCE_M."""
+    position = np.asarray(position_m, dtype=float).reshape(-1)
+    quat = np.asarray(quat_wxyz, dtype=float).reshape(-1)
+    if position.shape != (3,) or quat.shape != (4,):
+        raise DragTargetError("a drag target needs 3 position and 4 quaternion values")
+    if not (np.all(np.isfinite(position)) and np.all(np.isfinite(quat))):
+        raise DragTargetError("the drag target is not finite; drag the handle again")
+    largest = float(np.max(np.abs(quat)))
+    quat = quat / largest if largest > 0.0 else quat  # no overflow in the norm of 1e308s
+    norm = float(np.linalg.norm(quat)) * largest
+    if norm < 1e-9:
+        raise DragTargetError("the drag target's orientation is a zero quaternion")
+    if float(np.max(np.abs(position))) > MAX_DRAG_DISTANCE_M:
+        raise DragTargetError(
+            f"the drag target is {np.max(np.abs(position)):.3g} m away; at most "
+            f"{MAX_DRAG_DISTANCE_M:g} m"
+        )
+    w, x, y, z = quat / np.linalg.norm(quat)
+    T = np.eye(4)
+    T[:3, :3] = pin.Quaternion(w, x, y, z).toRotationMatrix()
+    T[:3, 3] = position
+    return T
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,8 +85,11 @@ class Posing:
 
     def drag(self, q: np.ndarray, which: str, T_world_target: np.ndarray) -> IkResult:
         """Solve for a dragged handle ("left", "right" or "pelvis") reaching T_world_target."""
-        if not np.all(np.isfinite(T_world_target)):
-            raise ValueError("non-finite drag target")
+        T = np.asarray(T_world_target, dtype=float)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise DragTargetError("the drag target is not a finite placement; drag again")
+        if which not in ("left", "right", "pelvis"):
+            raise DragTargetError(f"no handle named {which!r}; handles: left, right, pelvis")
         if which in ("left", "right"):
             other = "right" if which == "left" else "left"
             if self.stance in (which, "both"):

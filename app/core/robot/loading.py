@@ -2,6 +2,11 @@
 
 Every failure raises a RobotLoadError whose message says what is wrong and what to do; a
 caller that holds a previously loaded robot simply keeps it.
+
+The URDF is read through the input gate (regular file, ≤ 20 MiB, UTF-8 or declared XML). Its
+meshes are looked up only where its loader allows: a URDF inside an upload's folder is confined
+to that folder however it is opened (by upload or by path), and a `FileAccess` given by the
+studio confines both the URDF and its meshes to the allowed folders.
 """
 
 from __future__ import annotations
@@ -11,23 +16,29 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from app.core import input_gate
 from app.core.errors import RobotLoadError, UrdfStructureError
+from app.core.file_access import FileAccess
 from app.core.robot.feet import Foot, find_foot_links, sole_corners
 from app.core.robot.limbs import limb_of_joints
 from app.core.robot.meshes import load_link_meshes
 from app.core.robot.model import ActuatedJoint, RobotModel, neutral_joint_positions
 from app.core.robot.packages import PackageResolver
+from app.core.robot.uploads import upload_sandbox_of
 from app.core.robot.urdf_xml import MOVING_JOINT_TYPES, UrdfTree, canonical_urdf, parse_urdf
 from robots.catalogue import BUILTIN_ROBOTS
 
-MAX_URDF_BYTES = 20 * 1024 * 1024
+MAX_URDF_BYTES = input_gate.URDF.max_bytes
 
 
-def resolve_source(source: str | Path) -> Path:
-    """The URDF file behind a built-in robot name or a path."""
+def resolve_source(source: str | Path, access: FileAccess | None = None) -> Path:
+    """The URDF file behind a built-in robot name or a path (checked against `access` first,
+    so nothing is revealed about a path outside the allowed folders)."""
     if isinstance(source, str) and source in BUILTIN_ROBOTS:
         return BUILTIN_ROBOTS[source].urdf_path
     path = Path(source).expanduser()
+    if access is not None:
+        path = access.check(path)  # resolved: a link swapped in later is not followed out
     if not path.exists():
         names = ", ".join(BUILTIN_ROBOTS)
         raise RobotLoadError(f"{source}: no such file, and not a built-in robot ({names})")
@@ -37,7 +48,7 @@ def resolve_source(source: str | Path) -> Path:
             raise RobotLoadError(
                 f"{path}: a folder; give the .urdf file inside it ({len(urdfs)} found)"
             )
-        path = urdfs[0]
+        path = urdfs[0] if access is None else access.check(urdfs[0])
     if path.suffix.lower() == ".xacro":
         raise RobotLoadError(
             f"{path.name}: a xacro file; expand it first (xacro {path.name} > robot.urdf)"
@@ -51,16 +62,14 @@ def load_robot(
     package_roots: tuple[Path, ...] = (),
     feet: tuple[str, str] | None = None,
     sandbox: Path | None = None,
+    access: FileAccess | None = None,
 ) -> RobotModel:
     """Load and check a robot. `feet` names the (left, right) foot links to override detection;
-    `sandbox` confines mesh look-ups to a folder (uploads)."""
-    path = resolve_source(source)
-    size = path.stat().st_size
-    if size > MAX_URDF_BYTES:
-        raise RobotLoadError(
-            f"{path.name} is {size / 2**20:.1f} MB; a URDF over {MAX_URDF_BYTES // 2**20} MB is refused"
-        )
-    text = path.read_bytes()
+    `sandbox` confines mesh look-ups to a folder (a URDF inside an upload's folder is always
+    confined to exactly that whole folder instead, whatever is given); `access` confines the URDF and its meshes to the studio's
+    allowed folders (paths typed by a user)."""
+    path = resolve_source(source, access)
+    text = input_gate.read_bytes(path, input_gate.URDF, RobotLoadError)
     tree = parse_urdf(text, source=path.name)
     model, floating = _pinocchio_model(tree, path.name)
     passive = tuple(joint for loop in tree.loops for joint in loop.passive_joints)
@@ -70,7 +79,12 @@ def load_robot(
         if model.existFrame(link, pin.BODY):
             link_frame_ids[link] = model.getFrameId(link, pin.BODY)
 
-    resolver = PackageResolver(path.parent, package_roots, sandbox)
+    upload = upload_sandbox_of(path)
+    if upload is not None:  # the whole unpacked archive, however the URDF was opened
+        sandbox = upload
+    resolver = PackageResolver(
+        path.parent, package_roots, sandbox, access.allows if access is not None else None
+    )
     meshes, missing = load_link_meshes(tree.geometries, resolver)
 
     q0 = neutral_joint_positions(model)

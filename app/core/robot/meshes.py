@@ -1,21 +1,28 @@
 """Geometry of a robot's links as triangle meshes (trimesh), with missing files reported.
 
-Primitive shapes are tessellated; mesh files (STL, DAE, OBJ, …) are loaded through trimesh,
+Primitive shapes are tessellated; mesh files (STL, DAE, OBJ, …) pass the mesh gate
+(app.core.robot.mesh_gate: format, size, triangle count) and are then loaded through trimesh,
 scaled as the URDF says, and cached by path and scale within one load.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import io
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
+from app.core.errors import StudioError
+from app.core.robot.mesh_gate import (
+    MAX_MESH_TRIANGLES,
+    MAX_ROBOT_MESH_BYTES,
+    MAX_ROBOT_TRIANGLES,
+    read_mesh_file,
+)
 from app.core.robot.packages import PackageResolver
 from app.core.robot.urdf_xml import Geometry
-
-MAX_MESH_FILE_BYTES = 200 * 1024 * 1024
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,6 +53,7 @@ def load_link_meshes(
     meshes: list[LinkMesh] = []
     missing: list[MissingMesh] = []
     cache: dict[tuple[Path, tuple[float, ...]], trimesh.Trimesh | str] = {}
+    budget = _Budget()
     for geom in geometries:
         if geom.kind != "mesh":
             meshes.append(
@@ -58,13 +66,43 @@ def load_link_meshes(
             continue
         key = (resolution.path, geom.size)
         if key not in cache:
-            cache[key] = _load_file(resolution.path, np.array(geom.size))
+            cache[key] = budget.load(resolution.path, np.array(geom.size))
         loaded = cache[key]
         if isinstance(loaded, str):
             missing.append(MissingMesh(geom.link, geom.role, geom.uri, loaded))
         else:
             meshes.append(LinkMesh(geom.link, geom.role, geom.T_link_geom, loaded, geom.rgba))
     return meshes, missing
+
+
+class _Budget:
+    """Mesh bytes read and triangles kept for one robot, against the robot-wide limits."""
+
+    def __init__(self) -> None:
+        self.bytes_read = 0
+        self.triangles = 0
+
+    def load(self, path: Path, scale: np.ndarray) -> trimesh.Trimesh | str:
+        try:
+            size = path.stat().st_size
+        except OSError as exc:
+            return f"cannot read mesh {path.name}: {exc.strerror}"
+        if self.bytes_read + size > MAX_ROBOT_MESH_BYTES:
+            return (
+                f"mesh {path.name} skipped: the robot's meshes exceed "
+                f"{MAX_ROBOT_MESH_BYTES // 2**20} MiB in all"
+            )
+        self.bytes_read += size
+        loaded = _load_file(path, scale)
+        if isinstance(loaded, str):
+            return loaded
+        if self.triangles + len(loaded.faces) > MAX_ROBOT_TRIANGLES:
+            return (
+                f"mesh {path.name} skipped: the robot's meshes exceed {MAX_ROBOT_TRIANGLES} "
+                "triangles in all"
+            )
+        self.triangles += len(loaded.faces)
+        return loaded
 
 
 def primitive_mesh(geom: Geometry) -> trimesh.Trimesh:
@@ -77,17 +115,20 @@ def primitive_mesh(geom: Geometry) -> trimesh.Trimesh:
 
 def _load_file(path: Path, scale: np.ndarray) -> trimesh.Trimesh | str:
     """The mesh in the file, scaled; or a one-line reason it cannot be used."""
-    size = path.stat().st_size
-    if size > MAX_MESH_FILE_BYTES:
-        return f"mesh file {path.name} is {size / 2**20:.0f} MB, over the {MAX_MESH_FILE_BYTES // 2**20} MB limit"
     try:
-        loaded = trimesh.load(str(path), force="mesh", process=False)
+        data, file_type = read_mesh_file(path)
+    except StudioError as exc:
+        return str(exc)
+    try:
+        loaded = trimesh.load(io.BytesIO(data), file_type=file_type, force="mesh", process=False)
     except (
         Exception
     ) as exc:  # trimesh raises many types for corrupt files; report which file failed.
         return f"cannot read mesh {path.name}: {type(exc).__name__}: {exc}"
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         return f"mesh {path.name} holds no triangles"
+    if len(loaded.faces) > MAX_MESH_TRIANGLES:
+        return f"mesh {path.name} has {len(loaded.faces)} triangles, over the limit of {MAX_MESH_TRIANGLES}"
     if not np.all(np.isfinite(loaded.vertices)):
         return f"mesh {path.name} has non-finite vertices"
     if not np.allclose(scale, 1.0):

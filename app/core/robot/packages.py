@@ -15,6 +15,7 @@ import dataclasses
 import os
 import sys
 import sysconfig
+from collections.abc import Callable
 from pathlib import Path
 
 
@@ -32,11 +33,16 @@ class PackageResolver:
     """Finds the files behind mesh URIs of one URDF."""
 
     def __init__(
-        self, urdf_dir: Path, extra_roots: tuple[Path, ...] = (), sandbox: Path | None = None
+        self,
+        urdf_dir: Path,
+        extra_roots: tuple[Path, ...] = (),
+        sandbox: Path | None = None,
+        allowed: Callable[[Path], bool] | None = None,
     ):
         self.urdf_dir = urdf_dir.resolve()
         self.extra_roots = tuple(Path(root).resolve() for root in extra_roots)
         self.sandbox = sandbox.resolve() if sandbox is not None else None
+        self.allowed = allowed
 
     def resolve(self, uri: str) -> Resolution:
         if uri.startswith("package://"):
@@ -61,8 +67,11 @@ class PackageResolver:
             path = self.urdf_dir / path
         found = self._checked(path)
         if found is None:
-            where = " (outside the upload folder)" if self._outside_sandbox(path) else ""
-            return Resolution(uri, None, f"file not found: {path}{where}")
+            if self._outside_sandbox(path):
+                return Resolution(uri, None, f"{uri}: outside the upload folder; refused")
+            if self.allowed is not None and not self.allowed(path):
+                return Resolution(uri, None, f"{uri}: outside the allowed folders; refused")
+            return Resolution(uri, None, f"file not found: {path}")
         return Resolution(uri, found)
 
     def _package_folders(self, package: str):
@@ -70,6 +79,9 @@ class PackageResolver:
             if ancestor.name == package:
                 yield ancestor
             yield ancestor / package
+        if self.sandbox is not None:
+            yield self.sandbox / package
+            yield self.sandbox
         for root in self.extra_roots:
             yield root if root.name == package else root / package
         for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
@@ -84,7 +96,11 @@ class PackageResolver:
             resolved = path.resolve()
         except OSError:
             return None
-        if self._outside_sandbox(resolved) or not resolved.is_file():
+        if self._outside_sandbox(resolved):
+            return None
+        if self.allowed is not None and not self.allowed(resolved):
+            return None
+        if not resolved.is_file():
             return None
         return resolved
 

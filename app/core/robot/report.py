@@ -12,6 +12,13 @@ from app.core.robot.model import RobotModel
 MASSLESS_KG = 1e-6
 """Links lighter than this are treated as frames, not bodies (e.g. SigmaBan's 1e-9 kg tips)."""
 LOOP_OPEN_M = 1e-6
+HEAVIEST_LINK_KG = 200.0
+"""A biped link heavier than this is reported as implausible (a typo in units, 1e308…)."""
+MAX_GYRATION_M = 2.0
+"""A principal moment above mass × (2 m)² means a link whose mass sits metres from its CoM."""
+AXIS_UNIT_TOLERANCE = 1e-3
+LIGHTEST_PLACEHOLDER_KG = 1e-12
+"""Massless frames often carry a placeholder of 1e-9 kg; below 1e-12 kg it is a typo."""
 """A declared loop whose two sides are further apart than this at the neutral pose is reported."""
 
 
@@ -84,6 +91,16 @@ def robot_report(robot: RobotModel) -> RobotReport:
     for joint in tree.joints.values():
         if joint.kind == "fixed":
             continue
+        length = float(np.linalg.norm(joint.axis))
+        if abs(length - 1.0) > AXIS_UNIT_TOLERANCE:
+            problems.append(
+                Problem(
+                    "axis",
+                    joint.name,
+                    f"axis ({_fmt(joint.axis)}) has length {length:.6g}, not 1: it is "
+                    "normalised, check it points where you meant",
+                )
+            )
         missing = [
             key
             for key, value in (("lower", joint.lower), ("upper", joint.upper))
@@ -155,8 +172,35 @@ def _inertia_problems(link: str, mass_kg: float, inertia: np.ndarray) -> list[Pr
             return [
                 Problem("mass", link, "zero mass: fine for a frame, wrong for a body that moves")
             ]
-        return []
+        if mass_kg >= LIGHTEST_PLACEHOLDER_KG:
+            return []
+        return [
+            Problem(
+                "mass",
+                link,
+                f"{mass_kg:.3g} kg: implausibly light (under {LIGHTEST_PLACEHOLDER_KG:g} kg); "
+                "give 0 for a massless frame or the link's real mass",
+            )
+        ]
+    if mass_kg > HEAVIEST_LINK_KG:
+        return [
+            Problem(
+                "mass",
+                link,
+                f"{mass_kg:.3g} kg: implausibly heavy for a robot link (over "
+                f"{HEAVIEST_LINK_KG:g} kg); check the unit (kg, not g)",
+            )
+        ]
     moments = np.linalg.eigvalsh(inertia)
+    if moments.max() > mass_kg * MAX_GYRATION_M**2:
+        return [
+            Problem(
+                "inertia",
+                link,
+                f"principal moments {_fmt(moments)} kg·m² for {mass_kg:.3g} kg: its mass would "
+                f"sit over {MAX_GYRATION_M:g} m from the centre of mass; check the units",
+            )
+        ]
     if moments.min() <= 0.0:
         return [
             Problem(

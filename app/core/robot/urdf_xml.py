@@ -5,6 +5,21 @@ entities and DTDs are refused before anything is expanded. The tree is then chec
 robotics engineer would check it by hand: every joint names links that exist, each link has at
 most one parent, there is exactly one root, there are no cycles, masses are not negative.
 Only then is the text handed to pinocchio.
+
+Limits, checked before any per-link work (a 10 000-link chain is refused in well under a
+second, before pinocchio, whose recursive parser would overflow its stack on it):
+
+    MAX_LINKS = 500 links, MAX_TREE_DEPTH = 64 joints from the root to any link,
+    MAX_GEOMETRIES = 5 000 <visual>/<collision> elements.
+
+Every number must be finite and physically sane (a robot you can build on a desk, generously):
+
+    lengths (origins, centres of mass)  |x| ≤ 100 m
+    primitive sizes (box, cylinder, sphere)  0 < size ≤ 100 m, a box has exactly 3 sizes
+    mesh scale  1e-6 ≤ |s| ≤ 1e3, one or three values
+    rpy angles  |a| ≤ 100 rad
+    link mass  0 ≤ m ≤ 10 000 kg;  inertia entries  |I| ≤ 10 000 kg·m²
+    joint axis  not zero;  limits  |position| ≤ 10 000, 0 ≤ effort, velocity ≤ 1e6
 """
 
 from __future__ import annotations
@@ -18,6 +33,15 @@ from defusedxml import DefusedXmlException
 
 from app.core.errors import UrdfStructureError, UrdfSyntaxError
 
+MAX_LINKS = 500
+MAX_TREE_DEPTH = 64
+MAX_GEOMETRIES = 5000
+MAX_LENGTH_M = 100.0
+MAX_MASS_KG = 1e4
+MAX_INERTIA_KGM2 = 1e4
+MAX_ANGLE_RAD = 100.0
+MAX_LIMIT = 1e4
+MAX_RATING = 1e6
 MOVING_JOINT_TYPES = ("revolute", "continuous", "prismatic")
 SUPPORTED_JOINT_TYPES = (*MOVING_JOINT_TYPES, "fixed")
 
@@ -113,10 +137,22 @@ def parse_urdf(text: str | bytes, source: str = "URDF") -> UrdfTree:
     name = root.get("name") or "robot"
     materials = _named_materials(root)
 
+    link_elements = root.findall("link")
+    joint_elements = root.findall("joint")
+    if len(link_elements) > MAX_LINKS or len(joint_elements) > MAX_LINKS:
+        raise UrdfStructureError(
+            f"{source}: {len(link_elements)} links and {len(joint_elements)} joints; at most "
+            f"{MAX_LINKS} links are accepted (a humanoid has about 40)"
+        )
+    n_geometries = len(root.findall("link/visual")) + len(root.findall("link/collision"))
+    if n_geometries > MAX_GEOMETRIES:
+        raise UrdfStructureError(
+            f"{source}: {n_geometries} visual/collision elements; at most {MAX_GEOMETRIES}"
+        )
     links: list[str] = []
     inertials: dict[str, Inertial] = {}
     geometries: list[Geometry] = []
-    for element in root.findall("link"):
+    for element in link_elements:
         link = _required(element, "name", "a <link>", source)
         if link in links:
             raise UrdfStructureError(
@@ -137,7 +173,7 @@ def parse_urdf(text: str | bytes, source: str = "URDF") -> UrdfTree:
         )
 
     joints: dict[str, JointElement] = {}
-    for element in root.findall("joint"):
+    for element in joint_elements:
         joint = _joint(element, source)
         if joint.name in joints:
             raise UrdfStructureError(
@@ -178,9 +214,24 @@ def _check_tree(links: list[str], joints: dict[str, JointElement], source: str) 
             seen.add(current)
     if len(roots) != 1:
         raise UrdfStructureError(
-            f"{source}: {len(roots)} root links ({', '.join(roots)}); a URDF has exactly one link "
-            "that is no joint's child: connect the others with joints"
+            f"{source}: {len(roots)} root links ({', '.join(roots[:12])}); a URDF has exactly one "
+            "link that is no joint's child: connect the others with joints"
         )
+    depth: dict[str, int] = {roots[0]: 0}
+    for link in links:
+        chain = []
+        current = link
+        while current not in depth:
+            chain.append(current)
+            current = joints[parent_of[current]].parent
+        for below in reversed(chain):
+            depth[below] = depth[current] + 1
+            current = below
+            if depth[below] > MAX_TREE_DEPTH:
+                raise UrdfStructureError(
+                    f"{source}: link {below!r} is {depth[below]} joints below the root; at most "
+                    f"{MAX_TREE_DEPTH} are accepted"
+                )
     return roots[0]
 
 
@@ -203,12 +254,22 @@ def _joint(element: ET.Element, source: str) -> JointElement:
             f"{source}: joint {name!r} needs <parent link=…> and <child link=…>"
         )
     axis = _floats(element.find("axis"), "xyz", (1.0, 0.0, 0.0), f"joint {name!r} axis", source)
+    if len(axis) != 3:
+        raise UrdfStructureError(f"{source}: joint {name!r} axis needs three values, got {axis}")
+    if kind != "fixed" and not np.linalg.norm(axis) > 1e-9:
+        raise UrdfStructureError(
+            f"{source}: joint {name!r} has a zero axis; give the direction it turns or slides "
+            'along (e.g. xyz="0 1 0")'
+        )
     limit = element.find("limit")
 
     def limit_value(key: str) -> float | None:
         if limit is None or limit.get(key) is None:
             return None
-        return _float(limit.get(key, ""), f"joint {name!r} limit {key}", source)
+        value = _float(limit.get(key, ""), f"joint {name!r} limit {key}", source)
+        bound = MAX_LIMIT if key in ("lower", "upper") else MAX_RATING
+        _in_range(value, -bound, bound, f"joint {name!r} limit {key}", source)
+        return value
 
     return JointElement(
         name=name,
@@ -235,11 +296,14 @@ def _inertial(element: ET.Element, link: str, source: str) -> Inertial:
         raise UrdfStructureError(
             f"{source}: link {link!r} has negative mass {mass:g} kg; masses must be zero or positive"
         )
+    _in_range(mass, 0.0, MAX_MASS_KG, f"link {link!r} mass [kg]", source)
     inertia = element.find("inertia")
     values = {key: 0.0 for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
     if inertia is not None:
         for key in values:
-            values[key] = _float(inertia.get(key, "0"), f"link {link!r} inertia {key}", source)
+            what = f"link {link!r} inertia {key} [kg·m²]"
+            values[key] = _float(inertia.get(key, "0"), what, source)
+            _in_range(values[key], -MAX_INERTIA_KGM2, MAX_INERTIA_KGM2, what, source)
     matrix = np.array(
         [
             [values["ixx"], values["ixy"], values["ixz"]],
@@ -263,17 +327,21 @@ def _geometry(
     T = _origin(element, what, source)
     rgba = _rgba(element.find("material"), materials)
     if shape.tag == "box":
-        return Geometry(link, role, "box", T, _floats(shape, "size", None, what, source), rgba=rgba)
+        size = _floats(shape, "size", None, what, source)
+        if len(size) != 3:
+            raise UrdfStructureError(
+                f"{source}: {what} box has {len(size)} size value(s); give three: x y z [m]"
+            )
+        return Geometry(link, role, "box", T, _sizes(size, what, source), rgba=rgba)
     if shape.tag == "cylinder":
         size = (
             _float(shape.get("radius", ""), what, source),
             _float(shape.get("length", ""), what, source),
         )
-        return Geometry(link, role, "cylinder", T, size, rgba=rgba)
+        return Geometry(link, role, "cylinder", T, _sizes(size, what, source), rgba=rgba)
     if shape.tag == "sphere":
-        return Geometry(
-            link, role, "sphere", T, (_float(shape.get("radius", ""), what, source),), rgba=rgba
-        )
+        size = (_float(shape.get("radius", ""), what, source),)
+        return Geometry(link, role, "sphere", T, _sizes(size, what, source), rgba=rgba)
     if shape.tag == "mesh":
         uri = shape.get("filename", "")
         if not uri:
@@ -281,6 +349,11 @@ def _geometry(
         scale = _floats(shape, "scale", (1.0, 1.0, 1.0), what, source)
         if len(scale) == 1:
             scale = scale * 3
+        if len(scale) != 3 or not all(1e-6 <= abs(s) <= 1e3 for s in scale):
+            raise UrdfStructureError(
+                f"{source}: {what} mesh scale {scale}: give one or three values, each of "
+                "magnitude between 1e-6 and 1000"
+            )
         return Geometry(link, role, "mesh", T, scale, uri=uri, rgba=rgba)
     return None
 
@@ -335,6 +408,10 @@ def _origin(element: ET.Element, what: str, source: str) -> np.ndarray:
     rpy = _floats(origin, "rpy", (0.0, 0.0, 0.0), what, source)
     if len(xyz) != 3 or len(rpy) != 3:
         raise UrdfStructureError(f"{source}: {what} origin needs three xyz and three rpy values")
+    for value in xyz:
+        _in_range(value, -MAX_LENGTH_M, MAX_LENGTH_M, f"{what} origin xyz [m]", source)
+    for value in rpy:
+        _in_range(value, -MAX_ANGLE_RAD, MAX_ANGLE_RAD, f"{what} origin rpy [rad]", source)
     T = np.eye(4)
     T[:3, :3] = rpy_matrix(*rpy)
     T[:3, 3] = xyz
@@ -380,6 +457,24 @@ def _float(text: str, what: str, source: str) -> float:
     if not np.isfinite(value):
         raise UrdfStructureError(f"{source}: {what} is {text!r}; it must be a finite number")
     return value
+
+
+def _in_range(value: float, low: float, high: float, what: str, source: str) -> None:
+    if not low <= value <= high:
+        raise UrdfStructureError(
+            f"{source}: {what} is {value:g}; a physically sane value lies in [{low:g}, {high:g}]"
+        )
+
+
+def _sizes(size: tuple[float, ...], what: str, source: str) -> tuple[float, ...]:
+    """Primitive sizes [m]: each in (0, MAX_LENGTH_M]."""
+    for value in size:
+        if not 0.0 < value <= MAX_LENGTH_M:
+            raise UrdfStructureError(
+                f"{source}: {what} has size {value:g} m; primitive sizes must be positive and at "
+                f"most {MAX_LENGTH_M:g} m"
+            )
+    return size
 
 
 def canonical_urdf(tree: UrdfTree) -> str:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import io
 import math
 import os
 from collections.abc import Iterable
@@ -29,6 +30,7 @@ from typing import IO, TypeAlias
 
 import numpy as np
 
+from app.core import input_gate
 from app.core.errors import StudioError, finite_float
 from app.core.papers import TABLE2_TEXT
 
@@ -43,7 +45,9 @@ MAX_RELATIVE_SE = 0.25
 """A k whose standard error exceeds this fraction of |k| is not identifiable."""
 MIN_DEFLECTION_STEPS = 2.0
 """The fitted deflection |k|·max|τ| must span at least this many encoder steps."""
-MAX_MEASURED_BYTES = 50 * 2**20
+MAX_MEASURED_BYTES = input_gate.MEASURED_CSV.max_bytes
+MAX_MEASURED_ROWS = 200_000
+"""Measurement rows read (one per frame and joint): a long calibration session of 12 servos."""
 
 
 class CalibrationError(StudioError):
@@ -115,19 +119,8 @@ def read_measured_csv(path_or_file: PathOrFile) -> Measurements:
     columns in any order, extra columns ignored). Every problem names its line."""
     if isinstance(path_or_file, (str, os.PathLike)):
         source = os.fspath(path_or_file)
-        try:
-            size = os.path.getsize(source)
-            if size > MAX_MEASURED_BYTES:
-                raise CalibrationError(
-                    f"{source} is {size / 2**20:.1f} MB; measurement files over "
-                    f"{MAX_MEASURED_BYTES // 2**20} MB are refused"
-                )
-            with open(source, newline="", encoding="utf-8-sig") as file:
-                return _read(file, str(source))
-        except OSError as error:
-            raise CalibrationError(f"cannot read {source}: {error.strerror}") from None
-        except UnicodeDecodeError:
-            raise CalibrationError(f"{source}: not a UTF-8 text file") from None
+        text = input_gate.read_text(source, input_gate.MEASURED_CSV, CalibrationError)
+        return _read(io.StringIO(text, newline=""), source)
     return _read(path_or_file, str(getattr(path_or_file, "name", "measurements")))
 
 
@@ -159,6 +152,10 @@ def _read(file: IO[str], source: str) -> Measurements:
         line = reader.line_num
         if not any(cell.strip() for cell in row):
             continue
+        if len(frames) >= MAX_MEASURED_ROWS:
+            raise CalibrationError(
+                f"{source}, line {line}: more than {MAX_MEASURED_ROWS} measurements; refused"
+            )
         if len(row) < len(header):
             raise CalibrationError(
                 f"{source}, line {line}: {len(row)} value(s) for {len(header)} columns"

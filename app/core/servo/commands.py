@@ -32,6 +32,9 @@ class ServoCommands:
     """Commands q + k·τ (+ φ·sign) [rad], shape (T, n) (eq 7, eq 23)."""
     warnings: tuple[str, ...]
     """Joints whose commands leave their limits; torque samples the QP did not solve."""
+    lower_rad: np.ndarray
+    upper_rad: np.ndarray
+    """The joints' position limits [rad], shape (n,): a command file is refused outside them."""
 
 
 def torques_of_motion(trajectory: Trajectory, torques: TorqueTable, source: str) -> np.ndarray:
@@ -68,4 +71,4 @@ def servo_commands(
     for status in sorted({s for s in statuses if s.lower() not in GOOD_STATUSES}):
         count = sum(s == status for s in statuses)
         warnings.append(f"{count} torque sample(s) have status {status!r}")
-    return ServoCommands(trajectory.t, q_plan, q_cmd, tuple(warnings))
+    return ServoCommands(trajectory.t, q_plan, q_cmd, tuple(warnings), lower, upper)

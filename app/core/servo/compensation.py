@@ -203,9 +203,10 @@ def compensated_command(
                 f"{label} contain NaN or infinite values (first at sample {bad[0]}, "
                 f"joint {params.joint_names[bad[1]]})"
             )
-    spring = q + k_rad_per_Nm(params.k_deg_per_Nm) * tau  # eq 7
-    direction = np.sign(spring) if params.clearance_sign == "command" else np.sign(tau)
-    command = spring + np.deg2rad(params.phi_deg) * direction  # eq 23
+    with np.errstate(over="ignore", invalid="ignore"):  # huge τ: inf, refused when written
+        spring = q + k_rad_per_Nm(params.k_deg_per_Nm) * tau  # eq 7
+        direction = np.sign(spring) if params.clearance_sign == "command" else np.sign(tau)
+        command = spring + np.deg2rad(params.phi_deg) * direction  # eq 23
     return np.where(params.enabled, command, q)
 
 

@@ -12,6 +12,9 @@ from typing import IO, TypeAlias
 
 import numpy as np
 
+from app.core import input_gate
+from app.core.atomic_write import write_atomically
+from app.core.budgets import MAX_SAMPLES
 from app.core.errors import finite_float
 from app.core.servo.compensation import CompensationError, CompensationParams
 
@@ -29,25 +32,16 @@ def read_coefficients_toml(path_or_file: PathOrFile) -> CompensationParams:
 
     Only the joints listed are compensated; `CompensationParams.for_joints` checks the names.
     """
-    try:
-        import tomllib  # Python ≥ 3.11
-    except ImportError:  # pragma: no cover - the studio runs on 3.11
-        raise CompensationError("reading k.toml files needs Python 3.11 or newer") from None
     if isinstance(path_or_file, (str, os.PathLike)):
         source = os.fspath(path_or_file)
-        try:
-            with open(path_or_file, "rb") as file:
-                data = tomllib.load(file)
-        except OSError as error:
-            raise CompensationError(f"cannot read {source}: {error.strerror}") from None
-        except tomllib.TOMLDecodeError as error:
-            raise CompensationError(f"{source}: not valid TOML: {error}") from None
+        data = input_gate.read_toml(source, CompensationError)
     else:
         source = getattr(path_or_file, "name", "coefficients")
-        try:
-            data = tomllib.load(path_or_file)
-        except tomllib.TOMLDecodeError as error:
-            raise CompensationError(f"{source}: not valid TOML: {error}") from None
+        raw = path_or_file.read(input_gate.TOML.max_bytes + 1)
+        if len(raw) > input_gate.TOML.max_bytes:
+            raise CompensationError(f"{source}: over the {input_gate.TOML.max_bytes} byte limit")
+        text = input_gate.decode_text(raw, str(source), CompensationError)
+        data = input_gate.parse_toml(text, str(source), CompensationError)
     return _params_from_mapping(data, str(source))
 
 
@@ -123,13 +117,13 @@ def read_torque_csv(
     column, and every `tau:` column must name one of them."""
     if isinstance(path_or_file, (str, os.PathLike)):
         source = os.fspath(path_or_file)
-        try:
-            with open(source, newline="", encoding="utf-8-sig") as file:
-                return _read_torque(file, str(source), joint_names)
-        except OSError as error:
-            raise CompensationError(f"cannot read {source}: {error.strerror}") from None
-        except UnicodeDecodeError:
-            raise CompensationError(f"{source}: not a UTF-8 text file") from None
+        with input_gate.open_text(source, input_gate.TORQUE_CSV, CompensationError) as file:
+            try:
+                return _read_torque(file, source, joint_names)
+            except UnicodeDecodeError as exc:
+                raise CompensationError(
+                    f"{source}: not UTF-8 text (byte {exc.start} of a block); save it as UTF-8"
+                ) from None
     return _read_torque(path_or_file, str(getattr(path_or_file, "name", "torques")), joint_names)
 
 
@@ -169,11 +163,14 @@ def _read_torque(file: IO[str], source: str, joint_names: Sequence[str]) -> Torq
             "computed for this robot?)"
         )
     columns = [time_col] + [tau_cols[name] for name in joint_names]
-    rows, status = [], []
+    rows: list[list[float]] = []
+    status: list[str] = []
     for row in reader:
         line = reader.line_num
         if not any(cell.strip() for cell in row):
             continue
+        if len(rows) >= MAX_SAMPLES:
+            raise CompensationError(f"{source}: more than {MAX_SAMPLES} samples; refused")
         if len(row) < len(header):
             raise CompensationError(
                 f"{source}, line {line}: {len(row)} values for {len(header)} columns"
@@ -195,9 +192,16 @@ def write_command_csv(
     t: np.ndarray,
     joint_names: Sequence[str],
     q_cmd_rad: np.ndarray,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
 ) -> None:
     """Servo commands for the real robot: `t [s]`, then `q_cmd:<joint> [rad]` and
-    `q_cmd:<joint> [deg]` columns, one row per sample."""
+    `q_cmd:<joint> [deg]` columns, one row per sample.
+
+    Nothing is written unless every command is finite and, when the joint limits `lower`,
+    `upper` [rad] are given, within them (see `check_commands`); a path is written atomically.
+    """
+    check_commands(t, joint_names, q_cmd_rad, lower, upper)
     header = ["t [s]"]
     header += [f"q_cmd:{name} [rad]" for name in joint_names]
     header += [f"q_cmd:{name} [deg]" for name in joint_names]
@@ -214,10 +218,40 @@ def write_command_csv(
             )
 
     if isinstance(path_or_file, (str, os.PathLike)):
-        try:
-            with open(path_or_file, "w", newline="", encoding="utf-8") as file:
-                write(file)
-        except OSError as error:
-            raise CompensationError(f"cannot write {path_or_file}: {error.strerror}") from None
+        write_atomically(path_or_file, write, CompensationError)
     else:
         write(path_or_file)
+
+
+def check_commands(
+    t: np.ndarray,
+    joint_names: Sequence[str],
+    q_cmd_rad: np.ndarray,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
+) -> None:
+    """CompensationError naming the joint and sample of the first command that is not finite
+    or (limits given) outside [lower, upper] [rad]: such a file must never reach a servo."""
+    q = np.asarray(q_cmd_rad, dtype=float)
+    bad = ~np.isfinite(q)
+    if lower is not None and upper is not None:
+        with np.errstate(invalid="ignore"):
+            bad |= (q < np.asarray(lower)[None, :] - 1e-12) | (
+                q > np.asarray(upper)[None, :] + 1e-12
+            )
+    if not bad.any():
+        return
+    k, j = (int(i) for i in np.argwhere(bad)[0])
+    value = q[k, j]
+    if not math.isfinite(value):
+        why = f"is {value}"
+    else:
+        assert lower is not None and upper is not None
+        why = (
+            f"is {math.degrees(value):.6g}°, outside its limits "
+            f"[{math.degrees(lower[j]):.4g}°, {math.degrees(upper[j]):.4g}°]"
+        )
+    raise CompensationError(
+        f"servo command of {joint_names[j]} at sample {k} (t = {float(t[k]):g} s) {why}; "
+        f"{int(bad.sum())} command(s) refused, nothing written (check the torques and k)"
+    )
