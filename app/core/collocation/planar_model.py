@@ -22,6 +22,7 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
+import pinocchio as pin
 
 from app.core.collocation.planar_reduction import BASE_DOF, PlanarModelError, reduce_to_plane
 from app.core.robot.model import RobotModel
@@ -82,7 +83,15 @@ class PlanarModel:
         self.lower = model.lowerPositionLimit[self.joint_idx_q].copy()
         """Joint position limits [rad] (Table 1 for dircon_biped), shape (nu,)."""
         self.upper = model.upperPositionLimit[self.joint_idx_q].copy()
+        self.effort_Nm = model.effortLimit[self.joint_idx_v].copy()
+        """URDF effort limits of the planar joints [N·m] (0 where the URDF gives none)."""
+        self.velocity_radps = model.velocityLimit[self.joint_idx_v].copy()
+        """URDF velocity limits of the planar joints [rad/s] (0 where the URDF gives none)."""
         self._build_functions()
+        self.standing_height_m = -float(
+            evaluate(self.contact_positions, np.zeros(self.nq))[1::2].min()
+        )
+        """Base height above the soles with every joint at zero (straight legs) [m]."""
 
     # -- kinematics and dynamics ---------------------------------------------------------------
 
@@ -101,10 +110,11 @@ class PlanarModel:
                 r = _apply(p["theta"], body.joint_xz_m)
                 wr = _cross_w(p["omega"], r)
                 ar = _cross_w(p["alpha"], r)
+                sign = body.axis_sign
                 s = {
-                    "theta": p["theta"] + body.joint_pitch_rad + q[k],
-                    "omega": p["omega"] + v[k],
-                    "alpha": p["alpha"] + a[k],
+                    "theta": p["theta"] + body.joint_pitch_rad + sign * q[k],
+                    "omega": p["omega"] + sign * v[k],
+                    "alpha": p["alpha"] + sign * a[k],
                     "o": (p["o"][0] + r[0], p["o"][1] + r[1]),
                     "vo": (p["vo"][0] + wr[0], p["vo"][1] + wr[1]),
                     "ao": (
@@ -136,7 +146,8 @@ class PlanarModel:
                     f = (f[0] + force[j][0], f[1] + force[j][1])
                     n = n + moment[j] + _moment(r, force[j])
             force[i], moment[i] = f, n
-        return ca.vertcat(force[0][0], force[0][1], moment[0], *moment[1:])
+        joint_moments = [b.axis_sign * n for b, n in zip(self.bodies[1:], moment[1:], strict=True)]
+        return ca.vertcat(force[0][0], force[0][1], moment[0], *joint_moments)
 
     def _points(self, q: Any) -> Any:
         zero = [0.0] * self.nv
@@ -168,9 +179,11 @@ class PlanarModel:
     # -- planar <-> full pinocchio configuration -------------------------------------------------
 
     def to_full_q(self, q: np.ndarray) -> np.ndarray:
-        """Full pinocchio configuration(s) of planar q (…, nq): y = 0, locked joints at 0."""
+        """Full pinocchio configuration(s) of planar q (…, nq): y = 0, locked joints at their
+        neutral value (0)."""
         q = np.asarray(q, dtype=float)
         out = np.zeros((*q.shape[:-1], self.robot.model.nq))
+        out[...] = pin.neutral(self.robot.model)
         out[..., 0] = q[..., 0]
         out[..., 2] = q[..., 1]
         out[..., 4] = np.sin(0.5 * q[..., 2])  # quaternion xyzw about y
