@@ -228,9 +228,9 @@ class GaitProblem:
         if not self.baseline:
             left, right = (list(m.leg_joints[s]) for s in ("left", "right"))
             e0, e1 = L.last(0), L.last(1)
-            for x in (q, v):
-                nlp.constrain(x[e0][left] - x[e1][right])
-                nlp.constrain(x[e0][right] - x[e1][left])
+            for x in (q, v):  # ±exchange tolerance (0 for mirror-identical legs)
+                nlp.constrain(x[e0][left] - x[e1][right], tag="exchange")
+                nlp.constrain(x[e0][right] - x[e1][left], tag="exchange")
             assert slack is not None
             cost += K1 * slack**2 + K2 * smooth
         nlp.cost = cost
@@ -289,6 +289,8 @@ class GaitProblem:
             lbg[sl], ubg[sl] = -s.qd_max, s.qd_max
         for sl in nlp.g_blocks["touchdown"]:
             lbg[sl], ubg[sl] = -s.touchdown_speed_max_mps, s.touchdown_speed_max_mps
+        for sl in nlp.g_blocks.get("exchange", []):
+            lbg[sl], ubg[sl] = -m.exchange_tolerance, m.exchange_tolerance
         for sl in nlp.g_blocks["clearance"]:
             lbg[sl] = min(s.swing_clearance_m, s.swing_height_m)
             ubg[sl] = s.swing_height_m

@@ -29,6 +29,8 @@ from app.core.robot.model import RobotModel
 
 __all__ = ["BASE_DOF", "CONTACT_NAMES", "PlanarModel", "PlanarModelError", "evaluate"]
 
+EXCHANGE_SLACK = 5.0
+"""Exchange tolerance per radian of leg asymmetry (see PlanarModel.exchange_tolerance)."""
 CONTACT_NAMES = ("left_heel", "left_toe", "right_heel", "right_toe")
 """Order of the four contact points in `contact_positions` and `contact_jacobian` (x, z each)."""
 
@@ -92,6 +94,13 @@ class PlanarModel:
             evaluate(self.contact_positions, np.zeros(self.nq))[1::2].min()
         )
         """Base height above the soles with every joint at zero (straight legs) [m]."""
+        self.leg_asymmetry_m = self._leg_asymmetry()
+        """Largest difference between the legs' joint offsets, CoMs and sole points [m]."""
+        self.exchange_tolerance = EXCHANGE_SLACK * self.leg_asymmetry_m / self.standing_height_m
+        """Tolerance of eq. 6's joint-state exchange [rad, rad/s]: 0 for mirror-identical legs.
+        Legs that differ (SigmaBan's by 0.24 mm) cannot exchange their states exactly with both
+        soles flat on the floor, so the exchange holds to a few times the angle that the
+        difference subtends on the leg."""
 
     # -- kinematics and dynamics ---------------------------------------------------------------
 
@@ -175,6 +184,22 @@ class PlanarModel:
         self.contact_positions = ca.Function("contact_positions", [q], [points], ["q"], ["p"])
         self.contact_jacobian = ca.Function("contact_jacobian", [q], [jac], ["q"], ["J"])
         self.contact_jdot_v = ca.Function("contact_jdot_v", [q, v], [jdot_v], ["q", "v"], ["Jdv"])
+
+    def _leg_asymmetry(self) -> float:
+        left, right = (self.leg_joints[s] - BASE_DOF + 1 for s in ("left", "right"))
+        gaps = [0.0]
+        for i, j in zip(left, right, strict=True):
+            one, two = self.bodies[i], self.bodies[j]
+            gaps += [
+                float(np.abs(one.joint_xz_m - two.joint_xz_m).max()),
+                float(np.abs(one.com_xz_m - two.com_xz_m).max()),
+            ]
+        points = [xz for _, xz in self.contact_points]
+        gaps += [
+            float(np.abs(points[0] - points[2]).max()),
+            float(np.abs(points[1] - points[3]).max()),
+        ]
+        return max(gaps)
 
     # -- planar <-> full pinocchio configuration -------------------------------------------------
 
