@@ -65,6 +65,7 @@ class PlanarModel:
       contact_positions(q) -> p (8)       (x, z) of left heel, left toe, right heel, right toe
       contact_jacobian(q) -> J (8 × nv)
       contact_jdot_v(q, v) -> J̇v (8)
+      com(q) -> (x, z) (2)                whole-body centre of mass
     """
 
     def __init__(self, robot: RobotModel, planar_joints: tuple[str, ...] | None = None) -> None:
@@ -167,6 +168,17 @@ class PlanarModel:
             coords += [states[body]["o"][0] + r[0], states[body]["o"][1] + r[1]]
         return ca.vertcat(*coords)
 
+    def _com(self, q: Any) -> Any:
+        """Whole-body CoM (x, z) [m]."""
+        zero = [0.0] * self.nv
+        states = self._forward(q, zero, zero, 0.0)
+        x = z = 0.0
+        for body, s in zip(self.bodies, states, strict=True):
+            c = _apply(s["theta"], body.com_xz_m)
+            x = x + body.mass_kg * (s["o"][0] + c[0])
+            z = z + body.mass_kg * (s["o"][1] + c[1])
+        return ca.vertcat(x, z) / self.mass_kg
+
     def _build_functions(self) -> None:
         q = ca.SX.sym("q", self.nq)
         v = ca.SX.sym("v", self.nv)
@@ -182,6 +194,7 @@ class PlanarModel:
             "bias", [q, v], [ca.substitute(tau, a, ca.SX.zeros(self.nv))], ["q", "v"], ["h"]
         )
         self.contact_positions = ca.Function("contact_positions", [q], [points], ["q"], ["p"])
+        self.com = ca.Function("com", [q], [self._com(q)], ["q"], ["com"])
         self.contact_jacobian = ca.Function("contact_jacobian", [q], [jac], ["q"], ["J"])
         self.contact_jdot_v = ca.Function("contact_jdot_v", [q, v], [jdot_v], ["q", "v"], ["Jdv"])
 
