@@ -69,10 +69,7 @@ class LegPosture:
                 if np.abs(residual).max() < 1e-10:
                     break
                 J = S @ evaluate(self.model.contact_jacobian, q)[:, joints]
-                if J.shape[0] == J.shape[1]:
-                    q[joints] -= np.linalg.solve(J, residual)
-                else:
-                    q[joints] -= np.linalg.lstsq(J, residual, rcond=None)[0]
+                q[joints] -= np.linalg.lstsq(J, residual, rcond=None)[0]
             q[joints] = np.clip(
                 q[joints], self.model.lower[joints - BASE_DOF], self.model.upper[joints - BASE_DOF]
             )

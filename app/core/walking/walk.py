@@ -4,8 +4,11 @@ Timeline (the cycle's modes: 0 = end of the left support, 1 = right support, 2 =
 next left support; H = T0 + T1 + T2, advance d per cycle):
 - start, `start_s` long, double support: the feet stand where they are at the cycle's right
   touch-down (left at its foothold, right at x1); the base goes from rest (CoM between the
-  feet) to the cycle's post-impact state there by a quintic in x, z and pitch (position,
-  velocity and acceleration matched at both ends); the legs follow by planar leg IK;
+  feet) to the cycle's post-impact state there by a quintic in x, z and pitch (positions
+  and the forward speed ẋ matched; ż, pitch rate and accelerations zero at both ends:
+  matching dircon_biped's post-impact pitch rate, −1.1 rad/s, overshoots its pitch by 0.2 rad
+  and the front leg cannot follow), so z and pitch rates jump there as at a touch-down; the
+  legs follow by planar leg IK;
 - N steps of H/2 each from that touch-down: the periodic cycle, shifted by d every cycle;
 - stop, `stop_s` long, double support after the last touch-down: a quintic from its
   post-impact state back to rest.
@@ -36,6 +39,8 @@ from app.core.walking.sway import lateral_sway, smoothstep
 EPS_S = 1e-3
 """Finite-difference step [s]."""
 MAX_STEPS = 100
+REACH_TOLERANCE_M = 1e-6
+"""Largest sole-point error of a double-support posture that still counts as reached [m]."""
 
 
 class WalkError(StudioError):
@@ -114,7 +119,7 @@ class _PlanarWalk:
         tau = T0
         bounds = np.array([0.0, T0, T0 + T1, self.H])
         while tau < end_tau - 1e-9:
-            cycle = int(math.floor(tau / self.H + 1e-9))
+            cycle = math.floor(tau / self.H + 1e-9)
             inside = tau - cycle * self.H
             mode = int(np.searchsorted(bounds[1:], inside + 1e-9, side="right"))
             stop = min(cycle * self.H + bounds[mode + 1], end_tau)
@@ -129,8 +134,31 @@ class _PlanarWalk:
         self.start_state = self._cycle_state(T0, 0, 1)
         last = segments[-2]
         self.end_state = self._cycle_state(end_tau, last.cycle, last.mode + 1)
-        self.rest_start = self._rest(self.start_state[0])
-        self.rest_end = self._rest(self.end_state[0])
+        # At rest as far behind (ahead) as a steady acceleration from (to) the gait's speed
+        # travels: x_rest = x ∓ ẋ T / 2, so that x(t) moves one way only.
+        self.rest_start = self._rest(self.start_state, -start_s)
+        self.rest_end = self._rest(self.end_state, stop_s)
+        self.match_speed = {"start": True, "stop": True}
+        self.notes: list[str] = []
+        for seg in (segments[0], segments[-1]):
+            if not self._reachable(seg):
+                # The legs cannot follow the base from rest to the gait's speed with both feet
+                # down (dircon_biped's front leg is almost straight at touch-down): stand still
+                # at the touch-down pose and let the speed jump there, like a push.
+                self.match_speed[seg.kind] = False
+                if seg.kind == "start":
+                    self.rest_start = self.start_state[0][:BASE_DOF].copy()
+                else:
+                    self.rest_end = self.end_state[0][:BASE_DOF].copy()
+                self.notes.append(
+                    f"the legs cannot {'reach' if seg.kind == 'start' else 'leave'} the gait's "
+                    f"speed with both feet down in {seg.t1 - seg.t0:.2f} s: the walk "
+                    f"{'starts' if seg.kind == 'start' else 'stops'} with a jump in speed"
+                )
+
+    def _speed(self, v: np.ndarray, kind: str) -> np.ndarray:
+        """The base velocity the start/stop quintic meets: (ẋ, 0, 0), or 0 when standing."""
+        return np.array([v[0] if self.match_speed[kind] else 0.0, 0.0, 0.0])
 
     def _cycle_state(self, tau: float, cycle: int, mode: int) -> tuple[np.ndarray, ...]:
         s = sample_gait(self.result, np.array([tau - cycle * self.H]), np.array([mode]))
@@ -142,11 +170,21 @@ class _PlanarWalk:
         p = evaluate(self.planar.contact_positions, q).reshape(4, 2)
         return {"left": float(p[:2, 0].mean()), "right": float(p[2:, 0].mean())}
 
-    def _rest(self, q: np.ndarray) -> np.ndarray:
-        """Base (x, z, pitch) at rest for the double stance of q: CoM midway between the feet."""
-        feet = self.feet_x(q)
-        com_offset = float(evaluate(self.planar.com, q)[0]) - q[0]
-        return np.array([0.5 * (feet["left"] + feet["right"]) - com_offset, q[1], q[2]])
+    def _rest(self, state: tuple[np.ndarray, ...], duration_s: float) -> np.ndarray:
+        """Base (x, z, pitch) at rest before (duration < 0) or after a touch-down state."""
+        q, v = state[0], state[1]
+        return np.array([q[0] + 0.5 * v[0] * duration_s, q[1], q[2]])
+
+    def _reachable(self, segment: _Segment, samples: int = 12) -> bool:
+        """Whether both soles stay flat on their footholds through a double-support segment."""
+        for t in np.linspace(segment.t0, segment.t1, samples):
+            q = self.at(segment, float(t))
+            p = evaluate(self.planar.contact_positions, q).reshape(4, 2)
+            stance = self.start_state[0] if segment.kind == "start" else self.end_state[0]
+            goal = evaluate(self.planar.contact_positions, stance).reshape(4, 2)
+            if np.abs(p - goal).max() > REACH_TOLERANCE_M:
+                return False
+        return True
 
     def at(self, segment: _Segment, t: float) -> np.ndarray:
         if segment.kind == "step":
@@ -157,12 +195,30 @@ class _PlanarWalk:
             return q
         if segment.kind == "start":
             end, rest, T, local = self.start_state, self.rest_start, self.start_s, t
-            base = _quintic(rest, 0 * rest, 0 * rest, *(x[:BASE_DOF] for x in end), T, local)
+            base = _quintic(
+                rest,
+                0 * rest,
+                0 * rest,
+                end[0][:3],
+                self._speed(end[1], segment.kind),
+                0 * rest,
+                T,
+                local,
+            )
             stance = end[0]
         else:
             end, rest = self.end_state, self.rest_end
             T, local = segment.t1 - segment.t0, t - segment.t0
-            base = _quintic(*(x[:BASE_DOF] for x in end), rest, 0 * rest, 0 * rest, T, local)
+            base = _quintic(
+                end[0][:3],
+                self._speed(end[1], segment.kind),
+                0 * rest,
+                rest,
+                0 * rest,
+                0 * rest,
+                T,
+                local,
+            )
             stance = end[0]
         feet = self.feet_x(stance)
         if self._warm_from is not segment:  # first call on this segment: start from its end
@@ -211,7 +267,7 @@ def build_walk(
         raise WalkError(f"step_width_m = {step_width_m}: give a width in [0, 2] m")
     width = lifter.step_width_m
     total = walk.segments[-1].t1
-    t = np.arange(int(math.floor(total / dt + 1e-9)) + 1) * dt
+    t = np.arange(math.floor(total / dt + 1e-9) + 1) * dt
     which = np.array(
         [
             next(
@@ -239,6 +295,21 @@ def build_walk(
     z_com = float(lifter.data.com[0][2])
     gravity = planar.gravity
     y, zmp = lateral_sway(p_ref, dt, math.sqrt(gravity / z_com))
+    notes = []
+    short = {side: len(joints) for side, joints in lifter.legs.items() if len(joints) < 6}
+    if short:
+        # A leg with fewer than six joints cannot hold its foot flat under a pelvis that moves
+        # sideways: the walk stays sagittal (no sway, feet at their natural width).
+        lifter = LegLifter(planar, lifter.natural_width_m)
+        width = lifter.step_width_m
+        y = np.zeros(len(t))
+        zmp = np.zeros(len(t))
+        notes.append(
+            f"{planar.robot.name}'s legs have {min(short.values())} joints (no ankle roll): a "
+            "foot cannot stay flat while the pelvis sways sideways, so this walk has no lateral "
+            "sway and its CoM stays between the feet; in single support it is not over the "
+            "stance sole, so the whole-body QP cannot balance those samples"
+        )
     yd = np.gradient(y, dt)
     ydd = np.gradient(yd, dt)
 
@@ -267,7 +338,7 @@ def build_walk(
         v[k] = (d01, 0.5 * (d01 + d12), d12)[here] + (here - 1) * 0.5 * EPS_S * a[k]
         contacts[k] = seg.contacts
     footprints = _footprints(walk, lifter, width, total)
-    notes = []
+    notes = walk.notes + notes
     if lifter.residual_m_rad > 1e-6:
         notes.append(
             f"the legs cannot hold the feet flat at the step width while the base sways "
