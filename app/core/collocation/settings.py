@@ -160,8 +160,11 @@ class GaitSettings:
         return self.knots, self.baseline
 
     @classmethod
-    def from_mapping(cls, values: dict[str, object], source: str = "settings") -> GaitSettings:
-        """Settings from a dict (e.g. a parsed plan.toml), refusing unknown keys and bad types."""
+    def from_mapping(
+        cls, values: dict[str, object], source: str = "settings", base: GaitSettings | None = None
+    ) -> GaitSettings:
+        """Settings from a dict (e.g. a parsed plan.toml), refusing unknown keys and bad types;
+        fields not given keep `base`'s values (default: the class defaults, the paper's)."""
         fields = {f.name: f for f in dataclasses.fields(cls)}
         unknown = sorted(set(values) - set(fields))
         if unknown:
@@ -182,6 +185,8 @@ class GaitSettings:
                 kind = type(default).__name__
                 raise GaitSettingsError(f"{source}: {name} = {value!r} is not a {kind}")
             typed[name] = value
+        if base is not None:
+            return dataclasses.replace(base, **typed).validate()  # type: ignore[arg-type]
         return cls(**typed).validate()  # type: ignore[arg-type]
 
 
