@@ -259,6 +259,8 @@ def build_walk(
     stop_s = H if stop_s is None else float(stop_s)
     if not (start_s >= 4 * dt and stop_s >= 4 * dt):
         raise WalkError(f"start_s and stop_s must be at least 4 samples ({4 * dt:g} s)")
+    before_stop = start_s + steps * 0.5 * H
+    stop_s = math.ceil((before_stop + stop_s) / dt - 1e-9) * dt - before_stop  # ends on a sample
     walk = _PlanarWalk(planar, result, steps, start_s, stop_s)
     lifter = LegLifter(planar, step_width_m if step_width_m is not None else 0.0)
     if step_width_m is None:
