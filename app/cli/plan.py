@@ -74,7 +74,10 @@ def run(args: argparse.Namespace) -> int:
     problem = GaitProblem(robot, settings.knots, settings.baseline)
     result = problem.solve(settings)
     if not result.converged:  # the one-line reason, without the GUI's "last iterate" note
-        raise StudioError(f"{result.status.split(';')[0]} ({result.iterations} iterations)")
+        reason = result.status.split(";")[0]
+        if "iterations" not in reason:
+            reason += f" ({result.iterations} iterations)"
+        raise StudioError(reason)
     comparison = None
     if args.compare and not settings.baseline:
         base_settings = dataclasses.replace(settings, baseline=True)
