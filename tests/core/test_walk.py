@@ -238,3 +238,17 @@ def test_worker_key_rebuilds_the_problem_for_the_robot():
     )
     problem = build_gait_problem(key)
     assert problem.model.robot.name == "servo_biped" and problem.structure == (8, False)
+
+
+def test_roban_s14_plans_and_walks_balanced():
+    """Roban S14 (hip pitch through a 45°-tilted joint, roll and yaw): its default plan
+    converges and the whole-body QP follows ≥ 95 % of a 4-step walk on the true 3-D model."""
+    from tests.conftest import ROBAN_URDF
+
+    robot = load_robot(ROBAN_URDF)
+    problem = GaitProblem(robot)
+    result = problem.solve(default_settings(robot))
+    assert result.converged, result.status
+    walk = build_walk(problem.model, result, steps=4)
+    ff = torque_feedforward(robot, walk.trajectory)
+    assert 1.0 - len(ff.infeasible_samples) / walk.trajectory.n_samples >= FOLLOW_RATE

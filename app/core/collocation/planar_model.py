@@ -24,7 +24,13 @@ import casadi as ca
 import numpy as np
 import pinocchio as pin
 
-from app.core.collocation.planar_reduction import BASE_DOF, PlanarModelError, reduce_to_plane
+from app.core.collocation.hip_group import HipGroup, make_hip_group
+from app.core.collocation.planar_reduction import (
+    BASE_DOF,
+    PlanarModelError,
+    reduce_to_plane,
+    world_axes,
+)
 from app.core.robot.model import RobotModel
 
 __all__ = ["BASE_DOF", "CONTACT_NAMES", "PlanarModel", "PlanarModelError", "evaluate"]
@@ -79,17 +85,33 @@ class PlanarModel:
         self.leg_joints = tree.leg_joints
         self.nq = self.nv = BASE_DOF + len(self.joint_names)
         self.nu = len(self.joint_names)
-        ids = [model.getJointId(name) for name in self.joint_names]
+        axes, _ = world_axes(model)
+        self.hip_groups: dict[int, HipGroup] = {
+            self.joint_names.index(name): make_hip_group(model, group, axes)
+            for name, group in tree.hip_groups.items()
+        }
+        """Virtual hip pitch joints by planar joint index (Roban S14; see hip_group.py)."""
+        ids = [
+            tree.hip_groups[name][0] if name in tree.hip_groups else model.getJointId(name)
+            for name in self.joint_names
+        ]
         self.joint_idx_q = np.array([model.joints[i].idx_q for i in ids])
+        """q index of each planar joint (a hip group's first joint for a virtual joint)."""
         self.joint_idx_v = np.array([model.joints[i].idx_v for i in ids])
         self.mass_kg = float(sum(b.mass_kg for b in self.bodies))
         self.lower = model.lowerPositionLimit[self.joint_idx_q].copy()
-        """Joint position limits [rad] (Table 1 for dircon_biped), shape (nu,)."""
+        """Joint position limits [rad] (Table 1 for dircon_biped), shape (nu,); a virtual hip
+        joint's range is where its group's joints stay within their limits."""
         self.upper = model.upperPositionLimit[self.joint_idx_q].copy()
         self.effort_Nm = model.effortLimit[self.joint_idx_v].copy()
-        """URDF effort limits of the planar joints [N·m] (0 where the URDF gives none)."""
+        """URDF effort limits of the planar joints [N·m] (0 where the URDF gives none; a
+        virtual hip joint takes its group's smallest)."""
         self.velocity_radps = model.velocityLimit[self.joint_idx_v].copy()
         """URDF velocity limits of the planar joints [rad/s] (0 where the URDF gives none)."""
+        for k, group in self.hip_groups.items():
+            self.lower[k], self.upper[k] = group.pitch_range()
+            self.effort_Nm[k] = model.effortLimit[group.idx_v].min()
+            self.velocity_radps[k] = model.velocityLimit[group.idx_v].min()
         self._build_functions()
         self.standing_height_m = -float(
             evaluate(self.contact_positions, np.zeros(self.nq))[1::2].min()
@@ -227,6 +249,10 @@ class PlanarModel:
         out[..., 4] = np.sin(0.5 * q[..., 2])  # quaternion xyzw about y
         out[..., 6] = np.cos(0.5 * q[..., 2])
         out[..., self.joint_idx_q] = q[..., BASE_DOF:]
+        for k, group in self.hip_groups.items():
+            flat_in, flat_out = q.reshape(-1, self.nq), out.reshape(-1, out.shape[-1])
+            for row_in, row_out in zip(flat_in, flat_out, strict=True):
+                row_out[group.idx_q] = group.angles(row_in[BASE_DOF + k])
         return out
 
     def from_full_q(self, q_full: np.ndarray) -> np.ndarray:
@@ -240,6 +266,10 @@ class PlanarModel:
         out[..., 1] = q_full[..., 2]
         out[..., 2] = np.arctan2(r02, r00)
         out[..., BASE_DOF:] = q_full[..., self.joint_idx_q]
+        for k, group in self.hip_groups.items():
+            flat_in, flat_out = q_full.reshape(-1, q_full.shape[-1]), out.reshape(-1, self.nq)
+            for row_in, row_out in zip(flat_in, flat_out, strict=True):
+                row_out[BASE_DOF + k] = group.pitch(row_in[group.idx_q])
         return out
 
     def velocity_map(self, q: np.ndarray) -> np.ndarray:
@@ -253,6 +283,8 @@ class PlanarModel:
         G[2, 0], G[2, 1] = s, c
         G[4, 2] = 1.0
         G[self.joint_idx_v, np.arange(BASE_DOF, self.nv)] = 1.0
+        for k, group in self.hip_groups.items():
+            G[group.idx_v, BASE_DOF + k] = group.rates(q[BASE_DOF + k])
         return G
 
     def to_full_v(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -267,6 +299,10 @@ class PlanarModel:
         omega = v[2]
         out[0] -= omega * vf[2]  # (ω ŷ × v)_x = ω v_z
         out[2] += omega * vf[0]  # (ω ŷ × v)_z = −ω v_x
+        for k, group in self.hip_groups.items():  # d/dt (θ̇/α̇) α̇ by central differences in α
+            alpha, rate, h = q[BASE_DOF + k], v[BASE_DOF + k], 1e-5
+            curvature = (group.rates(alpha + h) - group.rates(alpha - h)) / (2 * h)
+            out[group.idx_v] += curvature * rate * rate
         return out
 
 

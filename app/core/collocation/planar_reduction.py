@@ -6,6 +6,8 @@ y axis — whatever the joint's own frame or its URDF axis (Roban S14's hip pitc
 tilted joint; SigmaBan's joints all turn about their own z). Every other joint (hip roll and
 yaw, arms, head, waist) is locked at zero and the bodies it carries are merged into the nearest
 planar ancestor (or the base) with pinocchio's exact 3-D inertia algebra.
+A leg without a hip pitch joint but with a spherical hip (three co-located joints whose axes
+span 3-D, Roban S14) gets a *virtual* hip pitch joint instead (hip_group.py).
 
 Each planar body gets a *planar frame*: at its joint's origin, parallel to the world frame at
 the neutral configuration. A planar joint whose axis is ±y turns its body's planar frame by
@@ -23,6 +25,7 @@ import dataclasses
 import numpy as np
 import pinocchio as pin
 
+from app.core.collocation.hip_group import find_hip_group
 from app.core.errors import StudioError
 from app.core.robot.model import RobotModel
 
@@ -70,6 +73,8 @@ class PlanarTree:
     """(body, (x, z) in its frame) of left heel, left toe, right heel, right toe."""
     leg_joints: dict[str, np.ndarray]
     """Indices into q of each leg's planar joints, hip to ankle, by side."""
+    hip_groups: dict[str, tuple[int, ...]] = dataclasses.field(default_factory=dict)
+    """Virtual pitch joints: name -> the pinocchio joint ids of its hip group (hip_group.py)."""
 
 
 def pitch_of(rotation: np.ndarray, what: str) -> float:
@@ -138,16 +143,28 @@ def reduce_to_plane(robot: RobotModel, planar_joints: tuple[str, ...] | None = N
             if not is_pitch(jid):
                 raise PlanarModelError(f"joint {name} does not turn about y; it cannot be planar")
             picked.add(jid)
+    groups: dict[str, tuple[int, ...]] = {}
     for side, chain in chains.items():
         pitch = [model.names[j] for j in chain if j in picked]
+        first = next((i for i, j in enumerate(chain) if j in picked), len(chain))
+        group = find_hip_group(model, chain[:first], axes, origins)
+        if planar_joints is None and len(pitch) < MIN_LEG_PITCH_JOINTS and group is not None:
+            name = "+".join(model.names[j] for j in group)  # a virtual hip pitch joint
+            groups[name] = group
+            pitch.insert(0, name)
         if len(pitch) < MIN_LEG_PITCH_JOINTS:
             found = ", ".join(pitch) if pitch else "none"
             raise PlanarModelError(
                 f"the {side} leg of {robot.name} has {len(pitch)} pitch joint(s) ({found}); the "
                 "gait planner needs hip pitch, knee and ankle pitch (axes along y when standing)"
             )
-    names = tuple(model.names[j] for j in range(2, model.njoints) if j in picked)
-    bodies, owner = _bodies(model, names, axes, origins)
+    first_of = {group[0]: name for name, group in groups.items()}
+    names = tuple(
+        first_of.get(j, model.names[j])
+        for j in range(2, model.njoints)
+        if j in picked or j in first_of
+    )
+    bodies, owner = _bodies(model, names, axes, origins, groups)
 
     points = []
     legs = {}
@@ -173,14 +190,20 @@ def reduce_to_plane(robot: RobotModel, planar_joints: tuple[str, ...] | None = N
             f"the legs of {robot.name} have different numbers of pitch joints "
             f"({len(legs['left'])} left, {len(legs['right'])} right)"
         )
-    return PlanarTree(names, bodies, tuple(points), legs)
+    return PlanarTree(names, bodies, tuple(points), legs, groups)
 
 
 def _bodies(
-    model: pin.Model, names: tuple[str, ...], axes: np.ndarray, origins: np.ndarray
+    model: pin.Model,
+    names: tuple[str, ...],
+    axes: np.ndarray,
+    origins: np.ndarray,
+    groups: dict[str, tuple[int, ...]],
 ) -> tuple[tuple[PlanarBody, ...], dict[int, tuple[int, int]]]:
     """Merge locked joints' bodies into their planar ancestor, then project on the plane.
-    Also returns, per pinocchio joint, (planar body, pinocchio joint of that body)."""
+    Also returns, per pinocchio joint, (planar body, pinocchio joint of that body). The
+    bodies of a hip group all move with its virtual joint (see hip_group.py)."""
+    in_group = {j: (name, group[0]) for name, group in groups.items() for j in group}
     data = model.createData()
     pin.forwardKinematics(model, data, pin.neutral(model))
     owner: dict[int, tuple[int, int]] = {1: (0, 1)}
@@ -191,7 +214,18 @@ def _bodies(
         parent_body, parent_jid = owner[parent]
         # The joint's frame in its owner's planar frame (world-parallel, at the owner's origin).
         T_planar_joint = pin.SE3(data.oMi[jid].rotation, origins[jid] - origins[parent_jid])
-        if name in names:
+        if jid in in_group and in_group[jid][1] != jid:  # a later joint of a hip group
+            body, first = owner[in_group[jid][1]]
+            owner[jid] = (body, first)
+            T_group_joint = pin.SE3(data.oMi[jid].rotation, origins[jid] - origins[first])
+            inertias[body] = inertias[body] + T_group_joint.act(model.inertias[jid])
+        elif jid in in_group:  # the first joint of a hip group: the virtual joint's body
+            owner[jid] = (len(inertias), jid)
+            placements.append(
+                (parent_body, origins[jid] - origins[parent_jid], in_group[jid][0], 1.0)
+            )
+            inertias.append(pin.SE3(data.oMi[jid].rotation, np.zeros(3)).act(model.inertias[jid]))
+        elif name in names:
             owner[jid] = (len(inertias), jid)
             sign = float(np.sign(axes[jid][1]))
             placements.append((parent_body, origins[jid] - origins[parent_jid], name, sign))

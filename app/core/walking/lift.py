@@ -79,9 +79,8 @@ class LegLifter:
             foot.translation = foot.translation + np.array([0.0, self.foot_shift_m[side], 0.0])
             targets[side] = base.actInv(foot)
         q = self._warm.copy()
-        q[self.planar.joint_idx_q] = q_flat[
-            self.planar.joint_idx_q
-        ]  # no 2π drift        q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
+        for side in ("left", "right"):  # planar solution: exact at the natural width, no 2π drift
+            q[self.idx_q[side]] = q_flat[self.idx_q[side]]
         for side, fid in self.foot_frames.items():
             iq, iv = self.idx_q[side], self.idx_v[side]
             for _ in range(IK_MAX_ITERATIONS):
