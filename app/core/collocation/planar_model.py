@@ -91,6 +91,7 @@ class PlanarModel:
             for name, group in tree.hip_groups.items()
         }
         """Virtual hip pitch joints by planar joint index (Roban S14; see hip_group.py)."""
+        self._hip_start: dict[int, np.ndarray] = {}
         ids = [
             tree.hip_groups[name][0] if name in tree.hip_groups else model.getJointId(name)
             for name in self.joint_names
@@ -252,7 +253,9 @@ class PlanarModel:
         for k, group in self.hip_groups.items():
             flat_in, flat_out = q.reshape(-1, self.nq), out.reshape(-1, out.shape[-1])
             for row_in, row_out in zip(flat_in, flat_out, strict=True):
-                row_out[group.idx_q] = group.angles(row_in[BASE_DOF + k])
+                theta = group.angles(row_in[BASE_DOF + k], self._hip_start.get(k))
+                self._hip_start[k] = theta  # Newton from the last solution: 2–3 iterations
+                row_out[group.idx_q] = theta
         return out
 
     def from_full_q(self, q_full: np.ndarray) -> np.ndarray:
