@@ -5,10 +5,15 @@ from __future__ import annotations
 from typing import Any
 
 
-def build_gait_problem(structure_key: tuple[int, bool]) -> Any:
-    """A gait NLP for dircon_biped with `knots` knots, symmetric or baseline (built once per key)."""
-    from app.core.collocation.dircon import GaitProblem
-    from app.core.robot.loading import load_robot
+def build_gait_problem(structure_key: Any) -> Any:
+    """A gait NLP for the robot and structure of `structure_key` (built once per key): a
+    GaitProblemKey (robot source, package roots, feet, knots, baseline), or the older
+    (knots, baseline) pair, which means dircon_biped."""
+    from app.core.collocation.job_key import GaitProblemKey
 
-    knots, baseline = structure_key
-    return GaitProblem(load_robot("dircon_biped"), knots=knots, baseline=baseline)
+    if isinstance(structure_key, tuple):
+        knots, baseline = structure_key
+        structure_key = GaitProblemKey("dircon_biped", knots=knots, baseline=baseline)
+    if not isinstance(structure_key, GaitProblemKey):
+        raise TypeError(f"not a gait problem key: {structure_key!r}")
+    return structure_key.build_problem()

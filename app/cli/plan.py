@@ -1,64 +1,128 @@
-"""`plan`: the symmetric DIRCON gait."""
+"""`plan`: the symmetric DIRCON gait of a biped, and optionally a whole-body walk of N steps."""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 from pathlib import Path
 
-from app.cli.common import (
-    output_target,
-)
+from app.cli.common import add_robot_options, load_robot_from_args, output_target
 from app.core.budgets import check_dt, check_samples
 from app.core.errors import StudioError
+
+MAX_STEPS = 100
+"""Most steps `plan --steps` walks."""
+PLAN_ROBOT = "dircon_biped"
+"""The robot `plan` uses without --robot: the gait paper's."""
 
 
 def add_parser(sub) -> None:
     plan = sub.add_parser(
         "plan",
-        help="plan the gait paper's symmetric walking gait for dircon_biped (DIRCON, IPOPT)",
+        help="plan the gait paper's symmetric walking gait (DIRCON, IPOPT) for a biped, and "
+        "optionally a whole-body walk of N steps",
     )
     plan.add_argument(
-        "--config", type=Path, default=None, help="plan.toml: GaitSettings fields (K0 = 6.5, …)"
+        "--robot", default=PLAN_ROBOT, help=f"built-in name or URDF path (default {PLAN_ROBOT})"
+    )
+    add_robot_options(plan)
+    plan.add_argument(
+        "--config",
+        type=Path,
+        default=None,
+        help="plan.toml: GaitSettings fields (K0 = 6.5, …); others default for the robot",
     )
     plan.add_argument(
         "--baseline", action="store_true", help="the original DIRCON planner (no symmetry)"
     )
-    plan.add_argument("--out", type=Path, default=None, help="gait CSV to write (100 Hz)")
+    plan.add_argument(
+        "--steps",
+        type=int,
+        default=0,
+        help="walk this many steps from rest to rest (3-D, lateral sway); 0: one gait cycle",
+    )
+    plan.add_argument(
+        "--step-width", type=float, default=None, help="walk: lateral distance of the feet [m]"
+    )
+    plan.add_argument(
+        "--compare",
+        action="store_true",
+        help="also solve the baseline and report both beside the paper's Table 4 (ratios)",
+    )
+    plan.add_argument("--out", type=Path, default=None, help="gait or walk CSV to write")
     plan.add_argument("--dt", type=float, default=0.01, help="CSV sample time step [s]")
     plan.add_argument("--json", action="store_true")
 
 
 def run(args: argparse.Namespace) -> int:
-    from app.core.collocation.dircon import (
-        GaitProblem,
-        GaitSettings,
-        read_settings_toml,
-        to_trajectory,
-    )
+    from app.core.collocation.defaults import robot_gait_defaults
+    from app.core.collocation.dircon import GaitProblem, read_settings_toml, to_trajectory
+    from app.core.collocation.settings import GaitSettings
+    from app.core.collocation.table4 import table4_comparison
     from app.core.motions.csv_files import write_trajectory_csv
-    from app.core.robot.loading import load_robot
 
     check_dt(args.dt, "--dt")  # before the solve, not after minutes of it
+    if not 0 <= args.steps <= MAX_STEPS:
+        raise StudioError(f"--steps must be in [0, {MAX_STEPS}], got {args.steps}")
     values = read_settings_toml(args.config) if args.config is not None else {}
     if args.baseline:
         values["baseline"] = True
-    settings = GaitSettings.from_mapping(values, source=str(args.config or "settings"))
-    check_samples(settings.H_s / args.dt + 1, 20, f"the gait CSV at --dt {args.dt:g} s")
-    robot = load_robot("dircon_biped")
+    robot = load_robot_from_args(args)
+    defaults = robot_gait_defaults(robot)
+    settings = GaitSettings.from_mapping(
+        values, source=str(args.config or "settings"), base=defaults.settings
+    )
+    check_samples(
+        settings.H_s * max(1, args.steps) / args.dt + 1,
+        robot.model.nq,
+        f"the gait CSV at --dt {args.dt:g} s",
+    )
     problem = GaitProblem(robot, settings.knots, settings.baseline)
     result = problem.solve(settings)
     if not result.converged:  # the one-line reason, without the GUI's "last iterate" note
-        raise StudioError(f"{result.status.split(';')[0]} ({result.iterations} iterations)")
+        reason = result.status.split(";")[0]
+        if "iterations" not in reason:
+            reason += f" ({result.iterations} iterations)"
+        raise StudioError(reason)
+    comparison = None
+    if args.compare and not settings.baseline:
+        base_settings = dataclasses.replace(settings, baseline=True)
+        base = GaitProblem(problem.model, settings.knots, True).solve(base_settings)
+        if not base.converged:
+            raise StudioError(f"baseline: {base.status.split(';')[0]} ({base.iterations} its)")
+        comparison = table4_comparison(result, base)
+    walk = None
+    if args.steps > 0:
+        from app.core.walking.walk import build_walk
+
+        walk = build_walk(
+            problem.model, result, steps=args.steps, step_width_m=args.step_width, dt=args.dt
+        )
+        trajectory = walk.trajectory
+    else:
+        trajectory = to_trajectory(robot, result, dt=args.dt)
     if args.out is not None:
-        write_trajectory_csv(to_trajectory(robot, result, dt=args.dt), args.out, robot)
+        write_trajectory_csv(trajectory, args.out, robot)
     summary = result.summary()
     if args.json:
         report = {
             "ok": True,
+            "robot": robot.name,
             **summary,
             "build_s": problem.build_s,
-            "sr": result.sr,
+            "settings_notes": list(defaults.notes),
+            "table4": comparison,
+            "walk": None
+            if walk is None
+            else {
+                "steps": args.steps,
+                "samples": walk.trajectory.n_samples,
+                "duration_s": walk.trajectory.duration,
+                "step_width_m": walk.step_width_m,
+                "footprints": [dataclasses.asdict(f) for f in walk.footprints],
+                "notes": list(walk.notes),
+            },
             "out": None if args.out is None else str(args.out),
         }
         print(json.dumps(report, indent=2))
@@ -66,9 +130,23 @@ def run(args: argparse.Namespace) -> int:
     lsp, rsp = result.step_lengths_m
     target = output_target(args.out)
     kind = "baseline DIRCON" if settings.baseline else "symmetric"
-    print(
-        f"{kind} gait: {result.status} in {result.solve_s:.2f} s ({result.iterations} iterations, "
-        f"built in {problem.build_s:.1f} s); max |tau| {result.max_abs_tau_Nm:.2f} N·m, "
-        f"steps {lsp:.3f} / {rsp:.3f} m, slack0 {result.slack0:.3g}, SR {result.sr:.3f}{target}"
+    walked = (
+        "" if walk is None else f"; walk of {args.steps} steps, {walk.trajectory.duration:.2f} s"
     )
+    print(
+        f"{robot.name}: {kind} gait: {result.status} in {result.solve_s:.2f} s "
+        f"({result.iterations} iterations, built in {problem.build_s:.1f} s); max |tau| "
+        f"{result.max_abs_tau_Nm:.2f} N·m, steps {lsp:.3f} / {rsp:.3f} m, slack0 "
+        f"{result.slack0:.3g}, SR {result.sr:.3f} ({result.sr_incl_impacts:.3f} with impacts)"
+        f"{walked}{target}"
+    )
+    if comparison is not None:
+        for row in comparison["rows"]:  # type: ignore[attr-defined]
+            print(
+                f"{row['name']}: symmetric / baseline {row['ours_ratio']:.3f} (ours), "
+                f"{row['paper_ratio']:.3f} (paper, Table 4)"
+            )
+        print(f"compared: {comparison['what']}")
+    for note in (*defaults.notes, *(() if walk is None else walk.notes)):
+        print(f"note: {note}")
     return 0

@@ -337,3 +337,29 @@ def test_result_pickles_and_planner_caches_problems(small, planar):
     refused = planner.solve(GaitSettings(knots=2))
     assert not refused.converged and not refused.has_gait and "knots" in refused.status
     assert planner.problems == {}
+
+
+def test_paper_defaults_walk_on_bent_knees_with_a_torque_like_the_papers(paper, robot):
+    """With the pelvis held 1.5 % below its straight-leg height (the default), the knees stay
+    bent through the whole gait, as on the paper's robot, and the largest torque comes near
+    the paper's 9.8 N·m (Table 4) instead of the 2.5 N·m of a straight-legged gait."""
+    from app.core.papers import TABLE4
+
+    _, result = paper
+    trajectory = to_trajectory(robot, result, dt=0.001)
+    knees = [
+        robot.model.joints[robot.model.getJointId(n)].idx_q for n in ("left_knee", "right_knee")
+    ]
+    flexion = trajectory.q[:, knees]
+    assert flexion.min() > 0.15 or (-flexion).min() > 0.15  # one sign of bend all along
+    assert 0.75 * TABLE4.max_abs_tau_Nm[0] <= result.max_abs_tau_Nm <= TABLE4.max_abs_tau_Nm[1]
+
+
+def test_a_walk_of_dircon_biped_says_why_it_has_no_sway(small, planar):
+    """dircon_biped has no ankle roll: its walk stays sagittal and says so."""
+    from app.core.walking.walk import build_walk
+
+    _, result = small
+    walk = build_walk(planar, result, steps=2)
+    assert np.abs(walk.com_y_m).max() == 0.0
+    assert any("no ankle roll" in note for note in walk.notes)

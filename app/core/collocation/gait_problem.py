@@ -45,6 +45,7 @@ from app.core.collocation.settings import GaitSettings, GaitSettingsError
 from app.core.collocation.transcription import (
     STANCE,
     GaitLayout,
+    foot_rows,
     hermite_simpson,
     other,
     stance_rows,
@@ -66,7 +67,8 @@ IPOPT_OPTIONS: dict[str, Any] = {
     "ipopt.max_iter": 100000,  # the per-solve limit is GaitSettings.max_iter, via the callback
     "ipopt.mu_strategy": "monotone",
 }
-BASE_Z_BOUNDS_M = (0.3, 1.6)
+BASE_Z_LOW_RATIO = 0.4
+"""Lowest base height, as a fraction of the straight-leg standing height (keeps IPOPT sane)."""
 BASE_PITCH_BOUNDS_RAD = (-0.8, 0.8)
 BASE_SPEED_MAX = 10.0
 """Bound on the base's x and z speeds [m/s] (loose: keeps IPOPT's iterates sane)."""
@@ -122,6 +124,7 @@ class GaitProblem:
         N = L.n_nodes
         H, d, mu = nlp.parameter("H"), nlp.parameter("d"), nlp.parameter("mu")
         K0, K1, K2 = nlp.parameter("K0"), nlp.parameter("K1"), nlp.parameter("K2")
+        K_impact = nlp.parameter("K_impact")
         B = np.zeros((m.nv, m.nu))
         B[BASE_DOF:] = np.eye(m.nu)
         Bd = _dm(B)
@@ -185,8 +188,12 @@ class GaitProblem:
                     m.rnea(q_c, v_c, vd_c) - Bd @ (0.5 * (u[k] + u[k + 1])) - Jc.T @ lam_mid
                 )
                 friction(lam_mid)
+                # Bounds between the knots, at the collocation point (bounds set per solve).
+                nlp.constrain(q_c[BASE_DOF:], tag="range_mid")
+                nlp.constrain(v_c[BASE_DOF:], tag="speed_mid")
+                swing_c = _dm(swing_z_rows(other(STANCE[j]))) @ m.contact_positions(q_c)
+                nlp.constrain(swing_c, tag="swing")
                 if j == 1 and 2 * (k - nodes[0]) == len(nodes) - 2:  # the left foot's mid-swing
-                    swing_c = _dm(swing_z_rows("left")) @ m.contact_positions(q_c)
                     nlp.constrain(swing_c, 0.0, 0.0, tag="clearance")
                 smooth += (
                     ca.sumsqr(q[k + 1] - q[k])
@@ -194,6 +201,7 @@ class GaitProblem:
                     + ca.sumsqr(u[k + 1] - u[k])
                 )
 
+        impact_loss: Any = 0  # kinetic energy lost at the touch-downs: ½ Δvᵀ M Δv [J]
         for j in (0, 1):
             pre, post = L.last(j), L.first(j + 1)
             impulse = nlp.variable("impulse", 3)
@@ -204,6 +212,10 @@ class GaitProblem:
                 - (S_land @ m.contact_jacobian(q[pre])).T @ impulse
             )
             friction(impulse)
+            landing = _dm(foot_rows(STANCE[j + 1])) @ m.contact_jacobian(q[pre]) @ v[pre]
+            nlp.constrain(landing, tag="touchdown")  # |heel, toe velocity| before touch-down
+            jump = v[post] - v[pre]
+            impact_loss += 0.5 * ca.dot(jump, m.mass_matrix(q[pre]) @ jump)
             lifting = _dm(swing_z_rows(STANCE[j])) @ m.contact_jacobian(q[post]) @ v[post]
             nlp.constrain(lifting, 0.0, ca.inf)
 
@@ -212,12 +224,13 @@ class GaitProblem:
         nlp.constrain(v[N - 1] - v[0])
 
         cost = POSTURE_WEIGHT * (ca.sumsqr(q[0][2:]) + ca.sumsqr(q[N - 1][2:])) + K0 * energy
+        cost += K_impact * impact_loss
         if not self.baseline:
             left, right = (list(m.leg_joints[s]) for s in ("left", "right"))
             e0, e1 = L.last(0), L.last(1)
-            for x in (q, v):
-                nlp.constrain(x[e0][left] - x[e1][right])
-                nlp.constrain(x[e0][right] - x[e1][left])
+            for x in (q, v):  # ±exchange tolerance (0 for mirror-identical legs)
+                nlp.constrain(x[e0][left] - x[e1][right], tag="exchange")
+                nlp.constrain(x[e0][right] - x[e1][left], tag="exchange")
             assert slack is not None
             cost += K1 * slack**2 + K2 * smooth
         nlp.cost = cost
@@ -225,7 +238,10 @@ class GaitProblem:
     # -- solving -------------------------------------------------------------------------------
 
     def _parameters(self, s: GaitSettings) -> np.ndarray:
-        values = {"H": s.H_s, "d": s.step_length_m, "mu": s.mu, "K0": s.K0, "K1": s.K1, "K2": s.K2}
+        values = {
+            "H": s.H_s, "d": s.step_length_m, "mu": s.mu, "K0": s.K0, "K1": s.K1, "K2": s.K2,
+            "K_impact": s.K_impact,
+        }  # fmt: skip
         p = np.zeros(len(self.nlp.p_index))
         for name, i in self.nlp.p_index.items():
             p[i] = values[name]
@@ -235,8 +251,16 @@ class GaitProblem:
         m, nlp = self.model, self.nlp
         lbx, ubx = np.full(nlp.nx, -np.inf), np.full(nlp.nx, np.inf)
         blocks = nlp.x_blocks
-        lo_q = np.concatenate([[-np.inf, BASE_Z_BOUNDS_M[0], BASE_PITCH_BOUNDS_RAD[0]], m.lower])
-        hi_q = np.concatenate([[np.inf, BASE_Z_BOUNDS_M[1], BASE_PITCH_BOUNDS_RAD[1]], m.upper])
+        h0 = m.standing_height_m
+        z_low, z_high = BASE_Z_LOW_RATIO * h0, s.pelvis_height_ratio * h0
+        lo_q = np.concatenate([[-np.inf, z_low, BASE_PITCH_BOUNDS_RAD[0]], m.lower])
+        hi_q = np.concatenate([[np.inf, z_high, BASE_PITCH_BOUNDS_RAD[1]], m.upper])
+        for side in ("left", "right"):
+            knee = m.leg_joints[side][1]
+            if m.bodies[knee - BASE_DOF + 1].axis_sign > 0:  # flexion = +q (foot moves back)
+                lo_q[knee] = max(lo_q[knee], s.knee_flexion_min_rad)
+            else:
+                hi_q[knee] = min(hi_q[knee], -s.knee_flexion_min_rad)
         speed = [BASE_SPEED_MAX] * 2 + [BASE_PITCH_RATE_MAX] + [s.qd_max] * m.nu
         for sl in blocks["q"]:
             lbx[sl], ubx[sl] = lo_q, hi_q
@@ -259,6 +283,14 @@ class GaitProblem:
         lbg, ubg = self.compiled.lbg.copy(), self.compiled.ubg.copy()
         for sl in nlp.g_blocks["swing"]:
             lbg[sl], ubg[sl] = 0.0, s.swing_height_m
+        for sl in nlp.g_blocks["range_mid"]:
+            lbg[sl], ubg[sl] = m.lower, m.upper
+        for sl in nlp.g_blocks["speed_mid"]:
+            lbg[sl], ubg[sl] = -s.qd_max, s.qd_max
+        for sl in nlp.g_blocks["touchdown"]:
+            lbg[sl], ubg[sl] = -s.touchdown_speed_max_mps, s.touchdown_speed_max_mps
+        for sl in nlp.g_blocks.get("exchange", []):
+            lbg[sl], ubg[sl] = -m.exchange_tolerance, m.exchange_tolerance
         for sl in nlp.g_blocks["clearance"]:
             lbg[sl] = min(s.swing_clearance_m, s.swing_height_m)
             ubg[sl] = s.swing_height_m

@@ -37,7 +37,7 @@ def _foot_target(side: str, t: float, H: float, d: float) -> tuple[float, float]
     return start + d * s, float(np.sin(np.pi * s))
 
 
-class _Posture:
+class LegPosture:
     """Planar leg IK: the three leg joints that put a foot flat at a target."""
 
     def __init__(self, model: PlanarModel) -> None:
@@ -47,10 +47,18 @@ class _Posture:
         self.q = q0
         for side in ("left", "right"):
             hip, knee, ankle = model.leg_joints[side][:3]
-            self.q[[hip, knee, ankle]] = -0.2, 0.4, -0.2
+            signs = [model.bodies[j - BASE_DOF + 1].axis_sign for j in (hip, knee, ankle)]
+            self.q[[hip, knee, ankle]] = np.array([-0.2, 0.4, -0.2]) * signs
 
-    def solve(self, base: np.ndarray, targets: dict[str, tuple[float, float]]) -> np.ndarray:
-        q = self.q.copy()
+    def solve(
+        self,
+        base: np.ndarray,
+        targets: dict[str, tuple[float, float]],
+        warm: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Planar q with base (x, z, pitch) and each foot's sole centre flat at (x, z) [m];
+        Gauss–Newton from `warm` (default: the last solution)."""
+        q = (self.q if warm is None else warm).copy()
         q[:BASE_DOF] = base
         for side, (x, z) in targets.items():
             S = stance_rows(side)
@@ -78,7 +86,7 @@ def initial_guess(
     swing_height: float,
 ) -> dict[str, np.ndarray]:
     """Arrays q, v, a (N, nq), u (N, nu), lam (N, 3) at the node times."""
-    posture = _Posture(model)
+    posture = LegPosture(model)
     z_base = BASE_HEIGHT_RATIO * posture.standing_height
     lift = min(ARC_HEIGHT_M, 0.5 * swing_height)
 

@@ -22,12 +22,21 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
+import pinocchio as pin
 
-from app.core.collocation.planar_reduction import BASE_DOF, PlanarModelError, reduce_to_plane
+from app.core.collocation.hip_group import HipGroup, make_hip_group
+from app.core.collocation.planar_reduction import (
+    BASE_DOF,
+    PlanarModelError,
+    reduce_to_plane,
+    world_axes,
+)
 from app.core.robot.model import RobotModel
 
 __all__ = ["BASE_DOF", "CONTACT_NAMES", "PlanarModel", "PlanarModelError", "evaluate"]
 
+EXCHANGE_SLACK = 5.0
+"""Exchange tolerance per radian of leg asymmetry (see PlanarModel.exchange_tolerance)."""
 CONTACT_NAMES = ("left_heel", "left_toe", "right_heel", "right_toe")
 """Order of the four contact points in `contact_positions` and `contact_jacobian` (x, z each)."""
 
@@ -62,6 +71,7 @@ class PlanarModel:
       contact_positions(q) -> p (8)       (x, z) of left heel, left toe, right heel, right toe
       contact_jacobian(q) -> J (8 × nv)
       contact_jdot_v(q, v) -> J̇v (8)
+      com(q) -> (x, z) (2)                whole-body centre of mass
     """
 
     def __init__(self, robot: RobotModel, planar_joints: tuple[str, ...] | None = None) -> None:
@@ -75,14 +85,46 @@ class PlanarModel:
         self.leg_joints = tree.leg_joints
         self.nq = self.nv = BASE_DOF + len(self.joint_names)
         self.nu = len(self.joint_names)
-        ids = [model.getJointId(name) for name in self.joint_names]
+        axes, _ = world_axes(model)
+        self.hip_groups: dict[int, HipGroup] = {
+            self.joint_names.index(name): make_hip_group(model, group, axes)
+            for name, group in tree.hip_groups.items()
+        }
+        """Virtual hip pitch joints by planar joint index (Roban S14; see hip_group.py)."""
+        self._hip_start: dict[int, np.ndarray] = {}
+        ids = [
+            tree.hip_groups[name][0] if name in tree.hip_groups else model.getJointId(name)
+            for name in self.joint_names
+        ]
         self.joint_idx_q = np.array([model.joints[i].idx_q for i in ids])
+        """q index of each planar joint (a hip group's first joint for a virtual joint)."""
         self.joint_idx_v = np.array([model.joints[i].idx_v for i in ids])
         self.mass_kg = float(sum(b.mass_kg for b in self.bodies))
         self.lower = model.lowerPositionLimit[self.joint_idx_q].copy()
-        """Joint position limits [rad] (Table 1 for dircon_biped), shape (nu,)."""
+        """Joint position limits [rad] (Table 1 for dircon_biped), shape (nu,); a virtual hip
+        joint's range is where its group's joints stay within their limits."""
         self.upper = model.upperPositionLimit[self.joint_idx_q].copy()
+        self.effort_Nm = model.effortLimit[self.joint_idx_v].copy()
+        """URDF effort limits of the planar joints [N·m] (0 where the URDF gives none; a
+        virtual hip joint takes its group's smallest)."""
+        self.velocity_radps = model.velocityLimit[self.joint_idx_v].copy()
+        """URDF velocity limits of the planar joints [rad/s] (0 where the URDF gives none)."""
+        for k, group in self.hip_groups.items():
+            self.lower[k], self.upper[k] = group.pitch_range()
+            self.effort_Nm[k] = model.effortLimit[group.idx_v].min()
+            self.velocity_radps[k] = model.velocityLimit[group.idx_v].min()
         self._build_functions()
+        self.standing_height_m = -float(
+            evaluate(self.contact_positions, np.zeros(self.nq))[1::2].min()
+        )
+        """Base height above the soles with every joint at zero (straight legs) [m]."""
+        self.leg_asymmetry_m = self._leg_asymmetry()
+        """Largest difference between the legs' joint offsets, CoMs and sole points [m]."""
+        self.exchange_tolerance = EXCHANGE_SLACK * self.leg_asymmetry_m / self.standing_height_m
+        """Tolerance of eq. 6's joint-state exchange [rad, rad/s]: 0 for mirror-identical legs.
+        Legs that differ (SigmaBan's by 0.24 mm) cannot exchange their states exactly with both
+        soles flat on the floor, so the exchange holds to a few times the angle that the
+        difference subtends on the leg."""
 
     # -- kinematics and dynamics ---------------------------------------------------------------
 
@@ -101,10 +143,11 @@ class PlanarModel:
                 r = _apply(p["theta"], body.joint_xz_m)
                 wr = _cross_w(p["omega"], r)
                 ar = _cross_w(p["alpha"], r)
+                sign = body.axis_sign
                 s = {
-                    "theta": p["theta"] + body.joint_pitch_rad + q[k],
-                    "omega": p["omega"] + v[k],
-                    "alpha": p["alpha"] + a[k],
+                    "theta": p["theta"] + body.joint_pitch_rad + sign * q[k],
+                    "omega": p["omega"] + sign * v[k],
+                    "alpha": p["alpha"] + sign * a[k],
                     "o": (p["o"][0] + r[0], p["o"][1] + r[1]),
                     "vo": (p["vo"][0] + wr[0], p["vo"][1] + wr[1]),
                     "ao": (
@@ -136,7 +179,8 @@ class PlanarModel:
                     f = (f[0] + force[j][0], f[1] + force[j][1])
                     n = n + moment[j] + _moment(r, force[j])
             force[i], moment[i] = f, n
-        return ca.vertcat(force[0][0], force[0][1], moment[0], *moment[1:])
+        joint_moments = [b.axis_sign * n for b, n in zip(self.bodies[1:], moment[1:], strict=True)]
+        return ca.vertcat(force[0][0], force[0][1], moment[0], *joint_moments)
 
     def _points(self, q: Any) -> Any:
         zero = [0.0] * self.nv
@@ -146,6 +190,17 @@ class PlanarModel:
             r = _apply(states[body]["theta"], xz)
             coords += [states[body]["o"][0] + r[0], states[body]["o"][1] + r[1]]
         return ca.vertcat(*coords)
+
+    def _com(self, q: Any) -> Any:
+        """Whole-body CoM (x, z) [m]."""
+        zero = [0.0] * self.nv
+        states = self._forward(q, zero, zero, 0.0)
+        x = z = 0.0
+        for body, s in zip(self.bodies, states, strict=True):
+            c = _apply(s["theta"], body.com_xz_m)
+            x = x + body.mass_kg * (s["o"][0] + c[0])
+            z = z + body.mass_kg * (s["o"][1] + c[1])
+        return ca.vertcat(x, z) / self.mass_kg
 
     def _build_functions(self) -> None:
         q = ca.SX.sym("q", self.nq)
@@ -162,20 +217,45 @@ class PlanarModel:
             "bias", [q, v], [ca.substitute(tau, a, ca.SX.zeros(self.nv))], ["q", "v"], ["h"]
         )
         self.contact_positions = ca.Function("contact_positions", [q], [points], ["q"], ["p"])
+        self.com = ca.Function("com", [q], [self._com(q)], ["q"], ["com"])
         self.contact_jacobian = ca.Function("contact_jacobian", [q], [jac], ["q"], ["J"])
         self.contact_jdot_v = ca.Function("contact_jdot_v", [q, v], [jdot_v], ["q", "v"], ["Jdv"])
+
+    def _leg_asymmetry(self) -> float:
+        left, right = (self.leg_joints[s] - BASE_DOF + 1 for s in ("left", "right"))
+        gaps = [0.0]
+        for i, j in zip(left, right, strict=True):
+            one, two = self.bodies[i], self.bodies[j]
+            gaps += [
+                float(np.abs(one.joint_xz_m - two.joint_xz_m).max()),
+                float(np.abs(one.com_xz_m - two.com_xz_m).max()),
+            ]
+        points = [xz for _, xz in self.contact_points]
+        gaps += [
+            float(np.abs(points[0] - points[2]).max()),
+            float(np.abs(points[1] - points[3]).max()),
+        ]
+        return max(gaps)
 
     # -- planar <-> full pinocchio configuration -------------------------------------------------
 
     def to_full_q(self, q: np.ndarray) -> np.ndarray:
-        """Full pinocchio configuration(s) of planar q (…, nq): y = 0, locked joints at 0."""
+        """Full pinocchio configuration(s) of planar q (…, nq): y = 0, locked joints at their
+        neutral value (0)."""
         q = np.asarray(q, dtype=float)
         out = np.zeros((*q.shape[:-1], self.robot.model.nq))
+        out[...] = pin.neutral(self.robot.model)
         out[..., 0] = q[..., 0]
         out[..., 2] = q[..., 1]
         out[..., 4] = np.sin(0.5 * q[..., 2])  # quaternion xyzw about y
         out[..., 6] = np.cos(0.5 * q[..., 2])
         out[..., self.joint_idx_q] = q[..., BASE_DOF:]
+        for k, group in self.hip_groups.items():
+            flat_in, flat_out = q.reshape(-1, self.nq), out.reshape(-1, out.shape[-1])
+            for row_in, row_out in zip(flat_in, flat_out, strict=True):
+                theta = group.angles(row_in[BASE_DOF + k], self._hip_start.get(k))
+                self._hip_start[k] = theta  # Newton from the last solution: 2–3 iterations
+                row_out[group.idx_q] = theta
         return out
 
     def from_full_q(self, q_full: np.ndarray) -> np.ndarray:
@@ -189,6 +269,10 @@ class PlanarModel:
         out[..., 1] = q_full[..., 2]
         out[..., 2] = np.arctan2(r02, r00)
         out[..., BASE_DOF:] = q_full[..., self.joint_idx_q]
+        for k, group in self.hip_groups.items():
+            flat_in, flat_out = q_full.reshape(-1, q_full.shape[-1]), out.reshape(-1, self.nq)
+            for row_in, row_out in zip(flat_in, flat_out, strict=True):
+                row_out[BASE_DOF + k] = group.pitch(row_in[group.idx_q])
         return out
 
     def velocity_map(self, q: np.ndarray) -> np.ndarray:
@@ -202,6 +286,8 @@ class PlanarModel:
         G[2, 0], G[2, 1] = s, c
         G[4, 2] = 1.0
         G[self.joint_idx_v, np.arange(BASE_DOF, self.nv)] = 1.0
+        for k, group in self.hip_groups.items():
+            G[group.idx_v, BASE_DOF + k] = group.rates(q[BASE_DOF + k])
         return G
 
     def to_full_v(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -216,6 +302,10 @@ class PlanarModel:
         omega = v[2]
         out[0] -= omega * vf[2]  # (ω ŷ × v)_x = ω v_z
         out[2] += omega * vf[0]  # (ω ŷ × v)_z = −ω v_x
+        for k, group in self.hip_groups.items():  # d/dt (θ̇/α̇) α̇ by central differences in α
+            alpha, rate, h = q[BASE_DOF + k], v[BASE_DOF + k], 1e-5
+            curvature = (group.rates(alpha + h) - group.rates(alpha - h)) / (2 * h)
+            out[group.idx_v] += curvature * rate * rate
         return out
 
 

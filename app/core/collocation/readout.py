@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 
+from app.core.collocation.bound_check import check_bounds, impact_losses
 from app.core.collocation.nlp import SolveOutcome
 from app.core.collocation.planar_model import PlanarModel
 from app.core.collocation.result import GaitResult
@@ -82,4 +83,14 @@ def read_result(
     energy = positive_work(result)
     weight_distance = model.mass_kg * model.gravity * s.step_length_m
     sr = energy / weight_distance if weight_distance > 0 else float("nan")
-    return dataclasses.replace(result, energy_J=energy, sr=sr)
+    impacts = float(impact_losses(model, result).sum())
+    work = energy + impacts
+    return dataclasses.replace(
+        result,
+        energy_J=energy,
+        sr=sr,
+        impact_loss_J=impacts,
+        work_incl_impacts_J=work,
+        sr_incl_impacts=work / weight_distance if weight_distance > 0 else float("nan"),
+        bound_check=check_bounds(model, result),
+    )

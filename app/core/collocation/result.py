@@ -8,10 +8,14 @@ Planar layout (see planar_model): q = [x, z, pitch, planar joints], v and a alik
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from app.core.collocation.settings import GaitSettings
+
+if TYPE_CHECKING:
+    from app.core.collocation.bound_check import BoundCheck
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,6 +92,15 @@ class GaitResult:
     """Bound multipliers at the returned point."""
     structure: tuple[int, bool]
     """(knots, baseline) of the NLP that produced it."""
+    impact_loss_J: float = float("nan")
+    """Kinetic energy lost in the two touch-down impacts, Σ ½ Δvᵀ M Δv [J]."""
+    work_incl_impacts_J: float = float("nan")
+    """energy_J + impact_loss_J: the planned mechanical work of the gait, impacts included [J].
+    Planned work, not the paper's measured motor energy (Table 4), which adds losses."""
+    sr_incl_impacts: float = float("nan")
+    """work_incl_impacts_J / (M g d)."""
+    bound_check: BoundCheck | None = None
+    """The bounds checked on a fine grid between the knots (None when refused)."""
 
     @property
     def has_gait(self) -> bool:
@@ -135,6 +148,12 @@ class GaitResult:
             "sr": self.sr,
             "exchange_residual": self.exchange_residual,
             "periodicity_residual": self.periodicity_residual,
+            "impact_loss_J": self.impact_loss_J,
+            "work_incl_impacts_J": self.work_incl_impacts_J,
+            "sr_incl_impacts": self.sr_incl_impacts,
+            "bound_check": None
+            if self.bound_check is None
+            else {**dataclasses.asdict(self.bound_check), "holds": self.bound_check.holds},
             "baseline": self.settings.baseline,
             "knots": self.settings.knots,
         }

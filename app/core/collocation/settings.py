@@ -63,6 +63,33 @@ class GaitSettings:
     exchange, no smoothness term (section 5.3)."""
     max_iter: int = 1000
     """IPOPT iterations before the solve stops with the last iterate (not a gait)."""
+    pelvis_height_ratio: float = dataclasses.field(
+        default=0.985, metadata={"unit": "", "range": (0.5, 1.0)}
+    )
+    """Highest the base (pelvis) may be, as a fraction of its straight-leg standing height
+    (unitless, range [0.5, 1.0], default 0.985 ≈ 1.6 cm lower on dircon_biped). Not in the
+    paper: at 1.0 the optimum walks on straight, slightly hyperextended knees; 1–2 cm lower it
+    walks with bent knees as the paper's robot does."""
+    knee_flexion_min_rad: float = dataclasses.field(
+        default=0.0, metadata={"unit": "rad", "range": (0.0, 1.5)}
+    )
+    """Smallest knee flexion at every knot [rad], range [0, 1.5], default 0 (the pelvis height
+    already bends the knees). Flexion is the knee angle that moves the foot backwards, whatever
+    the sign convention of the URDF."""
+    touchdown_speed_max_mps: float = dataclasses.field(
+        default=0.3, metadata={"unit": "m/s", "range": (0.01, 5.0)}
+    )
+    """Bound on every component (x, z) of the landing foot's heel and toe velocity just before
+    touch-down [m/s], range [0.01, 5], default 0.3 (without it the foot lands at ~1 m/s)."""
+    K_impact: float = dataclasses.field(default=10.0, metadata={"unit": "1/J", "range": (0, 1e3)})
+    """Weight of the kinetic energy lost in the two touch-down impacts,
+    K_impact·Σ ½ Δvᵀ M Δv [1/J], range [0, 1000], default 10 (not in the paper, whose cost
+    ignores impacts)."""
+    check_per_interval: int = dataclasses.field(
+        default=8, metadata={"unit": "samples", "range": (1, 100)}
+    )
+    """Samples per collocation interval of the fine grid on which the result checks the bounds
+    between knots (reported in GaitResult.bound_check), range [1, 100], default 8."""
 
     def validate(self) -> GaitSettings:
         """Raise GaitSettingsError naming the first bad field and what would be valid."""
@@ -116,6 +143,19 @@ class GaitSettings:
             raise GaitSettingsError(
                 f"step_length_m = {self.step_length_m}: give a forward advance in [0, 1.5] m"
             )
+        for field in dataclasses.fields(self):
+            if "range" in field.metadata:
+                lo, hi = field.metadata["range"]
+                value = getattr(self, field.name)
+                if not lo <= value <= hi:
+                    unit = field.metadata["unit"]
+                    raise GaitSettingsError(
+                        f"{field.name} = {value}: give a value in [{lo:g}, {hi:g}] {unit}".rstrip()
+                    )
+        if not isinstance(self.check_per_interval, int) or isinstance(
+            self.check_per_interval, bool
+        ):
+            raise GaitSettingsError(f"check_per_interval = {self.check_per_interval!r}: a count")
         if not isinstance(self.max_iter, int) or not 1 <= self.max_iter <= MAX_ITER:
             raise GaitSettingsError(
                 f"max_iter = {self.max_iter}: give between 1 and {MAX_ITER} iterations"
@@ -128,8 +168,11 @@ class GaitSettings:
         return self.knots, self.baseline
 
     @classmethod
-    def from_mapping(cls, values: dict[str, object], source: str = "settings") -> GaitSettings:
-        """Settings from a dict (e.g. a parsed plan.toml), refusing unknown keys and bad types."""
+    def from_mapping(
+        cls, values: dict[str, object], source: str = "settings", base: GaitSettings | None = None
+    ) -> GaitSettings:
+        """Settings from a dict (e.g. a parsed plan.toml), refusing unknown keys and bad types;
+        fields not given keep `base`'s values (default: the class defaults, the paper's)."""
         fields = {f.name: f for f in dataclasses.fields(cls)}
         unknown = sorted(set(values) - set(fields))
         if unknown:
@@ -150,6 +193,8 @@ class GaitSettings:
                 kind = type(default).__name__
                 raise GaitSettingsError(f"{source}: {name} = {value!r} is not a {kind}")
             typed[name] = value
+        if base is not None:
+            return dataclasses.replace(base, **typed).validate()  # type: ignore[arg-type]
         return cls(**typed).validate()  # type: ignore[arg-type]
 
 

@@ -131,3 +131,11 @@ def point_forces(stance_force: np.ndarray, side: str) -> np.ndarray:
     out[..., first : first + 2, 0] = lam[..., :1] * share
     out[..., first : first + 2, 1] = fz
     return out
+
+
+def foot_rows(side: str) -> np.ndarray:
+    """(4 × 8): heel x, heel z, toe x, toe z of a foot."""
+    base = 0 if side == "left" else 4
+    S = np.zeros((4, 8))
+    S[np.arange(4), base + np.arange(4)] = 1.0
+    return S
