@@ -36,7 +36,7 @@ class GaitPanel:
         with self.folder:
             self.robot_note = gui.add_markdown("")
             self.load_robot = gui.add_button(
-                "Load dircon_biped", icon=viser.Icon.ROBOT, visible=False
+                "Load the paper's robot (dircon_biped)", icon=viser.Icon.ROBOT, visible=False
             )
             low, high, step = SLACK_RANGE
             self.slack = gui.add_multi_slider(
@@ -71,7 +71,15 @@ class GaitPanel:
             )
             self.convergence: viser.GuiUplotHandle | None = None
             self.results = gui.add_markdown("")
-            self.use = gui.add_button("Play this gait", icon=viser.Icon.WALK, disabled=True)
+            self.steps = gui.add_slider(
+                "walk: steps",
+                min=1,
+                max=20,
+                step=1,
+                initial_value=4,
+                hint="Steps of the planned gait to walk, from standing to standing",
+            )
+            self.use = gui.add_button("Walk this gait", icon=viser.Icon.WALK, disabled=True)
 
         @self.solve.on_click
         def _(event: viser.GuiEvent) -> None:
@@ -116,6 +124,11 @@ class GaitPanel:
             set_value(self.slack, (settings.slack_a, settings.slack_b))
             for name, handle in self.sliders.items():
                 set_value(handle, float(np.clip(getattr(settings, name), handle.min, handle.max)))
+
+    def show_plannable(self, plannable: bool) -> None:
+        """Whether the loaded robot can be planned for (else Solve is off)."""
+        self.solve.disabled = not plannable
+        self.baseline.disabled = not plannable
 
     def show_running(self, running: bool) -> None:
         self.cancel.disabled = not running

@@ -1,9 +1,11 @@
-"""The gait planner in the studio: settings from the gait panel, solves in the worker process
-(app.jobs), live convergence, results beside the paper's Table 4, and the gait played like any
-motion.
+"""The gait planner in the studio: settings from the gait panel (the loaded robot's defaults),
+solves in the worker process (app.jobs), live convergence, results beside the paper's Table 4,
+and the planned cycle walked for N steps (a whole-body motion, with footprints) like any motion.
 
-The planner works on dircon_biped (the gait paper's robot). A result is marked stale when the
-settings change after its solve was launched; a failed solve keeps the last good gait.
+The planner works on the loaded robot when its legs reduce to the sagittal plane (three
+built-ins but the hybrid leg's loops, Roban S14, SigmaBan, …); the panel says why when they do
+not. A result is marked stale when the settings change after its solve was launched; a failed
+solve keeps the last good gait; results belong to their robot.
 """
 
 from __future__ import annotations
@@ -12,24 +14,33 @@ import dataclasses
 import itertools
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 import viser
 
+from app.core.collocation.defaults import robot_gait_defaults
+from app.core.collocation.job_key import GaitProblemKey
+from app.core.collocation.planar_model import PlanarModel
 from app.core.collocation.result import GaitResult
 from app.core.collocation.settings import GaitSettings
+from app.core.collocation.table4 import WHAT_IS_COMPARED, table4_rows
 from app.core.errors import StudioError
 from app.core.papers import TABLE4
 from app.core.robot.loading import load_robot
+from app.core.robot.model import RobotModel
 from app.core.robot.report import robot_report
+from app.core.walking.walk import Walk, build_walk
 from app.gait_jobs import build_gait_problem
 from app.jobs import SolverWorker
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
-from app.studio.state import LoadedRobot, StudioState
+from app.studio.state import LoadedRobot, Motion, StudioState
+from app.views.footprints_view import FootprintsView, sole_size_m
+from app.views.roots import AlternatingRoot
 from panels.gait_panel import GaitPanel
 
-PLANNER_ROBOT = "dircon_biped"
+PAPER_ROBOT = "dircon_biped"
 MAX_PROGRESS_ITERATIONS = 200.0
 """The progress bar is full after this many IPOPT iterations (most solves take 10–70)."""
 
@@ -40,6 +51,8 @@ class Solve:
 
     job_id: str
     settings: GaitSettings
+    robot: RobotModel | None = None
+    """The robot it plans for (its result is dropped if another is loaded meanwhile)."""
     started_s: float = 0.0
     """time.monotonic() at the click."""
     ended_s: float = 0.0
@@ -62,9 +75,22 @@ class GaitResults:
 class GaitSession:
     """Owns the Gait panel and the solver worker."""
 
-    def __init__(self, server: viser.ViserServer, state: StudioState, notifier: Notifier) -> None:
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        state: StudioState,
+        notifier: Notifier,
+        package_roots: tuple[Path, ...] = (),
+    ) -> None:
         self._server, self._state, self._notifier = server, state, notifier
+        self._package_roots = package_roots
         self.panel = GaitPanel(server.gui, self)
+        self.planar: PlanarModel | None = None
+        """The loaded robot's planar model, None when the planner cannot handle it."""
+        self.walk: Walk | None = None
+        """The walk last sent to playback."""
+        self.footprints: FootprintsView | None = None
+        self._roots = AlternatingRoot("/footprints")
         self._lock = threading.Lock()
         self._worker: SolverWorker | None = None
         self._ids = itertools.count(1)
@@ -79,6 +105,7 @@ class GaitSession:
         """Emitted once per solve when it ends (converged, failed or cancelled), after the
         panel shows it."""
         state.on_robot.connect(self._on_robot)
+        state.on_motion.connect(self._on_motion)
 
     # --- worker --------------------------------------------------------------------------------
 
@@ -93,16 +120,22 @@ class GaitSession:
         return self._worker
 
     def solve(self, baseline: bool, client: viser.ClientHandle | None = None) -> str | None:
-        """Launch a solve with the panel's settings; returns its job id."""
+        """Launch a solve with the panel's settings on the loaded robot; returns its job id."""
+        robot, planar = self._state.robot, self.planar
+        if robot is None or planar is None or planar.robot is not robot:
+            self._notifier.error("No gait for this robot", self.panel.robot_note.content, client)
+            return None
         try:
             settings = self.panel.settings(baseline)
         except StudioError as error:
             self.panel.status.content = f"⚠️ {error}"
             self._notifier.error("Gait settings refused", str(error), client)
             return None
+        feet = (robot.feet[0].link, robot.feet[1].link)
+        key = GaitProblemKey.for_robot(robot.source, settings, self._package_roots, feet)
         job_id = f"gait-{next(self._ids)}"
         with self._lock:
-            self.running = Solve(job_id, settings, started_s=time.monotonic())
+            self.running = Solve(job_id, settings, robot, started_s=time.monotonic())
             self.history = ([], [], [])
         kind = "baseline (original DIRCON)" if baseline else "symmetric gait"
         self.panel.status.content = (
@@ -110,7 +143,7 @@ class GaitSession:
             f"({settings.knots} knots) if this structure is new, then IPOPT…"
         )
         self.panel.show_running(True)
-        self._ensure_worker().submit(job_id, settings, settings.structure)
+        self._ensure_worker().submit(job_id, settings, key)
         return job_id
 
     def cancel(self) -> None:
@@ -146,7 +179,10 @@ class GaitSession:
                 running, result=result, error=error, ended_s=time.monotonic()
             )
             self.running, self.last = None, ended
-            if result is not None and result.converged:
+            if running.robot is not self._state.robot:
+                ended = dataclasses.replace(ended, result=None, error="another robot was loaded")
+                self.last = ended
+            elif result is not None and result.converged:
                 if running.settings.baseline:
                     self.results.baseline = result
                 else:
@@ -189,19 +225,31 @@ class GaitSession:
             return fmt.format(getattr(result, attribute)) if result is not None else "—"
 
         low, high = TABLE4.solve_s
-        tau_paper, sr_paper = TABLE4.max_abs_tau_Nm, TABLE4.sr
         rows = [
             "| | this planner | baseline | paper (sym. / prev.) |",
             "|---|---|---|---|",
             f"| solve time [s] | {cell(sym, 'solve_s', '{:.1f}')} | {cell(base, 'solve_s', '{:.1f}')} | {low:g}–{high:g} |",
             f"| max \\|τ\\| [N·m] | {cell(sym, 'max_abs_tau_Nm', '{:.2f}')} | {cell(base, 'max_abs_tau_Nm', '{:.2f}')} "
-            f"| {tau_paper[0]} / {tau_paper[1]} |",
-            f"| SR | {cell(sym, 'sr', '{:.3f}')} | {cell(base, 'sr', '{:.3f}')} | {sr_paper[0]} / {sr_paper[1]} |",
+            f"| {TABLE4.max_abs_tau_Nm[0]} / {TABLE4.max_abs_tau_Nm[1]} |",
+            f"| SR incl. impacts | {cell(sym, 'sr_incl_impacts', '{:.3f}')} | {cell(base, 'sr_incl_impacts', '{:.3f}')} "
+            f"| {TABLE4.sr[0]} / {TABLE4.sr[1]} |",
+            f"| impact loss [J] | {cell(sym, 'impact_loss_J', '{:.2f}')} | {cell(base, 'impact_loss_J', '{:.2f}')} | |",
         ]
+        if sym is not None and base is not None:
+            for row in table4_rows(sym, base):
+                rows.append(
+                    f"| ratio sym./baseline, {row.name} | {row.ours_ratio:.2f} | | {row.paper_ratio:.2f} |"
+                )
         for result, label in ((sym, "this planner"), (base, "baseline")):
             if result is not None:
                 lsp, rsp = result.step_lengths_m
                 rows.append(f"| steps LSP / RSP [m] ({label}) | {lsp:.3f} / {rsp:.3f} | | |")
+                check = result.bound_check
+                if check is not None:
+                    verdict = "hold" if check.holds else "**do not hold**"
+                    rows.append(
+                        f"| bounds between knots ({label}, {check.samples} samples) | {verdict} | | |"
+                    )
         if sym is not None:
             rows.append(f"| slack0 | {sym.slack0:+.3f} | | |")
         rows.append(
@@ -212,51 +260,97 @@ class GaitSession:
             if self._stale()
             else ""
         )
-        self.panel.results.content = "\n".join(rows) + note
+        self.panel.results.content = "\n".join(rows) + f"\n\n*Compared:* {WHAT_IS_COMPARED}." + note
         self.panel.use.disabled = sym is None and base is None
 
     def play_result(self, client: viser.ClientHandle | None = None) -> None:
-        """Send the last good gait to playback (and torque feed-forward) on dircon_biped, and
-        start playing it."""
-        from app.core.collocation.dircon import to_trajectory
-
+        """Walk the last good gait for the panel's number of steps (from standing to standing),
+        and send the walk to playback — and so to torque feed-forward and compensation."""
         result = self.results.symmetric or self.results.baseline
-        if result is None:
+        robot, planar = self._state.robot, self.planar
+        if result is None or robot is None or planar is None:
             return
-        robot = self._state.robot
-        if robot is None or robot.name != PLANNER_ROBOT:
-            robot = self.load_planner_robot(client)
-            if robot is None:
-                return
-        trajectory = to_trajectory(robot, result)
         try:
-            self._state.set_motion(
-                trajectory, f"**gait** — {trajectory.duration:.2f} s, from the planner", robot
-            )
+            walk = build_walk(planar, result, steps=int(self.panel.steps.value))
         except StudioError as error:
+            self.panel.status.content = f"⚠️ {error}"
+            self._notifier.error("Cannot walk this gait", str(error), client)
+            return
+        lines = [
+            f"**walk** — {walk.trajectory.duration:.2f} s, {len(walk.footprints) - 2} steps of the "
+            f"planned gait on {robot.name}",
+            *(f"note: {line}" for line in walk.notes),
+        ]
+        try:
+            with self._state.lock, self._server.atomic():
+                self.walk = walk
+                self._state.set_motion(walk.trajectory, "  \n".join(lines), robot)
+                self._show_footprints(robot, walk)
+        except StudioError as error:
+            self.walk = None
             self.panel.status.content = f"⚠️ {error}"
             self._notifier.error("Cannot play the gait", str(error), client)
 
+    def _show_footprints(self, robot: RobotModel, walk: Walk) -> None:
+        if self.footprints is not None:
+            self.footprints.remove()
+        prints = [(f.side, f.x_m, f.y_m) for f in walk.footprints]
+        self.footprints = FootprintsView(
+            self._server, prints, sole_size_m(robot.feet[0].sole_corners_m), self._roots.next()
+        )
+
+    def _on_motion(self, motion: Motion | None) -> None:
+        """Footprints belong to the walk: gone when another motion is shown."""
+        walk = self.walk
+        if self.footprints is not None and (
+            motion is None or walk is None or motion.trajectory is not walk.trajectory
+        ):
+            self.footprints.remove()
+            self.footprints, self.walk = None, None
+
     def load_planner_robot(self, client: viser.ClientHandle | None) -> Any:
-        """Load the planner's robot into the studio; the robot, or None if it failed."""
+        """Load the gait paper's robot into the studio; the robot, or None if it failed."""
         try:
-            robot = load_robot(PLANNER_ROBOT)
+            robot = load_robot(PAPER_ROBOT)
             report = robot_report(robot)
         except StudioError as error:
-            self._notifier.error(f"Cannot load {PLANNER_ROBOT}", str(error), client)
+            self._notifier.error(f"Cannot load {PAPER_ROBOT}", str(error), client)
             return None
         with self._state.lock, self._server.atomic():
             self._state.set_robot(robot, report)
         return robot
 
     def _on_robot(self, loaded: LoadedRobot) -> None:
-        """Offer to load dircon_biped when another robot is loaded."""
-        other = loaded.robot.name != PLANNER_ROBOT
-        self.panel.robot_note.content = (
-            "The planner plans for **dircon_biped**, the gait paper's robot (planar, 10 DOF)."
-            + (" Load it to watch the gait." if other else "")
+        """Plan for the new robot: its planar model and scaled defaults, or why not."""
+        robot = loaded.robot
+        self.results = GaitResults()  # gaits belong to their robot
+        self.last, self.walk = None, None
+        self.panel.load_robot.visible = robot.name != PAPER_ROBOT
+        try:
+            self.planar = PlanarModel(robot)
+            defaults = robot_gait_defaults(self.planar)
+        except StudioError as error:
+            self.planar = None
+            self.panel.robot_note.content = (
+                f"⚠️ The planner cannot plan for **{robot.name}**: {error}"
+            )
+            self.panel.show_plannable(False)
+            self.show_results()
+            return
+        scaled = (
+            "the gait paper's case"
+            if robot.name == PAPER_ROBOT
+            else (f"the paper's case scaled to its legs (×{defaults.length_ratio:.2f})")
         )
-        self.panel.load_robot.visible = other
+        lines = [
+            f"Plans for **{robot.name}** ({len(self.planar.joint_names)} sagittal joints), "
+            f"defaults: {scaled}."
+        ]
+        lines += [f"note: {note}" for note in defaults.notes]
+        self.panel.robot_note.content = "  \n".join(lines)
+        self.panel.show_settings(defaults.settings)
+        self.panel.show_plannable(True)
+        self.show_results()
 
 
 def _status_line(solve: Solve, results: GaitResults) -> str:

@@ -58,7 +58,7 @@ class Studio:
         self.motions = MotionSession(server, state, notifier)
         self.playback = PlaybackSession(server, state)
         self.compensation = CompensationSession(server, state, notifier)
-        self.gait = GaitSession(server, state, notifier)
+        self.gait = GaitSession(server, state, notifier, config.package_roots)
         if robot is None:
             robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)
             prepare(robot)

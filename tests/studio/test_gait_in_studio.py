@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-import pytest
+import numpy as np
 
 from app.core.papers import TABLE4
 from tests.studio.conftest import solve_gait, wait_for_signal
 
 
-def test_solve_from_the_panel_then_play_the_gait(studio):
+def test_solve_for_the_loaded_robot_then_walk_it(studio):
     panel = studio.gait.panel
-    assert panel.load_robot.visible  # servo_biped is loaded: the panel offers dircon_biped
+    robot = studio.state.robot
+    assert robot.name == "servo_biped" and "servo_biped" in panel.robot_note.content
     ended = solve_gait(studio)
     result = studio.gait.results.symmetric
     assert ended.result is result and result.converged
@@ -21,11 +22,33 @@ def test_solve_from_the_panel_then_play_the_gait(studio):
     # Step lengths within what the slack bounds allow: x1 = (0.5 + slack0)(x0 + x2).
     lsp, rsp = result.step_lengths_m
     assert abs(lsp - rsp) <= 2 * 0.05 * (lsp + rsp) + 1e-6
+    panel.steps.value = 3
     panel.use.value = True
-    assert studio.state.robot.name == "dircon_biped"
-    assert studio.state.trajectory is not None
-    assert studio.state.trajectory.duration == pytest.approx(0.72, abs=0.011)
-    assert not panel.load_robot.visible
+    trajectory = studio.state.trajectory
+    assert studio.state.robot is robot and trajectory is not None
+    assert trajectory.contacts[0].all() and trajectory.contacts[-1].all()  # standing to standing
+    assert len(studio.gait.walk.footprints) == 3 + 2 and studio.gait.footprints is not None
+    # The feet that stand do not slide (checked with pinocchio, not the planner).
+    data = robot.model.createData()
+    left = np.array(
+        [robot.link_placements(q, data)[robot.feet[0].link][:3, 3] for q in trajectory.q]
+    )
+    standing = trajectory.contacts[:, 0]
+    runs = np.split(np.arange(len(standing)), np.flatnonzero(np.diff(standing.astype(int))) + 1)
+    for run in runs:
+        if standing[run[0]] and len(run) > 1:
+            assert np.ptp(left[run, :2], axis=0).max() < 2e-3
+    # Another motion takes the footprints away.
+    studio.motions.panel.generate.value = True
+    assert studio.gait.footprints is None
+
+
+def test_a_robot_the_planner_cannot_handle_says_why(studio):
+    studio.robots.load("hybrid_leg_biped")
+    panel = studio.gait.panel
+    assert "cannot plan" in panel.robot_note.content
+    assert panel.solve.disabled
+    assert studio.gait.solve(baseline=False) is None
 
 
 def test_changing_a_setting_marks_the_result_stale(studio):

@@ -38,22 +38,55 @@ CONTROLS: tuple[Control, ...] = (
     Control("K2", "K2 smoothness", 0.0, 20.0, 0.1, "Weight of the smoothness term (paper 1.5)"),
     Control("H_s", "H, two steps [s]", 0.3, 2.0, 0.01, "Duration of the complete gait (LSP + RSP)"),
     Control(
-        "step_length_m", "advance, two steps [m]", 0.0, 0.6, 0.01, "How far the two steps advance"
+        "step_length_m", "advance, two steps [m]", 0.0, 0.6, 0.005, "How far the two steps advance"
     ),
     Control(
-        "swing_height_m", "swing height ≤ [m]", 0.02, 0.2, 0.005, "Highest the swing sole may rise"
+        "swing_height_m", "swing height ≤ [m]", 0.01, 0.2, 0.001, "Highest the swing sole may rise"
     ),
     Control(
         "swing_clearance_m",
         "swing clearance ≥ [m]",
         0.0,
         0.1,
-        0.005,
+        0.001,
         "Lowest the swing sole may be at mid-swing (not in the paper: without it the optimum "
         "shuffles the foot along the floor)",
     ),
     Control("knots", "knots", 5, 80, 1, "Knots of the three modes (+2 virtual); paper 38"),
     Control("mu", "μ", 0.1, 1.5, 0.05, "Friction coefficient of the ground"),
+    Control(
+        "pelvis_height_ratio",
+        "pelvis height ≤ × standing",
+        0.8,
+        1.0,
+        0.005,
+        "Highest the pelvis may be, as a fraction of its standing height: below 1 the knees "
+        "must stay bent, as the paper's robot walks",
+    ),
+    Control(
+        "knee_flexion_min_rad",
+        "knee bend ≥ [rad]",
+        0.0,
+        1.0,
+        0.01,
+        "Smallest knee flexion at every knot (0: only the joint limits)",
+    ),
+    Control(
+        "touchdown_speed_max_mps",
+        "touch-down speed ≤ [m/s]",
+        0.05,
+        1.0,
+        0.01,
+        "Fastest the swing sole may hit the floor (a soft landing)",
+    ),
+    Control(
+        "K_impact",
+        "K impact loss",
+        0.0,
+        50.0,
+        0.5,
+        "Weight of the kinetic energy lost in the touch-down impacts (½ Δvᵀ M Δv)",
+    ),
 )
 """The sliders, in panel order, after the slack bounds."""
 
