@@ -230,7 +230,7 @@ def test_a_blow_up_is_an_error_not_nan(stool, tmp_path, monkeypatch):
     as NaN or as MuJoCo's silent reset, and no MUJOCO_LOG.TXT is left in the folder."""
     monkeypatch.chdir(tmp_path)
     path = tmp_path / "strong.urdf"
-    path.write_text(STOOL_WITH_ARM.replace('effort="20"', 'effort="1e9"'))
+    path.write_text(STOOL_WITH_ARM.replace('effort="20"', 'effort="1e6"'))
     robot = load_robot(str(path))
     traj = stool[1]
     servo = ServoModel(robot.joint_names, [1e-6], [0.0])
