@@ -33,6 +33,8 @@ class CompensationActions(Protocol):
     def select_joint(self, joint: str) -> None: ...
     def edit_joint(self, joint: str, field: str, value: float) -> None: ...
     def set_ghost_visible(self, name: str, visible: bool) -> None: ...
+    def simulate(self, client: viser.ClientHandle | None) -> None: ...
+    def cancel_simulation(self) -> None: ...
 
 
 HELP = """**q_cmd = q + k·τ** (eq. 7): each servo sags like a spring under its load τ; the command
@@ -110,6 +112,21 @@ class CompensationPanel:
                     initial_value=0.0,
                     hint="Full width of the virtual servo's dead band",
                 )
+            with gui.add_folder("Simulation (MuJoCo)", expand_by_default=True):
+                self.simulate = gui.add_button(
+                    "Simulate without / with compensation",
+                    icon=viser.Icon.PLAYER_PLAY,
+                    hint="Runs the plan and the compensated commands on a physics model of this "
+                    "robot with the virtual servos below (compliance, dead band, torque and speed "
+                    "limits), each from the first pose settled on the floor",
+                )
+                self.cancel_simulation = gui.add_button(
+                    "Cancel simulation", icon=viser.Icon.PLAYER_STOP, color="red", disabled=True
+                )
+                self.simulation_progress = gui.add_progress_bar(0.0, visible=False)
+                self.verdict = gui.add_markdown(
+                    "Compute the torques, then simulate: the verdict appears here."
+                )
             with gui.add_folder("Ghosts", expand_by_default=True):
                 gui.add_markdown(legend)
                 self.ghosts = {name: gui.add_checkbox(text, True) for name, text in ghosts.items()}
@@ -123,6 +140,14 @@ class CompensationPanel:
         @self.compute.on_click
         def _(event: viser.GuiEvent) -> None:
             session.compute_torques(event.client)
+
+        @self.simulate.on_click
+        def _(event: viser.GuiEvent) -> None:
+            session.simulate(event.client)
+
+        @self.cancel_simulation.on_click
+        def _(_event: viser.GuiEvent) -> None:
+            session.cancel_simulation()
 
         @self.export_commands.on_click
         def _(event: viser.GuiEvent) -> None:
@@ -199,6 +224,14 @@ class CompensationPanel:
             )
             set_value(self.backlash, float(np.clip(backlash, self.backlash.min, self.backlash.max)))
             self.k_rad.content = f"k = {np.deg2rad(k):.4g} rad/(N·m)"
+
+    def show_simulating(self, fraction: float | None) -> None:
+        """A simulation runs (fraction done), or none (None)."""
+        self.simulation_progress.visible = fraction is not None
+        self.cancel_simulation.disabled = fraction is None
+        self.simulate.disabled = fraction is not None
+        if fraction is not None:
+            set_value(self.simulation_progress, 100.0 * min(max(fraction, 0.0), 1.0))
 
     def show_progress(self, fraction: float | None) -> None:
         self.progress.visible = fraction is not None

@@ -30,10 +30,15 @@ SECONDS_AXIS = {"x": uplot.Scale(time=False)}
 """The x axis is seconds from the motion's start, not a date."""
 ATTITUDE_SERIES = (
     ("planned", "#3c78e6", ()),
-    ("no comp. (quick estimate)", "#dc3232", ()),
-    ("comp. (quick estimate)", "#f09614", ()),
+    ("no comp. (quick estimate)", "#dc3232", (4.0, 4.0)),
+    ("comp. (quick estimate)", "#f09614", (4.0, 4.0)),
 )
 """(label, colour, dash) of the attitude curves, in the order `show_attitude` takes them."""
+SIMULATED_SERIES = (
+    ("no comp. (simulated)", "#9632c8", ()),
+    ("comp. (simulated)", "#14aaaa", ()),
+)
+"""Added after ATTITUDE_SERIES when a simulation of the motion exists."""
 ALL = "all joints"
 
 

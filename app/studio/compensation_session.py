@@ -37,11 +37,12 @@ from app.core.thinning import thin_minmax
 from app.studio.coalesce import Coalescer
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
+from app.studio.simulation_runner import WITH, WITHOUT, Simulation, SimulationRunner
 from app.studio.state import LoadedRobot, Motion, StudioState
 from app.views.ghosts_view import GHOSTS, GhostsView, legend_markdown
 from app.views.roots import AlternatingRoot
 from panels.compensation_panel import CompensationPanel
-from panels.plots_panel import PlotsPanel
+from panels.plots_panel import ATTITUDE_SERIES, SIMULATED_SERIES, PlotsPanel
 
 log = logging.getLogger(__name__)
 
@@ -83,6 +84,12 @@ class CompensationSession:
         """Guards coefficients, servos, torques and prediction (edits come from viser's pool)."""
         self._worker: threading.Thread | None = None
         self._predictions: Coalescer[str, None] = Coalescer(lambda _key, _value: self._repredict())
+        self.simulation: Simulation | None = None
+        """The last good simulation of the current motion (physics, app.core.simulation)."""
+        self.simulation_stale = False
+        """The coefficients or servos changed since `simulation` ran."""
+        self.runner = SimulationRunner(self._on_simulation_progress)
+        self.runner.finished.connect(self._on_simulated)
         self._roots = AlternatingRoot("/ghosts")
         state.on_robot.connect(self._on_robot)
         state.on_motion.connect(self._on_motion)
@@ -106,7 +113,9 @@ class CompensationSession:
             if self.ghosts is not None:
                 self.ghosts.remove()
             self.ghosts, self.feedforward, self.prediction = None, None, None
+            self.simulation, self.simulation_stale = None, False
             self._trajectory = motion.trajectory if motion is not None else None
+        self.panel.verdict.content = "Compute the torques, then simulate: the verdict appears here."
         self.plots.clear()
         self.panel.status.content = (
             "Compute the torques of this motion."
@@ -170,6 +179,7 @@ class CompensationSession:
                     self.ghosts.set_visible(name, checkbox.value)
         self._repredict()
         self.panel.status.content = _torque_summary(trajectory, result)
+        self.runner.warm_up()  # a Simulate click next should not wait for a process to spawn
 
     # --- coefficients (CompensationActions) -----------------------------------------------------
 
@@ -185,6 +195,7 @@ class CompensationSession:
         with self._lock:
             self.params = params
         self._show_selected()
+        self._mark_simulation_stale()
         self._predictions.submit("predict", None)
 
     def set_clearance_sign(self, sign: str) -> None:
@@ -194,6 +205,7 @@ class CompensationSession:
             if self.params is None:
                 return
             self.params = dataclasses.replace(self.params, clearance_sign=sign)  # type: ignore[arg-type]
+        self._mark_simulation_stale()
         self._predictions.submit("predict", None)
 
     def select_joint(self, joint: str) -> None:
@@ -230,6 +242,7 @@ class CompensationSession:
             self.servo = ServoModel(servo.joint_names, compliance, backlash)
         if joint == self._selected:
             self._show_selected()
+        self._mark_simulation_stale()
         self._predictions.submit("predict", None)
 
     def _show_selected(self) -> None:
@@ -278,8 +291,17 @@ class CompensationSession:
                 deg(prediction.pitch_compensated_rad),
             ]
         )
+        labels: tuple[tuple[str, str, tuple[float, ...]], ...] = ATTITUDE_SERIES
+        simulation = self.simulation
+        if simulation is not None and simulation.trajectory is trajectory:
+            runs = [simulation.results[WITHOUT], simulation.results[WITH]]
+            simulated = [deg(a) for run in runs for a in (run.roll_rad, run.pitch_rad)]
+            attitude = np.concatenate([attitude, np.stack(simulated)])
+            labels = ATTITUDE_SERIES + SIMULATED_SERIES
         keep = thin_minmax(t, attitude)
-        self.plots.show_attitude(t[keep], list(attitude[0::2, keep]), list(attitude[1::2, keep]))
+        self.plots.show_attitude(
+            t[keep], list(attitude[0::2, keep]), list(attitude[1::2, keep]), labels
+        )
         offsets = deg(prediction.q_cmd_rad - prediction.q_plan_rad)
         keep = thin_minmax(t, offsets.T)
         self.plots.show_offsets(t[keep], prediction.joint_names, offsets[keep])
@@ -297,20 +319,87 @@ class CompensationSession:
             if prediction is None or ghosts is None or robot is None or trajectory is None:
                 return
             k = int(np.clip(k, 0, trajectory.n_samples - 1))
+            poses = {
+                "planned": trajectory.q[k],
+                "command": command_configuration(robot, trajectory, prediction, k),
+                "without": prediction.q_world_uncompensated[k],
+                "with": prediction.q_world_compensated[k],
+            }
+            simulation = self.simulation
+            if simulation is not None and simulation.trajectory is trajectory:
+                poses["sim_without"] = simulation.results[WITHOUT].q[k]
+                poses["sim_with"] = simulation.results[WITH].q[k]
             with self._server.atomic():
-                ghosts.update(
-                    {
-                        "planned": trajectory.q[k],
-                        "command": command_configuration(robot, trajectory, prediction, k),
-                        "without": prediction.q_world_uncompensated[k],
-                        "with": prediction.q_world_compensated[k],
-                    }
-                )
+                ghosts.update(poses)
 
     def set_ghost_visible(self, name: str, visible: bool) -> None:
         with self._lock:
             if self.ghosts is not None and name in GHOSTS:
                 self.ghosts.set_visible(name, bool(visible))
+
+    # --- simulation (physics) ---------------------------------------------------------------
+
+    def simulate(self, client: viser.ClientHandle | None = None) -> None:
+        """Simulate the plan and the compensated commands on MuJoCo in the worker process;
+        the end is announced by `runner.finished`."""
+        with self._lock:
+            robot, trajectory, prediction, servo = (
+                self._robot,
+                self._trajectory,
+                self.prediction,
+                self.servo,
+            )
+        if robot is None or trajectory is None or prediction is None or servo is None:
+            self._fail("Nothing to simulate", "compute the torque feed-forward first", client)
+            return
+        if self.runner.running is not None:
+            return
+        try:
+            self.runner.start(robot, trajectory, prediction.q_plan_rad, prediction.q_cmd_rad, servo)
+        except StudioError as error:
+            self.panel.verdict.content = f"⚠️ {error}"
+            self._notifier.error("Cannot simulate", str(error), client)
+            return
+        self.panel.show_simulating(0.0)
+        self.panel.verdict.content = (
+            f"Simulating **{trajectory.name}** without and with compensation "
+            f"({trajectory.duration:.1f} s each)…"
+        )
+
+    def cancel_simulation(self) -> None:
+        self.runner.cancel()
+
+    def _on_simulation_progress(self, fraction: float) -> None:
+        if self.runner.running is not None:
+            self.panel.show_simulating(fraction)
+
+    def _on_simulated(self, simulation: Simulation) -> None:
+        self.panel.show_simulating(None)
+        kept = " The last good simulation is kept." if self.simulation is not None else ""
+        if simulation.error == "cancelled":
+            self.panel.verdict.content = "Simulation cancelled." + kept
+            return
+        if simulation.error:
+            self.panel.verdict.content = f"⚠️ Simulation failed: {simulation.error}.{kept}"
+            self._notifier.error("Simulation failed", simulation.error)
+            return
+        with self._lock:
+            if simulation.trajectory is not self._trajectory:
+                return  # the motion changed meanwhile
+            self.simulation, self.simulation_stale = simulation, False
+        self.panel.verdict.content = _simulation_summary(simulation)
+        self._repredict()
+
+    def _mark_simulation_stale(self) -> None:
+        if self.simulation is not None and not self.simulation_stale:
+            self.simulation_stale = True
+            self.panel.verdict.content = (
+                "⚠️ Stale: the coefficients or servos changed since this simulation; simulate "
+                "again.  \n" + _simulation_summary(self.simulation)
+            )
+
+    def close(self) -> None:
+        self.runner.close()
 
     # --- files -------------------------------------------------------------------------------
 
@@ -373,6 +462,19 @@ def _torque_summary(trajectory: Trajectory, result: FeedForward) -> str:
     )
     peak = np.nanmax(np.abs(result.tau_Nm))
     return f"τ of **{trajectory.name}**: max |τ| {peak:.2f} N·m.{warning}"
+
+
+def _simulation_summary(simulation: Simulation) -> str:
+    lines = [f"**Simulated** (MuJoCo) in {simulation.waited_s:.1f} s:"]
+    for label in (WITHOUT, WITH):
+        run = simulation.results[label]
+        roll = np.degrees(np.max(np.abs(run.roll_rad - run.roll_planned_rad)))
+        pitch = np.degrees(np.max(np.abs(run.pitch_rad - run.pitch_planned_rad)))
+        lines.append(
+            f"{label}: **{run.verdict()}**; largest torso error roll {roll:.2f}°, pitch "
+            f"{pitch:.2f}° (×{run.real_time_factor:.0f} real time)"
+        )
+    return "  \n".join(lines)
 
 
 def _attitude_summary(prediction: Prediction) -> str:

@@ -81,4 +81,5 @@ class Studio:
     def stop(self) -> None:
         self.playback.stop()
         self.gait.close()
+        self.compensation.close()
         self.server.stop()

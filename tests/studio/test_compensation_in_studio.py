@@ -8,7 +8,7 @@ import io
 import numpy as np
 import pytest
 
-from tests.studio.conftest import compute_torques, start_studio
+from tests.studio.conftest import compute_torques, start_studio, wait_for_signal
 
 
 @pytest.fixture
@@ -90,3 +90,41 @@ def test_a_new_motion_drops_the_stale_torques(studio):
     result = compute_torques(studio)
     assert result is studio.compensation.feedforward
     assert studio.compensation.feedforward.trajectory_name == "com_shift"
+
+
+def test_simulate_shows_a_verdict_ghosts_and_simulated_curves(studio):
+    """Simulate from the panel: a real worker process runs MuJoCo; the verdict, two more
+    ghosts (placed where the simulation has the robot) and the simulated roll/pitch curves."""
+    session = studio.compensation
+    ended = wait_for_signal(
+        session.runner.finished, lambda: setattr(session.panel.simulate, "value", True)
+    )
+    assert ended.error == "" and session.simulation is ended
+    without, with_ = ended.results["without compensation"], ended.results["with compensation"]
+    for run in (without, with_):
+        assert run.verdict() in session.panel.verdict.content
+        assert run.q.shape == (studio.state.trajectory.n_samples, studio.state.robot.model.nq)
+    assert "Simulated" in session.panel.verdict.content
+    # Two more curves in each attitude plot: planned, two quick estimates, two simulations.
+    assert len(session.plots.roll.data) == 1 + 5 and len(session.plots.pitch.data) == 1 + 5
+    # The simulated ghost stands where the simulation put the robot at the shown sample.
+    robot = studio.state.robot
+    studio.playback.seek(1.0)
+    k = studio.state.trajectory.index_at(1.0)
+    position, _ = session.ghosts._views["sim_with"].link_pose(robot.tree.root)
+    expected = robot.link_placements(with_.q[k], robot.model.createData())[robot.tree.root]
+    np.testing.assert_allclose(position, expected[:3, 3], atol=1e-9)
+    # A coefficient change marks the simulation stale, and keeps it.
+    session.panel.k.value = float(session.panel.k.value) + 0.5
+    assert session.simulation_stale and "Stale" in session.panel.verdict.content
+    assert session.simulation is ended
+
+
+def test_simulate_needs_torques(tmp_path):
+    studio = start_studio(tmp_path / "data")
+    try:
+        studio.compensation.simulate()
+        assert "compute the torque feed-forward first" in studio.notifier.last_error
+        assert studio.compensation.runner.running is None
+    finally:
+        studio.stop()

@@ -1,0 +1,128 @@
+"""The compensation feature's physics simulations: runs of the plan and of the compensated
+commands on MuJoCo (app.core.simulation) in a worker process, with progress, cancel and the
+last good results kept. Owned by the compensation session (it needs that session's commands
+and virtual servos); not a session of its own.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import threading
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from app.core.motions.trajectory import Trajectory
+from app.core.robot.model import RobotModel
+from app.core.servo.model import ServoModel
+from app.core.simulation.result import SimulationResult
+from app.core.simulation.worker import (
+    SIMULATION_KEY,
+    SimulationJob,
+    build_simulation_problem,
+    finish_job,
+    simulation_job,
+)
+from app.jobs import SolverWorker
+from app.studio.signals import Signal
+
+WITHOUT, WITH = "without compensation", "with compensation"
+
+
+@dataclasses.dataclass(frozen=True)
+class Simulation:
+    """One Simulate click: what was simulated and what came back."""
+
+    job_id: str
+    robot: RobotModel
+    trajectory: Trajectory
+    job: SimulationJob
+    started_s: float
+    results: dict[str, SimulationResult] = dataclasses.field(default_factory=dict)
+    error: str = ""
+    """Why it failed ("cancelled", a blow-up's message, a crashed worker)."""
+    waited_s: float = 0.0
+
+
+class SimulationRunner:
+    """One worker process ("solver-worker" for simulations), started on first use."""
+
+    def __init__(self, on_progress: Callable[[float], None]) -> None:
+        self._on_progress = on_progress
+        self._worker: SolverWorker | None = None
+        self._ids = itertools.count(1)
+        self._lock = threading.Lock()
+        self.running: Simulation | None = None
+        self.finished: Signal[Simulation] = Signal("simulation_finished")
+        """Emitted once per Simulate, when it ended (results, failure or cancel)."""
+
+    def warm_up(self) -> None:
+        """Start the worker process now (spawning takes a second), e.g. once torques exist."""
+        self._ensure_worker()
+
+    def _ensure_worker(self) -> SolverWorker:
+        if self._worker is None:
+            worker = SolverWorker(build_simulation_problem)
+            worker.on_progress(lambda _job, _pct, fraction, _unused: self._on_progress(fraction))
+            worker.on_done(self._on_done)
+            worker.on_failed(lambda job_id, message: self._end(job_id, error=message))
+            worker.on_cancelled(lambda job_id: self._end(job_id, error="cancelled"))
+            self._worker = worker
+        return self._worker
+
+    def start(
+        self,
+        robot: RobotModel,
+        trajectory: Trajectory,
+        q_plan_rad: np.ndarray,
+        q_cmd_rad: np.ndarray,
+        servo: ServoModel,
+    ) -> Simulation:
+        """Check the runs here (SimulationInputError at once) and start them in the worker."""
+        job = simulation_job(robot, trajectory, {WITHOUT: q_plan_rad, WITH: q_cmd_rad}, servo)
+        simulation = Simulation(
+            f"simulation-{next(self._ids)}", robot, trajectory, job, time.monotonic()
+        )
+        with self._lock:
+            self.running = simulation
+        self._ensure_worker().submit(simulation.job_id, job, SIMULATION_KEY)
+        return simulation
+
+    def cancel(self) -> None:
+        if self._worker is not None:
+            self._worker.cancel()
+
+    def _on_done(self, job_id: str, runs: object) -> None:
+        with self._lock:
+            simulation = self.running
+        if simulation is None or simulation.job_id != job_id:
+            return
+        try:
+            results = finish_job(simulation.robot, simulation.trajectory, simulation.job, runs)  # type: ignore[arg-type]
+        except Exception as error:  # the runs came back malformed: a bug, reported as failed
+            self._end(job_id, error=f"{type(error).__name__}: {error}")
+            return
+        self._end(job_id, results=results)
+
+    def _end(
+        self, job_id: str, results: dict[str, SimulationResult] | None = None, error: str = ""
+    ) -> None:
+        with self._lock:
+            simulation = self.running
+            if simulation is None or simulation.job_id != job_id:
+                return
+            self.running = None
+        ended = dataclasses.replace(
+            simulation,
+            results=results or {},
+            error=error,
+            waited_s=time.monotonic() - simulation.started_s,
+        )
+        self.finished.emit(ended)
+
+    def close(self) -> None:
+        if self._worker is not None:
+            self._worker.close()
+            self._worker = None
