@@ -30,6 +30,9 @@ class StudioConfig:
     """Extra folders in which to look for package://NAME folders."""
     feet: tuple[str, str] | None = None
     """(left, right) foot links, overriding detection."""
+    allow: tuple[Path, ...] = ()
+    """Folders besides the working folder, the built-ins, the package roots and the upload
+    store whose files *Open path* may load (`--allow DIR`)."""
     data_dir: Path = dataclasses.field(default_factory=default_data_dir)
     max_upload_bytes: int = MAX_UPLOAD_BYTES
     token: str = dataclasses.field(default_factory=new_token, repr=False)

@@ -93,5 +93,6 @@ def _parser() -> argparse.ArgumentParser:
         feet=None,
         no_token=False,
         open_browser=False,
+        allow=[],
     )
     return parser

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import webbrowser
+from pathlib import Path
 
 from app.cli.common import (
     DEFAULTS,
@@ -32,6 +33,15 @@ def add_parser(sub) -> None:
     serve.add_argument(
         "--open-browser", action="store_true", help="open the studio's link in the browser"
     )
+    serve.add_argument(
+        "--allow",
+        action="append",
+        default=[],
+        type=Path,
+        metavar="DIR",
+        help="a folder whose robots *Open path* may load (repeatable; the working folder, the "
+        "built-ins, --package-root folders and uploads are always allowed)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -44,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
         package_roots=tuple(args.package_root),
         feet=parse_feet(args.feet),
         no_token=args.no_token,
+        allow=tuple(args.allow),
     )
     check_bind(config.host, config.access_token)
     robot = load_robot_from_args(args)

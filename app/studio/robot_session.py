@@ -15,6 +15,7 @@ import viser
 
 from app.config import StudioConfig
 from app.core.errors import StudioError
+from app.core.file_access import FileAccess
 from app.core.posing.drag import Posing
 from app.core.robot.loading import load_robot
 from app.core.robot.model import RobotModel
@@ -47,6 +48,13 @@ class RobotSession:
         self.view: RobotView | None = None
         self._roots = AlternatingRoot("/robot")
         self._admission = Admission()
+        self.access = FileAccess.for_studio(
+            Path.cwd(), (*config.allow, *config.package_roots), config.uploads_dir
+        )
+        """The folders *Open path* may load from (a path typed in a browser is untrusted)."""
+        self.panel.path.hint = "A .urdf on the machine running the studio, inside " + ", ".join(
+            self.access.describe()
+        )
         state.on_robot.connect(self._on_robot)
         state.on_pose.connect(self._on_pose)
 
@@ -61,6 +69,9 @@ class RobotSession:
             self._confirm(client, str(source), lambda: self._load(source, client, sandbox=None))
             return False
         return self._load(source, client, sandbox=None)
+
+    def allowed_folders_markdown(self) -> str:
+        return "*Open path* may load from: " + ", ".join(f"`{f}`" for f in self.access.describe())
 
     def _needs_confirmation(self, client: viser.ClientHandle | None) -> bool:
         if client is None or self._state.robot is None:
@@ -124,7 +135,11 @@ class RobotSession:
     def _load_admitted(
         self, source: str | Path, client: viser.ClientHandle | None, sandbox: Path | None
     ) -> bool:
-        options: dict = {"package_roots": self._config.package_roots, "feet": self._config.feet}
+        options: dict = {
+            "package_roots": self._config.package_roots,
+            "feet": self._config.feet,
+            "access": self.access,
+        }
         if sandbox is not None:
             options = {**options, "sandbox": sandbox, "feet": None}
         progress = self._notifier.progress("Loading", str(Path(str(source)).name), client)
@@ -137,9 +152,8 @@ class RobotSession:
             return False
         except Exception as error:  # a third-party parser or mesh library failed: same answer
             log.exception("loading %s", source)
-            self._fail(
-                "Could not load the robot", f"{type(error).__name__}: {error}".strip(), client
-            )
+            first_line = (str(error).strip().splitlines() or [""])[0]
+            self._fail("Could not load the robot", f"{type(error).__name__}: {first_line}", client)
             return False
         finally:
             progress.done()

@@ -55,3 +55,15 @@ def test_snapping_flat_feet_keeps_the_pose():
     np.testing.assert_allclose(
         robot.joint_angles(result.q), robot.joint_angles(q), atol=np.deg2rad(0.5)
     )
+
+
+def test_a_sole_without_area_gives_a_thin_polygon_not_an_error():
+    """Points on a line (a foot whose geometry is missing): a strip around them."""
+    from app.core.posing.ik import DEGENERATE_PAD_M, convex_polygon
+
+    line = np.array([[0.0, 0.0], [0.1, 0.0], [0.05, 0.0]])
+    polygon = convex_polygon(line)
+    assert np.ptp(polygon[:, 0]) == pytest.approx(0.1 + 2 * DEGENERATE_PAD_M)
+    assert np.ptp(polygon[:, 1]) == pytest.approx(2 * DEGENERATE_PAD_M)
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.5, 0.5]])
+    assert len(convex_polygon(square)) == 4  # a proper hull is untouched

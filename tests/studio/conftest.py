@@ -24,8 +24,9 @@ def free_port() -> int:
 
 
 def start_studio(data_dir: Path) -> Studio:
-    """A studio on the default robot, serving on a free port of 127.0.0.1."""
-    return Studio(StudioConfig(port=free_port(), data_dir=data_dir))
+    """A studio on the default robot, serving on a free port of 127.0.0.1; *Open path* may
+    also load from the folder holding `data_dir` (where tests write their files)."""
+    return Studio(StudioConfig(port=free_port(), data_dir=data_dir, allow=(data_dir.parent,)))
 
 
 @pytest.fixture

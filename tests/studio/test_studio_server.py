@@ -350,3 +350,39 @@ def test_switching_robots_all_day_does_not_grow_what_a_new_tab_replays(studio):
     after_one = round_of_loads()
     for _ in range(3):
         assert round_of_loads() == after_one
+
+
+def test_open_path_outside_the_allowed_folders_is_refused_without_saying_what_is_there(studio):
+    before = studio.state.robot
+    messages = []
+    for path in ("/etc/passwd", "/etc/no-such-file.urdf", "/proc/self/environ", "/dev/zero"):
+        studio.robots.panel.path.value = path
+        studio.robots.panel.open_path.value = True
+        assert studio.state.robot is before
+        messages.append(studio.notifier.last_error.replace(path, "PATH"))
+    assert len(set(messages)) == 1 and "--allow" in messages[0]
+
+
+def test_an_upload_opened_by_path_keeps_its_sandbox(studio, tmp_path):
+    """A URDF uploaded with a mesh outside its folder is refused in the upload; opening the
+    stored copy by path must not load the outside mesh either."""
+    import io
+    import zipfile
+
+    secret = tmp_path / "secret.stl"
+    secret.write_bytes(b"solid x\nendsolid x\n")
+    urdf = tiny_biped_urdf(foot_geometry=f'<mesh filename="file://{secret}"/>')
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        archive.writestr("evil/evil.urdf", urdf)
+    studio.robots.panel.receive_upload(viser.UploadedFile("evil.zip", buffer.getvalue()))
+    uploaded = studio.state.robot
+    assert uploaded.name == "tiny"
+    assert any(str(secret) in missing.uri for missing in uploaded.missing_meshes)
+    stored = next(studio.config.uploads_dir.rglob("evil.urdf"))
+    studio.robots.panel.path.value = str(stored)
+    studio.robots.panel.open_path.value = True
+    reopened = studio.state.robot
+    assert reopened is not uploaded and reopened.name == "tiny"  # loaded again, by path
+    assert any(str(secret) in missing.uri for missing in reopened.missing_meshes)
+    assert len(reopened.meshes) == len(uploaded.meshes)

@@ -22,7 +22,7 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 import placo
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, QhullError
 
 from app.core.posing.stance import anchor_on_foot
 from app.core.robot.loops import close_loops
@@ -164,9 +164,7 @@ class WholeBodyIK:
             if foot.side in sides:
                 T = placements[foot.link]
                 points.append((T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T[:, :2])
-        stacked = np.concatenate(points)
-        hull = ConvexHull(stacked)
-        return stacked[hull.vertices]
+        return convex_polygon(np.concatenate(points))
 
     def com_margin(self, q: np.ndarray, polygon: np.ndarray) -> float:
         """Signed distance [m] of the CoM's ground projection inside a convex polygon."""
@@ -404,6 +402,23 @@ class WholeBodyIK:
         return IkResult(
             q, reached, iterations, position_error, orientation_error, margin, near, tuple(warnings)
         )
+
+
+DEGENERATE_PAD_M = 5e-4
+"""Half-size of the square put around each point of a sole without area (a foot whose
+geometry is missing, or a line contact): its polygon is then a thin strip, not an error."""
+
+
+def convex_polygon(points_xy: np.ndarray) -> np.ndarray:
+    """Counter-clockwise corners of the convex hull of points (N, 2) [m]; points on a line (or
+    one point) give the hull of small squares around them."""
+    try:
+        hull = ConvexHull(points_xy)
+    except QhullError:
+        offsets = DEGENERATE_PAD_M * np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]])
+        points_xy = (points_xy[:, None, :] + offsets[None]).reshape(-1, 2)
+        hull = ConvexHull(points_xy)
+    return points_xy[hull.vertices]
 
 
 def _clamped_towards(T_current: np.ndarray, T_goal: np.ndarray) -> np.ndarray:
