@@ -18,6 +18,7 @@ import threading
 import numpy as np
 import viser
 
+from app.core.dynamics.peaks import TorquePeaks, torque_peaks
 from app.core.dynamics.wbc import FeedForward, torque_feedforward, write_torque_csv
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
@@ -31,7 +32,14 @@ from app.core.servo.compensation import (
     disabled_params,
 )
 from app.core.servo.files import write_command_csv
-from app.core.servo.model import Prediction, ServoModel, command_configuration, predict
+from app.core.servo.model import (
+    Prediction,
+    ServoModel,
+    command_configuration,
+    joint_angles,
+    predict,
+)
+from app.core.servo.preset_safety import implausible_prediction, scaled_to_limits
 from app.core.servo.presets import PRESETS, preset_params
 from app.core.thinning import thin_minmax
 from app.studio.coalesce import Coalescer
@@ -178,7 +186,9 @@ class CompensationSession:
                 for name, checkbox in self.panel.ghosts.items():
                     self.ghosts.set_visible(name, checkbox.value)
         self._repredict()
-        self.panel.status.content = _torque_summary(trajectory, result)
+        self.panel.status.content = _torque_summary(
+            torque_peaks(robot, trajectory, result), trajectory
+        )
         self.runner.warm_up()  # a Simulate click next should not wait for a process to spawn
 
     # --- coefficients (CompensationActions) -----------------------------------------------------
@@ -192,6 +202,20 @@ class CompensationSession:
         except StudioError as error:
             self._fail("Preset not available", str(error), None)
             return
+        feedforward, trajectory = self.feedforward, self._trajectory
+        if feedforward is not None and trajectory is not None:
+            lower = np.array([j.lower for j in robot.joints])
+            upper = np.array([j.upper for j in robot.joints])
+            params, scale = scaled_to_limits(
+                params,
+                joint_angles(robot, trajectory.q),
+                np.nan_to_num(feedforward.tau_Nm),
+                lower,
+                upper,
+            )
+            if scale < 1.0:
+                self.panel.status.content = f"⚠️ {params.notes[-1]}"
+                self._notifier.notify("Preset scaled", params.notes[-1], None, "yellow")
         with self._lock:
             self.params = params
         self._show_selected()
@@ -276,6 +300,9 @@ class CompensationSession:
                 self._fail("Cannot predict the motion", str(error), None)
                 return
             self.prediction = prediction
+        absurd = implausible_prediction(prediction)
+        if absurd:
+            self.panel.status.content = "⚠️ " + "; ".join(absurd) + " (quick estimate)"
         deg = np.rad2deg
         t = prediction.t
         self.plots.info.content = _attitude_summary(prediction)
@@ -408,8 +435,21 @@ class CompensationSession:
         if prediction is None or trajectory is None:
             self._fail("Nothing to export", "compute the torque feed-forward first", client)
             return None
+        robot = self._robot
+        assert robot is not None
         buffer = io.StringIO()
-        write_command_csv(buffer, prediction.t, prediction.joint_names, prediction.q_cmd_rad)
+        try:
+            write_command_csv(
+                buffer,
+                prediction.t,
+                prediction.joint_names,
+                prediction.q_cmd_rad,
+                np.array([j.lower for j in robot.joints]),
+                np.array([j.upper for j in robot.joints]),
+            )
+        except StudioError as error:  # a command file for real servos is never written wrong
+            self._fail("Commands not exported", str(error), client)
+            return None
         content = buffer.getvalue().encode()
         if client is not None:
             client.send_file_download(f"{trajectory.name}_servo_commands.csv", content)
@@ -453,15 +493,28 @@ def _first_enabled(params: CompensationParams) -> str:
     return next((n for n, on in zip(params.joint_names, params.enabled, strict=True) if on), "")
 
 
-def _torque_summary(trajectory: Trajectory, result: FeedForward) -> str:
-    bad = result.infeasible_samples
-    warning = (
-        f" ⚠️ QP infeasible at {len(bad)} sample(s), first at t = {result.t[bad[0]]:.2f} s"
-        if len(bad)
-        else ""
-    )
-    peak = np.nanmax(np.abs(result.tau_Nm))
-    return f"τ of **{trajectory.name}**: max |τ| {peak:.2f} N·m.{warning}"
+def _torque_summary(peaks: TorquePeaks, trajectory: Trajectory) -> str:
+    """Peak torque over the samples the QP and the joints' speed limits can follow; flagged
+    samples named apart (their torques are not peaks: the robot cannot do them)."""
+    worst = int(np.argmax(peaks.max_abs_tau_Nm)) if len(peaks.joint_names) else 0
+    lines = [
+        f"τ of **{trajectory.name}**: max |τ| {peaks.max_abs_tau_Nm[worst]:.2f} N·m "
+        f"({peaks.joint_names[worst]}) over the samples the robot can follow."
+    ]
+    for what, samples in (
+        ("the whole-body QP cannot follow", peaks.infeasible_samples),
+        ("ask a joint to move faster than its limit", peaks.over_speed_samples),
+    ):
+        if samples:
+            first = trajectory.t[samples[0]]
+            lines.append(
+                f"⚠️ **{len(samples)} sample(s) {what}** (first at t = {first:.2f} s); their "
+                "torques are left out of the peak."
+            )
+    if peaks.flagged_samples:
+        everything = float(np.max(peaks.max_abs_tau_all_samples_Nm))
+        lines.append(f"Peak over every sample, flagged ones included: {everything:.2f} N·m.")
+    return "  \n".join(lines)
 
 
 def _simulation_summary(simulation: Simulation) -> str:

@@ -187,12 +187,19 @@ class MotionSession:
             f"**{trajectory.name}** — {trajectory.duration:.2f} s, {trajectory.n_samples} "
             f"samples at {1 / trajectory.dt:.0f} Hz"
         ]
+        jumps = result.jump_samples
+        if jumps:
+            lines.append(
+                f"⚠️ **{len(jumps)} sample(s) the IK could not follow within the joints' speed "
+                f"limits** (first at t = {trajectory.t[jumps[0]]:.2f} s): clipped, their targets "
+                "missed; torque peaks leave them out"
+            )
         lines.extend(f"⚠️ {line}" for line in result.summary())
         try:
             self._state.set_motion(trajectory, "  \n".join(lines), robot)
         except StudioError as error:
             return self._fail("Motion discarded", str(error), client)
-        self.panel.status.content = lines[0]
+        self.panel.status.content = "  \n".join(lines[:2])
         return True
 
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> bool:
