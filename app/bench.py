@@ -15,7 +15,11 @@
 - compensation slider: a k slider moved with a 10 s motion loaded: re-prediction, ghosts and
   plots (τ not recomputed); target ≤ 50 ms.
 - plan: the gait paper's case (38 knots) built and solved cold, target ≤ 10 s (the paper:
-  65 s – 5 min with SNOPT); a warm re-solve after one slider change, target ≤ 1 s.
+  65 s – 5 min with SNOPT); a warm re-solve after one slider change, target ≤ 1 s; the same on
+  servo_biped with its scaled defaults, and a 10-step walk of the cycle to torques, ≤ 5 s.
+- simulate: servo_biped's one-leg squats on MuJoCo with the default virtual servos (≥ 10× real
+  time; the same steps of bare MuJoCo beside it), Roban S14's (≥ 5×), and the studio's
+  Simulate click to the verdict, ghosts and plots (≤ 2 s), with the worker already started.
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ import numpy as np
 
 from app.config import StudioConfig
 from app.core.dynamics.wbc_bench import bench_feedforward
+from app.core.simulation.bench import bench_simulation
 from app.studio import Studio
 from panels.quiet import set_value
 
@@ -52,6 +57,8 @@ INTERPOLATE_TARGET_S = 1.0
 COMPENSATION_TARGET_MS = 50.0
 PLAN_COLD_TARGET_S = 10.0
 PLAN_WARM_TARGET_S = 1.0
+WALK_TARGET_S = 5.0
+SIMULATE_CLICK_TARGET_S = 2.0
 
 
 def run_bench(args: argparse.Namespace) -> int:
@@ -76,6 +83,11 @@ def run_bench(args: argparse.Namespace) -> int:
                 ),
                 "compensation_slider": _bench_compensation_slider(studio),
                 "plan": _bench_plan(),
+                "plan_servo_biped": _bench_plan_robot("servo_biped"),
+                "simulate": bench_simulation(
+                    next((str(p) for p in ROBAN_CANDIDATES if p.exists()), None)
+                ),
+                "simulate_click": _bench_simulate_click(studio),
             }
         finally:
             studio.stop()
@@ -136,7 +148,98 @@ def run_bench(args: argparse.Namespace) -> int:
         f"warm re-solve after one slider {row['warm_s']:.2f} s, {row['warm_iterations']} iterations "
         f"(target ≤ {PLAN_WARM_TARGET_S:.0f} s) {_mark(row['warm_s'] <= PLAN_WARM_TARGET_S)}"
     )
+    row = results["plan_servo_biped"]
+    print(
+        f"gait plan on servo_biped (its scaled defaults): cold {row['cold_s']:.2f} s "
+        f"(target ≤ {PLAN_COLD_TARGET_S:.0f} s) {_mark(row['cold_s'] <= PLAN_COLD_TARGET_S)}; warm "
+        f"{row['warm_s']:.2f} s (target ≤ {PLAN_WARM_TARGET_S:.0f} s) "
+        f"{_mark(row['warm_s'] <= PLAN_WARM_TARGET_S)}; 10-step walk → torques {row['walk_to_torques_s']:.2f} s "
+        f"(target ≤ {WALK_TARGET_S:.0f} s, QP follows {100 * row['qp_follow_rate']:.0f} % of the samples) "
+        f"{_mark(row['walk_to_torques_s'] <= WALK_TARGET_S)}"
+    )
+    sim = results["simulate"]
+    for key, target in (("servo_biped", 10.0), ("roban_s14", 5.0)):
+        if f"{key}_wall_s" in sim:
+            print(
+                f"simulate {key} one-leg squats ({sim[f'{key}_motion_s']:.1f} s): {sim[f'{key}_wall_s']:.2f} s, "
+                f"{sim[f'{key}_real_time_factor']:.0f}× real time (bare MuJoCo, same steps: "
+                f"{sim[f'{key}_physics_only_s']:.2f} s; target ≥ {target:.0f}×) "
+                f"{_mark(sim[f'{key}_real_time_factor'] >= target)}"
+            )
+    row = results["simulate_click"]
+    print(
+        f"Simulate click → verdict, ghosts, plots, servo_biped {row['motion_s']:.1f} s motion: "
+        f"{row['seconds']:.2f} s (target ≤ {SIMULATE_CLICK_TARGET_S:.0f} s) "
+        f"{_mark(row['seconds'] <= SIMULATE_CLICK_TARGET_S)}"
+    )
     return 0
+
+
+def _bench_plan_robot(name: str) -> dict:
+    """A robot's own cycle (scaled defaults) cold, warm after K0 changes, and 10 steps of it
+    walked and sent through the torque feed-forward."""
+    import dataclasses
+
+    from app.core.collocation.defaults import robot_gait_defaults
+    from app.core.collocation.gait_problem import GaitProblem
+    from app.core.collocation.planar_model import PlanarModel
+    from app.core.dynamics.wbc import torque_feedforward
+    from app.core.robot.loading import load_robot
+    from app.core.walking.walk import build_walk
+
+    robot = load_robot(name)
+    planar = PlanarModel(robot)
+    settings = robot_gait_defaults(planar).settings
+    begin = time.perf_counter()
+    problem = GaitProblem(planar, settings.knots, settings.baseline)
+    cold = problem.solve(settings)
+    cold_s = time.perf_counter() - begin
+    begin = time.perf_counter()
+    problem.solve(dataclasses.replace(settings, K0=0.9 * settings.K0), warm_start=cold)
+    warm_s = time.perf_counter() - begin
+    begin = time.perf_counter()
+    walk = build_walk(planar, cold, steps=10)
+    feedforward = torque_feedforward(robot, walk.trajectory)
+    walk_s = time.perf_counter() - begin
+    follow = 1.0 - len(feedforward.infeasible_samples) / walk.trajectory.n_samples
+    return {
+        "robot": name,
+        "cold_s": cold_s,
+        "cold_status": cold.status,
+        "warm_s": warm_s,
+        "walk_to_torques_s": walk_s,
+        "walk_samples": walk.trajectory.n_samples,
+        "qp_follow_rate": follow,
+    }
+
+
+def _bench_simulate_click(studio: Studio) -> dict:
+    """The Simulate button on servo_biped's one-leg squats, torques computed and the worker
+    started: from the click to the verdict, ghosts and plots shown."""
+    studio.robots.load("servo_biped")
+    set_value(studio.motions.panel.motion, "one_leg_squats")
+    set_value(studio.motions.panel.generate, True)
+    _compute_torques(studio)
+    session = studio.compensation
+    done = threading.Event()
+    disconnect = session.runner.finished.connect(lambda _simulation: done.set())
+    begin = time.perf_counter()
+    session.simulate()
+    done.wait()
+    first_s = time.perf_counter() - begin
+    done.clear()
+    set_value(session.panel.k, float(session.panel.k.value) + 0.1)  # the simulation is now stale
+    begin = time.perf_counter()
+    session.simulate()
+    done.wait()
+    seconds = time.perf_counter() - begin
+    disconnect()
+    assert studio.state.trajectory is not None
+    return {
+        "motion_s": studio.state.trajectory.duration,
+        "seconds": seconds,
+        "first_click_s": first_s,
+    }
 
 
 def _bench_plan() -> dict:
