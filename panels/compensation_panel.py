@@ -129,7 +129,10 @@ class CompensationPanel:
                 )
             with gui.add_folder("Ghosts", expand_by_default=True):
                 gui.add_markdown(legend)
-                self.ghosts = {name: gui.add_checkbox(text, True) for name, text in ghosts.items()}
+                # The planned ghost coincides with the robot itself: off until asked for.
+                self.ghosts = {
+                    name: gui.add_checkbox(text, name != "planned") for name, text in ghosts.items()
+                }
             self.export_commands = gui.add_button(
                 "Export servo commands CSV", icon=viser.Icon.DOWNLOAD
             )

@@ -19,15 +19,32 @@ class DisplayFlags:
 class DisplayPanel:
     """Owns the "Display" folder; calls `on_change(flags)` when a toggle moves."""
 
-    def __init__(self, gui: viser.GuiApi, on_change: Callable[[DisplayFlags], None]) -> None:
+    def __init__(
+        self,
+        gui: viser.GuiApi,
+        on_change: Callable[[DisplayFlags], None],
+        on_frame: Callable[[viser.ClientHandle | None], None],
+    ) -> None:
         defaults = DisplayFlags()
         with gui.add_folder("Display", order=2, expand_by_default=False):
             self.visual = gui.add_checkbox("Visual meshes", defaults.visual)
             self.collision = gui.add_checkbox("Collision meshes", defaults.collision)
             self.frames = gui.add_checkbox("Link frames", defaults.frames)
             self.com = gui.add_checkbox("Centre of mass", defaults.com)
+            self.frame = gui.add_button(
+                "Frame robot",
+                icon=viser.Icon.FOCUS_CENTERED,
+                hint="Point this tab's camera at the robot",
+            )
+            self.dark = gui.add_checkbox("Dark mode", False)
         for handle in (self.visual, self.collision, self.frames, self.com):
             handle.on_update(lambda _event: on_change(self.flags()))
+        self.frame.on_click(lambda event: on_frame(event.client))
+        self.dark.on_update(
+            lambda _event: gui.configure_theme(
+                control_width="large", dark_mode=bool(self.dark.value), show_logo=False
+            )
+        )
 
     def flags(self) -> DisplayFlags:
         return DisplayFlags(

@@ -286,6 +286,7 @@ class GaitSession:
                 self.walk = walk
                 self._state.set_motion(walk.trajectory, "  \n".join(lines), robot)
                 self._show_footprints(robot, walk)
+            self._state.on_play.emit(None)
         except StudioError as error:
             self.walk = None
             self.panel.status.content = f"⚠️ {error}"

@@ -30,6 +30,7 @@ class PlaybackSession:
         self._roots = AlternatingRoot("/traces")
         state.on_motion.connect(self._on_motion)
         state.on_time.connect(self._on_time)
+        state.on_play.connect(lambda _none: self.play())
 
     # --- state changes ----------------------------------------------------------------------
 
@@ -81,6 +82,12 @@ class PlaybackSession:
         if trajectory is not None:
             start = float(self.panel.time.value)
             self.player.play(0.0 if start >= trajectory.duration else start)
+            self.panel.show_playing(True)
+
+    def play(self) -> None:
+        """Play the current motion from its start."""
+        if self._state.trajectory is not None:
+            self.player.play(0.0)
             self.panel.show_playing(True)
 
     def set_traces_visible(self, visible: bool) -> None:

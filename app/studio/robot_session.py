@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
+import numpy as np
 import viser
 
 from app.config import StudioConfig
@@ -44,7 +45,7 @@ class RobotSession:
     ) -> None:
         self._server, self._state, self._notifier, self._config = server, state, notifier, config
         self.panel = RobotPanel(server.gui, self, config.max_upload_bytes)
-        self.display = DisplayPanel(server.gui, self._on_display)
+        self.display = DisplayPanel(server.gui, self._on_display, self.frame_camera)
         self.view: RobotView | None = None
         self._roots = AlternatingRoot("/robot")
         self._admission = Admission()
@@ -194,10 +195,32 @@ class RobotSession:
         self.panel.show_report(loaded.report)
         self.panel.show_builtin(robot.name)
         self.panel.show_status(f"**{robot.name}** — {robot.n_actuated} DOF, {robot.mass_kg:.2f} kg")
+        self._frame(robot, robot.q_neutral, None)
 
     def _on_pose(self, pose: Pose) -> None:
         if self.view is not None:
             self.view.update(pose.q)
+
+    def frame_camera(self, client: viser.ClientHandle | None = None) -> None:
+        """Point a tab's camera (every tab's, and new tabs', without `client`) at the robot
+        in its current pose."""
+        with self._state.lock:
+            robot, pose = self._state.robot, self._state.pose
+        if robot is not None and pose is not None:
+            self._frame(robot, pose.q, client)
+
+    def _frame(self, robot: RobotModel, q: np.ndarray, client: viser.ClientHandle | None) -> None:
+        lower, upper = robot.bounds_m(q, robot.model.createData())
+        height = max(float(upper[2] - min(lower[2], 0.0)), 0.3)
+        centre = 0.5 * (lower + upper)
+        look_at = (float(centre[0]), float(centre[1]), 0.45 * height)
+        position = (centre[0] + 0.95 * height, centre[1] + 0.7 * height, 0.7 * height)
+        if client is None:
+            self._server.initial_camera.position = position
+            self._server.initial_camera.look_at = look_at
+        for target in [client] if client is not None else self._server.get_clients().values():
+            target.camera.position = position
+            target.camera.look_at = look_at
 
     def _on_display(self, flags: DisplayFlags) -> None:
         with self._state.lock:

@@ -19,7 +19,7 @@ from app.studio.notifier import Notifier
 from app.studio.playback_session import PlaybackSession
 from app.studio.pose_session import PoseSession
 from app.studio.robot_session import RobotSession, prepare
-from app.studio.state import LoadedRobot, StudioState
+from app.studio.state import StudioState
 from app.web.guard import guarded_server
 
 
@@ -50,7 +50,6 @@ class Studio:
         )
         self.notifier = Notifier(self.server)
         self.state = StudioState()
-        self.state.on_robot.connect(self._frame_camera)
         server, state, notifier = self.server, self.state, self.notifier
         self.robots = RobotSession(server, state, notifier, config)
         self.pose = PoseSession(server, state, notifier)
@@ -64,19 +63,6 @@ class Studio:
             prepare(robot)
         with self.state.lock, self.server.atomic():
             self.state.set_robot(robot, robot_report(robot))
-
-    def _frame_camera(self, loaded: LoadedRobot) -> None:
-        robot = loaded.robot
-        lower, upper = robot.bounds_m(robot.q_neutral, robot.model.createData())
-        height = max(float(upper[2] - min(lower[2], 0.0)), 0.3)
-        centre = 0.5 * (lower + upper)
-        look_at = (float(centre[0]), float(centre[1]), 0.45 * height)
-        position = (centre[0] + 0.95 * height, centre[1] + 0.7 * height, 0.7 * height)
-        self.server.initial_camera.position = position
-        self.server.initial_camera.look_at = look_at
-        for client in self.server.get_clients().values():
-            client.camera.position = position
-            client.camera.look_at = look_at
 
     def stop(self) -> None:
         self.playback.stop()

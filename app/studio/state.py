@@ -74,6 +74,8 @@ class StudioState:
         self.on_pose: Signal[Pose] = Signal("on_pose")
         self.on_motion: Signal[Motion | None] = Signal("on_motion")
         self.on_time: Signal[float] = Signal("on_time")
+        self.on_play: Signal[None] = Signal("on_play")
+        """A feature asks for the current motion to be played (e.g. a walk just planned)."""
 
     # --- reading ------------------------------------------------------------------------
 
