@@ -13,51 +13,12 @@ gait the joints must put that energy back, so it belongs to the mechanical cost 
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
 from app.core.collocation.planar_model import BASE_DOF, PlanarModel, evaluate
-from app.core.collocation.result import GaitResult
+from app.core.collocation.result import BoundCheck, GaitResult
 from app.core.collocation.sampling import sample_gait
 from app.core.collocation.transcription import STANCE, GaitLayout, other, swing_z_rows
-
-BOUND_TOLERANCE = 1e-6
-"""Excess below this counts as holding (IPOPT's constraint tolerance)."""
-
-
-@dataclasses.dataclass(frozen=True)
-class BoundCheck:
-    """Largest excess of each bound on the fine grid (0 when it holds)."""
-
-    samples: int
-    """Number of grid samples checked."""
-    per_interval: int
-    """Samples per collocation interval."""
-    floor_penetration_m: float
-    """Deepest a swing foot's heel or toe goes below the floor [m]."""
-    swing_height_excess_m: float
-    """Highest a swing foot's sole point goes above swing_height_m [m]."""
-    joint_speed_excess_radps: float
-    """Largest |q̇| − qd_max of a planar joint [rad/s]."""
-    joint_range_excess_rad: float
-    """Largest excursion of a planar joint beyond its URDF range [rad]."""
-    torque_excess_Nm: float
-    """Largest |τ| − tau_max_Nm [N·m] (τ is linear between knots: 0 up to round-off)."""
-
-    @property
-    def holds(self) -> bool:
-        """Whether every bound holds on the grid to BOUND_TOLERANCE."""
-        return (
-            max(
-                self.floor_penetration_m,
-                self.swing_height_excess_m,
-                self.joint_speed_excess_radps,
-                self.joint_range_excess_rad,
-                self.torque_excess_Nm,
-            )
-            <= BOUND_TOLERANCE
-        )
 
 
 def check_bounds(model: PlanarModel, result: GaitResult) -> BoundCheck:
