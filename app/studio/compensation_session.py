@@ -383,6 +383,9 @@ class CompensationSession:
             return
         try:
             self.runner.start(robot, trajectory, prediction.q_plan_rad, prediction.q_cmd_rad, servo)
+        except (OSError, RuntimeError) as error:  # the worker process could not start
+            self._fail("Cannot simulate", f"the simulation worker did not start: {error}", client)
+            return
         except StudioError as error:
             self.panel.verdict.content = f"⚠️ {error}"
             self._notifier.error("Cannot simulate", str(error), client)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import logging
 import threading
 import time
 from collections.abc import Callable
@@ -27,6 +28,8 @@ from app.core.simulation.worker import (
 )
 from app.jobs import SolverWorker
 from app.studio.signals import Signal
+
+log = logging.getLogger(__name__)
 
 WITHOUT, WITH = "without compensation", "with compensation"
 
@@ -59,8 +62,12 @@ class SimulationRunner:
         """Emitted once per Simulate, when it ended (results, failure or cancel)."""
 
     def warm_up(self) -> None:
-        """Start the worker process now (spawning takes a second), e.g. once torques exist."""
-        self._ensure_worker()
+        """Start the worker process now (spawning takes a second), e.g. once torques exist.
+        Only an optimisation: if the process cannot start now, Simulate tries again and says."""
+        try:
+            self._ensure_worker()
+        except (OSError, RuntimeError) as error:
+            log.warning("could not start the simulation worker in advance: %s", error)
 
     def _ensure_worker(self) -> SolverWorker:
         if self._worker is None:
