@@ -36,8 +36,9 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from app.core.dynamics.peaks import torque_peaks
-    from app.core.dynamics.wbc import torque_feedforward, write_torque_csv
+    from app.core.dynamics.wbc import torque_feedforward
     from app.core.motions.csv_files import read_trajectory_csv
+    from app.core.servo.files import write_torque_csv
 
     robot = load_robot_from_args(args)
     traj = read_trajectory_csv(args.trajectory, robot)

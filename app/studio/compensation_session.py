@@ -19,7 +19,7 @@ import numpy as np
 import viser
 
 from app.core.dynamics.peaks import TorquePeaks, torque_peaks
-from app.core.dynamics.wbc import FeedForward, torque_feedforward, write_torque_csv
+from app.core.dynamics.wbc import FeedForward, torque_feedforward
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
@@ -31,7 +31,7 @@ from app.core.servo.compensation import (
     CompensationParams,
     disabled_params,
 )
-from app.core.servo.files import write_command_csv
+from app.core.servo.files import write_command_csv, write_torque_csv
 from app.core.servo.model import (
     Prediction,
     ServoModel,

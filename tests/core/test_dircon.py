@@ -26,7 +26,6 @@ import pinocchio as pin
 import pytest
 
 from app.core.collocation.dircon import (
-    GaitPlanner,
     GaitProblem,
     GaitResult,
     GaitSettings,
@@ -328,15 +327,12 @@ def test_a_raising_callback_stops_the_solve_without_escaping(small):
     assert "BrokenPipeError: the studio went away" in result.status
 
 
-def test_result_pickles_and_planner_caches_problems(small, planar):
+def test_result_pickles(small):
+    """A result crosses the worker's pipe: it pickles and comes back equal."""
     _, result = small
     copy = pickle.loads(pickle.dumps(result))
     assert isinstance(copy, GaitResult)
     np.testing.assert_array_equal(copy.q, result.q)
-    planner = GaitPlanner(planar)
-    refused = planner.solve(GaitSettings(knots=2))
-    assert not refused.converged and not refused.has_gait and "knots" in refused.status
-    assert planner.problems == {}
 
 
 def test_paper_defaults_walk_on_bent_knees_with_a_torque_like_the_papers(paper, robot):

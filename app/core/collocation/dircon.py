@@ -22,43 +22,8 @@ from app.core.collocation.planar_model import PlanarModel, PlanarModelError
 from app.core.collocation.result import GaitResult
 from app.core.collocation.sampling import GaitSamples, positive_work, sample_gait, to_trajectory
 from app.core.collocation.settings import GaitSettings, GaitSettingsError, read_settings_toml
-from app.core.robot.model import RobotModel
-
-
-class GaitPlanner:
-    """One GaitProblem per structure (knots, baseline), built on first use and kept."""
-
-    def __init__(self, robot: RobotModel | PlanarModel | None = None) -> None:
-        if robot is None:
-            from app.core.robot.loading import load_robot
-
-            robot = load_robot("dircon_biped")
-        self.model = robot if isinstance(robot, PlanarModel) else PlanarModel(robot)
-        self.problems: dict[tuple[int, bool], GaitProblem] = {}
-
-    def problem(self, settings: GaitSettings) -> GaitProblem:
-        """The problem for the settings' structure (built now if new); refuses bad settings."""
-        settings.validate()
-        if settings.structure not in self.problems:
-            self.problems[settings.structure] = GaitProblem(
-                self.model, settings.knots, settings.baseline
-            )
-        return self.problems[settings.structure]
-
-    def solve(
-        self, settings: GaitSettings, iteration_callback: IterationCallback | None = None
-    ) -> GaitResult:
-        """Solve, warm-started from the last good gait of the same structure; never raises for
-        bad settings (the result says what was wrong)."""
-        try:
-            problem = self.problem(settings)
-        except GaitSettingsError as error:
-            return GaitResult.refused(settings, f"invalid settings: {error}")
-        return problem.solve(settings, iteration_callback=iteration_callback)
-
 
 __all__ = [
-    "GaitPlanner",
     "GaitProblem",
     "GaitResult",
     "GaitSamples",

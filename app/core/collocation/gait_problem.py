@@ -335,7 +335,7 @@ class GaitProblem:
             return GaitResult.refused(
                 settings,
                 f"invalid settings: this problem is built for knots = {self.structure[0]}, "
-                f"baseline = {self.structure[1]}; build another GaitProblem (or use GaitPlanner)",
+                f"baseline = {self.structure[1]}; build another GaitProblem",
             )
         start = self.last_good
         if (

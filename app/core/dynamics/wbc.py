@@ -25,17 +25,13 @@ the status says why, and the run goes on:
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import math
-import os
 import time
 from collections.abc import Callable
-from typing import IO
 
 import numpy as np
 
-from app.core.atomic_write import write_atomically
 from app.core.dynamics.lqr import lqr_com
 from app.core.dynamics.wbc_qp import N_CORNERS, QpWeights, WholeBodyQp
 from app.core.errors import StudioError
@@ -338,21 +334,3 @@ def _dof_names(robot: RobotModel) -> list[str]:
     for jid in range(2, model.njoints):
         names += [model.names[jid]] * model.joints[jid].nv
     return names
-
-
-def write_torque_csv(path_or_file: str | os.PathLike[str] | IO[str], ff: FeedForward) -> None:
-    """Write torques as CSV: `t [s]`, `tau:<joint> [N·m]` ([N] for a prismatic joint) per
-    actuated joint, `status`; numbers as Python's repr (exact round trip)."""
-    header = ["t [s]"]
-    header += [f"tau:{n} [{u}]" for n, u in zip(ff.joint_names, ff.tau_units, strict=True)]
-    if not isinstance(path_or_file, str | os.PathLike):
-        _write_rows(path_or_file, header, ff)
-        return
-    write_atomically(path_or_file, lambda file: _write_rows(file, header, ff), WbcError)
-
-
-def _write_rows(file: IO[str], header: list[str], ff: FeedForward) -> None:
-    writer = csv.writer(file, lineterminator="\n")
-    writer.writerow([*header, "status"])
-    for k, t in enumerate(ff.t):
-        writer.writerow([repr(float(t)), *(repr(float(x)) for x in ff.tau_Nm[k]), ff.status[k]])

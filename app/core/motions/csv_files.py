@@ -34,7 +34,7 @@ import os
 import re
 from collections.abc import Iterator
 from pathlib import Path
-from typing import IO, Literal, TypeAlias
+from typing import IO, Literal
 
 import numpy as np
 import pinocchio as pin
@@ -43,6 +43,7 @@ from app.core import input_gate
 from app.core.atomic_write import write_atomically
 from app.core.budgets import MAX_SAMPLES
 from app.core.errors import StudioError
+from app.core.file_types import TextPathOrFile
 from app.core.motions.trajectory import Trajectory, from_configurations
 from app.core.quaternions import wxyz_to_xyzw
 from app.core.robot.model import RobotModel
@@ -52,8 +53,6 @@ BASE_V_NAMES = ("base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz"
 CONTACT_COLUMNS = ("contact_left", "contact_right")
 SOLE_CONTACT_BAND_M = 0.01
 """Roban import: a sole within this height of the lowest sole of its frame is in contact."""
-
-PathOrFile: TypeAlias = str | os.PathLike[str] | IO[str]
 
 
 class MotionFileError(StudioError):
@@ -103,7 +102,7 @@ def _header_cell(name: str, unit: str) -> str:
     return f"{name} [{unit}]" if unit else name
 
 
-def _open(path_or_file: PathOrFile) -> tuple[IO[str], bool, str]:
+def _open(path_or_file: TextPathOrFile) -> tuple[IO[str], bool, str]:
     """(file to read, whether we opened it, name for messages); a path goes through the input
     gate (regular file, ≤ 256 MiB, UTF-8) and is streamed."""
     if isinstance(path_or_file, str | os.PathLike):
@@ -112,7 +111,7 @@ def _open(path_or_file: PathOrFile) -> tuple[IO[str], bool, str]:
     return path_or_file, False, str(getattr(path_or_file, "name", "motion"))
 
 
-def write_trajectory_csv(traj: Trajectory, path_or_file: PathOrFile, robot: RobotModel) -> None:
+def write_trajectory_csv(traj: Trajectory, path_or_file: TextPathOrFile, robot: RobotModel) -> None:
     """Write a trajectory of `robot` as a CSV file with a header row (see the module docstring)."""
     if traj.q.shape[1] != robot.model.nq or tuple(traj.joint_names) != robot.joint_names:
         raise MotionFileError(
@@ -191,7 +190,7 @@ def _is_number(cell: str) -> bool:
     return True
 
 
-def read_trajectory_csv(path_or_file: PathOrFile, robot: RobotModel) -> Trajectory:
+def read_trajectory_csv(path_or_file: TextPathOrFile, robot: RobotModel) -> Trajectory:
     """Read a CSV file written by write_trajectory_csv (or by hand in the same format)."""
     file, owned, source = _open(path_or_file)
     try:

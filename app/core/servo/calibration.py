@@ -26,15 +26,15 @@ import io
 import math
 import os
 from collections.abc import Iterable
-from typing import IO, TypeAlias
+from typing import IO
 
 import numpy as np
 
 from app.core import input_gate
 from app.core.errors import StudioError, finite_float
+from app.core.file_types import TextPathOrFile
 from app.core.papers import TABLE2_TEXT
 
-PathOrFile: TypeAlias = str | os.PathLike[str] | IO[str]
 MEASURED_COLUMNS = ("frame", "joint", "q_cmd_deg", "q_meas_deg", "tau_Nm")
 ENCODER_RESOLUTION_DEG = 360.0 / 4608.0
 """0.078125°: every measured angle q of the paper's Table 2 is a whole multiple of it."""
@@ -114,7 +114,7 @@ class JointCalibration:
         }
 
 
-def read_measured_csv(path_or_file: PathOrFile) -> Measurements:
+def read_measured_csv(path_or_file: TextPathOrFile) -> Measurements:
     """Read a long-format measurement CSV (header `frame,joint,q_cmd_deg,q_meas_deg,tau_Nm`,
     columns in any order, extra columns ignored). Every problem names its line."""
     if isinstance(path_or_file, (str, os.PathLike)):

@@ -22,9 +22,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 from collections.abc import Sequence
-from typing import IO, Literal, TypeAlias
+from typing import Literal, TypeAlias
 
 import numpy as np
 
@@ -39,8 +38,6 @@ MAX_PHI_DEG = 45.0
 """Largest clearance angle φ accepted [°]. The paper's is 8°."""
 PAPER_PHI_DEG = PHI_DEG
 """Clearance compensation angle of eq 23 (app.core.papers) [°]."""
-
-PathOrFile: TypeAlias = str | os.PathLike[str] | IO[bytes]
 
 
 class CompensationError(StudioError):

@@ -8,20 +8,20 @@ import dataclasses
 import math
 import os
 from collections.abc import Sequence
-from typing import IO, TypeAlias
+from typing import IO
 
 import numpy as np
 
 from app.core import input_gate
 from app.core.atomic_write import write_atomically
 from app.core.budgets import MAX_SAMPLES
+from app.core.dynamics.wbc import FeedForward
 from app.core.errors import finite_float
+from app.core.file_types import BinaryPathOrFile
 from app.core.servo.compensation import CompensationError, CompensationParams
 
-PathOrFile: TypeAlias = str | os.PathLike[str] | IO[bytes]
 
-
-def read_coefficients_toml(path_or_file: PathOrFile) -> CompensationParams:
+def read_coefficients_toml(path_or_file: BinaryPathOrFile) -> CompensationParams:
     """Coefficients from a k.toml file::
 
         clearance_sign = "command"        # optional: "command" (paper, default) or "torque"
@@ -107,6 +107,24 @@ class TorqueTable:
     """Joint torques [N·m], shape (T, n), columns in the order asked for."""
     status: tuple[str, ...]
     """The solver's status of each sample ("" when the file has no status column)."""
+
+
+def write_torque_csv(path_or_file: str | os.PathLike[str] | IO[str], ff: FeedForward) -> None:
+    """Write torques as CSV: `t [s]`, `tau:<joint> [N·m]` ([N] for a prismatic joint) per
+    actuated joint, `status`; numbers as Python's repr (exact round trip)."""
+    header = ["t [s]"]
+    header += [f"tau:{n} [{u}]" for n, u in zip(ff.joint_names, ff.tau_units, strict=True)]
+    if not isinstance(path_or_file, str | os.PathLike):
+        _write_rows(path_or_file, header, ff)
+        return
+    write_atomically(path_or_file, lambda file: _write_rows(file, header, ff), CompensationError)
+
+
+def _write_rows(file: IO[str], header: list[str], ff: FeedForward) -> None:
+    writer = csv.writer(file, lineterminator="\n")
+    writer.writerow([*header, "status"])
+    for k, t in enumerate(ff.t):
+        writer.writerow([repr(float(t)), *(repr(float(x)) for x in ff.tau_Nm[k]), ff.status[k]])
 
 
 def read_torque_csv(
