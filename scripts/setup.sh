@@ -9,6 +9,25 @@ if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 10))'; then
   echo "Biped Studio needs Python 3.10 or newer ($python is $("$python" --version 2>&1))." >&2
   exit 1
 fi
+# A venv that no longer runs (its Python was removed, or the checkout moved: its scripts point
+# to the old path and the editable install imports the old code) is made anew.
+venv_runs() {
+  .venv/bin/python -I - "$PWD" >/dev/null 2>&1 <<'PY' || return 1
+import pathlib, sys
+try:
+    import app
+except ImportError:  # not installed yet: nothing points elsewhere
+    sys.exit(0)
+sys.exit(not pathlib.Path(app.__file__).resolve().is_relative_to(pathlib.Path(sys.argv[1]).resolve()))
+PY
+  local interpreter
+  interpreter="$(head -n 1 .venv/bin/pip 2>/dev/null | cut -c3-)"
+  [ -z "$interpreter" ] || [ -x "$interpreter" ]
+}
+if [ -e .venv ] && ! venv_runs; then
+  echo "The virtual environment in .venv no longer runs this checkout: making it anew…"
+  rm -rf .venv
+fi
 [ -x .venv/bin/python ] || "$python" -m venv .venv
 stamp=".venv/.installed-$(sha256sum pyproject.toml | cut -c1-16)-${extras:-base}"
 if [ ! -f "$stamp" ]; then

@@ -28,6 +28,7 @@ from app.core.motions.csv_files import (
 from app.core.motions.keyframes import Keyframe, MotionResult, capture_keyframe, interpolate
 from app.core.motions.library import run_motion
 from app.core.robot.model import RobotModel
+from app.studio.admission import Admission, Busy
 from app.studio.notifier import Notifier
 from app.studio.state import LoadedRobot, StudioState
 from panels.keyframes_panel import KeyframesPanel
@@ -48,6 +49,8 @@ class MotionSession:
         self.keyframes: list[Keyframe] = []
         self._lock = threading.Lock()
         """Guards the keyframe list (the state lock guards the pose)."""
+        self._admission = Admission(per_client=1, total=2)
+        """Motions take seconds of IK: one per tab, two in all, at a time."""
         state.on_robot.connect(self._on_robot)
 
     def _on_robot(self, _loaded: LoadedRobot) -> None:
@@ -63,13 +66,19 @@ class MotionSession:
         robot = self._state.robot
         if robot is None:
             return False
-        progress = self._notifier.progress(f"Generating {name}", "IK at every sample…", client)
         try:
-            result = run_motion(robot, name, **cast(dict[str, Any], params))
+            with self._admission.admit(client.client_id if client is not None else None):
+                progress = self._notifier.progress(
+                    f"Generating {name}", "IK at every sample…", client
+                )
+                try:
+                    result = run_motion(robot, name, **cast(dict[str, Any], params))
+                finally:
+                    progress.done()
+        except Busy as busy:
+            return self._fail("Not now", str(busy), client)
         except StudioError as error:
             return self._fail(f"Cannot generate {name}", str(error), client)
-        finally:
-            progress.done()
         return self._install(robot, result, client)
 
     # --- keyframes (KeyframeActions) ------------------------------------------------------------
@@ -124,7 +133,10 @@ class MotionSession:
         if robot is None:
             return False
         try:
-            result = interpolate(robot, keyframes, name="keyframes")
+            with self._admission.admit(client.client_id if client is not None else None):
+                result = interpolate(robot, keyframes, name="keyframes")
+        except Busy as busy:
+            return self._fail("Not now", str(busy), client)
         except StudioError as error:
             return self._fail("Cannot build the motion", str(error), client)
         return self._install(robot, result, client)

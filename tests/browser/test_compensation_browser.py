@@ -219,4 +219,4 @@ def test_plots_show_the_torques(page, studio: Studio) -> None:
         folder_title(page, "Plots").click()
     canvas.first.wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
     plots.get_by_text("Joint torque [N·m]", exact=True).wait_for(state="visible")
-    assert plots.locator(".uplot").count() == 3  # torques, torso attitude, command offsets
+    assert plots.locator(".uplot").count() == 4  # torques, torso roll, torso pitch, offsets

@@ -158,6 +158,11 @@ def test_walk_this_gait_on_the_loaded_robot(page, studio: Studio, tmp_path: Path
     assert trajectory.contacts[0].all() and trajectory.contacts[-1].all()  # standing to standing
     walk = studio.gait.walk
     assert walk is not None and len(walk.footprints) == WALK_STEPS + 2
+    # The walk starts playing; pause it (as a user would) to compare still pictures.
+    wait_for("the walk playing", lambda: studio.playback.player.playing, UI_TIMEOUT_S)
+    expand_folder(page, "Playback", "Pause")
+    click_button(page, "Pause")
+    wait_for("the walk paused", lambda: not studio.playback.player.playing, UI_TIMEOUT_S)
 
     # The page draws the footprints on the floor.
     after = wait_stable(

@@ -386,3 +386,28 @@ def test_an_upload_opened_by_path_keeps_its_sandbox(studio, tmp_path):
     assert reopened is not uploaded and reopened.name == "tiny"  # loaded again, by path
     assert any(str(secret) in missing.uri for missing in reopened.missing_meshes)
     assert len(reopened.meshes) == len(uploaded.meshes)
+
+
+def test_forty_hostile_open_paths_at_once_leave_the_studio_answering(studio, tmp_path):
+    """A page clicking Open path on devices and pipes forty times at once (viser runs each
+    click on its thread pool): every click is answered (refused, by the input gate or as
+    "not now"), none blocks on the device, and the studio then loads as before."""
+    import os
+
+    fifo = tmp_path / "pipe.urdf"
+    os.mkfifo(fifo)
+    hostile = ["/dev/zero", "/dev/tty", str(fifo), "/dev/urandom"] * 10
+    answers = []
+
+    def click(path: str) -> None:
+        answers.append(studio.robots.load(path))
+
+    threads = [threading.Thread(target=click, args=(path,)) for path in hostile]
+    before = studio.state.robot
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()  # each returns: nothing waits on /dev/tty or the pipe
+    assert answers == [False] * len(hostile)
+    assert studio.state.robot is before
+    assert studio.robots.load("dircon_biped")
