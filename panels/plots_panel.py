@@ -71,13 +71,13 @@ class PlotsPanel:
     def show_torques(self, t: np.ndarray, joint_names: tuple[str, ...], tau_Nm: np.ndarray) -> None:
         self._set_joint_choices(joint_names)
         self._joint_data["torques"] = (t, joint_names, tau_Nm)
-        self._redraw_joints()
+        self._redraw_joints(("torques",))
 
     def show_offsets(
         self, t: np.ndarray, joint_names: tuple[str, ...], offsets_deg: np.ndarray
     ) -> None:
         self._joint_data["offsets"] = (t, joint_names, offsets_deg)
-        self._redraw_joints()
+        self._redraw_joints(("offsets",))
 
     def _set_joint_choices(self, joint_names: tuple[str, ...]) -> None:
         legs = [side for side in ("left", "right") if any(n.startswith(side) for n in joint_names)]
@@ -94,9 +94,9 @@ class PlotsPanel:
             return [i for i, n in enumerate(joint_names) if n.startswith(side)]
         return [joint_names.index(choice)]
 
-    def _redraw_joints(self) -> None:
+    def _redraw_joints(self, keys: tuple[str, ...] = ("torques", "offsets")) -> None:
         for key, title in (("torques", "Joint torque [N·m]"), ("offsets", "q_cmd − q [°]")):
-            if key not in self._joint_data:
+            if key not in keys or key not in self._joint_data:
                 continue
             t, names, values = self._joint_data[key]
             chosen = self._selected(names)

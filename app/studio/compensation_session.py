@@ -37,6 +37,7 @@ from app.core.servo.model import (
     ServoModel,
     command_configuration,
     joint_angles,
+    planned_stance_placements,
     predict,
 )
 from app.core.servo.preset_safety import implausible_prediction, scaled_to_limits
@@ -92,6 +93,8 @@ class CompensationSession:
         """Guards coefficients, servos, torques and prediction (edits come from viser's pool)."""
         self._worker: threading.Thread | None = None
         self._predictions: Coalescer[str, None] = Coalescer(lambda _key, _value: self._repredict())
+        self._placements: list = []
+        self._placements_for: Trajectory | None = None
         self.simulation: Simulation | None = None
         """The last good simulation of the current motion (physics, app.core.simulation)."""
         self.simulation_stale = False
@@ -292,9 +295,17 @@ class CompensationSession:
                 return
             assert feedforward is not None and params is not None and servo is not None
             assert robot is not None and trajectory is not None
+            if self._placements_for is not trajectory:  # the plan's own: computed once per motion
+                self._placements = planned_stance_placements(robot, trajectory)
+                self._placements_for = trajectory
             try:
                 prediction = predict(
-                    robot, trajectory, np.nan_to_num(feedforward.tau_Nm), params, servo
+                    robot,
+                    trajectory,
+                    np.nan_to_num(feedforward.tau_Nm),
+                    params,
+                    servo,
+                    planned_placements=self._placements,
                 )
             except StudioError as error:
                 self._fail("Cannot predict the motion", str(error), None)

@@ -144,6 +144,8 @@ class WholeBodyIK:
         self._com_target.mask.set_axises("xy")
         self._com_target.configure("com target", "soft", 0.0)
         self._data = robot.model.createData()
+        self._polygon_cache: tuple[tuple, np.ndarray] | None = None
+        """(stance and stance-feet placements, polygon) of the last support polygon."""
         self._hard_stance = True
         self._soft_goals: list[tuple[placo.FrameTask, str, np.ndarray]] = []
         """(task, frame, target) of soft frame targets, approached at most MAX_STEP per step."""
@@ -159,12 +161,17 @@ class WholeBodyIK:
         """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q."""
         placements = self.robot.link_placements(q, self._data)
         sides = ("left", "right") if stance == "both" else (stance,)
+        feet = [foot for foot in self.robot.feet if foot.side in sides]
+        key = (stance, *(placements[foot.link].round(12).tobytes() for foot in feet))
+        if self._polygon_cache is not None and self._polygon_cache[0] == key:
+            return self._polygon_cache[1]  # the stance feet have not moved (a drag of the other)
         points = []
-        for foot in self.robot.feet:
-            if foot.side in sides:
-                T = placements[foot.link]
-                points.append((T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T[:, :2])
-        return convex_polygon(np.concatenate(points))
+        for foot in feet:
+            T = placements[foot.link]
+            points.append((T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T[:, :2])
+        polygon = convex_polygon(np.concatenate(points))
+        self._polygon_cache = (key, polygon)
+        return polygon
 
     def com_margin(self, q: np.ndarray, polygon: np.ndarray) -> float:
         """Signed distance [m] of the CoM's ground projection inside a convex polygon."""

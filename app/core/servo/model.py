@@ -178,7 +178,7 @@ def stance_is_right(contacts: np.ndarray) -> np.ndarray:
     return contacts[:, 1] & ~contacts[:, 0]
 
 
-def _planned_stance_placements(robot: RobotModel, trajectory: Trajectory) -> list[pin.SE3]:
+def planned_stance_placements(robot: RobotModel, trajectory: Trajectory) -> list[pin.SE3]:
     """T_world_foot of each sample's stance foot in the plan."""
     model, data = robot.model, robot.model.createData()
     frames = [robot.link_frame_ids[foot.link] for foot in robot.feet]
@@ -212,7 +212,7 @@ def grounded_configurations(
         )
     placements = planned_placements
     if placements is None:
-        placements = _planned_stance_placements(robot, trajectory)
+        placements = planned_stance_placements(robot, trajectory)
     model, data = robot.model, robot.model.createData()
     frames = [robot.link_frame_ids[foot.link] for foot in robot.feet]
     right = stance_is_right(trajectory.contacts)
@@ -301,10 +301,13 @@ def predict(
     tau_Nm: np.ndarray,
     comp_params: CompensationParams,
     servo: ServoModel,
+    planned_placements: list[pin.SE3] | None = None,
 ) -> Prediction:
     """Commands and predicted motion of a plan on compliant servos, with and without
     compensation. `tau_Nm` (T, n_actuated) follows the robot's joint order; coefficients and
-    servos may name a subset of the joints (the others are uncompensated / rigid)."""
+    servos may name a subset of the joints (the others are uncompensated / rigid).
+    `planned_placements` (from `planned_stance_placements`, which depends on the plan only)
+    saves recomputing them when only the coefficients or servos change."""
     if tuple(trajectory.joint_names) != robot.joint_names:
         raise ServoModelError(
             f"trajectory {trajectory.name!r} was made for other joints than {robot.name}'s"
@@ -321,7 +324,9 @@ def predict(
     q_cmd = compensated_command(q_plan, tau, params)
     q_unc = servo_response(q_plan, tau, servos)
     q_comp = servo_response(q_cmd, tau, servos)
-    placements = _planned_stance_placements(robot, trajectory)
+    placements = planned_placements
+    if placements is None or len(placements) != trajectory.n_samples:
+        placements = planned_stance_placements(robot, trajectory)
     world_unc = grounded_configurations(robot, trajectory, q_unc, placements)
     world_comp = grounded_configurations(robot, trajectory, q_comp, placements)
     roll_plan, pitch_plan = base_roll_pitch(trajectory.q)
