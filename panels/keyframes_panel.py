@@ -55,8 +55,9 @@ class KeyframesPanel:
 
     def index(self) -> int:
         """Index of the selected keyframe, -1 if none."""
-        value = self.selected.value
-        return int(value.split(".")[0]) - 1 if value != "—" else -1
+        value = str(self.selected.value)
+        number = value.split(".")[0]
+        return int(number) - 1 if number.isdigit() else -1  # "—", or what a crafted client sent
 
     def show(self, keyframes: list[Keyframe], selected: int) -> None:
         if not keyframes:

@@ -70,4 +70,5 @@ class PlaybackPanel:
 
     @property
     def speed_factor(self) -> float:
-        return float(self.speed.value)
+        """The chosen speed; 1 for anything that is not one of the offered speeds."""
+        return float(self.speed.value) if self.speed.value in SPEEDS else 1.0

@@ -104,7 +104,7 @@ class PlaybackSession:
             trajectory = self._state.trajectory
             if trajectory is None or stop.is_set():
                 return None
-            now = start_s + elapsed_s * float(self.panel.speed.value)
+            now = start_s + elapsed_s * self.panel.speed_factor
             if now <= trajectory.duration:
                 self._state.set_time(now)
                 return False

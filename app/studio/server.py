@@ -7,6 +7,9 @@ its overlays in `app/views/`), constructed here, talking only to the state.
 
 from __future__ import annotations
 
+import contextlib
+import sys
+
 from app.config import StudioConfig
 from app.core.robot.loading import load_robot
 from app.core.robot.model import RobotModel
@@ -68,4 +71,5 @@ class Studio:
         self.playback.stop()
         self.gait.close()
         self.compensation.close()
-        self.server.stop()
+        with contextlib.redirect_stdout(sys.stderr):  # viser's "Server stopped" is not output
+            self.server.stop()

@@ -14,7 +14,9 @@ refused on any non-loopback bind (`app.web.access.InsecureServeError`).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import sys
 
 import viser
 from viser import _messages as viser_messages
@@ -58,10 +60,13 @@ def guarded_server(
     """
     check_bind(host, token)
     policy = AccessPolicy(bound_host=host, token=token, extra_hosts=extra_hosts)
-    server = hooked_viser_server(
-        lambda: viser.ViserServer(host=host, port=port, label=label, verbose=verbose),
-        guard_requests(policy),
-    )
+    # viser prints a banner with the link *without* the token; the studio prints its own
+    # tokened link, so the banner goes to stderr (stdout stays clean for --json output).
+    with contextlib.redirect_stdout(sys.stderr):
+        server = hooked_viser_server(
+            lambda: viser.ViserServer(host=host, port=port, label=label, verbose=verbose),
+            guard_requests(policy),
+        )
     refuse_share_tunnel(server)
     uploads = UploadGuard(server, UploadLimits(max_upload_bytes, max_unfinished_uploads))
     return GuardedServer(server, policy, uploads)
