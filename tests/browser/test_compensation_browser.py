@@ -11,6 +11,7 @@ the previous one: run them together, in file order.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -220,3 +221,44 @@ def test_plots_show_the_torques(page, studio: Studio) -> None:
     canvas.first.wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
     plots.get_by_text("Joint torque [N·m]", exact=True).wait_for(state="visible")
     assert plots.locator(".uplot").count() == 4  # torques, torso roll, torso pitch, offsets
+
+
+SIMULATE = "Simulate without / with compensation"
+SIMULATE_TIMEOUT_S = 180.0
+"""Spawn the simulation worker (if the torques did not already), run MuJoCo twice."""
+MIN_SIMULATED_GHOSTS_FRACTION = 0.002
+"""The two simulated ghosts stand near the quick-estimate ghosts: a smaller change of the view
+than the first ghosts, still 4x the noise allowed between two "stable" shots."""
+
+
+def test_simulate_shows_the_verdicts_and_two_more_ghosts(
+    page, studio: Studio, shots: dict[str, np.ndarray], tmp_path: Path
+) -> None:
+    session = studio.compensation
+    assert session.prediction is not None, "run with the previous tests: they compute torques"
+    expand_folder(page, "Compensation", SIMULATE)
+    before = wait_stable(page, "the ghosts before simulating", not_blank)
+
+    click_button(page, SIMULATE)
+    compensation = folder(page, "Compensation")
+    # The verdict's first line, case-sensitive (the ghost legend says "simulated" too).
+    compensation.get_by_text(re.compile(r"Simulated \(MuJoCo\) in")).first.wait_for(
+        state="visible", timeout=SIMULATE_TIMEOUT_S * 1000
+    )
+    simulation = session.simulation
+    assert simulation is not None and simulation.error == ""
+    for label, run in simulation.results.items():
+        line = compensation.get_by_text(f"{label}: {run.verdict()}", exact=False)
+        assert line.count() >= 1, f"the page does not show the verdict of {label}"
+
+    # The page draws the two simulated ghosts.
+    after = wait_stable(
+        page,
+        "the simulated ghosts drawn",
+        lambda image: (
+            not_blank(image) and changed(image, before).mean() > MIN_SIMULATED_GHOSTS_FRACTION
+        ),
+    )
+    fraction = float(changed(after, before).mean())
+    assert fraction > MIN_SIMULATED_GHOSTS_FRACTION, f"only {fraction:.2%} of the view changed"
+    Image.fromarray(after.astype(np.uint8)).save(tmp_path / "simulated.png")
