@@ -21,6 +21,7 @@ class GaitActions(Protocol):
     def solve(self, baseline: bool, client: viser.ClientHandle | None) -> str | None: ...
     def cancel(self) -> None: ...
     def play_result(self, client: viser.ClientHandle | None) -> None: ...
+    def pipeline(self, client: viser.ClientHandle | None) -> None: ...
     def load_planner_robot(self, client: viser.ClientHandle | None) -> None: ...
     def settings_changed(self) -> None: ...
 
@@ -80,6 +81,13 @@ class GaitPanel:
                 hint="Steps of the planned gait to walk, from standing to standing",
             )
             self.use = gui.add_button("Walk this gait", icon=viser.Icon.WALK, disabled=True)
+            self.all_stages = gui.add_button(
+                "Plan → walk → torques → simulate",
+                icon=viser.Icon.PLAYER_TRACK_NEXT,
+                hint="One click: plan the gait (unless the last one still fits the sliders), walk "
+                "it, compute its torques and compensation, and simulate it; each stage reports "
+                "in its own panel",
+            )
 
         @self.solve.on_click
         def _(event: viser.GuiEvent) -> None:
@@ -96,6 +104,10 @@ class GaitPanel:
         @self.use.on_click
         def _(event: viser.GuiEvent) -> None:
             actions.play_result(event.client)
+
+        @self.all_stages.on_click
+        def _(event: viser.GuiEvent) -> None:
+            actions.pipeline(event.client)
 
         @self.load_robot.on_click
         def _(event: viser.GuiEvent) -> None:
@@ -129,6 +141,7 @@ class GaitPanel:
         """Whether the loaded robot can be planned for (else Solve is off)."""
         self.solve.disabled = not plannable
         self.baseline.disabled = not plannable
+        self.all_stages.disabled = not plannable
 
     def show_running(self, running: bool) -> None:
         self.cancel.disabled = not running

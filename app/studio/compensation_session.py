@@ -93,6 +93,8 @@ class CompensationSession:
         """Guards coefficients, servos, torques and prediction (edits come from viser's pool)."""
         self._worker: threading.Thread | None = None
         self._predictions: Coalescer[str, None] = Coalescer(lambda _key, _value: self._repredict())
+        self._then: tuple[str, ...] = ()
+        """Stages the current motion asked for (the one-click pipeline), not yet run."""
         self._placements: list = []
         self._placements_for: Trajectory | None = None
         self.simulation: Simulation | None = None
@@ -127,6 +129,9 @@ class CompensationSession:
             self.simulation, self.simulation_stale = None, False
             self._trajectory = motion.trajectory if motion is not None else None
         self.panel.verdict.content = "Compute the torques, then simulate: the verdict appears here."
+        self._then = motion.then if motion is not None else ()
+        if "torques" in self._then:  # the one-click pipeline: torques, then maybe simulation
+            self.compute_torques()
         self.plots.clear()
         self.panel.status.content = (
             "Compute the torques of this motion."
@@ -192,7 +197,11 @@ class CompensationSession:
         self.panel.status.content = _torque_summary(
             torque_peaks(robot, trajectory, result), trajectory
         )
-        self.runner.warm_up()  # a Simulate click next should not wait for a process to spawn
+        if "simulate" in self._then:  # the one-click pipeline's last stage
+            self._then = ()
+            self.simulate()
+        else:
+            self.runner.warm_up()  # a Simulate click next should not wait for a process to spawn
 
     # --- coefficients (CompensationActions) -----------------------------------------------------
 

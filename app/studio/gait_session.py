@@ -41,6 +41,8 @@ from app.views.roots import AlternatingRoot
 from panels.gait_panel import GaitPanel
 
 PAPER_ROBOT = "dircon_biped"
+PIPELINE_STAGES = ("torques", "simulate")
+"""What the one-click pipeline asks of the walk after planning it."""
 MAX_PROGRESS_ITERATIONS = 200.0
 """The progress bar is full after this many IPOPT iterations (most solves take 10–70)."""
 
@@ -99,6 +101,8 @@ class GaitSession:
         self.last: Solve | None = None
         """The last solve that ended, good or not."""
         self.results = GaitResults()
+        self._pipeline_job: str | None = None
+        """The solve whose end continues the one-click pipeline."""
         self.history: tuple[list[int], list[float], list[float]] = ([], [], [])
         """Iteration, objective, constraint violation of the solve under way (or the last)."""
         self.finished: Signal[Solve] = Signal("gait_finished")
@@ -192,6 +196,9 @@ class GaitSession:
         self.panel.show_convergence(*history)
         self.panel.status.content = _status_line(ended, self.results)
         self.show_results()
+        pipeline, self._pipeline_job = self._pipeline_job, None
+        if pipeline == ended.job_id and ended.result is not None and ended.result.converged:
+            self.play_result(None, then=PIPELINE_STAGES)
         self.finished.emit(ended)
 
     def _on_done(self, job_id: str, result: Any) -> None:
@@ -263,9 +270,24 @@ class GaitSession:
         self.panel.results.content = "\n".join(rows) + f"\n\n*Compared:* {WHAT_IS_COMPARED}." + note
         self.panel.use.disabled = sym is None and base is None
 
-    def play_result(self, client: viser.ClientHandle | None = None) -> None:
+    def pipeline(self, client: viser.ClientHandle | None = None) -> None:
+        """One click: plan (unless the last gait still matches the settings) → walk → torques →
+        compensation → simulation. Each stage shows its progress in its own panel."""
+        fresh = self.results.symmetric is not None and not self._stale()
+        if fresh:
+            self.play_result(client, then=PIPELINE_STAGES)
+            return
+        job_id = self.solve(baseline=False, client=client)
+        if job_id is not None:
+            self._pipeline_job = job_id
+            self.panel.status.content += "  \nThen: walk → torques → compensation → simulation."
+
+    def play_result(
+        self, client: viser.ClientHandle | None = None, then: tuple[str, ...] = ()
+    ) -> None:
         """Walk the last good gait for the panel's number of steps (from standing to standing),
-        and send the walk to playback — and so to torque feed-forward and compensation."""
+        and send the walk to playback — and so to torque feed-forward and compensation; `then`
+        asks those features to run their stages on it at once."""
         result = self.results.symmetric or self.results.baseline
         robot, planar = self._state.robot, self.planar
         if result is None or robot is None or planar is None:
@@ -284,7 +306,7 @@ class GaitSession:
         try:
             with self._state.lock, self._server.atomic():
                 self.walk = walk
-                self._state.set_motion(walk.trajectory, "  \n".join(lines), robot)
+                self._state.set_motion(walk.trajectory, "  \n".join(lines), robot, then)
                 self._show_footprints(robot, walk)
             self._state.on_play.emit(None)
         except StudioError as error:

@@ -59,6 +59,9 @@ class Motion:
     trajectory: Trajectory
     summary: str
     """Markdown: name, duration, samples, warnings."""
+    then: tuple[str, ...] = ()
+    """Stages to run on it at once, in order, by the features that own them ("torques",
+    "simulate"): the one-click pipeline plan → walk → torques → compensation → simulation."""
 
 
 class StudioState:
@@ -125,7 +128,13 @@ class StudioState:
             if self.pose is not None and stance != self.pose.stance:
                 self.set_pose(self.pose.q, stance, "button")
 
-    def set_motion(self, trajectory: Trajectory, summary: str, robot: RobotModel) -> None:
+    def set_motion(
+        self,
+        trajectory: Trajectory,
+        summary: str,
+        robot: RobotModel,
+        then: tuple[str, ...] = (),
+    ) -> None:
         """Make a motion of `robot` the current one and show its first sample. Raises
         MotionMismatch when `robot` is no longer loaded or the joints differ."""
         with self.lock:
@@ -136,7 +145,7 @@ class StudioState:
                 raise MotionMismatch(
                     f"motion {trajectory.name!r}: its joints differ from {robot.name}'s"
                 )
-            self.motion = Motion(trajectory, summary)
+            self.motion = Motion(trajectory, summary, then)
             self.on_motion.emit(self.motion)
             self.set_time(0.0)
 

@@ -85,3 +85,23 @@ def test_cancel_keeps_the_last_good_gait(studio):
     assert studio.gait.running is None
     assert "Cancelled" in panel.status.content
     assert studio.gait.results.symmetric is good
+
+
+def test_one_click_plans_walks_computes_torques_and_simulates(studio):
+    """Plan → walk → torques → compensation → simulation from one button: every stage's
+    result stays inspectable, and each belongs to the walk just planned."""
+    panel = studio.gait.panel
+    simulated = wait_for_signal(
+        studio.compensation.runner.finished,
+        lambda: setattr(panel.all_stages, "value", True),
+    )
+    assert studio.gait.results.symmetric is not None and studio.gait.walk is not None
+    walk = studio.gait.walk.trajectory
+    assert studio.state.trajectory is walk
+    compensation = studio.compensation
+    assert compensation.feedforward is not None
+    assert compensation.feedforward.tau_Nm.shape == (walk.n_samples, studio.state.robot.n_actuated)
+    assert compensation.prediction is not None
+    assert simulated.error == "" and simulated.trajectory is walk
+    assert compensation.simulation is simulated
+    assert "Simulated" in compensation.panel.verdict.content
