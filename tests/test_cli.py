@@ -419,3 +419,14 @@ def test_plan_refuses_a_robot_it_cannot_plan_for_in_one_line(tmp_path):
     assert result.returncode == 1 and "Traceback" not in result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "pitch joint" in lines[0]
+
+
+def test_plan_that_finds_no_gait_names_the_bound_and_where_it_is_set(tmp_path):
+    """A torque bound far below what walking needs (0.1 N·m for an 18.5 kg robot): the one
+    line names the torque bound, not only IPOPT's status."""
+    path = tmp_path / "plan.toml"
+    path.write_text("knots = 12\ntau_max_Nm = 0.1\nmax_iter = 300\n")
+    result = run("plan", "--config", str(path))
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    line = result.stderr.strip()
+    assert len(line.splitlines()) == 1 and "torque bound |τ| ≤ 0.1 N·m" in line

@@ -84,13 +84,16 @@ def run(args: argparse.Namespace) -> int:
         reason = result.status.split(";")[0]
         if "iterations" not in reason:
             reason += f" ({result.iterations} iterations)"
-        raise StudioError(reason)
+        raise StudioError(f"{reason}; {result.blame}" if result.blame else reason)
     comparison = None
     if args.compare and not settings.baseline:
         base_settings = dataclasses.replace(settings, baseline=True)
         base = GaitProblem(problem.model, settings.knots, True).solve(base_settings)
         if not base.converged:
-            raise StudioError(f"baseline: {base.status.split(';')[0]} ({base.iterations} its)")
+            blame = f"; {base.blame}" if base.blame else ""
+            raise StudioError(
+                f"baseline: {base.status.split(';')[0]} ({base.iterations} its){blame}"
+            )
         comparison = table4_comparison(result, base)
     walk = None
     if args.steps > 0:

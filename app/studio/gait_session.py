@@ -390,7 +390,8 @@ def _status_line(solve: Solve, results: GaitResults) -> str:
         parts += f"; worker start and NLP build {waited - result.solve_s:.1f} s"
     if result.converged:
         return f"Solved in {waited:.1f} s ({parts})."
-    return f"⚠️ Not solved after {waited:.1f} s: {result.status} ({parts}).{kept}"
+    blame = f" It ran into {result.blame.split(': ', 1)[-1]}." if result.blame else ""
+    return f"⚠️ Not solved after {waited:.1f} s: {result.status} ({parts}).{blame}{kept}"
 
 
 def _residuals(result: GaitResult | None) -> str:

@@ -30,12 +30,14 @@ standing pose) + K0 Σ_modes h Σ_k ‖u_k‖² + K1 slack0² + K2 Σ_k (‖q_k 
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
+from app.core.collocation.blame import hardest_constraint
 from app.core.collocation.guess import initial_guess
 from app.core.collocation.nlp import CompiledNlp, IterationCallback, SxNlp
 from app.core.collocation.planar_model import BASE_DOF, PlanarModel
@@ -358,4 +360,6 @@ class GaitProblem:
         result = read_result(outcome, settings, self.model, self.layout, self.nlp.x_blocks)
         if result.converged:
             self.last_good = result
-        return result
+            return result
+        blame = hardest_constraint(outcome, self.nlp, (lbg, ubg), settings, (lbx, ubx))
+        return dataclasses.replace(result, blame=blame)

@@ -220,6 +220,7 @@ class CompiledNlp:
             x=x,
             lam_g=np.array(out["lam_g"].full()).ravel(),
             lam_x=np.array(out["lam_x"].full()).ravel(),
+            g=g,
             objective=float(out["f"]),
             violation=float(violation),
         )
@@ -235,5 +236,7 @@ class SolveOutcome:
     x: np.ndarray
     lam_g: np.ndarray
     lam_x: np.ndarray
+    g: np.ndarray
+    """The constraints' values at the returned point."""
     objective: float
     violation: float

@@ -133,6 +133,9 @@ class GaitResult:
     sr_incl_impacts: float = float("nan")
     """work_incl_impacts_J / (M g d)."""
     bound_check: BoundCheck | None = None
+    blame: str = ""
+    """For a solve without a gait: the constraint it ran into and the slider or limit that
+    sets it (app.core.collocation.blame); "" otherwise."""
     """The bounds checked on a fine grid between the knots (None when refused)."""
 
     @property
