@@ -18,6 +18,9 @@ class KeyframeActions(Protocol):
     def delete(self, index: int) -> None: ...
     def set_duration(self, index: int, duration_s: float) -> None: ...
     def build(self, client: viser.ClientHandle | None) -> bool: ...
+    def go_to(self, index: int) -> None: ...
+    def replace(self, index: int) -> None: ...
+    def rename(self, index: int, name: str) -> None: ...
 
 
 class KeyframesPanel:
@@ -36,15 +39,44 @@ class KeyframesPanel:
             self.list = gui.add_markdown("No keyframes yet.")
             self.selected = gui.add_dropdown("Selected", ("—",), initial_value="—")
             with gui.add_folder("Edit selected", expand_by_default=True):
+                self.go_to = gui.add_button(
+                    "Go to", icon=viser.Icon.TARGET, hint="Show the robot in this keyframe's pose"
+                )
+                self.replace = gui.add_button(
+                    "Replace with current pose",
+                    icon=viser.Icon.REPLACE,
+                    hint="Keep its name and duration, take the pose the robot has now",
+                )
+                self.name = gui.add_text("Name", "", hint="A new name for the selected keyframe")
+                self.rename = gui.add_button("Rename", icon=viser.Icon.PENCIL)
                 self.up = gui.add_button("Move up", icon=viser.Icon.ARROW_UP)
                 self.down = gui.add_button("Move down", icon=viser.Icon.ARROW_DOWN)
                 self.set_duration = gui.add_button("Set duration", icon=viser.Icon.CLOCK)
-                self.delete = gui.add_button("Delete", icon=viser.Icon.TRASH, color="red")
+                self.delete = gui.add_button(
+                    "Delete", icon=viser.Icon.TRASH, color="red", hint="Click twice to delete"
+                )
             self.build = gui.add_button("Build motion", icon=viser.Icon.PLAYER_PLAY)
+        self._armed_delete = -1
+        """The keyframe a first click on Delete armed (a second click deletes it)."""
         self.capture.on_click(lambda _: actions.capture(float(self.duration.value)))
+        self.go_to.on_click(lambda _: actions.go_to(self.index()))
+        self.replace.on_click(lambda _: actions.replace(self.index()))
+        self.rename.on_click(lambda _: actions.rename(self.index(), str(self.name.value)))
         self.up.on_click(lambda _: actions.move(self.index(), -1))
         self.down.on_click(lambda _: actions.move(self.index(), +1))
-        self.delete.on_click(lambda _: actions.delete(self.index()))
+
+        @self.delete.on_click
+        def _(_event: viser.GuiEvent) -> None:
+            index = self.index()
+            if index < 0:
+                return
+            if self._armed_delete == index:
+                self._disarm()
+                actions.delete(index)
+                return
+            self._armed_delete = index
+            self.delete.label = f"Click again to delete keyframe {index + 1}"
+
         self.set_duration.on_click(
             lambda _: actions.set_duration(self.index(), float(self.duration.value))
         )
@@ -59,7 +91,12 @@ class KeyframesPanel:
         number = value.split(".")[0]
         return int(number) - 1 if number.isdigit() else -1  # "—", or what a crafted client sent
 
+    def _disarm(self) -> None:
+        self._armed_delete = -1
+        self.delete.label = "Delete"
+
     def show(self, keyframes: list[Keyframe], selected: int) -> None:
+        self._disarm()
         if not keyframes:
             self.list.content = "No keyframes yet."
             self.selected.options = ("—",)

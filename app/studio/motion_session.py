@@ -35,6 +35,8 @@ from panels.keyframes_panel import KeyframesPanel
 from panels.motions_panel import MotionsPanel
 
 MAX_MOTION_FILE_BYTES = 50 * 1024 * 1024
+MAX_NAME = 60
+"""Longest keyframe name (characters)."""
 MAX_KEYFRAME_S = 60.0
 """Longest time between two keyframes [s]."""
 
@@ -114,6 +116,39 @@ class MotionSession:
             if 0 <= index < len(self.keyframes):
                 del self.keyframes[index]
                 self._show(index - 1)
+
+    def go_to(self, index: int) -> None:
+        """Show the robot in a keyframe's pose (its stance too)."""
+        with self._lock:
+            keyframe = self.keyframes[index] if 0 <= index < len(self.keyframes) else None
+        robot = self._state.robot
+        if keyframe is None or keyframe.q is None or robot is None:
+            return
+        with self._state.lock:
+            self._state.set_pose(keyframe.q.copy(), keyframe.stance, "button", robot)
+
+    def replace(self, index: int) -> None:
+        """The selected keyframe takes the current pose; its name and duration stay."""
+        with self._state.lock:
+            robot, pose = self._state.robot, self._state.pose
+            if robot is None or pose is None:
+                return
+            q, stance = pose.q.copy(), pose.stance
+        with self._lock:
+            if 0 <= index < len(self.keyframes):
+                old = self.keyframes[index]
+                self.keyframes[index] = capture_keyframe(robot, q, stance, old.name, old.duration_s)
+                self._show(index)
+
+    def rename(self, index: int, name: str) -> None:
+        name = " ".join(str(name).split())[:MAX_NAME]
+        if not name:
+            self._fail("Name refused", "give the keyframe a name", None)
+            return
+        with self._lock:
+            if 0 <= index < len(self.keyframes):
+                self.keyframes[index] = dataclasses.replace(self.keyframes[index], name=name)
+                self._show(index)
 
     def set_duration(self, index: int, duration_s: float) -> None:
         if not _valid_duration(duration_s):

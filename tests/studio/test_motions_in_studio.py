@@ -49,7 +49,8 @@ def test_keyframes_capture_reorder_and_build(studio):
     panel.selected.value = panel.selected.options[2]
     panel.up.value = True
     assert [kf.name for kf in motions.keyframes] == ["pose 1", "pose 3", "pose 2"]
-    panel.delete.value = True  # the selection followed the moved keyframe
+    panel.delete.value = True  # the selection followed the moved keyframe; confirm below
+    panel.delete.value = True
     assert [kf.name for kf in motions.keyframes] == ["pose 1", "pose 2"]
     panel.build.value = True
     trajectory = studio.state.trajectory
@@ -100,3 +101,32 @@ def test_roban_dance_imports_on_roban(studio):
     assert studio.motions.import_file(path.name, path.read_bytes(), "xyzw")
     assert studio.state.trajectory.dt == pytest.approx(0.01)  # 100 fps, from the file name
     assert studio.state.trajectory.n_samples == len(path.read_text().splitlines())
+
+
+def test_keyframes_go_to_replace_rename_and_delete_only_when_confirmed(studio):
+    motions, panel = studio.motions, studio.motions.keyframes_panel
+    panel.capture.value = True
+    first_q = studio.state.q.copy()
+    studio.pose.panel.ready.value = True  # another pose
+    panel.capture.value = True
+    assert [kf.name for kf in motions.keyframes] == ["pose 1", "pose 2"]
+    # Go to: the robot takes the first keyframe's pose.
+    panel.selected.value = panel.selected.options[0]
+    panel.go_to.value = True
+    np.testing.assert_allclose(studio.state.q, first_q)
+    # Replace: the second keyframe takes the current pose (the first's), keeps its name.
+    panel.selected.value = panel.selected.options[1]
+    panel.replace.value = True
+    second = motions.keyframes[1]
+    assert second.name == "pose 2"
+    np.testing.assert_allclose(second.T_world_pelvis, motions.keyframes[0].T_world_pelvis)
+    # Rename.
+    panel.name.value = "  lift   left  "
+    panel.rename.value = True
+    assert motions.keyframes[1].name == "lift left"
+    # Delete asks twice.
+    panel.delete.value = True
+    assert len(motions.keyframes) == 2 and "again" in panel.delete.label
+    panel.delete.value = True
+    assert [kf.name for kf in motions.keyframes] == ["pose 1"]
+    assert panel.delete.label == "Delete"
