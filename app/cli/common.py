@@ -8,6 +8,7 @@ from pathlib import Path
 from app.config import StudioConfig
 from app.core.errors import StudioError
 from app.core.robot.model import RobotModel
+from app.core.servo.compensation import CompensationParams
 
 DEFAULTS = StudioConfig()
 """The studio's configuration defaults: the one source of the CLI's defaults."""
@@ -57,3 +58,20 @@ def load_robot_from_args(args: argparse.Namespace, name: str | None = None) -> R
 def output_target(out: Path | None) -> str:
     """' -> PATH', or a note that nothing was written."""
     return f" -> {out}" if out is not None else " (no --out: nothing written)"
+
+
+def coefficients_from_args(
+    robot: RobotModel, preset: str | None, clearance: bool, coefficients: Path | None
+) -> CompensationParams:
+    """The coefficients `--preset KEY [--clearance]` or `--coeffs/--compensation k.toml` ask
+    for, on the robot's joints (one registry: app.core.servo.presets.PRESETS)."""
+    from app.core.servo.files import read_coefficients_toml
+    from app.core.servo.presets import preset_params
+
+    if clearance and preset != "table3":
+        raise StudioError("--clearance goes with --preset table3 (a k.toml sets phi_deg itself)")
+    if preset is not None:
+        return preset_params("table3_clearance" if clearance else preset, robot)
+    if coefficients is None:
+        raise StudioError("give --preset or a k.toml of coefficients")
+    return read_coefficients_toml(coefficients).for_joints(robot.joint_names)

@@ -10,6 +10,7 @@ from pathlib import Path
 from app.cli.common import (
     DEFAULTS,
     add_robot_options,
+    coefficients_from_args,
     load_robot_from_args,
     output_target,
 )
@@ -70,19 +71,13 @@ def run(args: argparse.Namespace) -> int:
 
     from app.core.motions.csv_files import read_trajectory_csv
     from app.core.servo.commands import servo_commands, torques_of_motion
-    from app.core.servo.files import read_coefficients_toml, read_torque_csv, write_command_csv
-    from app.core.servo.presets import preset_params
+    from app.core.servo.files import read_torque_csv, write_command_csv
 
-    if args.clearance and args.preset != "table3":
-        raise StudioError("--clearance goes with --preset table3 (a k.toml sets phi_deg itself)")
     robot = load_robot_from_args(args)
     traj = read_trajectory_csv(args.trajectory, robot)
     torques = read_torque_csv(args.tau, robot.joint_names)
     tau = torques_of_motion(traj, torques, str(args.tau))
-    if args.preset is not None:
-        params = preset_params("table3_clearance" if args.clearance else args.preset, robot)
-    else:
-        params = read_coefficients_toml(args.coeffs).for_joints(robot.joint_names)
+    params = coefficients_from_args(robot, args.preset, args.clearance, args.coeffs)
     commands = servo_commands(robot, traj, tau, params, torques.status)
     q_plan, q_cmd, warnings = commands.q_plan_rad, commands.q_cmd_rad, list(commands.warnings)
     if args.out is not None:

@@ -7,7 +7,13 @@ import json
 import sys
 from pathlib import Path
 
-from app.cli.common import DEFAULTS, add_robot_options, load_robot_from_args, output_target
+from app.cli.common import (
+    DEFAULTS,
+    add_robot_options,
+    coefficients_from_args,
+    load_robot_from_args,
+    output_target,
+)
 from app.core.errors import StudioError
 
 PRESETS = ("plan", "uniform", "table3", "table2")
@@ -79,9 +85,7 @@ def _torques(args: argparse.Namespace, robot, traj):
 def run(args: argparse.Namespace) -> int:
     from app.core.motions.csv_files import read_trajectory_csv
     from app.core.servo.compensation import compensated_command
-    from app.core.servo.files import read_coefficients_toml
     from app.core.servo.model import joint_angles
-    from app.core.servo.presets import paper_table2_preset, paper_table3_preset, uniform_preset
     from app.core.simulation.files import (
         default_servos,
         read_command_csv,
@@ -103,14 +107,7 @@ def run(args: argparse.Namespace) -> int:
     elif args.preset == "plan":
         q_cmd, label = q_plan, "without compensation"
     else:
-        if args.preset == "table3":
-            params = paper_table3_preset(robot, clearance=args.clearance)
-        elif args.preset == "table2":
-            params = paper_table2_preset(robot)
-        elif args.preset == "uniform":
-            params = uniform_preset(robot)
-        else:
-            params = read_coefficients_toml(args.compensation).for_joints(robot.joint_names)
+        params = coefficients_from_args(robot, args.preset, args.clearance, args.compensation)
         q_cmd = compensated_command(q_plan, _torques(args, robot, traj), params)
         label = "with compensation"
     commands = {label: q_cmd}
