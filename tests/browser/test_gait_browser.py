@@ -160,7 +160,11 @@ def test_walk_this_gait_on_the_loaded_robot(page, studio: Studio, tmp_path: Path
     assert walk is not None and len(walk.footprints) == WALK_STEPS + 2
     # The walk starts playing; pause it (as a user would) to compare still pictures.
     wait_for("the walk playing", lambda: studio.playback.player.playing, UI_TIMEOUT_S)
-    expand_folder(page, "Playback", "Pause")
+    # The Playback folder is open by default; wait for the relabelled button (clicking the
+    # folder's title before the label arrives would fold the folder away).
+    page.get_by_role("button", name="Pause", exact=True).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
     click_button(page, "Pause")
     wait_for("the walk paused", lambda: not studio.playback.player.playing, UI_TIMEOUT_S)
 
