@@ -268,6 +268,27 @@ def test_warm_restart_after_a_slider_change(small):
     problem.solve(first.settings)  # leave the last good solution as it was
 
 
+def test_a_warm_start_that_stalls_falls_back_to_the_primal_start(small, monkeypatch):
+    """When the primal-dual warm start has not converged within its budget, the solve goes on
+    from the primal point alone and must still end at the optimum a cold solve finds; the
+    iterations of both attempts are counted."""
+    import app.core.collocation.gait_problem as gait_problem
+
+    problem, first = small
+    changed = dataclasses.replace(first.settings, K0=5.0)
+    cold = problem.solve(changed, cold=True)
+    problem.solve(first.settings)
+    monkeypatch.setattr(gait_problem, "WARM_ITERATIONS_BEFORE_FALLBACK", 2)
+    primal_only = dataclasses.replace(first, lam_x=np.zeros(0), lam_g=np.zeros(0))
+    reference = problem.solve(changed, warm_start=primal_only)
+    problem.solve(first.settings)
+    warm = problem.solve(changed, warm_start=first)
+    assert warm.converged and cold.converged and reference.converged
+    assert warm.objective == pytest.approx(cold.objective, rel=1e-3)
+    assert warm.iterations == 2 + reference.iterations
+    problem.solve(first.settings)
+
+
 @pytest.mark.parametrize(
     "change, words",
     [

@@ -6,6 +6,11 @@ bound (joint ranges, |τ| ≤ τ_max, slack ∈ [a, b], swing height …) is giv
 lbx/ubx/lbg/ubg, so a slider change re-solves the same compiled problem. Values that enter
 expressions (H, step length, μ, weights) are NLP parameters p.
 
+Two IPOPT instances share one set of derivative functions: the *cold* one starts from a guess;
+the *warm* one (built on first use, in a fraction of a second, from the cold one's derivatives)
+starts from a previous solution *with its multipliers* (warm_start_init_point, a small barrier
+parameter): after a slider change it converges in 2–3× fewer iterations to the same optimum.
+
 The iteration callback sees (iteration, objective, constraint violation) from IPOPT's
 `iteration_callback` and may return True to stop; the iteration limit uses it too, so it can
 change per solve without rebuilding the solver.
@@ -45,6 +50,16 @@ IPOPT_WORDS = {
     "Not_Enough_Degrees_Of_Freedom": "the settings over-constrain the gait (too few freedoms)",
     "User_Requested_Stop": "stopped on request",
 }
+WARM_START_OPTIONS: dict[str, Any] = {
+    "ipopt.warm_start_init_point": "yes",
+    "ipopt.mu_init": 1e-4,
+    "ipopt.warm_start_bound_push": 1e-6,
+    "ipopt.warm_start_mult_bound_push": 1e-6,
+    "ipopt.warm_start_slack_bound_push": 1e-6,
+}
+"""IPOPT options of the warm instance: start at the given primal-dual point, barrier 1e-4."""
+DERIVATIVES = {"hess_lag": "nlp_hess_l", "jac_g": "nlp_jac_g", "grad_f": "nlp_grad_f"}
+"""nlpsol's options for user derivative functions, and the cold solver's names for them."""
 CONVERGED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 
@@ -92,15 +107,16 @@ class SxNlp:
     def compile(self, options: dict[str, Any]) -> CompiledNlp:
         x, p, g = ca.vertcat(*self._x), ca.vertcat(*self._p), ca.vertcat(*self._g)
         callback = _Callback(x.shape[0], g.shape[0])
-        solver = ca.nlpsol(
-            "gait", "ipopt", {"x": x, "p": p, "f": self.cost, "g": g},
-            {**options, "iteration_callback": callback},
-        )  # fmt: skip
+        problem = {"x": x, "p": p, "f": self.cost, "g": g}
+        options = {**options, "iteration_callback": callback}
+        solver = ca.nlpsol("gait", "ipopt", problem, options)
         return CompiledNlp(
             solver=solver,
             callback=callback,
             lbg=np.concatenate(self._lbg),
             ubg=np.concatenate(self._ubg),
+            problem=problem,
+            options=options,
         )
 
 
@@ -177,6 +193,20 @@ class CompiledNlp:
     callback: _Callback
     lbg: np.ndarray
     ubg: np.ndarray
+    problem: dict[str, Any]
+    options: dict[str, Any]
+    _warm: ca.Function | None = None
+
+    def warm_solver(self) -> ca.Function:
+        """The warm-start instance: same problem and derivatives, IPOPT started at a given
+        primal-dual point (WARM_START_OPTIONS). Built on first use."""
+        if self._warm is None:
+            derivatives = {key: self.solver.get_function(name) for key, name in DERIVATIVES.items()}
+            self._warm = ca.nlpsol(
+                "gait_warm", "ipopt", self.problem,
+                {**self.options, **WARM_START_OPTIONS, **derivatives},
+            )  # fmt: skip
+        return self._warm
 
     def run(
         self,
@@ -189,13 +219,20 @@ class CompiledNlp:
         *,
         max_iter: int,
         callback: IterationCallback | None,
+        multipliers: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> SolveOutcome:
+        """Solve from x0; with `multipliers` (lam_x, lam_g of a previous solution) the warm
+        instance starts from that primal-dual point."""
         self.callback.reset(callback, max_iter, lbg, ubg)
         args: dict[str, Any] = {"x0": x0, "p": p, "lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
+        solver = self.solver
+        if multipliers is not None:
+            args["lam_x0"], args["lam_g0"] = multipliers
+            solver = self.warm_solver()
         start = time.perf_counter()
-        out = self.solver(**args)
+        out = solver(**args)
         seconds = time.perf_counter() - start
-        stats = self.solver.stats()
+        stats = solver.stats()
         raw = str(stats.get("return_status", "unknown"))
         words = IPOPT_WORDS.get(raw, f"not converged: IPOPT returned {raw}")
         if raw == "User_Requested_Stop" and self.callback.error:
