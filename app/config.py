@@ -37,6 +37,9 @@ class StudioConfig:
     max_upload_bytes: int = MAX_UPLOAD_BYTES
     token: str = dataclasses.field(default_factory=new_token, repr=False)
     """Access token a browser must present (`?token=` once, then a cookie); random per run."""
+    prepare_gait: bool = False
+    """Build the gait planner's default problem for each loaded robot in the background, so
+    the first *Solve* pays no build (`serve` turns it on; tests and the bench leave it off)."""
     no_token: bool = False
     """Serve without the token (`--no-token`): loopback only, refused on other hosts."""
 

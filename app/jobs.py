@@ -14,6 +14,11 @@ that building needs. The worker sends, in order, on a pipe:
     ("progress", job_id, iteration, objective, constraint_violation)
     ("done", job_id, result)      or      ("failed", job_id, message)
 
+Prepare. `prepare(structure_key)` asks an idle worker to build a structure ahead of the first
+job that needs it (the studio does this when a robot loads, so the first *Solve* pays no
+build); the worker answers ("prepared", None, key, error) and a job submitted meanwhile waits
+for the build it needs anyway. A prepare never cancels a job and is skipped while one runs.
+
 Every submitted job ends in exactly one of done / failed / cancelled, and no progress of a job is
 delivered after its end. Any returned result, converged or not, is the next warm start of its
 structure (the planner decides what to use of it); a solve that raised is not.
@@ -100,6 +105,9 @@ def _worker_main(factory: str | ProblemFactory, requests: Connection, events: Co
         if request is None:
             return
         job_id, settings, key = request
+        if job_id is None:  # prepare: build only
+            events.send(("prepared", None, key, _prepare(build, broken, problems, key)))
+            continue
         if build is None:
             events.send(("failed", job_id, broken))
             continue
@@ -117,6 +125,21 @@ def _worker_main(factory: str | ProblemFactory, requests: Connection, events: Co
             continue
         last_results[key] = result
         events.send(("done", job_id, payload))
+
+
+def _prepare(
+    build: ProblemFactory | None, broken: str, problems: dict[Hashable, Any], key: Hashable
+) -> str:
+    """Build `key`'s problem into the cache if it is not there; what went wrong, or ""."""
+    if build is None:
+        return broken
+    if key in problems:
+        return ""
+    try:
+        problems[key] = build(key)
+    except Exception as error:
+        return _describe(error)
+    return ""
 
 
 def _reporter(events: Connection, job_id: str) -> IterationCallback:
@@ -177,7 +200,7 @@ class SolverWorker:
         self._lock = threading.Lock()
         """Guards the process, the running job, the notices and the callback lists."""
         self._callbacks: dict[str, list[Callable[..., None]]] = {
-            kind: [] for kind in ("progress", "done", "failed", "cancelled")
+            kind: [] for kind in ("progress", "done", "failed", "cancelled", "prepared")
         }
         self._notices: list[tuple[Any, ...]] = []  # events made in the studio: cancellations
         self._retired: list[_Process] = []  # stopped processes whose pipes the reader closes
@@ -208,7 +231,26 @@ class SolverWorker:
         """``callback(job_id)`` after `cancel`, a replacing `submit`, or `close` mid-solve."""
         return self._register("cancelled", callback)
 
+    def on_prepared(self, callback: Callable[[Hashable, str], None]) -> Callable:
+        """``callback(structure_key, error)`` when a `prepare` ends ("" when it was built)."""
+        return self._register("prepared", callback)
+
     # --- commands ----------------------------------------------------------------------------
+
+    def prepare(self, structure_key: Hashable) -> bool:
+        """Build `structure_key`'s problem in the idle worker ahead of its first job; False
+        (nothing sent) while a job runs or after close."""
+        request = pickle.dumps((None, None, structure_key), protocol=pickle.HIGHEST_PROTOCOL)
+        with self._lock:
+            if self._closed or self._running is not None:
+                return False
+            if self._worker is None:
+                self._worker = self._spawn()
+            try:
+                self._worker.requests.send_bytes(request)
+            except OSError:  # died while idle: the next submit restarts it
+                return False
+        return True
 
     def submit(self, job_id: str, settings: Any, structure_key: Hashable) -> None:
         """Solve `settings` on the problem of `structure_key`; a running job is cancelled."""
@@ -356,6 +398,10 @@ class SolverWorker:
 
     def _handle(self, worker: _Process, message: tuple[Any, ...]) -> None:
         kind, job_id, *rest = message
+        if kind == "prepared":
+            if worker is self._worker:
+                self._dispatch(kind, *rest)
+            return
         with self._lock:
             current = worker is self._worker and job_id == self._running
             if current and kind != "progress":

@@ -104,6 +104,31 @@ def test_a_structure_is_built_once_and_warm_started_from_its_last_result(solver)
     np.testing.assert_array_equal(third.warm_start_x, second.x)
 
 
+def test_prepare_builds_ahead_and_the_first_solve_uses_that_build(solver):
+    prepared: list[tuple[Any, str]] = []
+    done = threading.Event()
+    solver.on_prepared(lambda key, error: (prepared.append((key, error)), done.set()))
+    assert solver.prepare("walk")
+    assert done.wait(TIMEOUT_S)
+    done.clear()
+    assert solver.prepare("walk")  # already built: nothing to do, no second build
+    assert done.wait(TIMEOUT_S)
+    assert solver.prepare("unbuildable")
+    recorder = Recorder(solver)
+    first = solve(solver, recorder, "a", key="walk")[2]
+    assert (first.build, first.solves, first.warm_start_x) == (1, 1, None)
+    assert prepared[:2] == [("walk", ""), ("walk", "")]
+    assert prepared[2][0] == "unbuildable" and "has no feet" in prepared[2][1]
+
+
+def test_prepare_never_cancels_a_running_job(solver):
+    recorder = Recorder(solver)
+    solver.submit("long", SleepySettings(steps=50, step_s=0.02), "walk")
+    recorder.wait_progress("long")
+    assert not solver.prepare("run")
+    assert recorder.wait_end("long")[0] == "done"
+
+
 def test_cancel_stops_a_long_solve_and_the_cache_is_lost(solver):
     recorder = Recorder(solver)
     warm = solve(solver, recorder, "warm-up")[2]

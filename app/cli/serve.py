@@ -54,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
         package_roots=tuple(args.package_root),
         feet=parse_feet(args.feet),
         no_token=args.no_token,
+        prepare_gait=True,
         allow=tuple(args.allow),
     )
     check_bind(config.host, config.access_token)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import logging
 import threading
 import time
 from pathlib import Path
@@ -39,6 +40,8 @@ from app.studio.state import LoadedRobot, Motion, StudioState
 from app.views.footprints_view import FootprintsView, sole_size_m
 from app.views.roots import AlternatingRoot
 from panels.gait_panel import GaitPanel
+
+log = logging.getLogger(__name__)
 
 PAPER_ROBOT = "dircon_biped"
 PIPELINE_STAGES = ("torques", "simulate")
@@ -83,9 +86,13 @@ class GaitSession:
         state: StudioState,
         notifier: Notifier,
         package_roots: tuple[Path, ...] = (),
+        *,
+        prepare: bool = False,
     ) -> None:
         self._server, self._state, self._notifier = server, state, notifier
         self._package_roots = package_roots
+        self._prepare = prepare
+        """Build each robot's default problem in the worker when the robot loads."""
         self.panel = GaitPanel(server.gui, self)
         self.planar: PlanarModel | None = None
         """The loaded robot's planar model, None when the planner cannot handle it."""
@@ -108,6 +115,8 @@ class GaitSession:
         self.finished: Signal[Solve] = Signal("gait_finished")
         """Emitted once per solve when it ends (converged, failed or cancelled), after the
         panel shows it."""
+        self.prepared: Signal[object] = Signal("gait_prepared")
+        """Emitted with the structure key when the worker has built a problem ahead of time."""
         state.on_robot.connect(self._on_robot)
         state.on_motion.connect(self._on_motion)
 
@@ -120,6 +129,7 @@ class GaitSession:
             worker.on_done(self._on_done)
             worker.on_failed(self._on_failed)
             worker.on_cancelled(self._on_cancelled)
+            worker.on_prepared(self._on_prepared)
             self._worker = worker
         return self._worker
 
@@ -160,6 +170,11 @@ class GaitSession:
             self._worker = None
 
     # --- events from the worker (the "solver-events" thread) ------------------------------------
+
+    def _on_prepared(self, key: object, error: str) -> None:
+        if error:  # the solve will meet the same error and report it; keep a trace meanwhile
+            log.warning("building the gait problem ahead of time failed: %s", error)
+        self.prepared.emit(key)
 
     def _on_progress(self, job_id: str, iteration: int, objective: float, violation: float) -> None:
         with self._lock:
@@ -374,6 +389,18 @@ class GaitSession:
         self.panel.show_settings(defaults.settings)
         self.panel.show_plannable(True)
         self.show_results()
+        if self._prepare:
+            self.prepare(defaults.settings)
+
+    def prepare(self, settings: GaitSettings) -> bool:
+        """Build the loaded robot's problem for `settings`' structure in the worker, ahead of
+        the first solve; False when the worker is busy (or there is no plannable robot)."""
+        robot = self._state.robot
+        if robot is None or self.planar is None:
+            return False
+        feet = (robot.feet[0].link, robot.feet[1].link)
+        key = GaitProblemKey.for_robot(robot.source, settings, self._package_roots, feet)
+        return self._ensure_worker().prepare(key)
 
 
 def _status_line(solve: Solve, results: GaitResults) -> str:

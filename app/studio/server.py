@@ -60,7 +60,9 @@ class Studio:
         self.motions = MotionSession(server, state, notifier)
         self.playback = PlaybackSession(server, state)
         self.compensation = CompensationSession(server, state, notifier)
-        self.gait = GaitSession(server, state, notifier, config.package_roots)
+        self.gait = GaitSession(
+            server, state, notifier, config.package_roots, prepare=config.prepare_gait
+        )
         if robot is None:
             robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)
             prepare(robot)

@@ -105,3 +105,24 @@ def test_one_click_plans_walks_computes_torques_and_simulates(studio):
     assert simulated.error == "" and simulated.trajectory is walk
     assert compensation.simulation is simulated
     assert "Simulated" in compensation.panel.verdict.content
+
+
+def test_the_loaded_robots_default_problem_is_built_ahead_of_the_first_solve(tmp_path):
+    """With prepare_gait (what `serve` uses), loading a robot builds its default structure in
+    the worker; the first solve of that structure then runs on that build."""
+    from app.config import StudioConfig
+    from app.studio import Studio
+    from tests.studio.conftest import free_port
+
+    studio = Studio(StudioConfig(port=free_port(), data_dir=tmp_path, prepare_gait=True))
+    try:
+        key = wait_for_signal(
+            studio.gait.prepared,
+            lambda: studio.robots.load("dircon_biped"),
+            accept=lambda key: "dircon_biped" in key.robot,
+        )
+        assert key.knots == studio.gait.panel.settings(False).knots and not key.baseline
+        ended = solve_gait(studio)
+        assert ended.result is not None and ended.result.converged
+    finally:
+        studio.stop()
