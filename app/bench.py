@@ -1,5 +1,11 @@
 """`biped-studio bench`: the studio's speed targets, measured on fixed work, server side.
 
+Every entry is one function registered in ENTRIES with `@bench_entry(name)`; it returns its
+raw results and its Figures, each beside a baseline measured in the same run (placo's bare IK
+beside a drag, bare MuJoCo beside a simulation, the core alone beside the studio's load, else
+the fixed pinocchio workload of app.bench_report) so that the ratio carries across machines.
+`--only a,b` runs some entries; `--json` prints everything, `--markdown` the README's table.
+
 - load: time from "load this URDF" to its scene being queued for the browser (parse, meshes,
   pinocchio model, scene nodes, panels), median of several loads; target ≤ 2 s for Roban S14.
 - slider: time from a joint slider's new value to the scene update being queued (forward
@@ -25,16 +31,27 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import socket
 import statistics
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
+from app.bench_report import (
+    REFERENCE_WHAT,
+    Figure,
+    machine,
+    markdown_table,
+    reference_s,
+    text_lines,
+    timed,
+)
 from app.config import StudioConfig
 from app.core.dynamics.wbc_bench import bench_feedforward
 from app.core.simulation.bench import bench_simulation
@@ -61,118 +78,339 @@ WALK_TARGET_S = 5.0
 SIMULATE_CLICK_TARGET_S = 2.0
 
 
+@dataclasses.dataclass(frozen=True)
+class BenchContext:
+    """What every bench entry gets: the running studio and the run's settings."""
+
+    studio: Studio
+    robot: str
+    """The second robot of the load, slider and drag entries (servo_biped is the first)."""
+    roban: Path | None
+    """Roban S14's URDF when it is found."""
+    repeats: int
+    reference_s: float
+    """`bench_report.reference_s` of this run [s]: the baseline of figures without a natural one."""
+
+    def reference(self, unit: str) -> float:
+        return self.reference_s * (1000.0 if unit == "ms" else 1.0)
+
+
+BenchEntry = Callable[[BenchContext], tuple[dict, list[Figure]]]
+ENTRIES: dict[str, BenchEntry] = {}
+"""Every bench entry by name, in the order they run: add one with `@bench_entry(name)`."""
+
+
+def bench_entry(name: str) -> Callable[[BenchEntry], BenchEntry]:
+    """Register a function returning (raw results, figures) as the bench entry `name`."""
+
+    def register(function: BenchEntry) -> BenchEntry:
+        ENTRIES[name] = function
+        return function
+
+    return register
+
+
 def run_bench(args: argparse.Namespace) -> int:
-    robot = args.robot or next((str(p) for p in ROBAN_CANDIDATES if p.exists()), "servo_biped")
+    roban = next((p for p in ROBAN_CANDIDATES if p.exists()), None)
+    robot = args.robot or (str(roban) if roban else "servo_biped")
+    only = [name.strip() for name in (getattr(args, "only", None) or "").split(",") if name.strip()]
+    unknown = [name for name in only if name not in ENTRIES]
+    if unknown:
+        raise SystemExit(f"bench: unknown entries {unknown}; known: {', '.join(ENTRIES)}")
+    where = machine()
+    results: dict = {"machine": where}
+    figures: list[Figure] = []
     with tempfile.TemporaryDirectory() as data_dir:
         studio = Studio(StudioConfig(port=_free_port(), data_dir=Path(data_dir)))
         try:
-            results = {
-                "load": _bench_load(studio, robot),
-                "slider": {
-                    "servo_biped": _bench_slider(studio, "servo_biped", args.repeats),
-                    Path(robot).stem: _bench_slider(studio, robot, args.repeats),
-                },
-                "drag": {
-                    "servo_biped": _bench_drag(studio, "servo_biped", args.repeats),
-                    Path(robot).stem: _bench_drag(studio, robot, args.repeats),
-                },
-                "playback": _bench_playback(studio, "servo_biped"),
-                "interpolate": _bench_interpolate(studio),
-                "feedforward": bench_feedforward(
-                    next((p for p in ROBAN_CANDIDATES if p.exists()), None)
-                ),
-                "compensation_slider": _bench_compensation_slider(studio),
-                "plan": _bench_plan(),
-                "plan_servo_biped": _bench_plan_robot("servo_biped"),
-                "simulate": bench_simulation(
-                    next((str(p) for p in ROBAN_CANDIDATES if p.exists()), None)
-                ),
-                "simulate_click": _bench_simulate_click(studio),
-            }
+            reference = reference_s()
+            results["reference_s"] = reference
+            results["reference_what"] = REFERENCE_WHAT
+            context = BenchContext(studio, robot, roban, args.repeats, reference)
+            for name, entry in ENTRIES.items():
+                if only and name not in only:
+                    continue
+                raw, entry_figures = entry(context)
+                results[name] = raw
+                figures += entry_figures
         finally:
             studio.stop()
+    results["figures"] = [figure.as_dict() for figure in figures]
     if args.json:
         print(json.dumps(results, indent=2))
-        return 0
-    load = results["load"]
-    print(
-        f"load {load['robot']}: median {load['median_s']:.3f} s over {load['runs']} loads "
-        f"(target ≤ {LOAD_TARGET_S} s) {_mark(load['median_s'] <= LOAD_TARGET_S)}"
-    )
-    for name, row in results["slider"].items():
+    elif getattr(args, "markdown", False):
+        print(markdown_table(figures, where))
+    else:
         print(
-            f"slider → scene, {name}: p50 {row['p50_ms']:.2f} ms, p95 {row['p95_ms']:.2f} ms over "
-            f"{row['changes']} changes (target p95 ≤ {SLIDER_TARGET_MS} ms) {_mark(row['p95_ms'] <= SLIDER_TARGET_MS)}"
+            f"{where['cpu']}, {where['cores']} cores, load {where['load_1min']:.1f}, "
+            f"{where['date_utc']} UTC; reference {reference * 1e3:.1f} ms ({REFERENCE_WHAT})"
         )
-    for name, row in results["drag"].items():
-        print(
-            f"foot drag → IK → scene, {name}: p50 {row['p50_ms']:.2f} ms, p95 {row['p95_ms']:.2f} ms over "
-            f"{row['events']} events (target p95 ≤ {DRAG_TARGET_MS} ms) {_mark(row['p95_ms'] <= DRAG_TARGET_MS)}"
+        print("\n".join(text_lines(figures)))
+    return 0
+
+
+@bench_entry("load")
+def _entry_load(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    from app.core.robot.loading import load_robot
+
+    row = _bench_load(ctx.studio, ctx.robot)
+    core_s = statistics.median(timed(lambda: load_robot(ctx.robot), 3))
+    row["core_load_s"] = core_s
+    return row, [
+        Figure(
+            f"load {Path(row['robot']).stem} → scene queued (median of {row['runs']})",
+            row["median_s"],
+            "s",
+            f"≤ {LOAD_TARGET_S} s",
+            row["median_s"] <= LOAD_TARGET_S,
+            core_s,
+            "the core's load_robot alone (parse, meshes, pinocchio model)",
         )
-    rate = results["playback"]["pushes_per_s"]
-    print(
-        f"playback, servo_biped with overlays and traces: {rate:.0f} scene pushes/s "
-        f"(target ≥ {PLAYBACK_TARGET_HZ} Hz) {_mark(rate >= PLAYBACK_TARGET_HZ)}"
-    )
-    row = results["interpolate"]
-    print(
-        f"keyframes → trajectory, servo_biped {row['motion']}: {row['seconds']:.2f} s for {row['duration_s']:.1f} s "
-        f"of motion at 100 Hz with IK at every sample, {row['per_10s_s']:.2f} s per 10 s "
-        f"(target ≤ {INTERPOLATE_TARGET_S} s) {_mark(row['per_10s_s'] <= INTERPOLATE_TARGET_S)}"
-    )
-    ff = results["feedforward"]
+    ]
+
+
+def _robots(ctx: BenchContext) -> dict[str, str]:
+    return {"servo_biped": "servo_biped", Path(ctx.robot).stem: ctx.robot}
+
+
+@bench_entry("slider")
+def _entry_slider(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    rows, figures = {}, []
+    for name, source in _robots(ctx).items():
+        row = _bench_slider(ctx.studio, source, ctx.repeats)
+        row["bare_fk_p95_ms"] = _bare_fk_p95_ms(ctx.studio, ctx.repeats)
+        rows[name] = row
+        figures.append(
+            Figure(
+                f"joint slider → scene, {name} (p95 of {row['changes']})",
+                row["p95_ms"],
+                "ms",
+                f"p95 ≤ {SLIDER_TARGET_MS} ms",
+                row["p95_ms"] <= SLIDER_TARGET_MS,
+                row["bare_fk_p95_ms"],
+                "pinocchio's bare forward kinematics + frame placements, p95",
+            )
+        )
+    return rows, figures
+
+
+@bench_entry("drag")
+def _entry_drag(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    rows, figures = {}, []
+    for name, source in _robots(ctx).items():
+        row = _bench_drag(ctx.studio, source, ctx.repeats)
+        rows[name] = row
+        figures.append(
+            Figure(
+                f"foot drag → IK → scene, {name} (p95 of {row['events']})",
+                row["p95_ms"],
+                "ms",
+                f"p95 ≤ {DRAG_TARGET_MS} ms",
+                row["p95_ms"] <= DRAG_TARGET_MS,
+                row["placo_p95_ms"],
+                "placo's bare IK solve to convergence, same robot and targets, p95",
+            )
+        )
+    return rows, figures
+
+
+@bench_entry("playback")
+def _entry_playback(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = _bench_playback(ctx.studio, "servo_biped")
+    period_ms = 1000.0 / row["pushes_per_s"]
+    return row, [
+        Figure(
+            "playback scene push, servo_biped with overlays and traces",
+            period_ms,
+            "ms",
+            f"≥ {PLAYBACK_TARGET_HZ:.0f} Hz (≤ {1000.0 / PLAYBACK_TARGET_HZ:.1f} ms)",
+            row["pushes_per_s"] >= PLAYBACK_TARGET_HZ,
+            ctx.reference("ms"),
+            "machine reference",
+            f"{row['pushes_per_s']:.0f} Hz",
+        )
+    ]
+
+
+@bench_entry("interpolate")
+def _entry_interpolate(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = _bench_interpolate(ctx.studio)
+    return row, [
+        Figure(
+            "keyframed motion at 100 Hz with IK at every sample, per 10 s",
+            row["per_10s_s"],
+            "s",
+            f"≤ {INTERPOLATE_TARGET_S} s",
+            row["per_10s_s"] <= INTERPOLATE_TARGET_S,
+            ctx.reference("s"),
+            "machine reference",
+        )
+    ]
+
+
+@bench_entry("feedforward")
+def _entry_feedforward(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    ff = bench_feedforward(ctx.roban)
+    figures = []
     for key in ("servo_biped", "roban_s14"):
         row = ff.get(key)
         if row:
-            print(
-                f"torque feed-forward QP per sample, {row['robot']} {row['motion']}: median "
-                f"{row['qp_median_ms']:.2f} ms, p95 {row['qp_p95_ms']:.2f} ms "
-                f"(target median ≤ 0.5 ms) {_mark(row['qp_median_ms'] <= 0.5)}"
+            figures.append(
+                Figure(
+                    f"whole-body QP per sample, {key} {row['motion']} (median)",
+                    row["qp_median_ms"],
+                    "ms",
+                    f"median ≤ {ff['sample_target_ms']} ms",
+                    row["qp_median_ms"] <= ff["sample_target_ms"],
+                    row["solver_median_ms"],
+                    "the QP solver's own solve, median",
+                )
             )
     row = ff["servo_biped"]
-    print(
-        f"torque feed-forward of 10 s at 100 Hz, servo_biped: {row['per_10s_s']:.2f} s "
-        f"(target ≤ 0.5 s) {_mark(row['per_10s_s'] <= 0.5)}"
+    figures.append(
+        Figure(
+            "torque feed-forward of 10 s at 100 Hz, servo_biped",
+            row["per_10s_s"],
+            "s",
+            f"≤ {ff['ten_seconds_target_s']} s",
+            row["per_10s_s"] <= ff["ten_seconds_target_s"],
+            ctx.reference("s"),
+            "machine reference",
+        )
     )
-    row = results["compensation_slider"]
-    print(
-        f"compensation slider → prediction, ghosts and plots, {row['samples']} samples: p50 "
-        f"{row['p50_ms']:.1f} ms, p95 {row['p95_ms']:.1f} ms (target ≤ {COMPENSATION_TARGET_MS:.0f} ms) "
-        f"{_mark(row['p95_ms'] <= COMPENSATION_TARGET_MS)}"
-    )
-    row = results["plan"]
-    print(
-        f"gait plan, the paper's case (38 knots + 2 virtual): cold {row['cold_s']:.2f} s "
-        f"(build {row['build_s']:.2f} s + solve {row['cold_solve_s']:.2f} s, {row['cold_iterations']} IPOPT "
-        f"iterations; target ≤ {PLAN_COLD_TARGET_S:.0f} s) {_mark(row['cold_s'] <= PLAN_COLD_TARGET_S)}; "
-        f"warm re-solve after one slider {row['warm_s']:.2f} s, {row['warm_iterations']} iterations "
-        f"(target ≤ {PLAN_WARM_TARGET_S:.0f} s) {_mark(row['warm_s'] <= PLAN_WARM_TARGET_S)}"
-    )
-    row = results["plan_servo_biped"]
-    print(
-        f"gait plan on servo_biped (its scaled defaults): cold {row['cold_s']:.2f} s "
-        f"(target ≤ {PLAN_COLD_TARGET_S:.0f} s) {_mark(row['cold_s'] <= PLAN_COLD_TARGET_S)}; warm "
-        f"{row['warm_s']:.2f} s (target ≤ {PLAN_WARM_TARGET_S:.0f} s) "
-        f"{_mark(row['warm_s'] <= PLAN_WARM_TARGET_S)}; 10-step walk → torques {row['walk_to_torques_s']:.2f} s "
-        f"(target ≤ {WALK_TARGET_S:.0f} s, QP follows {100 * row['qp_follow_rate']:.0f} % of the samples) "
-        f"{_mark(row['walk_to_torques_s'] <= WALK_TARGET_S)}"
-    )
-    sim = results["simulate"]
+    return ff, figures
+
+
+@bench_entry("compensation_slider")
+def _entry_compensation_slider(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = _bench_compensation_slider(ctx.studio)
+    return row, [
+        Figure(
+            f"compensation slider → prediction, ghosts, plots ({row['samples']} samples, p95)",
+            row["p95_ms"],
+            "ms",
+            f"≤ {COMPENSATION_TARGET_MS:.0f} ms",
+            row["p95_ms"] <= COMPENSATION_TARGET_MS,
+            ctx.reference("ms"),
+            "machine reference",
+        )
+    ]
+
+
+@bench_entry("plan")
+def _entry_plan(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = _bench_plan()
+    return row, [
+        Figure(
+            "gait plan, the paper's case, build + cold solve",
+            row["cold_s"],
+            "s",
+            f"≤ {PLAN_COLD_TARGET_S:.0f} s",
+            row["cold_s"] <= PLAN_COLD_TARGET_S,
+            ctx.reference("s"),
+            "machine reference",
+            f"{row['cold_iterations']} IPOPT iterations",
+        ),
+        Figure(
+            "gait plan, warm re-solve after one slider",
+            row["warm_s"],
+            "s",
+            f"≤ {PLAN_WARM_TARGET_S:.0f} s",
+            row["warm_s"] <= PLAN_WARM_TARGET_S,
+            ctx.reference("s"),
+            "machine reference",
+            f"{row['warm_iterations']} iterations",
+        ),
+    ]
+
+
+@bench_entry("plan_servo_biped")
+def _entry_plan_servo_biped(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = _bench_plan_robot("servo_biped")
+    reference = ctx.reference("s")
+    return row, [
+        Figure(
+            "gait plan on servo_biped, cold",
+            row["cold_s"],
+            "s",
+            f"≤ {PLAN_COLD_TARGET_S:.0f} s",
+            row["cold_s"] <= PLAN_COLD_TARGET_S,
+            reference,
+            "machine reference",
+        ),
+        Figure(
+            "gait plan on servo_biped, warm",
+            row["warm_s"],
+            "s",
+            f"≤ {PLAN_WARM_TARGET_S:.0f} s",
+            row["warm_s"] <= PLAN_WARM_TARGET_S,
+            reference,
+            "machine reference",
+        ),
+        Figure(
+            "10-step walk → torques, servo_biped",
+            row["walk_to_torques_s"],
+            "s",
+            f"≤ {WALK_TARGET_S:.0f} s",
+            row["walk_to_torques_s"] <= WALK_TARGET_S,
+            reference,
+            "machine reference",
+            f"the QP follows {100 * row['qp_follow_rate']:.0f} % of the samples",
+        ),
+    ]
+
+
+@bench_entry("simulate")
+def _entry_simulate(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    sim = bench_simulation(str(ctx.roban) if ctx.roban else None)
+    figures = []
     for key, target in (("servo_biped", 10.0), ("roban_s14", 5.0)):
         if f"{key}_wall_s" in sim:
-            print(
-                f"simulate {key} one-leg squats ({sim[f'{key}_motion_s']:.1f} s): {sim[f'{key}_wall_s']:.2f} s, "
-                f"{sim[f'{key}_real_time_factor']:.0f}× real time (bare MuJoCo, same steps: "
-                f"{sim[f'{key}_physics_only_s']:.2f} s; target ≥ {target:.0f}×) "
-                f"{_mark(sim[f'{key}_real_time_factor'] >= target)}"
+            rtf = sim[f"{key}_real_time_factor"]
+            figures.append(
+                Figure(
+                    f"simulate {key} one-leg squats ({sim[f'{key}_motion_s']:.1f} s)",
+                    float(sim[f"{key}_wall_s"]),
+                    "s",
+                    f"≥ {target:.0f}× real time",
+                    rtf >= target,
+                    float(sim[f"{key}_physics_only_s"]),
+                    "bare MuJoCo stepping the same model the same steps",
+                    f"{rtf:.0f}× real time",
+                )
             )
-    row = results["simulate_click"]
-    print(
-        f"Simulate click → verdict, ghosts, plots, servo_biped {row['motion_s']:.1f} s motion: "
-        f"{row['seconds']:.2f} s (target ≤ {SIMULATE_CLICK_TARGET_S:.0f} s) "
-        f"{_mark(row['seconds'] <= SIMULATE_CLICK_TARGET_S)}"
-    )
-    return 0
+    return sim, figures
+
+
+@bench_entry("simulate_click")
+def _entry_simulate_click(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = _bench_simulate_click(ctx.studio)
+    return row, [
+        Figure(
+            f"Simulate click → verdict, ghosts, plots (servo_biped, {row['motion_s']:.1f} s)",
+            row["seconds"],
+            "s",
+            f"≤ {SIMULATE_CLICK_TARGET_S:.0f} s",
+            row["seconds"] <= SIMULATE_CLICK_TARGET_S,
+            ctx.reference("s"),
+            "machine reference",
+        )
+    ]
+
+
+def _bare_fk_p95_ms(studio: Studio, repeats: int) -> float:
+    """p95 of pinocchio's forward kinematics + frame placements at the studio's pose [ms]."""
+    import pinocchio as pin
+
+    robot = studio.state.robot
+    assert robot is not None
+    model, data, q = robot.model, robot.model.createData(), studio.state.q.copy()
+
+    def fk() -> None:
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+
+    return float(np.percentile(np.array(timed(fk, repeats)) * 1e3, 95))
 
 
 def _bench_plan_robot(name: str) -> dict:
@@ -330,20 +568,59 @@ def _bench_drag(studio: Studio, robot: str, repeats: int) -> dict:
     start = studio.state.robot.link_placements(
         studio.state.q, studio.state.robot.model.createData()
     )[foot]
-    times = []
+    times, events = [], []
     for k in range(repeats):
         angle = 2.0 * np.pi * k / 50.0
         target = start.copy()
         target[:3, 3] += [0.03 * np.cos(angle), 0.03 * np.sin(angle), 0.02 + 0.01 * np.sin(angle)]
+        events.append((studio.state.q.copy(), target))
         begin = time.perf_counter()
         studio.pose.request_drag("left", target)
         times.append(time.perf_counter() - begin)
     ms = np.array(times[5:]) * 1000.0  # the first events lift the foot from the ground
+    placo_ms = np.array(_placo_bare_drag_s(studio.state.robot, events)[5:]) * 1000.0
     return {
         "events": len(ms),
         "p50_ms": float(np.percentile(ms, 50)),
         "p95_ms": float(np.percentile(ms, 95)),
+        "placo_p50_ms": float(np.percentile(placo_ms, 50)),
+        "placo_p95_ms": float(np.percentile(placo_ms, 95)),
     }
+
+
+def _placo_bare_drag_s(robot, events: list[tuple[np.ndarray, np.ndarray]]) -> list[float]:
+    """placo's own IK, bare, on each drag event [s]: from the configuration before the event,
+    the left foot soft to its target, the right foot held hard, a light posture task; QP
+    steps until the step vanishes (1e-6) or 60 steps, as the studio's IK does."""
+    import placo
+
+    from app.core.robot.urdf_xml import canonical_urdf
+
+    wrapper = placo.RobotWrapper("", 0, canonical_urdf(robot.tree))
+    solver = placo.KinematicsSolver(wrapper)
+    solver.enable_joint_limits(True)
+    solver.enable_velocity_limits(False)
+    left, right = (foot.link for foot in robot.feet)
+    left_task = solver.add_frame_task(left, np.eye(4))
+    left_task.configure("left", "soft", 1.0, 1.0)
+    right_task = solver.add_frame_task(right, np.eye(4))
+    right_task.configure("right", "hard", 1.0, 1.0)
+    posture = solver.add_joints_task()
+    posture.configure("posture", "soft", 1e-5)
+    times = []
+    for q, target in events:
+        begin = time.perf_counter()
+        wrapper.state.q = q.copy()
+        wrapper.update_kinematics()
+        right_task.T_world_frame = wrapper.get_T_world_frame(right)
+        left_task.T_world_frame = target
+        for _ in range(60):
+            dq = solver.solve(True)
+            wrapper.update_kinematics()
+            if float(np.linalg.norm(dq)) < 1e-6:
+                break
+        times.append(time.perf_counter() - begin)
+    return times
 
 
 def _bench_playback(studio: Studio, robot: str, seconds: float = 2.0) -> dict:

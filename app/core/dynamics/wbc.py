@@ -130,6 +130,9 @@ class FeedForward:
     """Unit of each column of tau_Nm: "N·m", or "N" for a prismatic joint."""
     notes: tuple[str, ...] = ()
     """Remarks about the whole run (e.g. joints without torque limits)."""
+    solver_time_s: np.ndarray | None = None
+    """Wall time of the QP solver's own call in each sample [s], shape (T,) (within
+    qp_time_s: the rest is kinematics and assembly)."""
 
     @property
     def infeasible_samples(self) -> np.ndarray:
@@ -190,6 +193,7 @@ def torque_feedforward(
     qdd = np.full((n, nv), np.nan)
     loop_forces = np.full((n, len(robot.tree.loops), 3), np.nan)
     times = np.empty(n)
+    solver_times = np.zeros(n)
     solved = np.zeros(n, dtype=bool)
     status: list[str] = []
     dof_names = _dof_names(robot)
@@ -201,6 +205,7 @@ def torque_feedforward(
         terms = qp.kinematics(q, v, a)
         solution = qp.solve(terms, v, a, trajectory.contacts[k], x_bar[k])
         times[k] = time.perf_counter() - begin
+        solver_times[k] = qp.last_solver_s
         if not solution.ok:
             status.append(f"no solution: {solution.status}")
             continue
@@ -236,6 +241,7 @@ def torque_feedforward(
         qp_time_s=times,
         tau_units=tuple("N" if j.kind == "prismatic" else "N·m" for j in robot.joints),
         notes=tuple(notes),
+        solver_time_s=solver_times,
     )
 
 

@@ -36,6 +36,9 @@ def _run(robot_source: str | Path, motion: str) -> dict:
         "duration_s": traj.duration,
         "qp_median_ms": float(np.median(ms)),
         "qp_p95_ms": float(np.percentile(ms, 95)),
+        "solver_median_ms": float(np.median(ff.solver_time_s * 1e3))
+        if ff.solver_time_s is not None
+        else float("nan"),
         "seconds": seconds,
         "per_10s_s": seconds * 10.0 / traj.duration,
         "not_solved": len(ff.infeasible_samples),

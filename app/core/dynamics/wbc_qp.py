@@ -30,6 +30,7 @@ a constant quadratic in β and P never changes; only A, p, l and u change per sa
 from __future__ import annotations
 
 import dataclasses
+import time
 
 import numpy as np
 import osqp
@@ -193,6 +194,8 @@ class WholeBodyQp:
         )
         self.zero_v = np.zeros(nv)
         self.last_x: np.ndarray | None = None
+        self.last_solver_s = 0.0
+        """Wall time of the last sample's solver call alone [s]."""
 
     def _structure(self):
         """0/1 matrices with the structural nonzeros of M, Φᵀ, the foot and loop Jacobians."""
@@ -332,7 +335,9 @@ class WholeBodyQp:
         p[c["qdd"]] = -2.0 * w.w_qdd * qdd_des
         p[c["beta"]] = 2.0 * self.G_u.T @ (self.H_u @ d + g_u)
         self.solver.update(q=p, l=lower, u=upper, Ax=self.A[self.nz_rows, self.nz_cols])
+        begin = time.perf_counter()
         result = self.solver.solve(raise_error=False)
+        self.last_solver_s = time.perf_counter() - begin
         status = result.info.status.removesuffix(" inaccurate")
         x = None if result.x is None else np.asarray(result.x)
         if status in FAILED_STATUSES or x is None or not np.all(np.isfinite(x)):

@@ -1,0 +1,147 @@
+"""What `biped-studio bench` reports: figures beside same-run baselines, and where they ran.
+
+A timing on a loaded or slow machine says little by itself; the same timing beside a
+baseline measured in the same run on the same machine (placo's bare IK solve beside a drag
+event, a one-core run beside the parallel one, bare MuJoCo beside a simulation) gives a ratio
+that carries over to other machines. Where a figure has no natural baseline, it stands beside
+`reference_s`, a fixed pinocchio workload timed in the same run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import os
+import platform
+import statistics
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+REFERENCE_WHAT = "machine reference: 300 × (RNEA + CRBA + Jacobians) on servo_biped"
+
+
+@dataclasses.dataclass(frozen=True)
+class Figure:
+    """One measured figure, its target, and its same-run baseline (lower is better for both)."""
+
+    what: str
+    value: float
+    unit: str
+    """Unit of value and baseline, e.g. "ms", "s"."""
+    target: str
+    """The target in words, e.g. "p95 ≤ 5 ms"; "" when there is none."""
+    ok: bool | None
+    """Whether the target is met; None when there is no target."""
+    baseline: float | None
+    """The baseline's figure in the same unit, measured in the same run; None when none."""
+    baseline_what: str
+    note: str = ""
+
+    @property
+    def ratio(self) -> float | None:
+        """value / baseline (how many baselines the figure costs)."""
+        if self.baseline is None or self.baseline <= 0.0:
+            return None
+        return self.value / self.baseline
+
+    def as_dict(self) -> dict:
+        return {**dataclasses.asdict(self), "ratio": self.ratio}
+
+
+def machine() -> dict:
+    """Where the bench ran: CPU model, cores, load, Python, date (UTC)."""
+    model = platform.processor() or platform.machine()
+    cpuinfo = Path("/proc/cpuinfo")
+    if cpuinfo.exists():
+        for line in cpuinfo.read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
+    return {
+        "cpu": model,
+        "cores": os.cpu_count() or 1,
+        "load_1min": load[0],
+        "python": platform.python_version(),
+        "date_utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M"),
+    }
+
+
+def reference_s(runs: int = 5) -> float:
+    """Median wall time of a fixed pinocchio workload [s]: the unit of figures without a
+    natural baseline."""
+    import pinocchio as pin
+
+    from app.core.robot.loading import load_robot
+
+    robot = load_robot("servo_biped")
+    model, data = robot.model, robot.model.createData()
+    rng = np.random.default_rng(0)
+    qs = [pin.randomConfiguration(model) for _ in range(300)]
+    v = rng.normal(size=model.nv)
+    times = []
+    for _ in range(runs):
+        begin = time.perf_counter()
+        for q in qs:
+            pin.rnea(model, data, q, v, v)
+            pin.crba(model, data, q)
+            pin.computeJointJacobians(model, data, q)
+        times.append(time.perf_counter() - begin)
+    return statistics.median(times)
+
+
+def timed(function: Callable[[], object], runs: int) -> list[float]:
+    """Wall times of `runs` calls [s]."""
+    times = []
+    for _ in range(runs):
+        begin = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - begin)
+    return times
+
+
+def _number(value: float | None) -> str:
+    if value is None:
+        return "—"
+    return f"{value:.3g}"
+
+
+def text_lines(figures: list[Figure]) -> list[str]:
+    """One line per figure: value, target and mark, baseline and ratio."""
+    lines = []
+    for f in figures:
+        mark = "" if f.ok is None else (" ok" if f.ok else " OVER TARGET")
+        target = f" (target {f.target})" if f.target else ""
+        base = (
+            f"; baseline {_number(f.baseline)} {f.unit} ({f.baseline_what}), ratio {_number(f.ratio)}"
+            if f.baseline is not None
+            else ""
+        )
+        note = f" [{f.note}]" if f.note else ""
+        lines.append(f"{f.what}: {_number(f.value)} {f.unit}{target}{mark}{base}{note}")
+    return lines
+
+
+def markdown_table(figures: list[Figure], where: dict) -> str:
+    """The README's speed table: figure, target, baseline, ratio; machine and date below."""
+    rows = [
+        "| what | target | now | baseline (same run) | now / baseline |",
+        "|---|---|---|---|---|",
+    ]
+    for f in figures:
+        mark = "" if f.ok is None else (" ✓" if f.ok else " ✗")
+        note = f" ({f.note})" if f.note else ""
+        rows.append(
+            f"| {f.what} | {f.target or '—'} | {_number(f.value)} {f.unit}{mark}{note} | "
+            f"{_number(f.baseline)} {f.unit if f.baseline is not None else ''} {f.baseline_what} | "
+            f"{_number(f.ratio)} |"
+        )
+    rows.append("")
+    rows.append(
+        f"Machine: {where['cpu']}, {where['cores']} cores, load {where['load_1min']:.1f} at the "
+        f"start; Python {where['python']}; {where['date_utc']} UTC."
+    )
+    return "\n".join(rows)

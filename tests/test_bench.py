@@ -1,0 +1,73 @@
+"""`biped-studio bench`: every figure stands beside a same-run baseline, with their ratio.
+
+Timings themselves are not asserted (they depend on the machine); what is checked is the
+report's shape and arithmetic, and that an entry's baseline is what it says it is.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from app.bench import ENTRIES
+from app.bench_report import Figure, markdown_table
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "app", "bench", *args],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+
+
+def test_ratio_is_value_over_baseline_and_absent_without_one():
+    assert Figure("x", 3.0, "ms", "", None, 1.5, "b").ratio == pytest.approx(2.0)
+    assert Figure("x", 3.0, "ms", "", None, None, "").ratio is None
+    assert Figure("x", 3.0, "ms", "", None, 0.0, "b").ratio is None
+
+
+def test_markdown_table_has_a_row_per_figure_and_names_the_machine():
+    figures = [
+        Figure("drag", 4.0, "ms", "p95 ≤ 5 ms", True, 2.0, "placo"),
+        Figure("plan", 12.0, "s", "≤ 10 s", False, None, ""),
+    ]
+    where = {"cpu": "Test CPU", "cores": 3, "load_1min": 0.5, "python": "3", "date_utc": "D"}
+    table = markdown_table(figures, where).splitlines()
+    assert table[0].startswith("| what | target | now | baseline")
+    assert table[2].split("|")[5].strip() == "2"  # 4 / 2
+    assert table[3].split("|")[5].strip() == "—"
+    assert "Test CPU, 3 cores" in table[-1] and "D UTC" in table[-1]
+
+
+def test_registry_holds_every_entry_in_run_order():
+    assert list(ENTRIES)[:3] == ["load", "slider", "drag"]
+    for name in ("feedforward", "compensation_slider", "plan", "simulate", "simulate_click"):
+        assert name in ENTRIES
+
+
+def test_json_reports_figures_beside_baselines():
+    result = run("--json", "--only", "load,slider", "--robot", "servo_biped", "--repeats", "20")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["machine"]["cores"] >= 1 and report["reference_s"] > 0.0
+    assert set(report) >= {"load", "slider", "figures"}
+    assert "drag" not in report  # --only
+    figures = report["figures"]
+    assert len(figures) == 2  # load; slider (servo_biped is both robots here)
+    for figure in figures:
+        assert figure["baseline"] > 0.0
+        assert figure["ratio"] == pytest.approx(figure["value"] / figure["baseline"])
+    # The load's baseline is the core load alone, which the studio's load contains.
+    assert report["load"]["core_load_s"] == figures[0]["baseline"]
+
+
+def test_unknown_entry_is_named_with_the_known_ones():
+    result = run("--only", "nonsense")
+    assert result.returncode != 0
+    assert "nonsense" in result.stderr and "feedforward" in result.stderr
