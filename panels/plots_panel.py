@@ -4,8 +4,9 @@ planned / without / with compensation (Figs. 6, 10, 12, …), and the command of
 A dropdown picks which joints the torque and offset plots show (a whole leg, or one joint):
 twelve lines in one small plot cannot be read. Roll and pitch get a plot each, one colour per
 motion (the legend names them). Every plot has a vertical line at the playback time
-(app.core.time_cursor), and viser's expand button (top right of a plot, on hover) opens it
-large in a dialog.
+(app.core.time_cursor). For a larger view, viser's expand button (top right of a plot, on
+hover) opens one plot in a dialog, and *Wide plots* moves them all into a wide window docked
+at the left of the page (its edge can be dragged).
 """
 
 from __future__ import annotations
@@ -49,6 +50,10 @@ SIMULATED_SERIES = (
 """Added after ATTITUDE_SERIES when a simulation of the motion exists."""
 ALL = "all joints"
 HINT = "Hover a plot and click its ⤢ button (top right) to see it large."
+WIDE_PX = 760
+"""Width of the *Wide plots* window [CSS px] (the control panel is ~400)."""
+ASPECT = {False: 1.6, True: 2.4}
+"""Width / height of a plot in the control panel and in the wide window."""
 
 
 SeriesSpec = tuple[tuple[str, str, float, tuple[float, ...]], ...]
@@ -70,7 +75,15 @@ class PlotsPanel:
                 initial_value=ALL,
                 hint="Which joints the torque and offset plots draw",
             )
+            self.wide = gui.add_checkbox(
+                "Wide plots",
+                False,
+                hint="Show the plots in a wide window docked at the left (drag its edge to resize)",
+            )
             self.hint = gui.add_markdown(HINT)
+        self.window: viser.PanelHandle | None = None
+        """The wide window, while *Wide plots* is on."""
+        self._tab: viser.GuiTabHandle | None = None
         self._handles: dict[str, viser.GuiUplotHandle] = {}
         self._curves: dict[str, tuple[str, SeriesSpec, np.ndarray, np.ndarray]] = {}
         """Plot key -> (title, its series, t [s] (T,), curves (C, T)) as last shown."""
@@ -80,6 +93,7 @@ class PlotsPanel:
         self._lock = threading.RLock()
         """The cursor moves from a timer thread while edits redraw from viser's pool."""
         self.joints.on_update(lambda _: self._redraw_joints())
+        self.wide.on_update(lambda _: self.set_wide(bool(self.wide.value)))
 
     # --- the plots, by key -----------------------------------------------------------------------
 
@@ -155,6 +169,27 @@ class PlotsPanel:
         for which, curves in (("roll", roll_deg), ("pitch", pitch_deg)):
             self._draw(which, f"Torso {which} [°]", t, series, np.vstack(curves))
 
+    # --- where the plots are ------------------------------------------------------------------
+
+    def set_wide(self, wide: bool) -> None:
+        """Move every plot into the wide window (True) or back into the folder."""
+        with self._lock:
+            if wide == (self.window is not None):
+                return
+            old = self.window
+            if wide:
+                self.window = self._gui.add_panel()
+                self._tab = self.window.add_tab("Plots", icon=viser.Icon.CHART_LINE)
+                self.window.dock_left()
+                self.window.set_width(WIDE_PX)
+            else:
+                self.window, self._tab = None, None
+            for key, (title, series, t, rows) in list(self._curves.items()):
+                self._handles.pop(key).remove()
+                self._draw_locked(key, title, t, series, rows)
+            if old is not None:
+                old.remove()
+
     # --- drawing -------------------------------------------------------------------------------
 
     def show_time(self, time_s: float | None) -> None:
@@ -188,7 +223,7 @@ class PlotsPanel:
             handle.data = data
             return
         if handle is not None:
-            handle.remove()
+            self._handles.pop(key).remove()
         uplot_series = (
             uplot.Series(label="t [s]"),
             *(
@@ -197,9 +232,10 @@ class PlotsPanel:
             ),
             CURSOR_SERIES,
         )
-        with self.folder:
+        wide = self._tab is not None
+        with self._tab if self._tab is not None else self.folder:
             self._handles[key] = self._gui.add_uplot(
-                data, uplot_series, title=title, aspect=1.6, scales=SCALES
+                data, uplot_series, title=title, aspect=ASPECT[wide], scales=SCALES
             )
 
     def clear(self) -> None:

@@ -238,9 +238,28 @@ def test_plots_show_the_torques(page, studio: Studio) -> None:
     plots.locator(".uplot-container button").first.click()
     large = page.locator(".mantine-Modal-content .uplot")
     large.wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
-    assert large.bounding_box()["width"] > 2.0 * small["width"]
+    assert large.bounding_box()["width"] > 1.8 * small["width"]  # viser's "xl" dialog
     page.keyboard.press("Escape")
     large.wait_for(state="detached", timeout=UI_TIMEOUT_S * 1000)
+
+    # Wide plots: all four move into a window docked at the left, each over 600 px wide.
+    gui_row_input(page, "Wide plots", "input[type=checkbox]").click()
+    wait_for(
+        "four plots over 600 px wide",
+        lambda: len(widths := plot_widths(page)) == 4 and min(widths) > 600,
+        UI_TIMEOUT_S,
+    )
+    gui_row_input(page, "Wide plots", "input[type=checkbox]").click()
+    wait_for(
+        "the plots back in the panel",
+        lambda: plots.locator(".uplot").count() == 4,
+        UI_TIMEOUT_S,
+    )
+
+
+def plot_widths(page) -> list[float]:
+    """The widths [CSS px] of the page's plots now (one being replaced may have no box)."""
+    return [box["width"] for u in page.locator(".uplot").all() if (box := u.bounding_box())]
 
 
 CURSOR_TIMES_JS = """() => Object.values(window.__viserTestpoints?.uplots ?? {}).map(({chart}) => {

@@ -71,6 +71,26 @@ def test_the_plots_time_cursor_follows_the_timeline(studio):
     assert x[np.argmax(cursor)] == seek_to
 
 
+def test_wide_plots_move_every_plot_into_a_window_and_back(studio):
+    plots = studio.compensation.plots
+    before = {key: getattr(plots, key) for key in ("torques", "roll", "pitch", "offsets")}
+    plots.wide.value = True
+    assert plots.window is not None
+    for key, old in before.items():
+        new = getattr(plots, key)
+        assert new is not old and new.aspect > old.aspect  # a new, wider plot in the window
+        assert len(new.data) == len(old.data)
+        for a, b in zip(new.data, old.data, strict=True):
+            np.testing.assert_array_equal(a, b)
+    # Edits and the cursor reach the plots where they are now.
+    studio.playback.seek(1.0)
+    plots.show_time(1.0)
+    x, *_curves, cursor = plots.torques.data
+    assert x[np.argmax(cursor)] == 1.0
+    plots.wide.value = False
+    assert plots.window is None and plots.torques.aspect == before["torques"].aspect
+
+
 def test_compensation_reduces_the_torso_error(studio):
     errors = studio.compensation.prediction.attitude_errors_deg()
     worst_without = max(errors["roll_uncompensated"], errors["pitch_uncompensated"])
