@@ -14,6 +14,9 @@
   (app.core.dynamics.wbc_bench); targets ≤ 0.5 ms median, ≤ 0.5 s.
 - compensation slider: a k slider moved with a 10 s motion loaded: re-prediction, ghosts and
   plots (τ not recomputed); target ≤ 50 ms.
+- plot cursor: the four plots' time cursor moved on that motion (it moves ≤ 4×/s during
+  playback, off the player's thread), beside the same plots resent without a cursor; target
+  ≤ 25 ms.
 - plan: the gait paper's case (38 knots) built and solved cold, target ≤ 10 s (the paper:
   65 s – 5 min with SNOPT); a warm re-solve after one slider change, target ≤ 1 s; the same on
   servo_biped with its scaled defaults, and a 10-step walk of the cycle to torques, ≤ 5 s.
@@ -58,6 +61,7 @@ COMPENSATION_TARGET_MS = 50.0
 PLAN_COLD_TARGET_S = 10.0
 PLAN_WARM_TARGET_S = 1.0
 WALK_TARGET_S = 5.0
+PLOT_CURSOR_TARGET_MS = 25.0
 SIMULATE_CLICK_TARGET_S = 2.0
 
 
@@ -82,6 +86,7 @@ def run_bench(args: argparse.Namespace) -> int:
                     next((p for p in ROBAN_CANDIDATES if p.exists()), None)
                 ),
                 "compensation_slider": _bench_compensation_slider(studio),
+                "plot_cursor": _bench_plot_cursor(studio),
                 "plan": _bench_plan(),
                 "plan_servo_biped": _bench_plan_robot("servo_biped"),
                 "simulate": bench_simulation(
@@ -139,6 +144,13 @@ def run_bench(args: argparse.Namespace) -> int:
         f"compensation slider → prediction, ghosts and plots, {row['samples']} samples: p50 "
         f"{row['p50_ms']:.1f} ms, p95 {row['p95_ms']:.1f} ms (target ≤ {COMPENSATION_TARGET_MS:.0f} ms) "
         f"{_mark(row['p95_ms'] <= COMPENSATION_TARGET_MS)}"
+    )
+    row = results["plot_cursor"]
+    print(
+        f"plots' time cursor moved, {row['points']} points × {row['curves']} curves: p50 "
+        f"{row['p50_ms']:.1f} ms, p95 {row['p95_ms']:.1f} ms; the same plots without a cursor "
+        f"{row['baseline_p50_ms']:.1f} ms (×{row['ratio']:.2f}; target p95 ≤ "
+        f"{PLOT_CURSOR_TARGET_MS:.0f} ms) {_mark(row['p95_ms'] <= PLOT_CURSOR_TARGET_MS)}"
     )
     row = results["plan"]
     print(
@@ -298,6 +310,34 @@ def _bench_compensation_slider(studio: Studio, repeats: int = 20) -> dict:
         "samples": studio.state.trajectory.n_samples,
         "p50_ms": float(np.percentile(ms, 50)),
         "p95_ms": float(np.percentile(ms, 95)),
+    }
+
+
+def _bench_plot_cursor(studio: Studio, repeats: int = 20) -> dict:
+    """The plots' cursor moved across the motion the compensation slider bench left loaded,
+    against the same data pushes without a cursor (what a data push cost before it)."""
+    plots, trajectory = studio.compensation.plots, studio.state.trajectory
+    assert trajectory is not None and plots.torques is not None
+
+    def timed(times_s: list[float | None]) -> np.ndarray:
+        out = []
+        for time_s in times_s:
+            begin = time.perf_counter()
+            plots.show_time(time_s)
+            out.append(time.perf_counter() - begin)
+        return np.array(out) * 1000.0
+
+    moved = timed(list(np.linspace(0.0, trajectory.duration, repeats)))
+    baseline = timed([None] * repeats)
+    return {
+        "points": len(plots.torques.data[0]),
+        "curves": sum(
+            len(h.data) - 1 for h in (plots.torques, plots.roll, plots.pitch, plots.offsets) if h
+        ),
+        "p50_ms": float(np.percentile(moved, 50)),
+        "p95_ms": float(np.percentile(moved, 95)),
+        "baseline_p50_ms": float(np.percentile(baseline, 50)),
+        "ratio": float(np.percentile(moved, 50) / np.percentile(baseline, 50)),
     }
 
 

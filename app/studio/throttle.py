@@ -2,10 +2,10 @@
 for at 60 Hz but a browser needs a few times a second (the plots' time cursor, a following
 camera).
 
-`Throttle.submit(value)` calls `action(value)` at once when the last call is at least a period
-old; otherwise it keeps the value (replacing one kept before) and a named timer thread calls
-`action` with the newest kept value when the period is over. So a burst costs one call per
-period, and the value the burst ended on is always shown.
+`Throttle.submit(value)` keeps the value (replacing one kept before) and returns at once; a
+named timer thread calls `action` with the newest kept value as soon as the last call is a
+period old. So a burst costs one call per period, the value the burst ended on is always
+shown, and the caller (playback, holding the state's lock) never waits for the action.
 """
 
 from __future__ import annotations
@@ -33,17 +33,12 @@ class Throttle(Generic[V]):
 
     def submit(self, value: V) -> None:
         with self._lock:
-            wait_s = self._last_s + self._period_s - time.monotonic()
-            if wait_s > 0.0:
-                self._pending = [value]
-                if self._timer is None:
-                    self._timer = threading.Timer(wait_s, self._flush)
-                    self._timer.name, self._timer.daemon = self._name, True
-                    self._timer.start()
-                return
-            self._pending = []
-            self._last_s = time.monotonic()
-        self._call(value)
+            self._pending = [value]
+            if self._timer is None:
+                wait_s = max(0.0, self._last_s + self._period_s - time.monotonic())
+                self._timer = threading.Timer(wait_s, self._flush)
+                self._timer.name, self._timer.daemon = self._name, True
+                self._timer.start()
 
     def _flush(self) -> None:
         with self._lock:
