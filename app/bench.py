@@ -332,7 +332,9 @@ def _bench_plot_cursor(studio: Studio, repeats: int = 20) -> dict:
     return {
         "points": len(plots.torques.data[0]),
         "curves": sum(
-            len(h.data) - 1 for h in (plots.torques, plots.roll, plots.pitch, plots.offsets) if h
+            len(h.data) - 2  # neither the time axis nor the cursor
+            for h in (plots.torques, plots.roll, plots.pitch, plots.offsets)
+            if h
         ),
         "p50_ms": float(np.percentile(moved, 50)),
         "p95_ms": float(np.percentile(moved, 95)),
