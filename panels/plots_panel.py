@@ -50,8 +50,9 @@ SIMULATED_SERIES = (
 """Added after ATTITUDE_SERIES when a simulation of the motion exists."""
 ALL = "all joints"
 HINT = "Hover a plot and click its ⤢ button (top right) to see it large."
-WIDE_PX = 760
-"""Width of the *Wide plots* window [CSS px] (the control panel is ~400)."""
+WIDE_PX = 600
+"""Width of the *Wide plots* window [CSS px]: with the control panel (~400), a 1280-px screen
+keeps a third of its width for the 3D view."""
 ASPECT = {False: 1.6, True: 2.4}
 """Width / height of a plot in the control panel and in the wide window."""
 

@@ -242,11 +242,11 @@ def test_plots_show_the_torques(page, studio: Studio) -> None:
     page.keyboard.press("Escape")
     large.wait_for(state="detached", timeout=UI_TIMEOUT_S * 1000)
 
-    # Wide plots: all four move into a window docked at the left, each over 600 px wide.
+    # Wide plots: all four move into a window docked at the left, each over 500 px wide.
     gui_row_input(page, "Wide plots", "input[type=checkbox]").click()
     wait_for(
-        "four plots over 600 px wide",
-        lambda: len(widths := plot_widths(page)) == 4 and min(widths) > 600,
+        "four plots over 500 px wide",
+        lambda: len(widths := plot_widths(page)) == 4 and min(widths) > 500,
         UI_TIMEOUT_S,
     )
     gui_row_input(page, "Wide plots", "input[type=checkbox]").click()
