@@ -20,6 +20,9 @@ the fixed pinocchio workload of app.bench_report) so that the ratio carries acro
   (app.core.dynamics.wbc_bench); targets ≤ 0.5 ms median, ≤ 0.5 s.
 - compensation slider: a k slider moved with a 10 s motion loaded: re-prediction, ghosts and
   plots (τ not recomputed); target ≤ 50 ms.
+- plot cursor: the four plots' time cursor moved on that motion (it moves ≤ 4×/s during
+  playback, off the player's thread), beside the same plots resent without a cursor; target
+  ≤ 25 ms.
 - plan: the gait paper's case (38 knots) built and solved cold, target ≤ 10 s (the paper:
   65 s – 5 min with SNOPT); a warm re-solve after one slider change, target ≤ 1 s; the same on
   servo_biped with its scaled defaults, and a 10-step walk of the cycle to torques, ≤ 5 s;
@@ -78,6 +81,7 @@ PLAN_COLD_TARGET_S = 10.0
 PLAN_WARM_TARGET_S = 1.0
 WALK_TARGET_S = 5.0
 PLAN_FIRST_CLICK_TARGET_S = 3.0
+PLOT_CURSOR_TARGET_MS = 25.0
 SIMULATE_CLICK_TARGET_S = 2.0
 
 
@@ -296,6 +300,24 @@ def _entry_compensation_slider(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             row["p95_ms"] <= COMPENSATION_TARGET_MS,
             ctx.reference("ms"),
             "machine reference",
+        )
+    ]
+
+
+@bench_entry("plot_cursor")
+def _entry_plot_cursor(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    if ctx.studio.compensation.plots.torques is None:  # run alone: load the slider bench's motion
+        _bench_compensation_slider(ctx.studio, repeats=1)
+    row = _bench_plot_cursor(ctx.studio)
+    return row, [
+        Figure(
+            f"plots' time cursor moved ({row['points']} points × {row['curves']} curves)",
+            row["p95_ms"],
+            "ms",
+            f"p95 ≤ {PLOT_CURSOR_TARGET_MS:.0f} ms",
+            row["p95_ms"] <= PLOT_CURSOR_TARGET_MS,
+            row["baseline_p95_ms"],
+            "the same plots resent without a cursor",
         )
     ]
 
@@ -593,6 +615,37 @@ def _bench_compensation_slider(studio: Studio, repeats: int = 20) -> dict:
         "samples": studio.state.trajectory.n_samples,
         "p50_ms": float(np.percentile(ms, 50)),
         "p95_ms": float(np.percentile(ms, 95)),
+    }
+
+
+def _bench_plot_cursor(studio: Studio, repeats: int = 20) -> dict:
+    """The plots' cursor moved across the motion the compensation slider bench left loaded,
+    against the same data pushes without a cursor (what a data push cost before it)."""
+    plots, trajectory = studio.compensation.plots, studio.state.trajectory
+    assert trajectory is not None and plots.torques is not None
+
+    def timed(times_s: list[float | None]) -> np.ndarray:
+        out = []
+        for time_s in times_s:
+            begin = time.perf_counter()
+            plots.show_time(time_s)
+            out.append(time.perf_counter() - begin)
+        return np.array(out) * 1000.0
+
+    moved = timed(list(np.linspace(0.0, trajectory.duration, repeats)))
+    baseline = timed([None] * repeats)
+    return {
+        "points": len(plots.torques.data[0]),
+        "curves": sum(
+            len(h.data) - 2  # neither the time axis nor the cursor
+            for h in (plots.torques, plots.roll, plots.pitch, plots.offsets)
+            if h
+        ),
+        "p50_ms": float(np.percentile(moved, 50)),
+        "p95_ms": float(np.percentile(moved, 95)),
+        "baseline_p50_ms": float(np.percentile(baseline, 50)),
+        "baseline_p95_ms": float(np.percentile(baseline, 95)),
+        "ratio": float(np.percentile(moved, 50) / np.percentile(baseline, 50)),
     }
 
 

@@ -33,6 +33,7 @@ class GaitPanel:
         self._gui = gui
         self._quiet = Quiet()
         self._base = GaitSettings()
+        self._plannable, self._running = True, False
         self.folder = gui.add_folder("Gait (DIRCON)", order=6, expand_by_default=False)
         with self.folder:
             self.robot_note = gui.add_markdown("")
@@ -139,13 +140,22 @@ class GaitPanel:
 
     def show_plannable(self, plannable: bool) -> None:
         """Whether the loaded robot can be planned for (else Solve is off)."""
-        self.solve.disabled = not plannable
-        self.baseline.disabled = not plannable
-        self.all_stages.disabled = not plannable
+        self._plannable = plannable
+        self._enable_solves()
 
     def show_running(self, running: bool) -> None:
+        """A solve runs (every tab sees it): Cancel on, the progress bar shown, the Solve
+        buttons off until it ends."""
+        self._running = running
         self.cancel.disabled = not running
         self.progress.visible = running
+        self._enable_solves()
+
+    def _enable_solves(self) -> None:
+        off = not self._plannable or self._running
+        self.solve.disabled = off
+        self.baseline.disabled = off
+        self.all_stages.disabled = off
 
     def show_convergence(
         self, iterations: list[int], objective: list[float], violation: list[float]

@@ -1,4 +1,8 @@
-"""Playback panel: timeline, play/pause, speed, loop, traces."""
+"""Playback panel: timeline, play/pause, speed, loop, traces, a camera that follows the robot,
+and keyboard shortcuts (Space play/pause, J / L one frame back / forward).
+
+The shortcuts are viser commands (also in its command palette, Ctrl+K). The arrow keys are not
+used: viser's camera orbits on them whatever else they do."""
 
 from __future__ import annotations
 
@@ -15,7 +19,9 @@ class PlaybackActions(Protocol):
 
     def seek(self, time_s: float) -> None: ...
     def toggle_play(self) -> None: ...
+    def step(self, frames: int) -> None: ...
     def set_traces_visible(self, visible: bool) -> None: ...
+    def set_follow(self, follow: bool) -> None: ...
 
 
 SPEEDS = ("0.25", "0.5", "1", "2")
@@ -36,12 +42,28 @@ class PlaybackPanel:
             self.speed = gui.add_dropdown("Speed", SPEEDS, initial_value="1")
             self.loop = gui.add_checkbox("Loop", True)
             self.traces = gui.add_checkbox("Show traces", True)
+            self.follow = gui.add_checkbox(
+                "Follow robot",
+                False,
+                hint="Keep the camera on the robot's pelvis as the motion plays (every tab)",
+            )
+            self.keys = gui.add_markdown("Keys: **Space** play / pause, **J** / **L** one frame.")
+        self.commands = (
+            gui.add_command("Play / pause", hotkey="space", icon=viser.Icon.PLAYER_PLAY),
+            gui.add_command("Previous frame", hotkey="J", icon=viser.Icon.PLAYER_SKIP_BACK),
+            gui.add_command("Next frame", hotkey="L", icon=viser.Icon.PLAYER_SKIP_FORWARD),
+        )
+        """Keyboard shortcuts, as commands of viser's palette."""
+        self.commands[0].on_trigger(lambda _: actions.toggle_play())
+        self.commands[1].on_trigger(lambda _: actions.step(-1))
+        self.commands[2].on_trigger(lambda _: actions.step(1))
         self._quiet = Quiet()
         self.time.on_update(
             lambda _: None if self._quiet.is_quiet() else actions.seek(self.time.value)
         )
         self.play.on_click(lambda _: actions.toggle_play())
         self.traces.on_update(lambda _: actions.set_traces_visible(self.traces.value))
+        self.follow.on_update(lambda _: actions.set_follow(self.follow.value))
 
     def show_none(self) -> None:
         self.time.disabled = True

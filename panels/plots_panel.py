@@ -3,14 +3,21 @@ planned / without / with compensation (Figs. 6, 10, 12, …), and the command of
 
 A dropdown picks which joints the torque and offset plots show (a whole leg, or one joint):
 twelve lines in one small plot cannot be read. Roll and pitch get a plot each, one colour per
-motion (the legend names them).
+motion (the legend names them). Every plot has a vertical line at the playback time
+(app.core.time_cursor). For a larger view, viser's expand button (top right of a plot, on
+hover) opens one plot in a dialog, and *Wide plots* moves them all into a wide window docked
+at the left of the page (its edge can be dragged).
 """
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import viser
 import viser.uplot as uplot
+
+from app.core.time_cursor import with_time_cursor
 
 PALETTE = (
     "#1f77b4",
@@ -26,8 +33,10 @@ PALETTE = (
     "#393b79",
     "#637939",
 )
-SECONDS_AXIS = {"x": uplot.Scale(time=False)}
-"""The x axis is seconds from the motion's start, not a date."""
+SCALES = {"x": uplot.Scale(time=False), "cursor": uplot.Scale(auto=False, range=(0.0, 1.0))}
+"""The x axis is seconds from the motion's start, not a date; the time cursor's column is drawn
+on a scale of its own, fixed to [0, 1] and without an axis (see app.core.time_cursor)."""
+CURSOR_SERIES = uplot.Series(label="playback time", stroke="#222222", width=1.0, scale="cursor")
 ATTITUDE_SERIES = (
     ("planned", "#3c78e6", ()),
     ("no comp. (quick estimate)", "#dc3232", (4.0, 4.0)),
@@ -40,11 +49,21 @@ SIMULATED_SERIES = (
 )
 """Added after ATTITUDE_SERIES when a simulation of the motion exists."""
 ALL = "all joints"
+HINT = "Hover a plot and click its ⤢ button (top right) to see it large."
+WIDE_PX = 600
+"""Width of the *Wide plots* window [CSS px]: with the control panel (~400), a 1280-px screen
+keeps a third of its width for the 3D view."""
+ASPECT = {False: 1.6, True: 2.4}
+"""Width / height of a plot in the control panel and in the wide window."""
+
+
+SeriesSpec = tuple[tuple[str, str, float, tuple[float, ...]], ...]
+"""(label, colour, width, dash) of each curve of a plot."""
 
 
 class PlotsPanel:
     """Owns the "Plots" folder; `show_*` replace the data (series are rebuilt when the set of
-    curves changes)."""
+    curves changes), `show_time` moves the time cursor of every plot."""
 
     def __init__(self, gui: viser.GuiApi) -> None:
         self._gui = gui
@@ -57,14 +76,48 @@ class PlotsPanel:
                 initial_value=ALL,
                 hint="Which joints the torque and offset plots draw",
             )
-        self.torques: viser.GuiUplotHandle | None = None
-        self.roll: viser.GuiUplotHandle | None = None
-        self.pitch: viser.GuiUplotHandle | None = None
-        self.offsets: viser.GuiUplotHandle | None = None
+            self.wide = gui.add_checkbox(
+                "Wide plots",
+                False,
+                hint="Show the plots in a wide window docked at the left (drag its edge to resize)",
+            )
+            self.hint = gui.add_markdown(HINT)
+        self.window: viser.PanelHandle | None = None
+        """The wide window, while *Wide plots* is on."""
+        self._tab: viser.GuiTabHandle | None = None
+        self._handles: dict[str, viser.GuiUplotHandle] = {}
+        self._curves: dict[str, tuple[str, SeriesSpec, np.ndarray, np.ndarray]] = {}
+        """Plot key -> (title, its series, t [s] (T,), curves (C, T)) as last shown."""
         self._joint_data: dict[str, tuple[np.ndarray, tuple[str, ...], np.ndarray]] = {}
-        self._labels: dict[int, tuple[str, ...]] = {}
-        """id(plot) -> the joints it draws, to update data in place when they are the same."""
+        self.time_s: float | None = None
+        """Where the time cursor stands [s] (None: no cursor)."""
+        self._lock = threading.RLock()
+        """The cursor moves from a timer thread while edits redraw from viser's pool."""
         self.joints.on_update(lambda _: self._redraw_joints())
+        self.wide.on_update(lambda _: self.set_wide(bool(self.wide.value)))
+
+    # --- the plots, by key -----------------------------------------------------------------------
+
+    @property
+    def torques(self) -> viser.GuiUplotHandle | None:
+        return self._handles.get("torques")
+
+    @property
+    def roll(self) -> viser.GuiUplotHandle | None:
+        return self._handles.get("roll")
+
+    @property
+    def pitch(self) -> viser.GuiUplotHandle | None:
+        return self._handles.get("pitch")
+
+    @property
+    def offsets(self) -> viser.GuiUplotHandle | None:
+        return self._handles.get("offsets")
+
+    @property
+    def attitude(self) -> viser.GuiUplotHandle | None:
+        """The roll plot (kept for callers that check a plot exists)."""
+        return self.roll
 
     # --- joints: torques and offsets ----------------------------------------------------------
 
@@ -100,14 +153,8 @@ class PlotsPanel:
                 continue
             t, names, values = self._joint_data[key]
             chosen = self._selected(names)
-            handle = self.torques if key == "torques" else self.offsets
-            handle = self._replace(
-                handle, title, t, [names[i] for i in chosen], values[:, chosen].T, chosen
-            )
-            if key == "torques":
-                self.torques = handle
-            else:
-                self.offsets = handle
+            series = tuple((names[i], PALETTE[i % len(PALETTE)], 1.2, ()) for i in chosen)
+            self._draw(key, title, t, series, np.asarray(values)[:, chosen].T)
 
     # --- attitude ------------------------------------------------------------------------------
 
@@ -119,66 +166,82 @@ class PlotsPanel:
         labels: tuple[tuple[str, str, tuple[float, ...]], ...] = ATTITUDE_SERIES,
     ) -> None:
         """Roll and pitch [°] of each motion in `labels` (planned, without, with, …)."""
+        series = tuple((label, colour, 1.5, dash) for label, colour, dash in labels)
         for which, curves in (("roll", roll_deg), ("pitch", pitch_deg)):
-            data = (np.asarray(t, dtype=float), *(np.asarray(c, dtype=float) for c in curves))
-            handle = self.roll if which == "roll" else self.pitch
-            if handle is not None and len(handle.data) == len(data):
-                handle.data = data
-                continue
-            if handle is not None:
-                handle.remove()
-            series = (
-                uplot.Series(label="t [s]"),
-                *(
-                    uplot.Series(label=label, stroke=colour, width=1.5, dash=dash)
-                    for label, colour, dash in labels
-                ),
-            )
-            with self.folder:
-                handle = self._gui.add_uplot(
-                    data, series, title=f"Torso {which} [°]", aspect=1.6, scales=SECONDS_AXIS
-                )
-            if which == "roll":
-                self.roll = handle
+            self._draw(which, f"Torso {which} [°]", t, series, np.vstack(curves))
+
+    # --- where the plots are ------------------------------------------------------------------
+
+    def set_wide(self, wide: bool) -> None:
+        """Move every plot into the wide window (True) or back into the folder."""
+        with self._lock:
+            if wide == (self.window is not None):
+                return
+            old = self.window
+            if wide:
+                self.window = self._gui.add_panel()
+                self._tab = self.window.add_tab("Plots", icon=viser.Icon.CHART_LINE)
+                self.window.dock_left()
+                self.window.set_width(WIDE_PX)
             else:
-                self.pitch = handle
+                self.window, self._tab = None, None
+            for key, (title, series, t, rows) in list(self._curves.items()):
+                self._handles.pop(key).remove()
+                self._draw_locked(key, title, t, series, rows)
+            if old is not None:
+                old.remove()
 
-    @property
-    def attitude(self) -> viser.GuiUplotHandle | None:
-        """The roll plot (kept for callers that check a plot exists)."""
-        return self.roll
+    # --- drawing -------------------------------------------------------------------------------
 
-    def _replace(
-        self,
-        handle,
-        title: str,
-        t: np.ndarray,
-        names: list[str],
-        rows: np.ndarray,
-        colours: list[int],
-    ):
-        data = (np.asarray(t, dtype=float), *(np.asarray(row, dtype=float) for row in rows))
-        if handle is not None and self._labels.get(id(handle)) == tuple(names):
+    def show_time(self, time_s: float | None) -> None:
+        """Move every plot's time cursor to `time_s` [s] (None hides it)."""
+        with self._lock:
+            self.time_s = time_s
+            for key, (_title, _series, t, rows) in self._curves.items():
+                handle = self._handles.get(key)
+                if handle is not None:
+                    handle.data = self._data(t, rows)
+
+    def _data(self, t: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, ...]:
+        cursor = with_time_cursor(t, rows, self.time_s)
+        return (cursor.x, *cursor.rows, cursor.cursor)
+
+    def _draw(self, key: str, title: str, t: np.ndarray, series: SeriesSpec, rows) -> None:
+        """Show curves `rows` (C, T) over `t` in plot `key`: new data in place when the curves
+        are the same ones, else the plot is rebuilt."""
+        with self._lock:
+            self._draw_locked(key, title, t, series, rows)
+
+    def _draw_locked(
+        self, key: str, title: str, t: np.ndarray, series: SeriesSpec, rows: np.ndarray
+    ) -> None:
+        t, rows = np.asarray(t, dtype=float), np.atleast_2d(np.asarray(rows, dtype=float))
+        previous = self._curves.get(key)
+        self._curves[key] = (title, series, t, rows)
+        handle = self._handles.get(key)
+        data = self._data(t, rows)
+        if handle is not None and previous is not None and previous[:2] == (title, series):
             handle.data = data
-            return handle
+            return
         if handle is not None:
-            handle.remove()
-        series = (
+            self._handles.pop(key).remove()
+        uplot_series = (
             uplot.Series(label="t [s]"),
             *(
-                uplot.Series(label=name, stroke=PALETTE[c % len(PALETTE)], width=1.2)
-                for name, c in zip(names, colours, strict=True)
+                uplot.Series(label=label, stroke=colour, width=width, dash=dash)
+                for label, colour, width, dash in series
             ),
+            CURSOR_SERIES,
         )
-        with self.folder:
-            handle = self._gui.add_uplot(data, series, title=title, aspect=1.6, scales=SECONDS_AXIS)
-        self._labels[id(handle)] = tuple(names)
-        return handle
+        wide = self._tab is not None
+        with self._tab if self._tab is not None else self.folder:
+            self._handles[key] = self._gui.add_uplot(
+                data, uplot_series, title=title, aspect=ASPECT[wide], scales=SCALES
+            )
 
     def clear(self) -> None:
-        for handle in (self.torques, self.roll, self.pitch, self.offsets):
-            if handle is not None:
+        with self._lock:
+            for handle in self._handles.values():
                 handle.remove()
-        self.torques = self.roll = self.pitch = self.offsets = None
-        self._joint_data = {}
+            self._handles, self._curves, self._joint_data = {}, {}, {}
         self.info.content = "Compute the torques of a motion to see the plots."

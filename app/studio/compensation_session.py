@@ -48,12 +48,17 @@ from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.simulation_runner import WITH, WITHOUT, Simulation, SimulationRunner
 from app.studio.state import LoadedRobot, Motion, StudioState
+from app.studio.throttle import Throttle
 from app.views.ghosts_view import GHOSTS, GhostsView, legend_markdown
 from app.views.roots import AlternatingRoot
 from panels.compensation_panel import CompensationPanel
 from panels.plots_panel import ATTITUDE_SERIES, SIMULATED_SERIES, PlotsPanel
 
 log = logging.getLogger(__name__)
+
+CURSOR_PERIOD_S = 0.25
+"""The plots' time cursor moves at most this often during playback (each move resends the
+plots' data)."""
 
 DEFAULT_PRESET = next(iter(PRESETS))
 DEFAULT_BACKLASH_DEG = 0.5
@@ -104,6 +109,11 @@ class CompensationSession:
         self.runner = SimulationRunner(self._on_simulation_progress)
         self.runner.finished.connect(self._on_simulated)
         self._roots = AlternatingRoot("/ghosts")
+        self._cursor: Throttle[float] = Throttle(
+            CURSOR_PERIOD_S, self._show_cursor, name="plot-cursor"
+        )
+        self.cursor_shown: Signal[float] = Signal("cursor_shown")
+        """Emitted when the plots' time cursor has moved to a time [s]."""
         state.on_robot.connect(self._on_robot)
         state.on_motion.connect(self._on_motion)
         state.on_time.connect(self._on_time)
@@ -132,6 +142,7 @@ class CompensationSession:
         self._then = motion.then if motion is not None else ()
         if "torques" in self._then:  # the one-click pipeline: torques, then maybe simulation
             self.compute_torques()
+        self._cursor.cancel()
         self.plots.clear()
         self.panel.status.content = (
             "Compute the torques of this motion."
@@ -143,6 +154,11 @@ class CompensationSession:
         trajectory = self._trajectory
         if trajectory is not None:
             self.show_sample(trajectory.index_at(time_s))
+            self._cursor.submit(time_s)
+
+    def _show_cursor(self, time_s: float) -> None:
+        self.plots.show_time(time_s)
+        self.cursor_shown.emit(time_s)
 
     # --- torques -----------------------------------------------------------------------------
 
@@ -449,6 +465,7 @@ class CompensationSession:
             )
 
     def close(self) -> None:
+        self._cursor.cancel()
         self.runner.close()
 
     # --- files -------------------------------------------------------------------------------

@@ -60,6 +60,8 @@ class Solve:
     """The robot it plans for (its result is dropped if another is loaded meanwhile)."""
     started_s: float = 0.0
     """time.monotonic() at the click."""
+    kind: str = ""
+    """What is solved, as the status line says it ("symmetric gait", …)."""
     ended_s: float = 0.0
     result: GaitResult | None = None
     error: str = ""
@@ -112,6 +114,9 @@ class GaitSession:
         """The solve whose end continues the one-click pipeline."""
         self.history: tuple[list[int], list[float], list[float]] = ([], [], [])
         """Iteration, objective, constraint violation of the solve under way (or the last)."""
+        self.progressed: Signal[int] = Signal("gait_progressed")
+        """Emitted with the iteration after the panel showed a solve's progress (every tab sees
+        the panel: a tab opened during a solve sees how far it is)."""
         self.finished: Signal[Solve] = Signal("gait_finished")
         """Emitted once per solve when it ends (converged, failed or cancelled), after the
         panel shows it."""
@@ -147,11 +152,22 @@ class GaitSession:
             return None
         feet = (robot.feet[0].link, robot.feet[1].link)
         key = GaitProblemKey.for_robot(robot.source, settings, self._package_roots, feet)
-        job_id = f"gait-{next(self._ids)}"
-        with self._lock:
-            self.running = Solve(job_id, settings, robot, started_s=time.monotonic())
-            self.history = ([], [], [])
         kind = "baseline (original DIRCON)" if baseline else "symmetric gait"
+        with self._lock:
+            running = self.running
+            if running is None:
+                job_id = f"gait-{next(self._ids)}"
+                self.running = Solve(job_id, settings, robot, time.monotonic(), kind=kind)
+                self.history = ([], [], [])
+        if running is not None:  # another tab's (or this one's) solve: never cancelled silently
+            waited = time.monotonic() - running.started_s
+            self._notifier.error(
+                "A gait solve is running",
+                f"the {running.kind} (job {running.job_id}) started {waited:.0f} s ago: wait "
+                "for it, or Cancel it first.",
+                client,
+            )
+            return None
         self.panel.status.content = (
             f"Solving the {kind} (job {job_id}): starting the worker and building the NLP "
             f"({settings.knots} knots) if this structure is new, then IPOPT…"
@@ -185,9 +201,16 @@ class GaitSession:
             objectives.append(objective)
             violations.append(violation)
             history = (list(iterations), list(objectives), list(violations))
+            running = self.running
         self.panel.show_progress(min(1.0, iteration / MAX_PROGRESS_ITERATIONS))
         if len(history[0]) % 5 == 1:
             self.panel.show_convergence(*history)
+            waited = time.monotonic() - running.started_s
+            self.panel.status.content = (
+                f"Solving the {running.kind} (job {job_id}): IPOPT iteration {iteration}, "
+                f"constraint violation {violation:.1e}, {waited:.1f} s since the click…"
+            )
+            self.progressed.emit(iteration)
 
     def _end(self, job_id: str, result: GaitResult | None = None, error: str = "") -> None:
         with self._lock:

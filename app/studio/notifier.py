@@ -68,6 +68,11 @@ class Progress:
     def __init__(self, handles: list[viser.NotificationHandle]) -> None:
         self._handles = handles
 
+    def say(self, body: str) -> None:
+        """Replace the notification's text (the stage a long task is in)."""
+        for handle in self._handles:
+            handle.body = body
+
     def done(self) -> None:
         for handle in self._handles:
             handle.remove()

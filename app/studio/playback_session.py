@@ -1,6 +1,7 @@
-"""Playback in the studio: the timeline, play/pause, speed, loop, and the traces of the current
-motion. The player is one named thread that moves the state's time at display rate; the pose
-of each sample is set here, and every other feature follows the time through the state."""
+"""Playback in the studio: the timeline, play/pause, speed, loop, the traces of the current
+motion, a camera that follows the robot, and the keys (Space, J / L). The player is one named
+thread that moves the state's time at display rate; the pose of each sample is set here, and
+every other feature follows the time through the state."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from collections.abc import Callable
 import viser
 
 from app.core.motions.paths import task_space_paths
+from app.studio.camera_follow import CameraFollower
 from app.studio.state import Motion, StudioState
 from app.views.roots import AlternatingRoot
 from app.views.traces_view import TracesView
@@ -27,6 +29,8 @@ class PlaybackSession:
         self.panel = PlaybackPanel(server.gui, self)
         self.player = Player(self._advance)
         self.traces: TracesView | None = None
+        self.camera = CameraFollower(server)
+        """Keeps the cameras on the pelvis while "Follow robot" is ticked."""
         self._roots = AlternatingRoot("/traces")
         state.on_motion.connect(self._on_motion)
         state.on_time.connect(self._on_time)
@@ -62,6 +66,8 @@ class PlaybackSession:
         stance = "both" if left == right else ("left" if left else "right")
         origin = "playback" if self.player.playing else "timeline"
         state.set_pose(trajectory.q[k], stance, origin, robot)  # type: ignore[arg-type]
+        if self.panel.follow.value:
+            self.camera.follow(trajectory.q[k][:3])  # the floating base: the pelvis
         self.panel.show_time(time_s)
         self.panel.show_playing(self.player.playing)
 
@@ -83,6 +89,26 @@ class PlaybackSession:
             start = float(self.panel.time.value)
             self.player.play(0.0 if start >= trajectory.duration else start)
             self.panel.show_playing(True)
+
+    def step(self, frames: int) -> None:
+        """Pause and show the sample `frames` samples after (before, if negative) the shown one."""
+        with self._state.lock:
+            trajectory = self._state.trajectory
+            if trajectory is None:
+                return
+            k = trajectory.index_at(self._state.time_s) + int(frames)
+            time_s = float(trajectory.t[min(max(k, 0), trajectory.n_samples - 1)])
+        self.seek(time_s)
+
+    def set_follow(self, follow: bool) -> None:
+        """Follow the robot with the cameras from now on (from where it stands), or stop."""
+        if not follow:
+            self.camera.stop()
+            return
+        with self._state.lock:
+            q = self._state.q
+        if len(q) >= 3:
+            self.camera.follow(q[:3])
 
     def play(self) -> None:
         """Play the current motion from its start."""
@@ -117,6 +143,7 @@ class PlaybackSession:
 
     def stop(self) -> None:
         self.player.pause()
+        self.camera.stop()
 
 
 class Player:

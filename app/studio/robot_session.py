@@ -9,6 +9,7 @@ in the Robot panel and as a notification.
 from __future__ import annotations
 
 import logging
+import time
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,8 @@ from app.core.robot.model import RobotModel
 from app.core.robot.report import robot_report
 from app.core.robot.uploads import store_upload
 from app.studio.admission import Admission, Busy
-from app.studio.notifier import Notifier
+from app.studio.notifier import Notifier, Progress
+from app.studio.signals import Signal
 from app.studio.state import LoadedRobot, Pose, StudioState
 from app.views.robot_view import RobotView
 from app.views.roots import AlternatingRoot
@@ -47,6 +49,8 @@ class RobotSession:
         self.panel = RobotPanel(server.gui, self, config.max_upload_bytes)
         self.display = DisplayPanel(server.gui, self._on_display, self.frame_camera)
         self.view: RobotView | None = None
+        self.stage: Signal[str] = Signal("load_stage")
+        """Emitted with each stage of a load as it starts, as the Robot panel shows it."""
         self._roots = AlternatingRoot("/robot")
         self._admission = Admission()
         self.access = FileAccess.for_studio(
@@ -103,6 +107,9 @@ class RobotSession:
         self, filename: str, content: bytes, client: viser.ClientHandle | None = None
     ) -> bool:
         """Store an uploaded .urdf/.zip in its own folder and load it from there."""
+        self._say(
+            f"Received **{Path(filename).name}** ({_size(len(content))}): unpacking and checking…"
+        )
         try:
             urdf = store_upload(
                 filename, content, self._config.uploads_dir, self._config.max_upload_bytes
@@ -143,10 +150,19 @@ class RobotSession:
         }
         if sandbox is not None:
             options = {**options, "sandbox": sandbox, "feet": None}
-        progress = self._notifier.progress("Loading", str(Path(str(source)).name), client)
+        name = Path(str(source)).name
+        progress = self._notifier.progress("Loading", name, client)
+        started_s = time.monotonic()
+
+        def stage(what: str) -> None:
+            elapsed = time.monotonic() - started_s
+            self._say(f"⏳ Loading **{name}**: {what}… ({elapsed:.1f} s)", progress)
+
         try:
-            robot = load_robot(source, **options)
+            robot = load_robot(source, **options, progress=stage)
+            stage("checking the robot")
             report = robot_report(robot)
+            stage("preparing the posing")
             prepare(robot)
         except StudioError as error:
             self._fail("Could not load the robot", str(error), client)
@@ -158,6 +174,7 @@ class RobotSession:
             return False
         finally:
             progress.done()
+        stage("building the scene")
         with self._state.lock, self._server.atomic():
             self._state.set_robot(robot, report)
         problems = f", {len(report.problems)} problem(s) in the report" if report.problems else ""
@@ -177,6 +194,13 @@ class RobotSession:
                         "blue",
                     )
         return True
+
+    def _say(self, text: str, progress: Progress | None = None) -> None:
+        """Show the stage a load is in (Robot panel, loading notification)."""
+        self.panel.show_status(text)
+        if progress is not None:
+            progress.say(text.replace("**", ""))
+        self.stage.emit(text)
 
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
         kept = " — the previous robot is still loaded." if self._state.robot is not None else "."
@@ -233,6 +257,10 @@ def prepare(robot: RobotModel) -> None:
     """Everything the studio computes for a new robot before showing it, so that a robot that
     cannot be posed (degenerate soles, …) is refused before it replaces the current one."""
     Posing(robot).balance(robot.q_neutral)
+
+
+def _size(n_bytes: int) -> str:
+    return f"{n_bytes / 2**20:.1f} MB" if n_bytes >= 2**20 else f"{n_bytes / 2**10:.0f} kB"
 
 
 def vars_of(flags: DisplayFlags) -> dict[str, bool]:

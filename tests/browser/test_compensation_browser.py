@@ -222,6 +222,53 @@ def test_plots_show_the_torques(page, studio: Studio) -> None:
     plots.get_by_text("Joint torque [N·m]", exact=True).wait_for(state="visible")
     assert plots.locator(".uplot").count() == 4  # torques, torso roll, torso pitch, offsets
 
+    # The time cursor reaches the page: the charts' last column rises above its [0, 1] scale
+    # at the time the studio shows.
+    seek_to = float(studio.state.trajectory.t[studio.state.trajectory.n_samples // 3])
+    studio.playback.seek(seek_to)
+    wait_for(
+        f"every chart's time cursor at {seek_to} s",
+        lambda: page.evaluate(CURSOR_TIMES_JS) == [seek_to] * 4,
+        UI_TIMEOUT_S,
+    )
+
+    # Hovering a plot shows viser's expand button; the dialog draws the plot much wider.
+    small = plots.locator(".uplot").first.bounding_box()
+    plots.locator(".uplot-container").first.hover()
+    plots.locator(".uplot-container button").first.click()
+    large = page.locator(".mantine-Modal-content .uplot")
+    large.wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
+    assert large.bounding_box()["width"] > 1.8 * small["width"]  # viser's "xl" dialog
+    page.keyboard.press("Escape")
+    large.wait_for(state="detached", timeout=UI_TIMEOUT_S * 1000)
+
+    # Wide plots: all four move into a window docked at the left, each over 500 px wide.
+    gui_row_input(page, "Wide plots", "input[type=checkbox]").click()
+    wait_for(
+        "four plots over 500 px wide",
+        lambda: len(widths := plot_widths(page)) == 4 and min(widths) > 500,
+        UI_TIMEOUT_S,
+    )
+    gui_row_input(page, "Wide plots", "input[type=checkbox]").click()
+    wait_for(
+        "the plots back in the panel",
+        lambda: plots.locator(".uplot").count() == 4,
+        UI_TIMEOUT_S,
+    )
+
+
+def plot_widths(page) -> list[float]:
+    """The widths [CSS px] of the page's plots now (one being replaced may have no box)."""
+    return [box["width"] for u in page.locator(".uplot").all() if (box := u.bounding_box())]
+
+
+CURSOR_TIMES_JS = """() => Object.values(window.__viserTestpoints?.uplots ?? {}).map(({chart}) => {
+    const x = chart.data[0], cursor = chart.data[chart.data.length - 1];
+    const i = Array.from(cursor).findIndex((v) => v > 1.0);
+    return i < 0 ? null : x[i];
+})"""
+"""The time of each chart's cursor in the page (viser's uPlot testpoints), null without one."""
+
 
 SIMULATE = "Simulate without / with compensation"
 SIMULATE_TIMEOUT_S = 180.0

@@ -181,11 +181,18 @@ def test_walk_this_gait_on_the_loaded_robot(page, studio: Studio, tmp_path: Path
     Image.fromarray(after.astype(np.uint8)).save(tmp_path / "walk.png")
 
 
-def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio) -> None:
+def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio, studio_url) -> None:
+    """...seen from a second tab too: it shows the solve another tab started (its live status,
+    Cancel on, Solve off) and its end."""
     session = studio.gait
     good = session.results.symmetric
     assert good is not None, "run with the previous tests: they solve the gait kept here"
     gait = folder(page, GAIT)
+    other = page.context.new_page()
+    other.goto(studio_url)
+    folder_title(other, "Playback").wait_for(state="visible", timeout=RENDER_TIMEOUT_S * 1000)
+    dismiss_software_webgl_warning(other)
+    expand_folder(other, GAIT, "Cancel")
 
     # Type 80 knots into the box beside the "knots" slider.
     type_number(page, "knots", BIG_KNOTS)
@@ -203,6 +210,17 @@ def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio) ->
         UI_TIMEOUT_S,
     )
     assert session.running is not None and session.running.settings.knots == BIG_KNOTS
+    folder(other, GAIT).get_by_text("Solving the symmetric gait", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    wait_for(
+        "the other tab's Cancel on and Solve off",
+        lambda: (
+            other.get_by_role("button", name="Cancel", exact=True).is_enabled()
+            and not other.get_by_role("button", name="Solve", exact=True).is_enabled()
+        ),
+        UI_TIMEOUT_S,
+    )
 
     click_button(page, "Cancel")  # waits until the page has enabled it
     gait.get_by_text("Cancelled", exact=False).wait_for(
@@ -218,6 +236,10 @@ def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio) ->
     assert latency_s < CANCEL_TIMEOUT_S
     assert seen_at(page, "Solved in", clicked_ms) is None  # the big solve never finished
 
+    folder(other, GAIT).get_by_text("Cancelled", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    other.close()
     wait_for("the studio to be idle", lambda: session.running is None, UI_TIMEOUT_S)
     assert session.results.symmetric is good
     assert not page.get_by_role("button", name="Cancel", exact=True).is_enabled()

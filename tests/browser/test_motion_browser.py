@@ -163,3 +163,40 @@ def test_play_moves_the_robot_and_pause_stops_it(page, studio: Studio) -> None:
         lambda: page_time_s(page) == pytest.approx(paused_at, abs=1e-6),
         UI_TIMEOUT_S,
     )
+
+
+def test_space_plays_and_pauses_and_j_l_step_one_frame(page, studio: Studio) -> None:
+    """The keys a user reaches for, pressed in the page (the Play button still has the focus
+    from the last click: Space must toggle once, not also click it)."""
+    trajectory = studio.state.trajectory
+    assert trajectory is not None, "run with the previous tests: they build and pause the motion"
+    assert not studio.playback.player.playing
+    paused_at = studio.state.time_s
+    page.keyboard.press("Space")
+    page.get_by_role("button", name="Pause", exact=True).wait_for(state="visible")
+    # It keeps playing (a click of the focused button on the key's release would pause it).
+    wait_for(
+        "the motion to play on",
+        lambda: studio.state.time_s != paused_at and studio.state.pose.origin == "playback",
+        UI_TIMEOUT_S,
+    )
+    page.get_by_role("button", name="Pause", exact=True).wait_for(state="visible")
+    assert studio.playback.player.playing
+    page.keyboard.press("Space")
+    page.get_by_role("button", name="Play", exact=True).wait_for(state="visible")
+    wait_for("the player to stop", lambda: not studio.playback.player.playing, UI_TIMEOUT_S)
+
+    k = trajectory.index_at(studio.state.time_s)
+    k = min(max(k, 1), trajectory.n_samples - 3)
+    studio.playback.seek(float(trajectory.t[k]))
+    page.keyboard.press("l")
+    wait_for("L to show the next sample", lambda: studio.state.time_s == trajectory.t[k + 1], 10)
+    page.keyboard.press("l")
+    page.keyboard.press("j")
+    page.keyboard.press("j")
+    wait_for(
+        "J to go back two samples",
+        lambda: studio.state.time_s == trajectory.t[k],
+        UI_TIMEOUT_S,
+    )
+    assert not studio.playback.player.playing

@@ -31,7 +31,8 @@ def test_torques_plots_and_ghosts_follow_the_motion(studio):
         studio.state.robot.n_actuated,
     )
     assert session.plots.torques is not None and session.plots.attitude is not None
-    assert len(session.plots.torques.data) == 1 + studio.state.robot.n_actuated
+    # time, one curve per joint, the time cursor
+    assert len(session.plots.torques.data) == 2 + studio.state.robot.n_actuated
     # The ghosts stand where the prediction says at the shown sample.
     studio.playback.seek(3.0)
     k = studio.state.trajectory.index_at(3.0)
@@ -40,6 +41,54 @@ def test_torques_plots_and_ghosts_follow_the_motion(studio):
         prediction.q_world_compensated[k], studio.state.robot.model.createData()
     )
     np.testing.assert_allclose(position, expected[studio.state.robot.tree.root][:3, 3], atol=1e-9)
+
+
+def test_the_plots_time_cursor_follows_the_timeline(studio):
+    """A seek moves every plot's cursor: a vertical line at the sample shown, over curves that
+    keep the prediction's torques."""
+    session = studio.compensation
+    seek_to = float(studio.state.trajectory.t[studio.state.trajectory.index_at(3.0)])
+    wait_for_signal(
+        session.cursor_shown, lambda: studio.playback.seek(seek_to), accept=lambda t: t == seek_to
+    )
+    assert studio.state.time_s == seek_to
+    for plot in (session.plots.torques, session.plots.roll, session.plots.pitch):
+        x, *curves, cursor = plot.data
+        above = np.flatnonzero(cursor > 1.0)  # the cursor's scale is [0, 1]
+        assert len(above) == 1 and x[above[0]] == seek_to
+        assert np.all(np.delete(cursor, above) < 0.0)
+    x, *curves, cursor = session.plots.torques.data
+    # Without the three cursor samples, the torque curves are the prediction's, at its times.
+    keep = np.ones(len(x), bool)
+    keep[np.flatnonzero(cursor > 1.0)[0] + np.array([-1, 0, 1])] = False
+    prediction = session.prediction
+    k = np.searchsorted(prediction.t, x[keep])
+    np.testing.assert_array_equal(prediction.t[k], x[keep])
+    np.testing.assert_array_equal(np.array(curves)[:, keep], prediction.tau_Nm[k].T)
+    # Picking one joint keeps the cursor where it is.
+    session.plots.joints.value = studio.state.robot.joint_names[2]
+    x, _curve, cursor = session.plots.torques.data
+    assert x[np.argmax(cursor)] == seek_to
+
+
+def test_wide_plots_move_every_plot_into_a_window_and_back(studio):
+    plots = studio.compensation.plots
+    before = {key: getattr(plots, key) for key in ("torques", "roll", "pitch", "offsets")}
+    plots.wide.value = True
+    assert plots.window is not None
+    for key, old in before.items():
+        new = getattr(plots, key)
+        assert new is not old and new.aspect > old.aspect  # a new, wider plot in the window
+        assert len(new.data) == len(old.data)
+        for a, b in zip(new.data, old.data, strict=True):
+            np.testing.assert_array_equal(a, b)
+    # Edits and the cursor reach the plots where they are now.
+    studio.playback.seek(1.0)
+    plots.show_time(1.0)
+    x, *_curves, cursor = plots.torques.data
+    assert x[np.argmax(cursor)] == 1.0
+    plots.wide.value = False
+    assert plots.window is None and plots.torques.aspect == before["torques"].aspect
 
 
 def test_compensation_reduces_the_torso_error(studio):
@@ -106,7 +155,7 @@ def test_simulate_shows_a_verdict_ghosts_and_simulated_curves(studio):
         assert run.q.shape == (studio.state.trajectory.n_samples, studio.state.robot.model.nq)
     assert "Simulated" in session.panel.verdict.content
     # Two more curves in each attitude plot: planned, two quick estimates, two simulations.
-    assert len(session.plots.roll.data) == 1 + 5 and len(session.plots.pitch.data) == 1 + 5
+    assert len(session.plots.roll.data) == 2 + 5 and len(session.plots.pitch.data) == 2 + 5
     # The simulated ghost stands where the simulation put the robot at the shown sample.
     robot = studio.state.robot
     studio.playback.seek(1.0)

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from app.core.papers import TABLE4
-from tests.studio.conftest import solve_gait, wait_for_signal
+from tests.studio.conftest import GUARD_S, solve_gait, wait_for_signal
 
 
 def test_solve_for_the_loaded_robot_then_walk_it(studio):
@@ -126,3 +128,31 @@ def test_the_loaded_robots_default_problem_is_built_ahead_of_the_first_solve(tmp
         assert ended.result is not None and ended.result.converged
     finally:
         studio.stop()
+
+
+def test_a_running_solve_shows_in_the_shared_panel_and_is_never_replaced(studio):
+    """Every tab draws the same panel: one opened during a solve sees its status, progress
+    and Cancel; a Solve click from any tab meanwhile is refused (it used to cancel the running
+    solve silently and take over its status)."""
+    panel = studio.gait.panel
+    ended: list = []
+    done = threading.Event()
+    disconnect = studio.gait.finished.connect(lambda solve: (ended.append(solve), done.set()))
+    try:
+        wait_for_signal(studio.gait.progressed, lambda: setattr(panel.solve, "value", True))
+        running = studio.gait.running
+        assert running is not None and running.kind == "symmetric gait"
+        assert f"Solving the symmetric gait (job {running.job_id}): IPOPT iteration" in (
+            panel.status.content
+        )
+        assert panel.progress.visible and not panel.cancel.disabled
+        assert panel.solve.disabled and panel.baseline.disabled and panel.all_stages.disabled
+        assert studio.gait.solve(baseline=True) is None  # a click from another tab
+        assert studio.gait.running is running
+        assert running.job_id in studio.notifier.last_error
+        assert done.wait(GUARD_S), "the solve did not end"
+    finally:
+        disconnect()
+    assert [solve.job_id for solve in ended] == [running.job_id]
+    assert ended[0].result is not None and ended[0].result.converged
+    assert not panel.solve.disabled and not panel.progress.visible and panel.cancel.disabled

@@ -11,6 +11,7 @@ studio confines both the URDF and its meshes to the allowed folders.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -63,12 +64,16 @@ def load_robot(
     feet: tuple[str, str] | None = None,
     sandbox: Path | None = None,
     access: FileAccess | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> RobotModel:
     """Load and check a robot. `feet` names the (left, right) foot links to override detection;
     `sandbox` confines mesh look-ups to a folder (a URDF inside an upload's folder is always
     confined to exactly that whole folder instead, whatever is given); `access` confines the URDF and its meshes to the studio's
-    allowed folders (paths typed by a user)."""
+    allowed folders (paths typed by a user). `progress` is told each stage as it starts
+    ("reading the URDF", "mesh 3 of 25", "finding the feet")."""
+    say = progress if progress is not None else (lambda _stage: None)
     path = resolve_source(source, access)
+    say("reading the URDF")
     text = input_gate.read_bytes(path, input_gate.URDF, RobotLoadError)
     tree = parse_urdf(text, source=path.name)
     model, floating = _pinocchio_model(tree, path.name)
@@ -85,7 +90,10 @@ def load_robot(
     resolver = PackageResolver(
         path.parent, package_roots, sandbox, access.allows if access is not None else None
     )
-    meshes, missing = load_link_meshes(tree.geometries, resolver)
+    meshes, missing = load_link_meshes(
+        tree.geometries, resolver, lambda done, total: say(f"mesh {done} of {total}")
+    )
+    say("finding the feet")
 
     q0 = neutral_joint_positions(model)
     data = model.createData()

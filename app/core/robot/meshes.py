@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import io
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -47,19 +48,27 @@ class MissingMesh:
 
 
 def load_link_meshes(
-    geometries: tuple[Geometry, ...], resolver: PackageResolver
+    geometries: tuple[Geometry, ...],
+    resolver: PackageResolver,
+    progress: Callable[[int, int], None] | None = None,
 ) -> tuple[list[LinkMesh], list[MissingMesh]]:
-    """Meshes of all visual and collision geometry; unreadable files are listed, not raised."""
+    """Meshes of all visual and collision geometry; unreadable files are listed, not raised.
+    `progress(done, total)` is told before each mesh file geometry is read (1-based)."""
     meshes: list[LinkMesh] = []
     missing: list[MissingMesh] = []
     cache: dict[tuple[Path, tuple[float, ...]], trimesh.Trimesh | str] = {}
     budget = _Budget()
+    total = sum(geom.kind == "mesh" for geom in geometries)
+    done = 0
     for geom in geometries:
         if geom.kind != "mesh":
             meshes.append(
                 LinkMesh(geom.link, geom.role, geom.T_link_geom, primitive_mesh(geom), geom.rgba)
             )
             continue
+        done += 1
+        if progress is not None:
+            progress(done, total)
         resolution = resolver.resolve(geom.uri)
         if resolution.path is None:
             missing.append(MissingMesh(geom.link, geom.role, geom.uri, resolution.reason))
