@@ -312,15 +312,19 @@ class ProjectSession:
 
     # --- autosave --------------------------------------------------------------------------
 
-    def start_autosave(self) -> None:
-        """Take the current work as already saved, and watch it from now on."""
+    def start_autosave(self, now: bool = False) -> None:
+        """Watch the work from now on; `now`: autosave it at once (a project opened at start
+        is the work now), else take it as already autosaved (a fresh start is no work)."""
+        marks = self.marks()
         with self._lock:
-            self._autosaved = self.marks()
+            self._autosaved = None if now else marks
             if self._saved is None and self.path is None and not self.welcome:
-                self._saved = self._autosaved
-        self._show_title(self._autosaved)
+                self._saved = marks  # a fresh start: nothing to save yet
+        self._show_title(marks)
         self._thread = threading.Thread(target=self._run, name="autosave", daemon=True)
         self._thread.start()
+        if now:
+            self._wake.set()
 
     def _run(self) -> None:
         while not self._stop.is_set():

@@ -78,7 +78,7 @@ class Studio:
         elif config.restore_autosave:
             self.project.restore_autosave()
         if config.autosave:
-            self.project.start_autosave()
+            self.project.start_autosave(now=config.project is not None)
 
     def stop(self) -> None:
         self.project.stop()

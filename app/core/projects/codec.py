@@ -57,6 +57,17 @@ NONFINITE_FIELDS = frozenset(
 _ENTRY_NAME = re.compile(r"[^A-Za-z0-9_.\-\[\]]")
 
 
+@dataclasses.dataclass(frozen=True)
+class JsonConstant:
+    """A bare NaN / Infinity / -Infinity in the manifest's JSON (not standard JSON): kept until
+    the field it sits in is known, so the refusal can name it."""
+
+    text: str
+
+    def __repr__(self) -> str:
+        return self.text
+
+
 class ProjectError(StudioError):
     """A project file that cannot be written or opened; the current work is untouched."""
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from app.core import input_gate
 from app.core.atomic_write import write_bytes_atomically
-from app.core.projects.codec import Blob, ProjectError, Reader, encode
+from app.core.projects.codec import Blob, JsonConstant, ProjectError, Reader, encode
 from app.core.projects.project import Project
 from app.core.robot.uploads import SUPPORTED_COMPRESSION
 
@@ -159,14 +159,10 @@ def _read_entry(name: str, archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> b
     return data
 
 
-def _refuse_constant(constant: str) -> None:
-    raise ValueError(f"{constant} is not a number a project may hold")
-
-
 def _manifest(name: str, blob_of) -> dict[str, Any]:
     text = input_gate.decode_text(blob_of(), f"{name}: manifest.json", ProjectError)
     try:
-        manifest = json.loads(text, parse_constant=_refuse_constant)
+        manifest = json.loads(text, parse_constant=JsonConstant)
     except (ValueError, RecursionError) as error:
         raise ProjectError(f"{name}: manifest.json is not valid JSON ({error})") from None
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
