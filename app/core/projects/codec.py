@@ -54,6 +54,8 @@ NONFINITE_FIELDS = frozenset(
     }
 )
 """Class.field names whose values may be NaN or infinite (everything else must be finite)."""
+NONFINITE = ("nan", "inf", "-inf")
+"""How encode writes a non-finite float: {"float": "nan"}."""
 _ENTRY_NAME = re.compile(r"[^A-Za-z0-9_.\-\[\]]")
 
 
@@ -161,16 +163,9 @@ class Reader:
         raise ProjectError(f"{where}: cannot read a {tp} from a project")  # our bug, not input
 
     def _float(self, data: Json, where: str, owner: str) -> float:
-        if (
-            isinstance(data, dict)
-            and set(data) == {"float"}
-            and data["float"]
-            in (
-                "nan",
-                "inf",
-                "-inf",
-            )
-        ):
+        if isinstance(data, JsonConstant):
+            value = float(data.text.replace("Infinity", "inf"))
+        elif isinstance(data, dict) and data.keys() == {"float"} and data["float"] in NONFINITE:
             value = float(data["float"])
         elif isinstance(data, int | float) and not isinstance(data, bool):
             value = float(data)
