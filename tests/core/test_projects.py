@@ -27,25 +27,7 @@ from app.core.robot.loading import load_robot
 from app.core.robot.uploads import store_upload
 from app.core.servo.model import ServoModel
 from app.core.servo.presets import PRESETS, preset_params
-
-
-def assert_same(a: object, b: object, where: str = "project") -> None:
-    """Every value equal: arrays with the same dtype, shape and bits (NaN where NaN)."""
-    assert type(a) is type(b), f"{where}: {type(a).__name__} vs {type(b).__name__}"
-    if isinstance(a, np.ndarray):
-        assert a.dtype == b.dtype and a.shape == b.shape, where  # type: ignore[union-attr]
-        assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), where  # type: ignore[arg-type]
-    elif dataclasses.is_dataclass(a):
-        for field in dataclasses.fields(a):
-            assert_same(getattr(a, field.name), getattr(b, field.name), f"{where}.{field.name}")
-    elif isinstance(a, tuple | list):
-        assert len(a) == len(b), where  # type: ignore[arg-type]
-        for i, (x, y) in enumerate(zip(a, b, strict=True)):  # type: ignore[call-overload]
-            assert_same(x, y, f"{where}[{i}]")
-    elif isinstance(a, float) and np.isnan(a):
-        assert np.isnan(b), where  # type: ignore[call-overload]
-    else:
-        assert a == b, f"{where}: {a!r} != {b!r}"
+from tests.same_values import assert_same
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,187 @@
+"""Projects in a real studio: save → open in a fresh studio gives back every panel's values
+and every result; a refused file leaves the work exactly as it was; autosave follows edits
+and a restarted studio restores it."""
+
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.config import StudioConfig
+from app.core.projects.files import read_project
+from app.studio import Studio
+from tests.same_values import assert_same
+from tests.studio.conftest import free_port, start_studio, wait_for_signal
+
+
+def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path):
+    a = studio
+    # One click: plan a gait on servo_biped, walk it, compute torques, simulate.
+    simulated = wait_for_signal(
+        a.compensation.runner.finished, lambda: setattr(a.gait.panel.all_stages, "value", True)
+    )
+    assert simulated.error == "" and a.gait.results.symmetric is not None
+    a.motions.capture(0.8)
+    a.motions.capture(1.2)
+    a.motions.rename(1, "lean")
+    joint = a.compensation.params.joint_names[3]
+    a.compensation.select_joint(joint)
+    a.compensation.edit_joint(joint, "k", 0.9)
+    a.compensation.edit_joint(joint, "backlash", 1.5)  # the simulation is now stale
+    a.gait.panel.steps.value = 5
+    a.playback.seek(1.3)
+    a.joints.set_joint_angle(2, 0.15)  # a pose off the motion's sample
+    assert a.project.save_as("session")
+    path = a.project.path
+    assert path == a.config.data_dir / "projects" / "session.bstudio" and path.is_file()
+    assert "unsaved" not in a.project.panel.title.content
+
+    b = start_studio(tmp_path / "elsewhere")
+    try:
+        assert b.project.open(str(path)), b.project.last_error
+        sa, sb = a.state, b.state
+        assert sb.robot.name == sa.robot.name and sb.robot is not sa.robot
+        assert_same(sb.pose.q, sa.pose.q, "q")
+        assert sb.pose.stance == sa.pose.stance
+        assert_same(sb.trajectory, sa.trajectory, "motion")
+        assert sb.motion.summary == sa.motion.summary
+        assert sb.time_s == sa.time_s == pytest.approx(1.3, abs=sa.trajectory.dt)
+        assert b.playback.panel.time.value == a.playback.panel.time.value
+        assert_same(tuple(b.motions.keyframes), tuple(a.motions.keyframes), "keyframes")
+        ca, cb = a.compensation, b.compensation
+        assert_same(cb.feedforward, ca.feedforward, "feedforward")
+        assert_same(cb.params, ca.params, "compensation")
+        assert_same(cb.servo, ca.servo, "servo")
+        # The prediction is recomputed from the restored inputs: the same numbers come out.
+        assert_same(cb.prediction, ca.prediction, "prediction")
+        assert cb.ghosts is not None
+        assert_same(cb.simulation.results, ca.simulation.results, "simulation")
+        assert cb.simulation_stale and ca.simulation_stale and "Stale" in cb.panel.verdict.content
+        cb.select_joint(joint)
+        for field in ("enabled", "k", "phi", "compliance", "backlash"):
+            assert getattr(cb.panel, field).value == getattr(ca.panel, field).value, field
+        for name, slider in a.joints.panel.sliders.items():
+            assert b.joints.panel.sliders[name].value == pytest.approx(slider.value, abs=1e-9)
+        assert_same(b.gait.results.symmetric, a.gait.results.symmetric, "gait")
+        assert b.gait.panel.steps.value == 5
+        assert b.gait.panel.settings(False) == a.gait.panel.settings(False)
+        title = b.project.panel.title.content
+        assert "session" in title and "unsaved" not in title
+    finally:
+        b.stop()
+
+
+def _crafted(data: bytes, edit) -> bytes:
+    source = zipfile.ZipFile(io.BytesIO(data))
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w") as target:
+        for info in source.infolist():
+            content = source.read(info)
+            if info.filename == "manifest.json":
+                manifest = json.loads(content)
+                edit(manifest)
+                content = json.dumps(manifest).encode()
+            target.writestr(info.filename, content)
+    return out.getvalue()
+
+
+def _slip(data: bytes) -> bytes:
+    out = io.BytesIO(data)
+    with zipfile.ZipFile(out, "a") as archive:
+        archive.writestr("../../outside.npy", b"x")
+    return out.getvalue()
+
+
+BAD = {
+    "newer version": (lambda d: _crafted(d, lambda m: m.update(version=2)), "newer Biped Studio"),
+    "corrupt zip": (lambda d: d[:100], "not a valid zip"),
+    "zip slip": (_slip, "'../../outside.npy' is not one a project holds"),
+    "NaN": (
+        lambda d: _crafted(d, lambda m: m["project"].update(time_s={"float": "nan"})),
+        "project.time_s is nan",
+    ),
+    "wrong type": (
+        lambda d: _crafted(d, lambda m: m["project"].update(keyframes="many")),
+        "project.keyframes is 'many'",
+    ),
+    "missing robot": (
+        lambda d: _crafted(d, lambda m: m["project"]["robot"].update(builtin="gone_bot")),
+        "'gone_bot' is not a built-in robot",
+    ),
+    "another robot's work": (
+        lambda d: _crafted(d, lambda m: m["project"]["robot"].update(builtin="dircon_biped")),
+        "does not fit dircon_biped",
+    ),
+}
+
+
+def test_a_refused_project_leaves_the_work_untouched(studio, tmp_path):
+    studio.motions.generate("com_shift", {})
+    studio.motions.capture(1.0)
+    studio.playback.seek(0.5)
+    assert studio.project.save_as(str(tmp_path / "good.bstudio"))
+    good = (tmp_path / "good.bstudio").read_bytes()
+    studio.joints.set_joint_angle(0, 0.1)  # unsaved work on top
+    state, motions, compensation = studio.state, studio.motions, studio.compensation
+    before = (state.loaded, state.pose, state.motion, state.time_s, compensation.params)
+    keyframes = list(motions.keyframes)
+    for case, (make, message) in BAD.items():
+        assert not studio.project.open_upload(f"{case}.bstudio", make(good)), case
+        assert message in studio.project.last_error, (case, studio.project.last_error)
+        assert "unchanged" in studio.project.panel.status.content
+        after = (state.loaded, state.pose, state.motion, state.time_s, compensation.params)
+        assert all(x is y for x, y in zip(before, after, strict=True)), case
+        assert motions.keyframes == keyframes, case
+    assert studio.project.dirty  # still the user's unsaved work
+
+
+def test_paths_outside_the_allowed_folders_are_refused(studio):
+    assert not studio.project.open("/etc/passwd")
+    assert "not inside the folders" in studio.project.last_error
+    assert not studio.project.save_as("/tmp/../etc/evil.bstudio")
+    assert "not inside the folders" in studio.project.last_error
+    assert not Path("/etc/evil.bstudio").exists()
+
+
+def test_autosave_follows_edits_and_a_restart_restores_them(tmp_path):
+    data = tmp_path / "data"
+    first = start_studio(data)
+    try:
+        path = wait_for_signal(
+            first.project.autosaved, lambda: first.joints.set_joint_angle(1, 0.12)
+        )
+        assert_same(read_project(path).q, first.state.q, "autosaved q")
+        assert "unsaved" in first.project.panel.title.content
+        # A keyframe edit emits no state signal: the poll finds it.
+        path = wait_for_signal(first.project.autosaved, lambda: first.motions.capture(0.7))
+        assert len(read_project(path).keyframes) == 1
+        q = first.state.q.copy()
+    finally:
+        first.stop()
+    config = StudioConfig(port=free_port(), data_dir=data, restore_autosave=True)
+    second = Studio(config)
+    try:
+        assert_same(second.state.q, q, "restored q")
+        assert len(second.motions.keyframes) == 1
+        assert second.project.welcome.startswith("Restored your work from ")
+        assert second.notifier.last is not None and second.notifier.last.title == "Welcome back"
+    finally:
+        second.stop()
+
+
+def test_a_fresh_start_writes_no_autosave_until_something_changes(tmp_path):
+    config = StudioConfig(port=free_port(), data_dir=tmp_path / "data")
+    studio = Studio(config)
+    try:
+        assert studio.project.autosave_now() is None  # nothing changed since the start
+        assert studio.project.autosaves.saves() == []
+        studio.joints.set_joint_angle(0, -0.1)
+        assert studio.project.autosave_now() is not None
+        assert np.array_equal(read_project(studio.project.autosaves.latest()).q, studio.state.q)
+    finally:
+        studio.stop()
