@@ -35,7 +35,9 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path):
     a.compensation.edit_joint(joint, "backlash", 1.5)  # the simulation is now stale
     a.gait.panel.steps.value = 5
     a.playback.seek(1.3)
-    a.joints.set_joint_angle(2, 0.15)  # a pose off the motion's sample
+    moved = a.state.robot.joints[2].name
+    a.joints.panel.sliders[moved].value = 8.5  # a pose off the motion's sample
+    assert not np.array_equal(a.state.q, a.state.trajectory.q[a.state.trajectory.index_at(1.3)])
     assert a.project.save_as("session")
     path = a.project.path
     assert path == a.config.data_dir / "projects" / "session.bstudio" and path.is_file()
