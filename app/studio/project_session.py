@@ -300,7 +300,7 @@ class ProjectSession:
                 continue
             if self.install(project, "untitled (restored)", None, saved=False):
                 when = _saved_time(project.saved_at, "%H:%M")
-                self.welcome = f"Restored your work from {when}"
+                self.welcome = f"Restored your work from {when}: {_contents(project)}"
                 self.panel.show_status(f"{self.welcome} (autosave `{path.name}`)")
                 self._notifier.notify("Welcome back", self.welcome)
                 return True
@@ -395,6 +395,25 @@ def _same_value(x: object, y: object) -> bool:
     if isinstance(x, float | int | str | bool | GaitSettings):
         return type(x) is type(y) and x == y
     return False
+
+
+def _contents(project: Project) -> str:
+    """What a project holds, in a few words: robot, motion, keyframes, results."""
+    parts = [project.robot.builtin or project.robot.name]
+    if project.motion is not None:
+        parts.append(f"motion {project.motion.name} at {project.time_s:.2f} s")
+    if project.keyframes:
+        parts.append(f"{len(project.keyframes)} keyframe(s)")
+    parts += [
+        what
+        for what, present in (
+            ("torques", project.feedforward is not None),
+            ("gait", project.gait_symmetric is not None or project.gait_baseline is not None),
+            ("simulation", bool(project.simulation)),
+        )
+        if present
+    ]
+    return ", ".join(parts)
 
 
 def _saved_time(iso: str, fmt: str = "%H:%M:%S") -> str:
