@@ -43,6 +43,7 @@ from app.core.servo.model import (
 )
 from app.core.servo.preset_safety import implausible_prediction, scaled_to_limits
 from app.core.servo.presets import PRESETS, preset_params
+from app.core.simulation.result import SimulationResult
 from app.core.simulation.worker import SimulationJob
 from app.core.thinning import thin_minmax
 from app.studio.coalesce import Coalescer
@@ -115,7 +116,7 @@ class CompensationSession:
     def snapshot(self) -> dict[str, object]:
         with self._lock:
             simulation, trajectory = self.simulation, self._trajectory
-            runs = ()
+            runs: tuple[SimulationResult, ...] = ()
             if simulation is not None and simulation.trajectory is trajectory:
                 runs = (simulation.results[WITHOUT], simulation.results[WITH])
             return {

@@ -38,8 +38,9 @@ def robot_source(robot: RobotModel, package_roots: tuple[Path, ...] = ()) -> Rob
         if source == Path(os.path.realpath(builtin.urdf_path)):
             return RobotSource(name=robot.name, builtin=name, feet=feet)
     sandbox = upload_sandbox_of(source)
+    notes: tuple[str, ...] = ()
     if sandbox is not None:
-        files, entry, notes = _pack_folder(sandbox, source), source.relative_to(sandbox), ()
+        files, entry = _pack_folder(sandbox, source), source.relative_to(sandbox)
     else:
         files, entry, notes = _pack_urdf(robot, source, package_roots)
     return RobotSource(
