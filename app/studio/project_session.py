@@ -10,10 +10,11 @@ Opening is all or nothing: the file is read and checked, its robot loaded and pr
 value checked against that robot before anything in the studio changes; if installing still
 fails (a bug), the work as it was is installed again.
 
-Autosave: state signals and a one-second poll wake a named thread ("autosave") which, after a
-short quiet period, compares the work with the last autosave (by identity: every edit replaces
-the value it edits) and writes a new one when it changed. Drags only set an event; no file is
-written on viser's callback threads. A failing write keeps the earlier autosaves and is
+Autosave: state signals and a one-second poll wake a named thread ("autosave") which, once
+the work has been still for QUIET_S (or MAX_DELAY_S after the first change), compares the
+work with the last autosave (by identity: every edit replaces the value it edits) and writes
+a new one when it changed. Drags only set an event; no file is written on viser's callback
+threads, nor while a drag goes on. A failing write keeps the earlier autosaves and is
 reported once until a write succeeds again.
 """
 
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Sequence
 from datetime import datetime
 from pathlib import Path
@@ -51,7 +53,9 @@ log = logging.getLogger(__name__)
 POLL_S = 1.0
 """Longest time between two looks for changes the state does not announce (slider edits)."""
 QUIET_S = 0.3
-"""Changes are gathered for this long after a wake-up before one autosave is written."""
+"""An autosave is written once the work has not changed for this long (a drag pauses)…"""
+MAX_DELAY_S = 5.0
+"""… or this long after the first unsaved change, whatever goes on (a long drag, playback)."""
 
 
 class HoldsWork(Protocol):
@@ -106,6 +110,8 @@ class ProjectSession:
         self._autosaved: Marks | None = None
         self._failing = False
         self._sources: tuple[RobotModel, RobotSource] | None = None
+        self.paused = False
+        """Autosave held (the bench measures drags with and without it)."""
         self._wake = threading.Event()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -329,9 +335,15 @@ class ProjectSession:
     def _run(self) -> None:
         while not self._stop.is_set():
             self._wake.wait(POLL_S)
-            self._wake.clear()
-            if self._stop.wait(QUIET_S):
-                return
+            first = time.monotonic()
+            while True:  # wait for a quiet moment: a drag under way is never interrupted
+                self._wake.clear()
+                if self._stop.wait(QUIET_S):
+                    return
+                if not self._wake.is_set() or time.monotonic() - first >= MAX_DELAY_S:
+                    break
+            if self.paused:
+                continue
             try:
                 self.autosave_now()
             except Exception:  # a bug must not end autosaving for the rest of the session
