@@ -74,6 +74,10 @@ def run(args: argparse.Namespace) -> int:
         restore_autosave=not (args.fresh or explicit_robot or args.project is not None),
     )
     check_bind(config.host, config.access_token)
+    if args.project is not None:  # a bad file is said before anything starts
+        from app.core.projects.files import read_project
+
+        read_project(args.project)
     robot = load_robot_from_args(args)
     if config.no_token:
         print(

@@ -263,7 +263,10 @@ class ProjectSession:
             log.exception("opening project %s", name)
             return self._fail("Project not opened", f"{type(error).__name__}: {error}", client)
         previous = self._state.loaded
-        before = self.project() if previous is not None else None
+        try:
+            before = self.project() if previous is not None else None
+        except StudioError:  # the current robot's files cannot be packed: no way back, go on
+            before = None
         try:
             self._install(robot, report, project)
         except Exception as error:  # a bug: put the work back as it was
