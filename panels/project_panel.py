@@ -23,6 +23,10 @@ class ProjectActions(Protocol):
         self, filename: str, content: bytes, client: viser.ClientHandle | None
     ) -> bool: ...
 
+    def undo(self, client: viser.ClientHandle | None) -> bool: ...
+
+    def redo(self, client: viser.ClientHandle | None) -> bool: ...
+
 
 class ProjectPanel:
     """Owns the "Project" folder, at the top of the GUI. Callbacks only forward the request."""
@@ -44,6 +48,10 @@ class ProjectPanel:
                 icon=viser.Icon.UPLOAD,
                 mime_type=".bstudio,application/zip",
             )
+            self.undo = gui.add_button(
+                "Undo", icon=viser.Icon.ARROW_BACK_UP, disabled=True, hint="Pose and keyframe edits"
+            )
+            self.redo = gui.add_button("Redo", icon=viser.Icon.ARROW_FORWARD_UP, disabled=True)
             self.status = gui.add_markdown("")
 
         @self.save.on_click
@@ -58,6 +66,14 @@ class ProjectPanel:
         def _(event: viser.GuiEvent) -> None:
             actions.open(str(self.path.value).strip(), event.client)
 
+        @self.undo.on_click
+        def _(event: viser.GuiEvent) -> None:
+            actions.undo(event.client)
+
+        @self.redo.on_click
+        def _(event: viser.GuiEvent) -> None:
+            actions.redo(event.client)
+
         @self.upload.on_upload
         def _(event: viser.GuiEvent) -> None:
             uploaded = self.upload.value
@@ -69,6 +85,10 @@ class ProjectPanel:
         text = f"**{name}**{marker} — {saved}"
         if self.title.content != text:
             self.title.content = text
+
+    def show_undo(self, can_undo: bool, can_redo: bool) -> None:
+        self.undo.disabled = not can_undo
+        self.redo.disabled = not can_redo
 
     def show_status(self, text: str) -> None:
         self.status.content = text

@@ -67,6 +67,12 @@ class MotionSession:
             self.keyframes = list(project.keyframes)
             self._show(len(self.keyframes) - 1)
 
+    def set_keyframes(self, keyframes: tuple[Keyframe, ...]) -> None:
+        """Put a keyframe list back (undo / redo)."""
+        with self._lock:
+            self.keyframes = list(keyframes)
+            self._show(len(self.keyframes) - 1)
+
     def _on_robot(self, _loaded: LoadedRobot) -> None:
         with self._lock:
             self.keyframes = []

@@ -35,6 +35,7 @@ from app.core.atomic_write import write_bytes_atomically
 from app.core.collocation.settings import GaitSettings
 from app.core.errors import StudioError
 from app.core.file_access import FileAccess
+from app.core.motions.keyframes import Keyframe
 from app.core.posing.drag import Posing
 from app.core.projects.autosave import AutosaveStore
 from app.core.projects.codec import ProjectError
@@ -45,7 +46,8 @@ from app.core.robot.model import RobotModel
 from app.core.robot.report import RobotReport, robot_report
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
-from app.studio.state import StudioState
+from app.studio.state import LoadedRobot, Pose, StudioState
+from app.studio.undo import Step, UndoHistory
 from panels.project_panel import ProjectPanel
 
 log = logging.getLogger(__name__)
@@ -56,6 +58,12 @@ QUIET_S = 0.3
 """An autosave is written once the work has not changed for this long (a drag pauses)…"""
 MAX_DELAY_S = 5.0
 """… or this long after the first unsaved change, whatever goes on (a long drag, playback)."""
+
+
+class HoldsKeyframes(Protocol):
+    """The session holding the keyframe list (undo and redo put one back)."""
+
+    def set_keyframes(self, keyframes: tuple[Keyframe, ...]) -> None: ...
 
 
 class HoldsWork(Protocol):
@@ -84,9 +92,15 @@ class ProjectSession:
         notifier: Notifier,
         config: StudioConfig,
         parts: Sequence[HoldsWork],
+        keyframes: HoldsKeyframes,
     ) -> None:
         self._server, self._state, self._notifier, self._config = server, state, notifier, config
         self._parts = tuple(parts)
+        self._keyframes = keyframes
+        self.history = UndoHistory()
+        self._undo_lock = threading.Lock()
+        """Taking a step and going to one never interleave."""
+        """Pose and keyframe edits, one step per still moment (app.studio.undo)."""
         self.projects_dir = config.data_dir / "projects"
         self.autosaves = AutosaveStore(config.data_dir / "autosave")
         self.access = FileAccess.for_studio(
@@ -325,6 +339,7 @@ class ProjectSession:
         """Watch the work from now on; `now`: autosave it at once (a project opened at start
         is the work now), else take it as already autosaved (a fresh start is no work)."""
         marks = self.marks()
+        self._record(marks)
         with self._lock:
             self._autosaved = None if now else marks
             if self._saved is None and self.path is None and not self.welcome:
@@ -345,8 +360,6 @@ class ProjectSession:
                     return
                 if not self._wake.is_set() or time.monotonic() - first >= MAX_DELAY_S:
                     break
-            if self.paused:
-                continue
             try:
                 self.autosave_now()
             except Exception:  # a bug must not end autosaving for the rest of the session
@@ -356,7 +369,8 @@ class ProjectSession:
         """Write an autosave if the work changed since the last one; its path, else None."""
         marks = self.marks()
         self._show_title(marks)
-        if marks["loaded"] is None or _same(self._autosaved, marks):
+        self._record(marks)
+        if self.paused or marks["loaded"] is None or _same(self._autosaved, marks):
             return None
         try:
             data = project_bytes(self.project(marks))
@@ -376,6 +390,41 @@ class ProjectSession:
             self.panel.show_status("Autosave works again.")
         self.autosaved.emit(path)
         return path
+
+    # --- undo / redo (ProjectActions) -----------------------------------------------------
+
+    def _record(self, marks: Marks) -> None:
+        loaded: LoadedRobot | None = marks["loaded"]
+        pose: Pose | None = marks["pose"]
+        if loaded is None or pose is None:
+            return
+        with self._undo_lock:
+            if self._state.pose is not pose:
+                return  # it changed meanwhile (an undo): the next look takes it
+            taken = self.history.record(Step(loaded, pose, tuple(marks.get("keyframes", ()))))
+        if taken:
+            self.panel.show_undo(self.history.can_undo, self.history.can_redo)
+
+    def undo(self, client: viser.ClientHandle | None = None) -> bool:
+        """Go back one step of pose and keyframe edits; False if there is none."""
+        return self._go(self.history.undo())
+
+    def redo(self, client: viser.ClientHandle | None = None) -> bool:
+        return self._go(self.history.redo())
+
+    def _go(self, step: Step | None) -> bool:
+        state = self._state
+        if step is not None:
+            with self._undo_lock, state.lock, self._server.atomic():
+                if state.loaded is step.loaded:
+                    self._keyframes.set_keyframes(step.keyframes)
+                    state.set_pose(
+                        step.pose.q.copy(), step.pose.stance, "button", step.loaded.robot
+                    )
+                    assert state.loaded is not None and state.pose is not None
+                    self.history.replace_current(Step(state.loaded, state.pose, step.keyframes))
+        self.panel.show_undo(self.history.can_undo, self.history.can_redo)
+        return step is not None
 
     def stop(self) -> None:
         self._stop.set()

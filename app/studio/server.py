@@ -69,7 +69,12 @@ class Studio:
         with self.state.lock, self.server.atomic():
             self.state.set_robot(robot, robot_report(robot))
         self.project = ProjectSession(
-            server, state, notifier, config, (self.motions, self.compensation, self.gait)
+            server,
+            state,
+            notifier,
+            config,
+            (self.motions, self.compensation, self.gait),
+            self.motions,
         )
         if config.project is not None:
             if not self.project.open(config.project, trusted=True):

@@ -187,3 +187,36 @@ def test_a_fresh_start_writes_no_autosave_until_something_changes(tmp_path):
         assert np.array_equal(read_project(studio.project.autosaves.latest()).q, studio.state.q)
     finally:
         studio.stop()
+
+
+def test_undo_and_redo_walk_back_through_pose_and_keyframe_edits(studio):
+    """Each still moment after an edit is one step (the autosave thread takes it)."""
+    project, state = studio.project, studio.state
+    assert project.panel.undo.disabled and project.panel.redo.disabled
+    q0 = state.q.copy()
+    name, slider = next(iter(studio.joints.panel.sliders.items()))
+    joint = state.robot.joint_names.index(name)
+    wait_for_signal(project.autosaved, lambda: setattr(slider, "value", slider.value + 10.0))
+    q1 = state.q.copy()
+    assert not np.array_equal(q1, q0)
+    wait_for_signal(project.autosaved, lambda: studio.motions.capture(0.8))
+    assert len(studio.motions.keyframes) == 1 and not project.panel.undo.disabled
+
+    project.panel.undo.value = True  # the keyframe goes, the pose stays
+    assert studio.motions.keyframes == [] and np.array_equal(state.q, q1)
+    project.panel.undo.value = True  # the slider move goes
+    assert np.array_equal(state.q, q0)
+    angle_deg = np.rad2deg(state.robot.joint_angles(q0)[joint])
+    assert slider.value == pytest.approx(angle_deg, abs=0.1)  # the slider follows
+    assert project.panel.undo.disabled and not project.panel.redo.disabled
+    assert not project.undo()  # nothing older
+
+    project.panel.redo.value = True
+    assert np.array_equal(state.q, q1)
+    project.panel.redo.value = True
+    assert len(studio.motions.keyframes) == 1 and project.panel.redo.disabled
+    # A new edit after an undo drops what could be redone.
+    project.panel.undo.value = True
+    wait_for_signal(project.autosaved, lambda: studio.motions.capture(1.5))
+    assert project.panel.redo.disabled and not project.redo()
+    assert [k.duration_s for k in studio.motions.keyframes] == [1.5]
