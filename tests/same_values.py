@@ -8,7 +8,9 @@ import numpy as np
 
 
 def assert_same(a: object, b: object, where: str = "value") -> None:
-    """Every value equal: arrays with the same dtype, shape and bits (NaN where NaN)."""
+    """Every value equal: arrays with the same dtype, shape and bits (NaN where NaN); a
+    numpy scalar counts as the Python number it holds."""
+    a, b = (x.item() if isinstance(x, np.generic) else x for x in (a, b))
     assert type(a) is type(b), f"{where}: {type(a).__name__} vs {type(b).__name__}"
     if isinstance(a, np.ndarray):
         assert isinstance(b, np.ndarray)

@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import viser
 
 from app.core.collocation.defaults import robot_gait_defaults
@@ -116,6 +117,7 @@ class GaitSession:
     # --- projects (HoldsWork) -------------------------------------------------------------------
 
     def snapshot(self) -> dict[str, object]:
+        walk = self.walk
         try:
             settings: GaitSettings | None = self.panel.settings(False)
         except StudioError:
@@ -125,6 +127,9 @@ class GaitSession:
             "gait_steps": int(self.panel.steps.value),
             "gait_symmetric": self.results.symmetric,
             "gait_baseline": self.results.baseline,
+            "walk": walk
+            if walk is not None and walk.trajectory is self._state.trajectory
+            else None,
         }
 
     def restore(self, project: Project) -> None:
@@ -143,6 +148,12 @@ class GaitSession:
         if 1 <= project.gait_steps <= 20:
             set_value(self.panel.steps, project.gait_steps)
         self.show_results()
+        walk, robot, trajectory = project.walk, self._state.robot, self._state.trajectory
+        if walk is not None and robot is not None and trajectory is not None:
+            walked = walk.trajectory
+            if walked.q.shape == trajectory.q.shape and np.array_equal(walked.q, trajectory.q):
+                self.walk = dataclasses.replace(walk, trajectory=trajectory)  # the one shown
+                self._show_footprints(robot, self.walk)
 
     # --- worker --------------------------------------------------------------------------------
 

@@ -71,6 +71,8 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path):
             assert b.joints.panel.sliders[name].value == pytest.approx(slider.value, abs=1e-9)
         assert_same(b.gait.results.symmetric, a.gait.results.symmetric, "gait")
         assert b.gait.panel.steps.value == 5
+        assert b.gait.walk.trajectory is sb.trajectory and b.gait.footprints is not None
+        assert_same(b.gait.walk.footprints, a.gait.walk.footprints, "footprints")
         assert b.gait.panel.settings(False) == a.gait.panel.settings(False)
         title = b.project.panel.title.content
         assert "session" in title and "unsaved" not in title

@@ -23,6 +23,7 @@ from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
 from app.core.simulation.result import SimulationResult
+from app.core.walking.walk import Walk
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,6 +69,8 @@ class Project:
     """The gait panel's number of steps to walk (0: unset)."""
     gait_symmetric: GaitResult | None = None
     gait_baseline: GaitResult | None = None
+    walk: Walk | None = None
+    """The walk of a gait when it is the current motion (its footprints are drawn)."""
     simulation: tuple[SimulationResult, ...] = ()
     """The last good physics runs of `motion` (without, then with compensation)."""
     simulation_stale: bool = False
