@@ -28,6 +28,10 @@ the fixed pinocchio workload of app.bench_report) so that the ratio carries acro
   servo_biped with its scaled defaults, and a 10-step walk of the cycle to torques, ≤ 5 s;
   the first Solve click → result in a studio that built the problem when the robot loaded
   (`serve`), ≤ 3 s, beside the same click in one that builds on the click.
+- projects: servo_biped with a walk of ≥ 10 s, its torques and its gait saved to a .bstudio
+  and read back (≤ 1 s each; the same arrays written and read with bare np.save / np.load as
+  the same-run baseline, and the ratio), opened in the studio (robot, prediction, panels;
+  ≤ 1 s); and foot drags at 20 Hz with that project loaded, autosave on vs held: p95 of each.
 - simulate: servo_biped's one-leg squats on MuJoCo with the default virtual servos (≥ 10× real
   time; the same steps of bare MuJoCo beside it), Roban S14's (≥ 5×), and the studio's
   Simulate click to the verdict, ghosts and plots (≤ 2 s), with the worker already started.
@@ -83,6 +87,7 @@ WALK_TARGET_S = 5.0
 PLAN_FIRST_CLICK_TARGET_S = 3.0
 PLOT_CURSOR_TARGET_MS = 25.0
 SIMULATE_CLICK_TARGET_S = 2.0
+PROJECT_TARGET_S = 1.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -322,6 +327,53 @@ def _entry_plot_cursor(ctx: BenchContext) -> tuple[dict, list[Figure]]:
     ]
 
 
+@bench_entry("projects")
+def _entry_projects(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    with tempfile.TemporaryDirectory() as data_dir:
+        row = _bench_projects(ctx.studio, Path(data_dir))
+    what = f"servo_biped {row['motion_s']:.1f} s walk + torques + gait, {row['megabytes']:.1f} MB"
+    target = f"≤ {PROJECT_TARGET_S:.0f} s"
+    return row, [
+        Figure(
+            f"project save ({what})",
+            row["save_s"],
+            "s",
+            target,
+            row["save_s"] <= PROJECT_TARGET_S,
+            row["np_save_s"],
+            "bare np.save of the same arrays",
+        ),
+        Figure(
+            "project read",
+            row["open_s"],
+            "s",
+            target,
+            row["open_s"] <= PROJECT_TARGET_S,
+            row["np_load_s"],
+            "bare np.load of the same arrays",
+        ),
+        Figure(
+            "project opened in the studio (robot, ghosts, panels)",
+            row["studio_open_s"],
+            "s",
+            target,
+            row["studio_open_s"] <= PROJECT_TARGET_S,
+            ctx.reference("s"),
+            "machine reference",
+        ),
+        Figure(
+            "foot drag at 20 Hz with that project, autosave on",
+            row["drag_autosave_p95_ms"],
+            "ms",
+            f"p95 ≤ {DRAG_TARGET_MS:.0f} ms",
+            row["drag_autosave_p95_ms"] <= DRAG_TARGET_MS,
+            row["drag_held_p95_ms"],
+            "the same drags with autosave held",
+            f"{row['autosaves']} autosaves written meanwhile",
+        ),
+    ]
+
+
 @bench_entry("plan")
 def _entry_plan(ctx: BenchContext) -> tuple[dict, list[Figure]]:
     row = _bench_plan()
@@ -482,6 +534,113 @@ def _bare_fk_p95_ms(studio: Studio, repeats: int) -> float:
         pin.updateFramePlacements(model, data)
 
     return float(np.percentile(np.array(timed(fk, repeats)) * 1e3, 95))
+
+
+def _bench_projects(studio: Studio, data_dir: Path, runs: int = 5) -> dict:
+    """Save / open of a realistic project against bare np.save / np.load of its arrays, the
+    studio's Open, and drags with autosave on and held."""
+    import math
+
+    from app.core.collocation.defaults import robot_gait_defaults
+    from app.core.collocation.gait_problem import GaitProblem
+    from app.core.collocation.planar_model import PlanarModel
+    from app.core.dynamics.wbc import torque_feedforward
+    from app.core.projects.codec import encode
+    from app.core.projects.files import read_project, save_project
+    from app.core.projects.project import Project
+    from app.core.projects.robot_files import robot_source
+    from app.core.robot.loading import load_robot
+    from app.core.walking.walk import build_walk
+    from app.studio.compensation_session import default_params
+
+    robot = load_robot("servo_biped")
+    planar = PlanarModel(robot)
+    settings = robot_gait_defaults(planar).settings
+    gait = GaitProblem(planar, settings.knots, settings.baseline).solve(settings)
+    steps = max(2, math.ceil(10.0 / max(gait.duration_s, 1e-3)))
+    walk = build_walk(planar, gait, steps=steps)
+    while walk.trajectory.duration < 10.0 and steps < 200:  # standing at both ends adds time
+        steps += 2
+        walk = build_walk(planar, gait, steps=steps)
+    feedforward = torque_feedforward(robot, walk.trajectory)
+    params, servo = default_params(robot)
+    project = Project(
+        robot=robot_source(robot),
+        q=walk.trajectory.q[0],
+        motion=walk.trajectory,
+        motion_summary="walk",
+        feedforward=feedforward,
+        compensation=params,
+        servo=servo,
+        gait_settings=settings,
+        gait_symmetric=gait,
+    )
+    path = data_dir / "bench.bstudio"
+    save_s, open_s = [], []
+    for _ in range(runs):
+        begin = time.perf_counter()
+        save_project(path, project)
+        save_s.append(time.perf_counter() - begin)
+        begin = time.perf_counter()
+        read_project(path)
+        open_s.append(time.perf_counter() - begin)
+    blobs: dict = {}
+    encode(project, "project", blobs)
+    arrays = {name: a for name, a in blobs.items() if isinstance(a, np.ndarray)}
+    folder = data_dir / "bench-npy"
+    folder.mkdir(exist_ok=True)
+    np_save_s, np_load_s = [], []
+    for _ in range(runs):
+        begin = time.perf_counter()
+        for i, array in enumerate(arrays.values()):
+            np.save(folder / f"{i}.npy", array, allow_pickle=False)
+        np_save_s.append(time.perf_counter() - begin)
+        begin = time.perf_counter()
+        for i in range(len(arrays)):
+            np.load(folder / f"{i}.npy", allow_pickle=False)
+        np_load_s.append(time.perf_counter() - begin)
+    studio_s = []
+    for _ in range(3):
+        begin = time.perf_counter()
+        if not studio.project.open(path, trusted=True):
+            raise SystemExit(f"bench: cannot open the project: {studio.project.last_error}")
+        studio_s.append(time.perf_counter() - begin)
+    held = _paced_drags(studio, autosave=False)
+    count = [0]
+    disconnect = studio.project.autosaved.connect(lambda _path: count.__setitem__(0, count[0] + 1))
+    on = _paced_drags(studio, autosave=True)
+    disconnect()
+    return {
+        "motion_s": walk.trajectory.duration,
+        "megabytes": path.stat().st_size / 2**20,
+        "save_s": statistics.median(save_s),
+        "open_s": statistics.median(open_s),
+        "studio_open_s": statistics.median(studio_s),
+        "np_save_s": statistics.median(np_save_s),
+        "np_load_s": statistics.median(np_load_s),
+        "drag_held_p95_ms": held,
+        "drag_autosave_p95_ms": on,
+        "autosaves": count[0],
+    }
+
+
+def _paced_drags(studio: Studio, autosave: bool, events: int = 80) -> float:
+    """p95 [ms] of foot drags sent at 20 Hz (a browser's rate) around a 3 cm circle."""
+    studio.project.paused = not autosave
+    robot = studio.state.robot
+    assert robot is not None
+    start = robot.link_placements(studio.state.q, robot.model.createData())[robot.feet[0].link]
+    times = []
+    for k in range(events):
+        angle = 2.0 * np.pi * k / 40.0
+        target = start.copy()
+        target[:3, 3] += [0.03 * np.cos(angle), 0.03 * np.sin(angle), 0.02 + 0.01 * np.sin(angle)]
+        begin = time.perf_counter()
+        studio.pose.request_drag("left", target)
+        times.append(time.perf_counter() - begin)
+        time.sleep(0.05)
+    studio.project.paused = False
+    return float(np.percentile(np.array(times[5:]) * 1000.0, 95))
 
 
 def _bench_plan_robot(name: str) -> dict:

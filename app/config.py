@@ -43,6 +43,13 @@ class StudioConfig:
     no_token: bool = False
     """Serve without the token (`--no-token`): loopback only, refused on other hosts."""
 
+    project: Path | None = None
+    """A .bstudio project to open at start (`--project FILE`), replacing `robot`."""
+    restore_autosave: bool = False
+    """Restore the newest autosave at start (serve does, unless --project, --robot or --fresh)."""
+    autosave: bool = True
+    """Save the work to data_dir/autosave/ after every change."""
+
     @property
     def access_token(self) -> str | None:
         """The token the server requires, None when the user turned it off."""

@@ -20,6 +20,19 @@ from app.web.access import check_bind
 def add_parser(sub) -> None:
     serve = sub.add_parser("serve", help="start the studio (the default command)")
     add_robot_argument(serve)
+    serve.set_defaults(robot=None)  # to tell an explicit --robot from the default one
+    serve.add_argument(
+        "--project",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="open a .bstudio project (its robot and work) instead of --robot",
+    )
+    serve.add_argument(
+        "--fresh",
+        action="store_true",
+        help="start without restoring the last autosave (it is kept in the data folder)",
+    )
     serve.add_argument(
         "--host", default=DEFAULTS.host, help="interface; 0.0.0.0 exposes the studio to the network"
     )
@@ -47,6 +60,8 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from app.studio import Studio
 
+    explicit_robot = args.robot is not None
+    args.robot = args.robot if explicit_robot else DEFAULTS.robot
     config = StudioConfig(
         robot=args.robot,
         host=args.host,
@@ -56,8 +71,14 @@ def run(args: argparse.Namespace) -> int:
         no_token=args.no_token,
         prepare_gait=True,
         allow=tuple(args.allow),
+        project=args.project,
+        restore_autosave=not (args.fresh or explicit_robot or args.project is not None),
     )
     check_bind(config.host, config.access_token)
+    if args.project is not None:  # a bad file is said before anything starts
+        from app.core.projects.files import read_project
+
+        read_project(args.project)
     robot = load_robot_from_args(args)
     if config.no_token:
         print(
@@ -73,7 +94,10 @@ def run(args: argparse.Namespace) -> int:
         )
     studio = Studio(config, robot)
     url = studio.web.url
-    print(f"Biped Studio — {robot.name}. Open this link (Ctrl+C stops the studio):", flush=True)
+    shown = studio.state.robot or robot
+    if studio.project.welcome:
+        print(f"{studio.project.welcome} (--fresh starts without it).", flush=True)
+    print(f"Biped Studio — {shown.name}. Open this link (Ctrl+C stops the studio):", flush=True)
     print(f"    {url}", flush=True)
     if args.open_browser:
         webbrowser.open(url)

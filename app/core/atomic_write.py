@@ -69,3 +69,39 @@ def write_atomically(
 def _remove(name: str) -> None:
     with contextlib.suppress(OSError):
         os.unlink(name)
+
+
+def write_bytes_atomically(
+    path: str | os.PathLike[str], data: bytes, error: type[StudioError] = OutputError
+) -> None:
+    """Write `data` to `path` whole or not at all (temporary file, fsync, rename), with the
+    checks of `write_atomically`: the binary counterpart, for archives."""
+    target = Path(os.fspath(path))
+    try:
+        info = os.stat(target)
+    except FileNotFoundError:
+        info = None
+    except OSError as exc:
+        raise error(f"cannot write {target}: {exc.strerror or exc}") from None
+    if info is not None and not stat.S_ISREG(info.st_mode):
+        raise error(f"cannot write {target}: it exists and is not a regular file")
+    folder = target.parent if str(target.parent) else Path(".")
+    try:
+        fd, temp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise error(f"cannot write {target}: {exc.strerror or exc}") from None
+    try:
+        with os.fdopen(fd, "wb") as file:
+            file.write(data)
+            file.flush()
+            os.fsync(file.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temp_name, stat.S_IMODE(info.st_mode) if info is not None else 0o666 & ~umask)
+        os.replace(temp_name, target)
+    except OSError as exc:
+        _remove(temp_name)
+        raise error(f"cannot write {target}: {exc.strerror or exc}; nothing was written") from None
+    except BaseException:
+        _remove(temp_name)
+        raise

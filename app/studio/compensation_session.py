@@ -23,6 +23,7 @@ from app.core.dynamics.wbc import FeedForward, torque_feedforward
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
+from app.core.projects.project import Project
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import (
     CLEARANCE_SIGNS,
@@ -42,6 +43,8 @@ from app.core.servo.model import (
 )
 from app.core.servo.preset_safety import implausible_prediction, scaled_to_limits
 from app.core.servo.presets import PRESETS, preset_params
+from app.core.simulation.result import SimulationResult
+from app.core.simulation.worker import SimulationJob
 from app.core.thinning import thin_minmax
 from app.studio.coalesce import Coalescer
 from app.studio.notifier import Notifier
@@ -117,6 +120,60 @@ class CompensationSession:
         state.on_robot.connect(self._on_robot)
         state.on_motion.connect(self._on_motion)
         state.on_time.connect(self._on_time)
+
+    # --- projects (HoldsWork) -------------------------------------------------------------------
+
+    def snapshot(self) -> dict[str, object]:
+        with self._lock:
+            simulation, trajectory = self.simulation, self._trajectory
+            runs: tuple[SimulationResult, ...] = ()
+            if simulation is not None and simulation.trajectory is trajectory:
+                runs = (simulation.results[WITHOUT], simulation.results[WITH])
+            return {
+                "feedforward": self.feedforward,
+                "compensation": self.params,
+                "servo": self.servo,
+                "simulation": runs,
+                "simulation_stale": self.simulation_stale if runs else False,
+            }
+
+    def restore(self, project: Project) -> None:
+        """The project's coefficients, servos, torques (ghosts and plots follow) and last
+        simulation; called once its robot and motion are installed."""
+        robot, trajectory = self._robot, self._trajectory
+        with self._lock:
+            if project.compensation is not None:
+                self.params = project.compensation
+            if project.servo is not None:
+                self.servo = project.servo
+        self._show_selected()
+        feedforward = project.feedforward
+        if feedforward is None or robot is None or trajectory is None:
+            return
+        with self._lock:
+            self.feedforward = feedforward
+            if self.ghosts is None:
+                self.ghosts = GhostsView(self._server, robot, root=self._roots.next())
+                for name, checkbox in self.panel.ghosts.items():
+                    self.ghosts.set_visible(name, checkbox.value)
+            if len(project.simulation) == 2:
+                without, with_ = project.simulation
+                self.simulation = Simulation(
+                    job_id="project",
+                    robot=robot,
+                    trajectory=trajectory,
+                    job=SimulationJob((), ()),
+                    started_s=0.0,
+                    results={WITHOUT: without, WITH: with_},
+                )
+        self._repredict()
+        self.panel.status.content = _torque_summary(
+            torque_peaks(robot, trajectory, feedforward), trajectory
+        )
+        if self.simulation is not None:
+            self.panel.verdict.content = _simulation_summary(self.simulation)
+            if project.simulation_stale:
+                self._mark_simulation_stale()
 
     # --- state changes ------------------------------------------------------------------------
 

@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import viser
 
 from app.core.collocation.defaults import robot_gait_defaults
@@ -28,6 +29,7 @@ from app.core.collocation.settings import GaitSettings
 from app.core.collocation.table4 import WHAT_IS_COMPARED, table4_rows
 from app.core.errors import StudioError
 from app.core.papers import TABLE4
+from app.core.projects.project import Project
 from app.core.robot.loading import load_robot
 from app.core.robot.model import RobotModel
 from app.core.robot.report import robot_report
@@ -40,6 +42,7 @@ from app.studio.state import LoadedRobot, Motion, StudioState
 from app.views.footprints_view import FootprintsView, sole_size_m
 from app.views.roots import AlternatingRoot
 from panels.gait_panel import GaitPanel
+from panels.quiet import set_value
 
 log = logging.getLogger(__name__)
 
@@ -124,6 +127,47 @@ class GaitSession:
         """Emitted with the structure key when the worker has built a problem ahead of time."""
         state.on_robot.connect(self._on_robot)
         state.on_motion.connect(self._on_motion)
+
+    # --- projects (HoldsWork) -------------------------------------------------------------------
+
+    def snapshot(self) -> dict[str, object]:
+        walk = self.walk
+        try:
+            settings: GaitSettings | None = self.panel.settings(False)
+        except StudioError:
+            settings = None
+        return {
+            "gait_settings": settings,
+            "gait_steps": int(self.panel.steps.value),
+            "gait_symmetric": self.results.symmetric,
+            "gait_baseline": self.results.baseline,
+            "walk": walk
+            if walk is not None and walk.trajectory is self._state.trajectory
+            else None,
+        }
+
+    def restore(self, project: Project) -> None:
+        """The project's gaits (those of this robot's planar joints) and settings."""
+        planar = self.planar
+        joints = planar.joint_names if planar is not None else None
+
+        def fits(result: GaitResult | None) -> GaitResult | None:
+            return result if result is not None and result.joint_names == joints else None
+
+        with self._lock:
+            self.results = GaitResults(fits(project.gait_symmetric), fits(project.gait_baseline))
+            self.last = None
+        if planar is not None and project.gait_settings is not None:
+            self.panel.show_settings(project.gait_settings)
+        if 1 <= project.gait_steps <= 20:
+            set_value(self.panel.steps, project.gait_steps)
+        self.show_results()
+        walk, robot, trajectory = project.walk, self._state.robot, self._state.trajectory
+        if walk is not None and robot is not None and trajectory is not None:
+            walked = walk.trajectory
+            if walked.q.shape == trajectory.q.shape and np.array_equal(walked.q, trajectory.q):
+                self.walk = dataclasses.replace(walk, trajectory=trajectory)  # the one shown
+                self._show_footprints(robot, self.walk)
 
     # --- worker --------------------------------------------------------------------------------
 

@@ -27,6 +27,7 @@ from app.core.motions.csv_files import (
 )
 from app.core.motions.keyframes import Keyframe, MotionResult, capture_keyframe, interpolate
 from app.core.motions.library import run_motion
+from app.core.projects.project import Project
 from app.core.robot.model import RobotModel
 from app.studio.admission import Admission, Busy
 from app.studio.notifier import Notifier
@@ -54,6 +55,23 @@ class MotionSession:
         self._admission = Admission(per_client=1, total=2)
         """Motions take seconds of IK: one per tab, two in all, at a time."""
         state.on_robot.connect(self._on_robot)
+
+    # --- projects (HoldsWork) -------------------------------------------------------------------
+
+    def snapshot(self) -> dict[str, object]:
+        with self._lock:
+            return {"keyframes": tuple(self.keyframes)}
+
+    def restore(self, project: Project) -> None:
+        with self._lock:
+            self.keyframes = list(project.keyframes)
+            self._show(len(self.keyframes) - 1)
+
+    def set_keyframes(self, keyframes: tuple[Keyframe, ...]) -> None:
+        """Put a keyframe list back (undo / redo)."""
+        with self._lock:
+            self.keyframes = list(keyframes)
+            self._show(len(self.keyframes) - 1)
 
     def _on_robot(self, _loaded: LoadedRobot) -> None:
         with self._lock:

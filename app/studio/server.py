@@ -11,6 +11,7 @@ import contextlib
 import sys
 
 from app.config import StudioConfig
+from app.core.projects.codec import ProjectError
 from app.core.robot.loading import load_robot
 from app.core.robot.model import RobotModel
 from app.core.robot.report import robot_report
@@ -21,6 +22,7 @@ from app.studio.motion_session import MotionSession
 from app.studio.notifier import Notifier
 from app.studio.playback_session import PlaybackSession
 from app.studio.pose_session import PoseSession
+from app.studio.project_session import ProjectSession
 from app.studio.robot_session import RobotSession, prepare
 from app.studio.state import StudioState
 from app.web.guard import guarded_server
@@ -68,8 +70,25 @@ class Studio:
             prepare(robot)
         with self.state.lock, self.server.atomic():
             self.state.set_robot(robot, robot_report(robot))
+        self.project = ProjectSession(
+            server,
+            state,
+            notifier,
+            config,
+            (self.motions, self.compensation, self.gait),
+            self.motions,
+        )
+        if config.project is not None:
+            if not self.project.open(config.project, trusted=True):
+                self.stop()
+                raise ProjectError(self.project.last_error)
+        elif config.restore_autosave:
+            self.project.restore_autosave()
+        if config.autosave:
+            self.project.start_autosave(now=config.project is not None)
 
     def stop(self) -> None:
+        self.project.stop()
         self.playback.stop()
         self.gait.close()
         self.compensation.close()

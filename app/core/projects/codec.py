@@ -1,0 +1,245 @@
+"""Typed values ↔ JSON plus binary entries: how a project's dataclasses go into the zip.
+
+`encode` walks a value (frozen dataclasses, tuples, dicts, numbers, strings, numpy arrays,
+bytes) and returns JSON; every array and byte string goes to a separate entry (an `.npy`
+written with allow_pickle=False, or a `.bin`) named by its place in the value, e.g.
+`arrays/motion.q.npy`. `decode` is the reverse, driven by the *declared* types of the
+dataclass fields, never by the file: a value of the wrong type, a missing field, a NaN where
+the type does not allow one, an array of objects or of the wrong dtype kind are refused with a
+`ProjectError` naming the field (`motion.q`, `keyframes[2].duration_s`).
+
+A few fields are non-finite by design (a gait's impact loss before it is computed, the DIRCON
+forces between modes); they are listed in `NONFINITE_FIELDS` and only they may hold NaN.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import math
+import re
+import types
+import typing
+from typing import Any, Literal, Union
+
+import numpy as np
+
+from app.core.errors import StudioError
+
+Json = Any
+Blob = np.ndarray | bytes
+
+MAX_TEXT_CHARS = 100_000
+"""Longest string accepted in a manifest (names, summaries, notes)."""
+MAX_ITEMS = 100_000
+"""Longest list accepted in a manifest (e.g. per-sample status of a motion)."""
+NONFINITE_FIELDS = frozenset(
+    {
+        "GaitResult.objective",
+        "GaitResult.constraint_violation",
+        "GaitResult.slack0",
+        "GaitResult.max_abs_tau_Nm",
+        "GaitResult.energy_J",
+        "GaitResult.sr",
+        "GaitResult.exchange_residual",
+        "GaitResult.periodicity_residual",
+        "GaitResult.impact_loss_J",
+        "GaitResult.work_incl_impacts_J",
+        "GaitResult.sr_incl_impacts",
+        "GaitResult.mid_force",
+        "GaitResult.velocity_correction",
+        "GaitResult.lam_g",
+        "GaitResult.lam_x",
+        "FeedForward.qp_time_s",
+    }
+)
+"""Class.field names whose values may be NaN or infinite (everything else must be finite)."""
+NONFINITE = ("nan", "inf", "-inf")
+"""How encode writes a non-finite float: {"float": "nan"}."""
+_ENTRY_NAME = re.compile(r"[^A-Za-z0-9_.\-\[\]]")
+
+
+@dataclasses.dataclass(frozen=True)
+class JsonConstant:
+    """A bare NaN / Infinity / -Infinity in the manifest's JSON (not standard JSON): kept until
+    the field it sits in is known, so the refusal can name it."""
+
+    text: str
+
+    def __repr__(self) -> str:
+        return self.text
+
+
+class ProjectError(StudioError):
+    """A project file that cannot be written or opened; the current work is untouched."""
+
+
+def encode(value: Any, where: str, blobs: dict[str, Blob]) -> Json:
+    """JSON for `value`; arrays and bytes are added to `blobs` under entry names."""
+    if value is None or isinstance(value, bool | str):
+        return value
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, int | np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating):
+        number = float(value)
+        return number if math.isfinite(number) else {"float": repr(number)}
+    if isinstance(value, np.ndarray):
+        name = f"arrays/{_entry(where)}.npy"
+        blobs[name] = value
+        return {"array": name}
+    if isinstance(value, bytes):
+        name = f"blobs/{_entry(where)}.bin"
+        blobs[name] = value
+        return {"bytes": name}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {
+            field.name: encode(getattr(value, field.name), f"{where}.{field.name}", blobs)
+            for field in dataclasses.fields(value)
+            if field.init
+        }
+    if isinstance(value, tuple | list):
+        return [encode(item, f"{where}[{i}]", blobs) for i, item in enumerate(value)]
+    if isinstance(value, dict):
+        return {str(k): encode(v, f"{where}.{k}", blobs) for k, v in value.items()}
+    raise ProjectError(f"{where}: cannot store a {type(value).__name__} in a project")
+
+
+def _entry(where: str) -> str:
+    return _ENTRY_NAME.sub("_", where)[:180]
+
+
+@dataclasses.dataclass(frozen=True)
+class Reader:
+    """Decodes JSON by declared types; `blob(name)` returns the bytes of a zip entry."""
+
+    blob: typing.Callable[[str], bytes]
+
+    def decode(self, tp: Any, data: Json, where: str, owner: str = "") -> Any:
+        """A value of type `tp` from `data`; `owner` is "Class.field" for the finite check."""
+        origin = typing.get_origin(tp)
+        if origin in (Union, types.UnionType):
+            options = [a for a in typing.get_args(tp) if a is not type(None)]
+            if data is None and len(options) < len(typing.get_args(tp)):
+                return None
+            if len(options) != 1:
+                raise ProjectError(f"{where}: unsupported union type {tp}")  # our bug, not input
+            return self.decode(options[0], data, where, owner)
+        if origin is Literal:
+            if data not in typing.get_args(tp) or not isinstance(data, str | int | bool):
+                allowed = ", ".join(repr(a) for a in typing.get_args(tp))
+                raise ProjectError(f"{where} is {_show(data)}; give one of {allowed}")
+            return data
+        if tp is bool:
+            if not isinstance(data, bool):
+                raise ProjectError(f"{where} is {_show(data)}; give true or false")
+            return data
+        if tp is int:
+            if not isinstance(data, int) or isinstance(data, bool) or abs(data) >= 2**63:
+                raise ProjectError(f"{where} is {_show(data)}; give a whole number")
+            return data
+        if tp is float:
+            return self._float(data, where, owner)
+        if tp is str:
+            if not isinstance(data, str) or len(data) > MAX_TEXT_CHARS:
+                raise ProjectError(f"{where} is {_show(data)}; give a text")
+            return data
+        if tp is bytes:
+            return self.blob(self._entry_of(data, "bytes", where))
+        if tp is np.ndarray:
+            return self._array(data, where, owner)
+        if origin is tuple:
+            return self._tuple(tp, data, where, owner)
+        if origin is dict:
+            _, value_type = typing.get_args(tp)
+            if not isinstance(data, dict):
+                raise ProjectError(f"{where} is {_show(data)}; give a table")
+            return {
+                str(k): self.decode(value_type, v, f"{where}.{k}", owner) for k, v in data.items()
+            }
+        if isinstance(tp, type) and dataclasses.is_dataclass(tp):
+            return self._dataclass(tp, data, where)
+        raise ProjectError(f"{where}: cannot read a {tp} from a project")  # our bug, not input
+
+    def _float(self, data: Json, where: str, owner: str) -> float:
+        if isinstance(data, JsonConstant):
+            value = float(data.text.replace("Infinity", "inf"))
+        elif isinstance(data, dict) and data.keys() == {"float"} and data["float"] in NONFINITE:
+            value = float(data["float"])
+        elif isinstance(data, int | float) and not isinstance(data, bool):
+            value = float(data)
+        else:
+            raise ProjectError(f"{where} is {_show(data)}; give a number")
+        if not math.isfinite(value) and owner not in NONFINITE_FIELDS:
+            raise ProjectError(f"{where} is {value}; give a finite number")
+        return value
+
+    def _tuple(self, tp: Any, data: Json, where: str, owner: str) -> tuple:
+        args = typing.get_args(tp)
+        if not isinstance(data, list) or len(data) > MAX_ITEMS:
+            raise ProjectError(f"{where} is {_show(data)}; give a list")
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(
+                self.decode(args[0], item, f"{where}[{i}]", owner) for i, item in enumerate(data)
+            )
+        if len(data) != len(args):
+            raise ProjectError(f"{where} has {len(data)} values; give {len(args)}")
+        return tuple(
+            self.decode(arg, item, f"{where}[{i}]", owner)
+            for i, (arg, item) in enumerate(zip(args, data, strict=True))
+        )
+
+    def _dataclass(self, cls: type, data: Json, where: str) -> Any:
+        if not isinstance(data, dict):
+            raise ProjectError(f"{where} is {_show(data)}; give a table of {cls.__name__} fields")
+        hints = typing.get_type_hints(cls)
+        values = {}
+        for field in dataclasses.fields(cls):
+            if not field.init:
+                continue
+            if field.name not in data:
+                if (
+                    field.default is dataclasses.MISSING
+                    and field.default_factory is dataclasses.MISSING
+                ):
+                    raise ProjectError(f"{where}.{field.name} is missing")
+                continue
+            values[field.name] = self.decode(
+                hints[field.name],
+                data[field.name],
+                f"{where}.{field.name}",
+                f"{cls.__name__}.{field.name}",
+            )
+        try:
+            return cls(**values)
+        except StudioError as error:
+            raise ProjectError(f"{where}: {error}") from None
+        except (TypeError, ValueError) as error:
+            raise ProjectError(f"{where}: not a valid {cls.__name__}: {error}") from None
+
+    def _entry_of(self, data: Json, key: str, where: str) -> str:
+        if not isinstance(data, dict) or set(data) != {key} or not isinstance(data[key], str):
+            raise ProjectError(f"{where} is {_show(data)}; expected a reference to a stored {key}")
+        return data[key]
+
+    def _array(self, data: Json, where: str, owner: str) -> np.ndarray:
+        raw = self.blob(self._entry_of(data, "array", where))
+        try:
+            array = np.load(io.BytesIO(raw), allow_pickle=False)
+        except (ValueError, OSError, EOFError) as error:
+            raise ProjectError(f"{where}: not a readable array ({error})") from None
+        if not isinstance(array, np.ndarray) or array.dtype.kind not in "fiub":
+            raise ProjectError(f"{where}: an array of numbers or booleans is needed")
+        if (
+            array.dtype.kind == "f"
+            and owner not in NONFINITE_FIELDS
+            and not np.all(np.isfinite(array))
+        ):
+            raise ProjectError(f"{where} contains NaN or infinite values; give finite numbers")
+        return array
+
+
+def _show(data: Json) -> str:
+    text = repr(data)
+    return text if len(text) <= 40 else text[:37] + "…"

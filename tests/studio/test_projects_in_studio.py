@@ -1,0 +1,224 @@
+"""Projects in a real studio: save → open in a fresh studio gives back every panel's values
+and every result; a refused file leaves the work exactly as it was; autosave follows edits
+and a restarted studio restores it."""
+
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.config import StudioConfig
+from app.core.projects.files import read_project
+from app.studio import Studio
+from tests.same_values import assert_same
+from tests.studio.conftest import free_port, start_studio, wait_for_signal
+
+
+def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path):
+    a = studio
+    # One click: plan a gait on servo_biped, walk it, compute torques, simulate.
+    simulated = wait_for_signal(
+        a.compensation.runner.finished, lambda: setattr(a.gait.panel.all_stages, "value", True)
+    )
+    assert simulated.error == "" and a.gait.results.symmetric is not None
+    a.motions.capture(0.8)
+    a.motions.capture(1.2)
+    a.motions.rename(1, "lean")
+    joint = a.compensation.params.joint_names[3]
+    a.compensation.select_joint(joint)
+    a.compensation.edit_joint(joint, "k", 0.9)
+    a.compensation.edit_joint(joint, "backlash", 1.5)  # the simulation is now stale
+    a.gait.panel.steps.value = 5
+    a.playback.seek(1.3)
+    moved = a.state.robot.joints[2].name
+    a.joints.panel.sliders[moved].value = 8.5  # a pose off the motion's sample
+    assert not np.array_equal(a.state.q, a.state.trajectory.q[a.state.trajectory.index_at(1.3)])
+    assert a.project.save_as("session")
+    path = a.project.path
+    assert path == a.config.data_dir / "projects" / "session.bstudio" and path.is_file()
+    assert "unsaved" not in a.project.panel.title.content
+
+    b = start_studio(tmp_path / "elsewhere")
+    try:
+        assert b.project.open(str(path)), b.project.last_error
+        sa, sb = a.state, b.state
+        assert sb.robot.name == sa.robot.name and sb.robot is not sa.robot
+        assert_same(sb.pose.q, sa.pose.q, "q")
+        assert sb.pose.stance == sa.pose.stance
+        assert_same(sb.trajectory, sa.trajectory, "motion")
+        assert sb.motion.summary == sa.motion.summary
+        assert sb.time_s == sa.time_s == pytest.approx(1.3, abs=sa.trajectory.dt)
+        assert b.playback.panel.time.value == a.playback.panel.time.value
+        assert_same(tuple(b.motions.keyframes), tuple(a.motions.keyframes), "keyframes")
+        ca, cb = a.compensation, b.compensation
+        assert_same(cb.feedforward, ca.feedforward, "feedforward")
+        assert_same(cb.params, ca.params, "compensation")
+        assert_same(cb.servo, ca.servo, "servo")
+        # The prediction is recomputed from the restored inputs: the same numbers come out.
+        assert_same(cb.prediction, ca.prediction, "prediction")
+        assert cb.ghosts is not None
+        assert_same(cb.simulation.results, ca.simulation.results, "simulation")
+        assert cb.simulation_stale and ca.simulation_stale and "Stale" in cb.panel.verdict.content
+        cb.select_joint(joint)
+        for field in ("enabled", "k", "phi", "compliance", "backlash"):
+            assert getattr(cb.panel, field).value == getattr(ca.panel, field).value, field
+        for name, slider in a.joints.panel.sliders.items():
+            assert b.joints.panel.sliders[name].value == pytest.approx(slider.value, abs=1e-9)
+        assert_same(b.gait.results.symmetric, a.gait.results.symmetric, "gait")
+        assert b.gait.panel.steps.value == 5
+        assert b.gait.walk.trajectory is sb.trajectory and b.gait.footprints is not None
+        assert_same(b.gait.walk.footprints, a.gait.walk.footprints, "footprints")
+        assert b.gait.panel.settings(False) == a.gait.panel.settings(False)
+        title = b.project.panel.title.content
+        assert "session" in title and "unsaved" not in title
+    finally:
+        b.stop()
+
+
+def _crafted(data: bytes, edit) -> bytes:
+    source = zipfile.ZipFile(io.BytesIO(data))
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w") as target:
+        for info in source.infolist():
+            content = source.read(info)
+            if info.filename == "manifest.json":
+                manifest = json.loads(content)
+                edit(manifest)
+                content = json.dumps(manifest).encode()
+            target.writestr(info.filename, content)
+    return out.getvalue()
+
+
+def _slip(data: bytes) -> bytes:
+    out = io.BytesIO(data)
+    with zipfile.ZipFile(out, "a") as archive:
+        archive.writestr("../../outside.npy", b"x")
+    return out.getvalue()
+
+
+BAD = {
+    "newer version": (lambda d: _crafted(d, lambda m: m.update(version=2)), "newer Biped Studio"),
+    "corrupt zip": (lambda d: d[:100], "not a valid zip"),
+    "zip slip": (_slip, "'../../outside.npy' is not one a project holds"),
+    "NaN": (
+        lambda d: _crafted(d, lambda m: m["project"].update(time_s={"float": "nan"})),
+        "project.time_s is nan",
+    ),
+    "wrong type": (
+        lambda d: _crafted(d, lambda m: m["project"].update(keyframes="many")),
+        "project.keyframes is 'many'",
+    ),
+    "missing robot": (
+        lambda d: _crafted(d, lambda m: m["project"]["robot"].update(builtin="gone_bot")),
+        "'gone_bot' is not a built-in robot",
+    ),
+    "another robot's work": (
+        lambda d: _crafted(d, lambda m: m["project"]["robot"].update(builtin="dircon_biped")),
+        "does not fit dircon_biped",
+    ),
+}
+
+
+def test_a_refused_project_leaves_the_work_untouched(studio, tmp_path):
+    studio.motions.generate("com_shift", {})
+    studio.motions.capture(1.0)
+    studio.playback.seek(0.5)
+    assert studio.project.save_as(str(tmp_path / "good.bstudio"))
+    good = (tmp_path / "good.bstudio").read_bytes()
+    studio.joints.set_joint_angle(0, 0.1)  # unsaved work on top
+    state, motions, compensation = studio.state, studio.motions, studio.compensation
+    before = (state.loaded, state.pose, state.motion, state.time_s, compensation.params)
+    keyframes = list(motions.keyframes)
+    for case, (make, message) in BAD.items():
+        assert not studio.project.open_upload(f"{case}.bstudio", make(good)), case
+        assert message in studio.project.last_error, (case, studio.project.last_error)
+        assert "unchanged" in studio.project.panel.status.content
+        after = (state.loaded, state.pose, state.motion, state.time_s, compensation.params)
+        assert all(x is y for x, y in zip(before, after, strict=True)), case
+        assert motions.keyframes == keyframes, case
+    assert studio.project.dirty  # still the user's unsaved work
+
+
+def test_paths_outside_the_allowed_folders_are_refused(studio):
+    assert not studio.project.open("/etc/passwd")
+    assert "not inside the folders" in studio.project.last_error
+    assert not studio.project.save_as("/tmp/../etc/evil.bstudio")
+    assert "not inside the folders" in studio.project.last_error
+    assert not Path("/etc/evil.bstudio").exists()
+
+
+def test_autosave_follows_edits_and_a_restart_restores_them(tmp_path):
+    data = tmp_path / "data"
+    first = start_studio(data)
+    try:
+        path = wait_for_signal(
+            first.project.autosaved, lambda: first.joints.set_joint_angle(1, 0.12)
+        )
+        assert_same(read_project(path).q, first.state.q, "autosaved q")
+        assert "unsaved" in first.project.panel.title.content
+        # A keyframe edit emits no state signal: the poll finds it.
+        path = wait_for_signal(first.project.autosaved, lambda: first.motions.capture(0.7))
+        assert len(read_project(path).keyframes) == 1
+        q = first.state.q.copy()
+    finally:
+        first.stop()
+    config = StudioConfig(port=free_port(), data_dir=data, restore_autosave=True)
+    second = Studio(config)
+    try:
+        assert_same(second.state.q, q, "restored q")
+        assert len(second.motions.keyframes) == 1
+        assert second.project.welcome.startswith("Restored your work from ")
+        assert second.notifier.last is not None and second.notifier.last.title == "Welcome back"
+    finally:
+        second.stop()
+
+
+def test_a_fresh_start_writes_no_autosave_until_something_changes(tmp_path):
+    config = StudioConfig(port=free_port(), data_dir=tmp_path / "data")
+    studio = Studio(config)
+    try:
+        assert studio.project.autosave_now() is None  # nothing changed since the start
+        assert studio.project.autosaves.saves() == []
+        studio.joints.set_joint_angle(0, -0.1)
+        assert studio.project.autosave_now() is not None
+        assert np.array_equal(read_project(studio.project.autosaves.latest()).q, studio.state.q)
+    finally:
+        studio.stop()
+
+
+def test_undo_and_redo_walk_back_through_pose_and_keyframe_edits(studio):
+    """Each still moment after an edit is one step (the autosave thread takes it)."""
+    project, state = studio.project, studio.state
+    assert project.panel.undo.disabled and project.panel.redo.disabled
+    q0 = state.q.copy()
+    name, slider = next(iter(studio.joints.panel.sliders.items()))
+    joint = state.robot.joint_names.index(name)
+    wait_for_signal(project.autosaved, lambda: setattr(slider, "value", slider.value + 10.0))
+    q1 = state.q.copy()
+    assert not np.array_equal(q1, q0)
+    wait_for_signal(project.autosaved, lambda: studio.motions.capture(0.8))
+    assert len(studio.motions.keyframes) == 1 and not project.panel.undo.disabled
+
+    project.panel.undo.value = True  # the keyframe goes, the pose stays
+    assert studio.motions.keyframes == [] and np.array_equal(state.q, q1)
+    project.panel.undo.value = True  # the slider move goes
+    assert np.array_equal(state.q, q0)
+    angle_deg = np.rad2deg(state.robot.joint_angles(q0)[joint])
+    assert slider.value == pytest.approx(angle_deg, abs=0.1)  # the slider follows
+    assert project.panel.undo.disabled and not project.panel.redo.disabled
+    assert not project.undo()  # nothing older
+
+    project.panel.redo.value = True
+    assert np.array_equal(state.q, q1)
+    project.panel.redo.value = True
+    assert len(studio.motions.keyframes) == 1 and project.panel.redo.disabled
+    # A new edit after an undo drops what could be redone.
+    project.panel.undo.value = True
+    wait_for_signal(project.autosaved, lambda: studio.motions.capture(1.5))
+    assert project.panel.redo.disabled and not project.redo()
+    assert [k.duration_s for k in studio.motions.keyframes] == [1.5]
