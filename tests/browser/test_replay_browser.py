@@ -1,0 +1,122 @@
+"""An exported replay plays in a real headless Chromium from a plain static web server
+(`python -m http.server` in a subprocess), with no studio running and nothing else fetched."""
+
+from __future__ import annotations
+
+import io
+import re
+import socket
+import subprocess
+import sys
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from app.core.replay.pipeline import headless_scene
+from app.core.robot.loading import load_robot
+from app.core.servo.presets import preset_params
+from app.core.simulation.files import default_servos
+from app.replay_recorder import export_replay
+from tests.browser.conftest import VIEWPORT
+from tests.browser.page_helpers import RENDER_TIMEOUT_S, changed, not_blank, wait_for
+
+SCENE_CLIP = {"x": 0, "y": 0, "width": VIEWPORT["width"], "height": VIEWPORT["height"] - 70}
+"""The 3D view above viser's playback bar (whose clock and slider move on their own)."""
+MOVED_FRACTION = 0.002
+"""Two frames of the motion differ on more than this fraction of the view."""
+STILL_FRACTION = 0.0005
+
+
+@pytest.fixture(scope="module")
+def replay_folder(tmp_path_factory) -> Path:
+    robot = load_robot("servo_biped")
+    scene = headless_scene(
+        robot, "com_shift", {}, preset_params("uniform", robot), default_servos(robot), "uniform"
+    )
+    return export_replay(robot, scene, tmp_path_factory.mktemp("share") / "replay").folder.path
+
+
+@pytest.fixture(scope="module")
+def static_url(replay_folder: Path) -> Iterator[str]:
+    """`python -m http.server` serving the replay folder: the studio is not involved."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    server = subprocess.Popen(
+        [sys.executable, "-m", "http.server", str(port), "--bind", "127.0.0.1"],
+        cwd=replay_folder,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    url = f"http://127.0.0.1:{port}/"
+
+    def answers() -> bool:
+        try:
+            with urllib.request.urlopen(url):
+                return True
+        except OSError:
+            return False
+
+    try:
+        wait_for("the static server", answers, 30.0)
+        yield url
+    finally:
+        server.terminate()
+        server.wait()
+
+
+def view(page) -> np.ndarray:
+    png = page.screenshot(
+        clip=SCENE_CLIP,
+        mask=[page.locator(".mantine-Notification-root")],
+        mask_color="#000000",
+        animations="disabled",
+    )
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
+
+
+def test_the_replay_plays_from_a_static_server(chromium, static_url: str):
+    context = chromium.new_context(viewport=VIEWPORT)
+    page = context.new_page()
+    page.set_default_timeout(60_000)
+    requested: list[str] = []
+    page.on("request", lambda request: requested.append(request.url))
+    try:
+        page.goto(static_url)
+        wait_for("index.html to open the viewer", lambda: "playbackPath=" in page.url, 30.0)
+        first = wait_for(
+            "the replay's first render",
+            lambda: (lambda image: image if not_blank(image) else None)(view(page)),
+            RENDER_TIMEOUT_S,
+        )
+        # Playing: the view changes on its own (the robot and its ghosts move).
+        wait_for(
+            "the replay to move",
+            lambda: changed(view(page), first).mean() > MOVED_FRACTION,
+            RENDER_TIMEOUT_S,
+        )
+        # Paused (space bar, viser's playback shortcut): the view stops changing, so the
+        # change above came from playback, not from the page settling.
+        page.keyboard.press("Space")
+        previous = [view(page)]
+
+        def still() -> bool:
+            image = view(page)
+            calm = changed(image, previous[0]).mean() < STILL_FRACTION
+            previous[0] = image
+            return calm
+
+        wait_for("the paused replay to hold still", still, RENDER_TIMEOUT_S)
+        for _ in range(3):
+            assert changed(view(page), previous[0]).mean() < STILL_FRACTION
+        # Everything came from the static server: the page needs nothing else.
+        origin = static_url.rstrip("/")
+        outside = [u for u in requested if not re.match(rf"({re.escape(origin)}/|data:|blob:)", u)]
+        assert outside == []
+        assert any(u.endswith("/recording.viser") for u in requested)
+    finally:
+        context.close()
