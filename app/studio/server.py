@@ -22,6 +22,7 @@ from app.studio.notifier import Notifier
 from app.studio.playback_session import PlaybackSession
 from app.studio.pose_session import PoseSession
 from app.studio.robot_session import RobotSession, prepare
+from app.studio.share_session import ShareSession
 from app.studio.state import StudioState
 from app.web.guard import guarded_server
 
@@ -61,6 +62,13 @@ class Studio:
         self.playback = PlaybackSession(server, state)
         self.compensation = CompensationSession(server, state, notifier)
         self.gait = GaitSession(server, state, notifier, config.package_roots)
+        self.share = ShareSession(
+            server,
+            state,
+            notifier,
+            config.data_dir,
+            layers=lambda: self.compensation.replay_layers(self.playback.panel.traces.value),
+        )
         if robot is None:
             robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)
             prepare(robot)
@@ -69,6 +77,7 @@ class Studio:
 
     def stop(self) -> None:
         self.playback.stop()
+        self.share.close()
         self.gait.close()
         self.compensation.close()
         with contextlib.redirect_stdout(sys.stderr):  # viser's "Server stopped" is not output

@@ -156,3 +156,20 @@ def title_card(
         lines.append(", ".join(f"{name} = {value}" for name, value in parameters.items()))
     lines.extend(verdict.replace("**", "").replace("⚠️", "!").strip() for verdict in verdicts)
     return "\n".join(line for line in lines if line)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ReplayLayers:
+    """What the studio shows beside the robot, to be recorded as shown."""
+
+    prediction: Prediction | None
+    """The quick prediction with and without compensation, if the torques are computed."""
+    ghosts: tuple[str, ...]
+    """Ghosts shown (their checkbox on, and poses to show)."""
+    extra_ghosts: dict[str, np.ndarray]
+    """Ghosts not from the prediction (simulated runs): name -> (T, nq) per motion sample."""
+    traces: bool
+    parameters: dict[str, str]
+    """Key parameters for the title card."""
+    verdicts: tuple[str, ...]
+    """Verdict lines for the title card."""
