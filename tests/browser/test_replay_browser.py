@@ -8,6 +8,7 @@ import re
 import socket
 import subprocess
 import sys
+import threading
 import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
@@ -120,3 +121,54 @@ def test_the_replay_plays_from_a_static_server(chromium, static_url: str):
         assert any(u.endswith("/recording.viser") for u in requested)
     finally:
         context.close()
+
+
+def test_screenshot_saves_the_tabs_render_as_png(chromium, tmp_path):
+    """After the replay test, a studio of its own: *Screenshot* in the Share folder saves what
+    the tab shows (compared with Chromium's own picture of the page, coarsely)."""
+    from app.config import StudioConfig
+    from app.studio import Studio
+    from tests.browser.conftest import _free_port
+    from tests.browser.page_helpers import (
+        click_button,
+        dismiss_software_webgl_warning,
+        expand_folder,
+        wait_stable,
+    )
+
+    studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path / "data"))
+    context = chromium.new_context(viewport=VIEWPORT)
+    page = context.new_page()
+    page.set_default_timeout(60_000)
+    saved: list[Path | None] = []
+    done = threading.Event()
+    studio.share.screenshot_saved.connect(lambda path: (saved.append(path), done.set()))
+    try:
+        page.goto(studio.web.url)
+        dismiss_software_webgl_warning(page)
+        expand_folder(page, "Share", "Screenshot")
+        seen = wait_stable(page, "the studio's first render", not_blank)
+        click_button(page, "Screenshot")
+        wait_for("the screenshot", done.is_set, RENDER_TIMEOUT_S)
+        path = saved[0]
+        assert path is not None and path.parent == tmp_path / "data" / "screenshots"
+        assert str(path) in page.get_by_text("Screenshot (").first.inner_text()
+        image = np.asarray(Image.open(path).convert("RGB"), dtype=np.float64)
+        assert not_blank(image.astype(np.int16))
+        # The same view as the page's (left half: the page's shot masks the panel): coarse grey
+        # levels on a 32×20 grid correlate strongly.
+        assert image.shape == seen.shape  # the tab's whole view, at its size
+        grid = _grey_grid(image), _grey_grid(seen.astype(np.float64))
+        left = grid[0].shape[1] // 2  # the control panel sits on the right: compare the left half
+        corr = np.corrcoef(grid[0][:, :left].ravel(), grid[1][:, :left].ravel())[0, 1]
+        assert corr > 0.8
+    finally:
+        context.close()
+        studio.stop()
+
+
+def _grey_grid(image: np.ndarray, shape: tuple[int, int] = (20, 32)) -> np.ndarray:
+    grey = image[..., :3].mean(axis=2)
+    rows = np.array_split(np.arange(grey.shape[0]), shape[0])
+    cols = np.array_split(np.arange(grey.shape[1]), shape[1])
+    return np.array([[grey[np.ix_(r, c)].mean() for c in cols] for r in rows])
