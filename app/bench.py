@@ -20,6 +20,8 @@
 - simulate: servo_biped's one-leg squats on MuJoCo with the default virtual servos (≥ 10× real
   time; the same steps of bare MuJoCo beside it), Roban S14's (≥ 5×), and the studio's
   Simulate click to the verdict, ghosts and plots (≤ 2 s), with the worker already started.
+- replay: a 10 s motion with four ghosts exported as a replay folder (≤ 5 s, ≤ 20 MB), beside
+  the same frames shown on a live scene (app/replay_bench.py).
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ import numpy as np
 from app.config import StudioConfig
 from app.core.dynamics.wbc_bench import bench_feedforward
 from app.core.simulation.bench import bench_simulation
+from app.replay_bench import bench_replay, replay_line
 from app.studio import Studio
 from panels.quiet import set_value
 
@@ -88,6 +91,7 @@ def run_bench(args: argparse.Namespace) -> int:
                     next((str(p) for p in ROBAN_CANDIDATES if p.exists()), None)
                 ),
                 "simulate_click": _bench_simulate_click(studio),
+                "replay": bench_replay(),
             }
         finally:
             studio.stop()
@@ -172,6 +176,7 @@ def run_bench(args: argparse.Namespace) -> int:
         f"{row['seconds']:.2f} s (target ≤ {SIMULATE_CLICK_TARGET_S:.0f} s) "
         f"{_mark(row['seconds'] <= SIMULATE_CLICK_TARGET_S)}"
     )
+    print(replay_line(results["replay"]))
     return 0
 
 

@@ -67,21 +67,26 @@ def legend(scene: ReplayScene) -> str:
     )
 
 
-def record(
-    robot: RobotModel, scene: ReplayScene, progress: Callable[[float], None] | None = None
-) -> bytes:
-    """The `.viser` recording of the scene: built once, then one frame every frame_dt_s."""
+def private_server() -> viser.ViserServer:
+    """A viser server nobody can reach: 127.0.0.1, a free port, a token nobody is given."""
     with contextlib.redirect_stdout(sys.stderr):  # viser's banner is not our output
         web = guarded_server(
             "127.0.0.1", 0, secrets.token_urlsafe(24), label="replay", max_upload_bytes=1
         )
-    server = web.server
+    return web.server
+
+
+def record(
+    robot: RobotModel, scene: ReplayScene, progress: Callable[[float], None] | None = None
+) -> bytes:
+    """The `.viser` recording of the scene: built once, then one frame every frame_dt_s."""
+    server = private_server()
     try:
         # One atomic block around the whole recording: no tab is there to be woken per message.
         with server.atomic():
             server.scene.set_up_direction("+z")
             serializer = server.get_scene_serializer()
-            _draw(server, robot, scene, serializer, progress)
+            draw_scene(server, robot, scene, serializer, progress)
         data = serializer.serialize()
     finally:
         with contextlib.redirect_stdout(sys.stderr):
@@ -89,13 +94,15 @@ def record(
     return data
 
 
-def _draw(
+def draw_scene(
     server: viser.ViserServer,
     robot: RobotModel,
     scene: ReplayScene,
-    serializer: StateSerializer,
-    progress: Callable[[float], None] | None,
+    serializer: StateSerializer | None,
+    progress: Callable[[float], None] | None = None,
 ) -> None:
+    """Draw the scene on `server` and show its frames back to back; with a serializer, one
+    frame every frame_dt_s of the recording's clock."""
     server.initial_camera.position = scene.camera_position_m
     server.initial_camera.look_at = scene.camera_look_at_m
     server.scene.add_grid(
@@ -118,7 +125,7 @@ def _draw(
         for name in scene.ghosts
     }
     for f in range(scene.n_frames):
-        if f:
+        if f and serializer is not None:
             serializer.insert_sleep(scene.frame_dt_s)
         robot_view.update(scene.q_robot[f])
         for name, view in ghosts.items():
