@@ -59,12 +59,14 @@ def _export(args: argparse.Namespace) -> int:
     from app.core.budgets import check_dt
     from app.core.motions.library import resolve_params
     from app.core.replay.pipeline import headless_scene
+    from app.core.replay.scene import check_frame_rate
     from app.core.simulation.files import default_servos
     from app.replay_recorder import export_replay
 
     params = _params(args.param)
     resolve_params(args.motion, params)  # bad names fail before loading
     check_dt(args.dt, "--dt")
+    check_frame_rate(args.fps)
     robot = load_robot_from_args(args)
     coefficients = coefficients_from_args(robot, args.preset, args.clearance, None)
     label = args.preset + (" + clearance" if args.clearance else "")

@@ -52,8 +52,10 @@ def index_html(title: str) -> str:
     return (
         '<!doctype html>\n<html><head><meta charset="utf-8">\n'
         f"<title>{heading}</title>\n"
-        f'<meta http-equiv="refresh" content="0; url={target}">\n'
-        f"<script>location.replace({json.dumps(target)});</script>\n"
+        # From a server: straight to the viewer. From disk (file://) browsers refuse to fetch
+        # the recording, so the page stays and says what to do.
+        f'<script>if (location.protocol !== "file:") location.replace({json.dumps(target)});'
+        "</script>\n"
         "</head><body>\n"
         f'<p><a href="{target}">Play the replay: {heading}</a></p>\n'
         "<p>Serve this folder over HTTP (e.g. <code>python -m http.server</code> in it); "

@@ -56,13 +56,17 @@ class ReplayScene:
         return (self.n_frames - 1) * self.frame_dt_s
 
 
-def frame_samples(trajectory: Trajectory, frame_rate_hz: float) -> np.ndarray:
-    """Sample index shown at each frame: frames every 1/rate s from 0 to the motion's end
-    (the last sample always included)."""
+def check_frame_rate(frame_rate_hz: float) -> None:
     if not (math.isfinite(frame_rate_hz) and 0.0 < frame_rate_hz <= MAX_FRAME_RATE_HZ):
         raise ReplayError(
             f"frame rate {frame_rate_hz!r} Hz is outside (0, {MAX_FRAME_RATE_HZ:g}] Hz"
         )
+
+
+def frame_samples(trajectory: Trajectory, frame_rate_hz: float) -> np.ndarray:
+    """Sample index shown at each frame: frames every 1/rate s from 0 to the motion's end
+    (the last sample always included)."""
+    check_frame_rate(frame_rate_hz)
     n = math.floor(trajectory.duration * frame_rate_hz + 1e-9) + 1
     if n > MAX_FRAMES:
         raise ReplayError(
