@@ -15,6 +15,7 @@ from app.core.robot.loading import load_robot
 from app.core.robot.model import RobotModel
 from app.core.robot.report import robot_report
 from app.studio.compensation_session import CompensationSession
+from app.studio.demo_session import DemoSession
 from app.studio.gait_session import GaitSession
 from app.studio.joints_session import JointsSession
 from app.studio.motion_session import MotionSession
@@ -69,6 +70,7 @@ class Studio:
             config.data_dir,
             layers=lambda: self.compensation.replay_layers(self.playback.panel.traces.value),
         )
+        self.demo = DemoSession(server)
         if robot is None:
             robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)
             prepare(robot)

@@ -123,9 +123,11 @@ def test_the_replay_plays_from_a_static_server(chromium, static_url: str):
         context.close()
 
 
-def test_screenshot_saves_the_tabs_render_as_png(chromium, tmp_path):
-    """After the replay test, a studio of its own: *Screenshot* in the Share folder saves what
-    the tab shows (compared with Chromium's own picture of the page, coarsely)."""
+def test_screenshot_and_follow_presenter(chromium, tmp_path):
+    """A studio of its own (the replay test above runs with none): *Screenshot* in the Share
+    folder saves what the tab shows (compared with Chromium's own picture of the page,
+    coarsely); then a second tab ticks *Follow presenter* and, when the first tab's camera is
+    dragged round, shows the same view."""
     from app.config import StudioConfig
     from app.studio import Studio
     from tests.browser.conftest import _free_port
@@ -133,13 +135,15 @@ def test_screenshot_saves_the_tabs_render_as_png(chromium, tmp_path):
         click_button,
         dismiss_software_webgl_warning,
         expand_folder,
+        folder_title,
+        shot,
         wait_stable,
     )
 
     studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path / "data"))
     context = chromium.new_context(viewport=VIEWPORT)
     page = context.new_page()
-    page.set_default_timeout(60_000)
+    page.set_default_timeout(120_000)
     saved: list[Path | None] = []
     done = threading.Event()
     studio.share.screenshot_saved.connect(lambda path: (saved.append(path), done.set()))
@@ -147,24 +151,54 @@ def test_screenshot_saves_the_tabs_render_as_png(chromium, tmp_path):
         page.goto(studio.web.url)
         dismiss_software_webgl_warning(page)
         expand_folder(page, "Share", "Screenshot")
-        seen = wait_stable(page, "the studio's first render", not_blank)
+        wait_stable(page, "the studio's first render", not_blank)
         click_button(page, "Screenshot")
         wait_for("the screenshot", done.is_set, RENDER_TIMEOUT_S)
+        # The page's own picture once it holds still (meshes still arriving when the button
+        # was clicked are in the render too).
+        seen = wait_stable(page, "the studio's view", not_blank)
         path = saved[0]
         assert path is not None and path.parent == tmp_path / "data" / "screenshots"
         assert str(path) in page.get_by_text("Screenshot (").first.inner_text()
         image = np.asarray(Image.open(path).convert("RGB"), dtype=np.float64)
         assert not_blank(image.astype(np.int16))
-        # The same view as the page's (left half: the page's shot masks the panel): coarse grey
-        # levels on a 32×20 grid correlate strongly.
+        # The same view as the page's: coarse grey levels on a 32×20 grid correlate strongly,
+        # over the cells the page's shot does not mask (the panel, notifications: pure black).
         assert image.shape == seen.shape  # the tab's whole view, at its size
-        grid = _grey_grid(image), _grey_grid(seen.astype(np.float64))
-        left = grid[0].shape[1] // 2  # the control panel sits on the right: compare the left half
-        corr = np.corrcoef(grid[0][:, :left].ravel(), grid[1][:, :left].ravel())[0, 1]
-        assert corr > 0.8
+        assert _correlation(image, seen.astype(np.float64)) > 0.8
+
+        viewer = context.new_page()
+        viewer.set_default_timeout(120_000)
+        viewer.goto(studio.web.url)
+        dismiss_software_webgl_warning(viewer)
+        wait_stable(viewer, "the viewer's first render", not_blank)
+        folder_title(viewer, "Demo").click()
+        viewer.get_by_label("Follow presenter").check()
+        wait_for("the follower to register", lambda: len(studio.demo._following) == 1, 30.0)
+        before = wait_stable(page, "the presenter's view", not_blank)
+        page.mouse.move(300, 400)
+        page.mouse.down()
+        page.mouse.move(500, 380, steps=8)
+        page.mouse.up()
+        moved = wait_stable(page, "the presenter's turned view", not_blank)
+        assert changed(moved, before).mean() > 0.01
+
+        def same_view() -> bool:
+            return _correlation(shot(viewer).astype(np.float64), moved.astype(np.float64)) > 0.97
+
+        wait_for("the follower to show the presenter's view", same_view, RENDER_TIMEOUT_S)
     finally:
         context.close()
         studio.stop()
+
+
+def _correlation(a: np.ndarray, b: np.ndarray) -> float:
+    """Correlation of two views' coarse grey levels, over the cells neither view masks."""
+    masked = _grey_grid((a[..., :3] == 0).all(axis=2)[..., None] * 1.0) + _grey_grid(
+        (b[..., :3] == 0).all(axis=2)[..., None] * 1.0
+    )
+    keep = masked == 0
+    return float(np.corrcoef(_grey_grid(a)[keep], _grey_grid(b)[keep])[0, 1])
 
 
 def _grey_grid(image: np.ndarray, shape: tuple[int, int] = (20, 32)) -> np.ndarray:
