@@ -115,3 +115,11 @@ def test_index_must_be_a_real_file(tmp_path):
 def test_reader_refuses_what_is_not_a_recording(data):
     with pytest.raises(ReplayError):
         read_viser_file(data)
+
+
+def test_out_may_be_the_working_folder_when_empty(tmp_path, monkeypatch):
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    result = write_replay_folder(Path("."), b"rec", _client(tmp_path), "t", {})
+    assert result.path == work and (work / RECORDING).read_bytes() == b"rec"

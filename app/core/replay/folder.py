@@ -73,9 +73,9 @@ def write_replay_folder(
     make_zip: bool = False,
 ) -> ReplayFolder:
     """Write the replay folder at `out` (and `out.zip` beside it when asked)."""
-    out = Path(out)
+    out = Path(os.path.normpath(Path(out).absolute()))  # "." and "a/.." have a name and a parent
     _check_target(out)
-    parent = out.parent if str(out.parent) else Path(".")
+    parent = out.parent
     try:
         parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
