@@ -27,6 +27,12 @@ class DemoSession:
         server.on_client_connect(self._on_connect)
         server.on_client_disconnect(self._on_disconnect)
 
+    @property
+    def followers(self) -> frozenset[int]:
+        """client_ids of the tabs following the presenter."""
+        with self._lock:
+            return frozenset(self._following)
+
     def _on_connect(self, client: viser.ClientHandle) -> None:
         panel = DemoPanel(client, self)
         with self._lock:
