@@ -35,6 +35,8 @@ the fixed pinocchio workload of app.bench_report) so that the ratio carries acro
 - simulate: servo_biped's one-leg squats on MuJoCo with the default virtual servos (≥ 10× real
   time; the same steps of bare MuJoCo beside it), Roban S14's (≥ 5×), and the studio's
   Simulate click to the verdict, ghosts and plots (≤ 2 s), with the worker already started.
+- replay: a 10 s motion with four ghosts exported as a replay folder (≤ 5 s, ≤ 20 MB), beside
+  the same frames shown on a live scene (app/replay_bench.py).
 """
 
 from __future__ import annotations
@@ -64,6 +66,7 @@ from app.bench_report import (
 from app.config import StudioConfig
 from app.core.dynamics.wbc_bench import bench_feedforward
 from app.core.simulation.bench import bench_simulation
+from app.replay_bench import REPLAY_TARGET_MB, REPLAY_TARGET_S, bench_replay
 from app.studio import Studio
 from panels.quiet import set_value
 
@@ -371,6 +374,24 @@ def _entry_projects(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             "the same drags with autosave held",
             f"{row['autosaves']} autosaves written meanwhile",
         ),
+    ]
+
+
+@bench_entry("replay")
+def _entry_replay(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = bench_replay()
+    return row, [
+        Figure(
+            f"replay export, {row['robot']} {row['motion_s']:.1f} s with {row['ghosts']} ghosts "
+            f"({row['total_mb']:.1f} MB, target ≤ {REPLAY_TARGET_MB:.0f} MB)",
+            row["export_s"],
+            "s",
+            f"≤ {REPLAY_TARGET_S:.0f} s",
+            row["export_s"] <= REPLAY_TARGET_S and row["total_mb"] <= REPLAY_TARGET_MB,
+            row["baseline_playback_s"],
+            "the same frames shown on a live scene",
+            f"CPU {row['export_cpu_s']:.1f} s vs {row['baseline_playback_cpu_s']:.1f} s",
+        )
     ]
 
 

@@ -12,7 +12,7 @@ import json
 import sys
 from collections.abc import Callable
 
-from app.cli import compensate, feedforward, limits, motion, plan, robots, serve, simulate
+from app.cli import compensate, feedforward, limits, motion, plan, replay, robots, serve, simulate
 from app.cli.common import DEFAULTS
 from app.core.errors import StudioError
 
@@ -44,6 +44,7 @@ PARSERS: tuple[Callable[..., None], ...] = (
     plan.add_parser,
     simulate.add_parser,
     limits.add_parser,
+    replay.add_parser,
 )
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "serve": serve.run,
@@ -57,6 +58,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "simulate": simulate.run,
     "bench": _bench,
     "limits": limits.run,
+    "replay": replay.run,
 }
 
 

@@ -24,6 +24,8 @@ from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
 from app.core.projects.project import Project
+from app.core.replay.pipeline import prediction_verdicts
+from app.core.replay.scene import ReplayLayers
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import (
     CLEARANCE_SIGNS,
@@ -520,6 +522,49 @@ class CompensationSession:
                 "⚠️ Stale: the coefficients or servos changed since this simulation; simulate "
                 "again.  \n" + _simulation_summary(self.simulation)
             )
+
+    def replay_layers(self, traces: bool) -> ReplayLayers:
+        """The ghosts shown now (checkbox on and poses to show), the key parameters and the
+        verdicts, for a replay recorded as the studio shows it."""
+        with self._lock:
+            prediction, params, servo = self.prediction, self.params, self.servo
+            simulation, trajectory = self.simulation, self._trajectory
+            fresh = simulation is not None and simulation.trajectory is trajectory
+            extra = (
+                {
+                    "sim_without": simulation.results[WITHOUT].q,
+                    "sim_with": simulation.results[WITH].q,
+                }
+                if fresh and simulation is not None and not simulation.error
+                else {}
+            )
+            shown = tuple(
+                name
+                for name, checkbox in self.panel.ghosts.items()
+                if checkbox.value
+                and (
+                    name in extra
+                    or (prediction is not None and name not in ("sim_without", "sim_with"))
+                )
+            )
+        parameters: dict[str, str] = {}
+        if params is not None and np.any(params.enabled):
+            k = np.asarray(params.k_deg_per_Nm)[params.enabled]
+            parameters["k"] = (
+                f"{k.min():.2f}…{k.max():.2f} °/(N·m) on {int(np.sum(params.enabled))} joints"
+            )
+            phi = np.asarray(params.phi_deg)[params.enabled]
+            if np.any(phi):
+                parameters["φ"] = f"{phi.max():.1f}° ({params.clearance_sign})"
+        if servo is not None and np.any(servo.compliance_deg_per_Nm):
+            parameters["servo compliance"] = f"{np.max(servo.compliance_deg_per_Nm):.2f} °/(N·m)"
+        verdicts = prediction_verdicts(prediction) if prediction is not None else ()
+        if extra and simulation is not None:
+            verdicts += tuple(
+                f"simulated {label}: {simulation.results[label].verdict()}"
+                for label in (WITHOUT, WITH)
+            )
+        return ReplayLayers(prediction, shown, extra, traces, parameters, verdicts)
 
     def close(self) -> None:
         self._cursor.cancel()

@@ -16,6 +16,7 @@ from app.core.robot.loading import load_robot
 from app.core.robot.model import RobotModel
 from app.core.robot.report import robot_report
 from app.studio.compensation_session import CompensationSession
+from app.studio.demo_session import DemoSession
 from app.studio.gait_session import GaitSession
 from app.studio.joints_session import JointsSession
 from app.studio.motion_session import MotionSession
@@ -24,6 +25,7 @@ from app.studio.playback_session import PlaybackSession
 from app.studio.pose_session import PoseSession
 from app.studio.project_session import ProjectSession
 from app.studio.robot_session import RobotSession, prepare
+from app.studio.share_session import ShareSession
 from app.studio.state import StudioState
 from app.web.guard import guarded_server
 
@@ -65,6 +67,14 @@ class Studio:
         self.gait = GaitSession(
             server, state, notifier, config.package_roots, prepare=config.prepare_gait
         )
+        self.share = ShareSession(
+            server,
+            state,
+            notifier,
+            config.data_dir,
+            layers=lambda: self.compensation.replay_layers(self.playback.panel.traces.value),
+        )
+        self.demo = DemoSession(server)
         if robot is None:
             robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)
             prepare(robot)
@@ -90,6 +100,7 @@ class Studio:
     def stop(self) -> None:
         self.project.stop()
         self.playback.stop()
+        self.share.close()
         self.gait.close()
         self.compensation.close()
         with contextlib.redirect_stdout(sys.stderr):  # viser's "Server stopped" is not output
