@@ -12,7 +12,7 @@ given, so V reduces to ūᵀ(R + a²Q_p)ū, a cost on leaving the plan's CoM acc
 
 A sample is "solved" when the QP's accelerations stay within `max_qdd_error` of the plan's and
 its torques within their limits: τ then realises the planned motion with contact forces inside
-the friction pyramids (the dynamics hold to round-off, whatever OSQP's tolerance). Otherwise
+the friction pyramids (the dynamics hold to round-off, whatever the QP solver's tolerance). Otherwise
 the status says why, and the run goes on:
 - "cannot follow the plan: …" (CoM outside the stance sole, too little friction, a torque
   limit): τ, forces and q̈ are those of the QP's nearest realisable motion;

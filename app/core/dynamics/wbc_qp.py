@@ -1,7 +1,9 @@
 """The whole-body QP of the spring-compensation paper (eqs. 12–18), one sample at a time.
 
 Decision variables z = [q̈ (nv), β (2 feet × 4 corners × 4 edges), η (2 × 6), f_loop (3 per
-declared loop)]; OSQP's form is min ½zᵀPz + pᵀz subject to l ≤ A z ≤ u.
+declared loop)]; the QP is min ½zᵀPz + pᵀz subject to l ≤ A z ≤ u (OSQP's form; ProxQP, the
+default solver, takes the dynamics and loop rows as A_eq z = b and the others as
+l ≤ C z ≤ u, a foot's contact rows with l = u while it is down).
 
 - eq. 13, floating base (and passive joints of closed loops, τ = 0):
   M_u q̈ + h_u = (Φᵀλ)_u + (J_loopᵀ f_loop)_u, u = unactuated rows.
@@ -46,11 +48,11 @@ N_EDGES = 4
 N_CORNERS = 4
 LOOP_FORCE_WEIGHT = 1e-8
 TOLERANCE = 1e-6
-"""OSQP's absolute and relative tolerances."""
+"""The solver's absolute tolerance (and OSQP's relative one; ProxQP's is 0)."""
 MAX_ITERATIONS = 2000
-"""OSQP's iteration cap. A followable sample converges in 25–250 warm-started iterations;
+"""The solver's iteration cap. A followable sample converges in 25–250 warm-started iterations;
 thousands only happen where the plan cannot be followed. The last iterate is used even
-then: after `_exact` its dynamics hold and its forces lie in the pyramids whatever OSQP's
+then: after `_exact` its dynamics hold and its forces lie in the pyramids whatever the solver's
 status, and the caller certifies each sample itself (q̈ against the plan, torque limits)."""
 PROXQP_INFINITY = 1e20
 """ProxQP's stand-in for an infinite bound."""
@@ -96,7 +98,7 @@ class QpWeights:
 class SampleSolution:
     ok: bool
     status: str
-    """OSQP's status, or why there is no solution, in words."""
+    """The solver's status, or why there is no solution, in words."""
     qdd: np.ndarray
     """Generalised accelerations, shape (nv,)."""
     beta: np.ndarray
@@ -136,7 +138,7 @@ def pyramid_edges(mu: float) -> np.ndarray:
 
 
 class WholeBodyQp:
-    """The QP's sparsity fixed at construction; `solve` fills values and runs OSQP warm."""
+    """The QP's sparsity fixed at construction; `solve` fills values and runs the solver warm."""
 
     def __init__(self, robot: RobotModel, weights: QpWeights, solver: QpSolver = "proxqp") -> None:
         if solver not in SOLVERS:
@@ -465,7 +467,7 @@ class WholeBodyQp:
 
     def _exact(self, terms: Terms, loop_rhs, qdd, beta, f_loop):
         """Smallest change of q̈ and f_loop that makes eq. 13 and the loop rows hold exactly
-        (OSQP meets them only to its tolerance); β, already inside the pyramids, is kept."""
+        (the solver meets them only to its tolerance); β, already inside the pyramids, is kept."""
         u = self._u
         if not self.loop_ids:  # E = M_u has full row rank: the minimum-norm step
             E = terms.M[u]
