@@ -14,6 +14,7 @@ from app.cli.common import (
     load_robot_from_args,
     output_target,
 )
+from app.core.errors import StudioError
 
 
 def add_parser(sub) -> None:
@@ -25,6 +26,12 @@ def add_parser(sub) -> None:
     feedforward.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
     feedforward.add_argument(
         "--out", type=Path, default=None, help="torque CSV: t [s], tau:<joint> [N·m]…, status"
+    )
+    feedforward.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="worker processes solving chunks of samples in parallel (0: one per core)",
     )
     feedforward.add_argument("--json", action="store_true")
     add_robot_options(feedforward)
@@ -42,8 +49,16 @@ def run(args: argparse.Namespace) -> int:
 
     robot = load_robot_from_args(args)
     traj = read_trajectory_csv(args.trajectory, robot)
+    if args.workers < 0:
+        raise StudioError(f"--workers must be 0 (one per core) or more, got {args.workers}")
     begin = time.perf_counter()
-    ff = torque_feedforward(robot, traj)
+    if args.workers == 1:
+        ff = torque_feedforward(robot, traj)
+    else:
+        from app.core.dynamics.parallel import FeedForwardPool
+
+        with FeedForwardPool(args.workers or None) as pool:
+            ff = torque_feedforward(robot, traj, pool=pool)
     seconds = time.perf_counter() - begin
     if args.out is not None:
         write_torque_csv(args.out, ff)

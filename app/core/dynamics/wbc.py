@@ -12,7 +12,7 @@ given, so V reduces to ūᵀ(R + a²Q_p)ū, a cost on leaving the plan's CoM acc
 
 A sample is "solved" when the QP's accelerations stay within `max_qdd_error` of the plan's and
 its torques within their limits: τ then realises the planned motion with contact forces inside
-the friction pyramids (the dynamics hold to round-off, whatever OSQP's tolerance). Otherwise
+the friction pyramids (the dynamics hold to round-off, whatever the QP solver's tolerance). Otherwise
 the status says why, and the run goes on:
 - "cannot follow the plan: …" (CoM outside the stance sole, too little friction, a torque
   limit): τ, forces and q̈ are those of the QP's nearest realisable motion;
@@ -29,11 +29,12 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 
 from app.core.dynamics.lqr import lqr_com
-from app.core.dynamics.wbc_qp import N_CORNERS, QpWeights, WholeBodyQp
+from app.core.dynamics.wbc_qp import N_CORNERS, QpSolver, QpWeights, WholeBodyQp
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
@@ -44,8 +45,9 @@ MAX_ACCELERATION = 1e5
 """Largest |a| accepted in a trajectory [rad/s² or m/s²]."""
 TORQUE_TOLERANCE = 1e-3
 """Relative excess over a torque limit tolerated as solver round-off."""
-PROGRESS_EVERY = 25
-"""Samples between two progress reports."""
+CHUNK_SAMPLES = 100
+"""Samples per chunk: each chunk starts its QP cold and warm-starts along itself (a cold
+sample costs a few warm ones), so chunks can be solved anywhere with the same answer."""
 
 
 class WbcError(StudioError):
@@ -161,62 +163,61 @@ def torque_feedforward(
     params: WbcParams = WbcParams(),
     progress: Callable[[float], None] | None = None,
     com_state_error: np.ndarray | None = None,
+    *,
+    pool: ChunkRunner | None = None,
+    solver: QpSolver = "proxqp",
 ) -> FeedForward:
     """Solve the whole-body QP at every sample of a trajectory; never fails on a sample.
 
     Contacts come from `trajectory.contacts`; the plan's q̈ is `trajectory.a`. `progress` is
-    called with the fraction done (0…1) every few samples and may raise to cancel.
+    called with the fraction done (0…1) after each chunk and may raise to cancel.
     `com_state_error` (T, 6) is x̄ = x − x^d [m, m/s] for the CoM LQR term, e.g. a measured
     CoM state minus the plan's; None is the feed-forward case x̄ = 0.
+
+    The samples are solved in chunks of CHUNK_SAMPLES contiguous samples, each warm-started
+    along itself from a cold first sample, so a chunk's answer does not depend on where it
+    runs: `pool` (app.core.dynamics.parallel.FeedForwardPool) spreads them over worker
+    processes and gives bit-identical results to solving them here one after the other.
     Raises WbcError for input that does not fit the robot (joints, shapes, NaN, absurd values).
     """
     x_bar = _check_inputs(robot, trajectory, com_state_error)
-    bound, unbounded = torque_limits(robot, params)
-    qp = WholeBodyQp(
-        robot,
-        QpWeights(
-            mu=params.mu,
-            alpha=params.alpha,
-            w_qdd=params.w_qdd,
-            epsilon=params.epsilon,
-            eta_max=params.eta_max,
-            a=params.a,
-            q_lqr=params.lqr_q,
-            r_lqr=params.lqr_r,
-            S=lqr_com(params.lqr_q, params.lqr_r)[1],
-            tau_max=bound,
-        ),
-    )
-    n, nv = trajectory.n_samples, robot.model.nv
-    tau = np.full((n, robot.n_actuated), np.nan)
-    forces = np.full((n, 2, N_CORNERS, 3), np.nan)
-    qdd = np.full((n, nv), np.nan)
-    loop_forces = np.full((n, len(robot.tree.loops), 3), np.nan)
-    times = np.empty(n)
-    solver_times = np.zeros(n)
-    solved = np.zeros(n, dtype=bool)
-    status: list[str] = []
-    dof_names = _dof_names(robot)
-    for k in range(n):
-        if progress is not None and k % PROGRESS_EVERY == 0:
-            progress(k / n)
-        q, v, a = trajectory.q[k], trajectory.v[k], trajectory.a[k]
-        begin = time.perf_counter()
-        terms = qp.kinematics(q, v, a)
-        solution = qp.solve(terms, v, a, trajectory.contacts[k], x_bar[k])
-        times[k] = time.perf_counter() - begin
-        solver_times[k] = qp.last_solver_s
-        if not solution.ok:
-            status.append(f"no solution: {solution.status}")
-            continue
-        solved[k] = True
-        qdd[k] = solution.qdd
-        tau[k] = qp.torques(terms, solution)
-        forces[k] = qp.corner_forces(solution.beta)
-        loop_forces[k] = solution.f_loop.reshape(-1, 3)
-        status.append(_certify(solution.qdd - a, tau[k], bound, params, dof_names, robot))
+    _bound, unbounded = torque_limits(robot, params)
+    n = trajectory.n_samples
+    chunks = [
+        ChunkInput(
+            trajectory.q[s:e],
+            trajectory.v[s:e],
+            trajectory.a[s:e],
+            trajectory.contacts[s:e],
+            x_bar[s:e],
+        )
+        for s, e in chunk_bounds(n)
+    ]
+    if pool is not None:
+        results = pool.map_chunks(robot, params, solver, chunks, progress)
+    else:
+        qp = make_qp(robot, params, solver)
+        results = []
+        for k, chunk in enumerate(chunks):
+            if progress is not None:
+                progress(k / len(chunks))
+            results.append(solve_chunk(qp, chunk, params))
     if progress is not None:
         progress(1.0)
+    tau = np.concatenate([r.tau for r in results]) if results else np.zeros((0, robot.n_actuated))
+    forces = (
+        np.concatenate([r.forces for r in results]) if results else np.zeros((0, 2, N_CORNERS, 3))
+    )
+    qdd = np.concatenate([r.qdd for r in results]) if results else np.zeros((0, robot.model.nv))
+    loop_forces = (
+        np.concatenate([r.loop_forces for r in results])
+        if results
+        else np.zeros((0, len(robot.tree.loops), 3))
+    )
+    times = np.concatenate([r.times for r in results]) if results else np.zeros(0)
+    solver_times = np.concatenate([r.solver_times for r in results]) if results else np.zeros(0)
+    solved = np.concatenate([r.solved for r in results]) if results else np.zeros(0, bool)
+    status: list[str] = [text for r in results for text in r.status]
     if solved.any():
         for k in np.flatnonzero(~solved):
             source = _nearest(solved, k)
@@ -226,7 +227,8 @@ def torque_feedforward(
     notes = []
     if unbounded:
         notes.append(f"no torque limit (unbounded): {', '.join(unbounded)}")
-    for foot, corners in zip(robot.feet, qp.corners, strict=True):
+    for foot in robot.feet:
+        corners = np.asarray(foot.sole_corners_m, dtype=float)
         if np.ptp(corners, axis=0).max() < 1e-6:
             notes.append(f"{foot.link} has no sole geometry: its contact is a single point")
     return FeedForward(
@@ -243,6 +245,105 @@ def torque_feedforward(
         notes=tuple(notes),
         solver_time_s=solver_times,
     )
+
+
+def chunk_bounds(n: int, size: int | None = None) -> list[tuple[int, int]]:
+    """(start, stop) of the chunks of n samples, CHUNK_SAMPLES each (the last one shorter)."""
+    size = size or CHUNK_SAMPLES
+    return [(start, min(start + size, n)) for start in range(0, n, size)]
+
+
+def make_qp(robot: RobotModel, params: WbcParams, solver: QpSolver = "proxqp") -> WholeBodyQp:
+    """The whole-body QP of a robot with these parameters (sparsity, cost, solver set up)."""
+    bound, _ = torque_limits(robot, params)
+    return WholeBodyQp(
+        robot,
+        QpWeights(
+            mu=params.mu,
+            alpha=params.alpha,
+            w_qdd=params.w_qdd,
+            epsilon=params.epsilon,
+            eta_max=params.eta_max,
+            a=params.a,
+            q_lqr=params.lqr_q,
+            r_lqr=params.lqr_r,
+            S=lqr_com(params.lqr_q, params.lqr_r)[1],
+            tau_max=bound,
+        ),
+        solver,
+    )
+
+
+def solve_chunk(qp: WholeBodyQp, chunk: ChunkInput, params: WbcParams) -> ChunkResult:
+    """The QP at each sample of a chunk, cold at its first sample, warm along it."""
+    robot = qp.robot
+    bound = qp.weights.tau_max
+    n, nv = len(chunk.q), robot.model.nv
+    tau = np.full((n, robot.n_actuated), np.nan)
+    forces = np.full((n, 2, N_CORNERS, 3), np.nan)
+    qdd = np.full((n, nv), np.nan)
+    loop_forces = np.full((n, len(robot.tree.loops), 3), np.nan)
+    times = np.empty(n)
+    solver_times = np.zeros(n)
+    solved = np.zeros(n, dtype=bool)
+    status: list[str] = []
+    dof_names = _dof_names(robot)
+    qp.reset()
+    for k in range(n):
+        q, v, a = chunk.q[k], chunk.v[k], chunk.a[k]
+        begin = time.perf_counter()
+        terms = qp.kinematics(q, v, a)
+        solution = qp.solve(terms, v, a, chunk.contacts[k], chunk.x_bar[k])
+        times[k] = time.perf_counter() - begin
+        solver_times[k] = qp.last_solver_s
+        if not solution.ok:
+            status.append(f"no solution: {solution.status}")
+            continue
+        solved[k] = True
+        qdd[k] = solution.qdd
+        tau[k] = qp.torques(terms, solution)
+        forces[k] = qp.corner_forces(solution.beta)
+        loop_forces[k] = solution.f_loop.reshape(-1, 3)
+        status.append(_certify(solution.qdd - a, tau[k], bound, params, dof_names, robot))
+    return ChunkResult(tau, forces, qdd, loop_forces, times, solver_times, solved, tuple(status))
+
+
+class ChunkRunner(Protocol):
+    """Solves chunks elsewhere (worker processes), in order, exactly as `solve_chunk` here."""
+
+    def map_chunks(
+        self,
+        robot: RobotModel,
+        params: WbcParams,
+        solver: QpSolver,
+        chunks: list[ChunkInput],
+        progress: Callable[[float], None] | None,
+    ) -> list[ChunkResult]: ...
+
+
+@dataclasses.dataclass(frozen=True)
+class ChunkInput:
+    """Contiguous samples of a trajectory: q (n, nq), v, a (n, nv), contacts (n, 2), x̄ (n, 6)."""
+
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    contacts: np.ndarray
+    x_bar: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class ChunkResult:
+    """Per sample of a chunk, as in FeedForward (NaN rows where the QP had no solution)."""
+
+    tau: np.ndarray
+    forces: np.ndarray
+    qdd: np.ndarray
+    loop_forces: np.ndarray
+    times: np.ndarray
+    solver_times: np.ndarray
+    solved: np.ndarray
+    status: tuple[str, ...]
 
 
 def _nearest(solved: np.ndarray, k: int) -> int:

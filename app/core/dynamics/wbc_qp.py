@@ -1,7 +1,9 @@
 """The whole-body QP of the spring-compensation paper (eqs. 12–18), one sample at a time.
 
 Decision variables z = [q̈ (nv), β (2 feet × 4 corners × 4 edges), η (2 × 6), f_loop (3 per
-declared loop)]; OSQP's form is min ½zᵀPz + pᵀz subject to l ≤ A z ≤ u.
+declared loop)]; the QP is min ½zᵀPz + pᵀz subject to l ≤ A z ≤ u (OSQP's form; ProxQP, the
+default solver, takes the dynamics and loop rows as A_eq z = b and the others as
+l ≤ C z ≤ u, a foot's contact rows with l = u while it is down).
 
 - eq. 13, floating base (and passive joints of closed loops, τ = 0):
   M_u q̈ + h_u = (Φᵀλ)_u + (J_loopᵀ f_loop)_u, u = unactuated rows.
@@ -31,11 +33,13 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from typing import Literal
 
 import numpy as np
 import osqp
 import pinocchio as pin
 import scipy.sparse as sp
+from proxsuite import proxqp
 
 from app.core.dynamics.lqr import B_COM
 from app.core.robot.model import RobotModel
@@ -44,12 +48,26 @@ N_EDGES = 4
 N_CORNERS = 4
 LOOP_FORCE_WEIGHT = 1e-8
 TOLERANCE = 1e-6
-"""OSQP's absolute and relative tolerances."""
+"""The solver's absolute tolerance (and OSQP's relative one; ProxQP's is 0)."""
 MAX_ITERATIONS = 2000
-"""OSQP's iteration cap. A followable sample converges in 25–250 warm-started iterations;
+"""The solver's iteration cap. A followable sample converges in 25–250 warm-started iterations;
 thousands only happen where the plan cannot be followed. The last iterate is used even
-then: after `_exact` its dynamics hold and its forces lie in the pyramids whatever OSQP's
+then: after `_exact` its dynamics hold and its forces lie in the pyramids whatever the solver's
 status, and the caller certifies each sample itself (q̈ against the plan, torque limits)."""
+PROXQP_INFINITY = 1e20
+"""ProxQP's stand-in for an infinite bound."""
+QpSolver = Literal["proxqp", "osqp"]
+SOLVERS: tuple[QpSolver, ...] = ("proxqp", "osqp")
+"""ProxQP (dense) is the default: ~0.65× OSQP's time on these QPs (62 variables, 74 rows:
+OSQP refactorises its sparse KKT matrix whenever A's values change, every sample), same
+answers within the tolerance (tests/core/test_wbc_solvers.py)."""
+PROXQP_STATUSES = {
+    proxqp.PROXQP_SOLVED: "solved",
+    proxqp.PROXQP_MAX_ITER_REACHED: "maximum iterations reached",
+    proxqp.PROXQP_PRIMAL_INFEASIBLE: "primal infeasible",
+    proxqp.PROXQP_DUAL_INFEASIBLE: "dual infeasible",
+    proxqp.PROXQP_SOLVED_CLOSEST_PRIMAL_FEASIBLE: "primal infeasible",
+}
 FAILED_STATUSES = {
     "primal infeasible": "no accelerations, forces inside the friction pyramids and torques "
     "within their limits satisfy the dynamics (QP infeasible)",
@@ -80,7 +98,7 @@ class QpWeights:
 class SampleSolution:
     ok: bool
     status: str
-    """OSQP's status, or why there is no solution, in words."""
+    """The solver's status, or why there is no solution, in words."""
     qdd: np.ndarray
     """Generalised accelerations, shape (nv,)."""
     beta: np.ndarray
@@ -120,9 +138,12 @@ def pyramid_edges(mu: float) -> np.ndarray:
 
 
 class WholeBodyQp:
-    """The QP's sparsity fixed at construction; `solve` fills values and runs OSQP warm."""
+    """The QP's sparsity fixed at construction; `solve` fills values and runs the solver warm."""
 
-    def __init__(self, robot: RobotModel, weights: QpWeights) -> None:
+    def __init__(self, robot: RobotModel, weights: QpWeights, solver: QpSolver = "proxqp") -> None:
+        if solver not in SOLVERS:
+            raise ValueError(f"unknown QP solver {solver!r}; known: {', '.join(SOLVERS)}")
+        self.solver_name = solver
         model = robot.model
         self.robot, self.model, self.data, self.weights = robot, model, model.createData(), weights
         self.nv = nv = model.nv
@@ -130,6 +151,7 @@ class WholeBodyQp:
         self.gravity = np.array(model.gravity.linear)
         self.foot_ids = [robot.link_frame_ids[foot.link] for foot in robot.feet]
         self.corners = [np.asarray(foot.sole_corners_m, dtype=float) for foot in robot.feet]
+        self.corners_array = np.array(self.corners)  # (2, 4, 3)
         self.loop_ids = [
             (robot.link_frame_ids[loop.link_a], robot.link_frame_ids[loop.link_b])
             for loop in robot.tree.loops
@@ -138,7 +160,11 @@ class WholeBodyQp:
         self.actuated = np.array([joint.idx_v for joint in robot.joints], dtype=int)
         passive = [model.joints[model.getJointId(name)].idx_v for name in robot.passive_joints]
         self.unactuated = np.array(list(range(6)) + passive, dtype=int)
+        # Basic slicing (a view) where the indices are contiguous, as without passive joints.
+        self._u = _as_slice(self.unactuated)
+        self._a = _as_slice(self.actuated)
         self.limited = np.flatnonzero(np.isfinite(weights.tau_max))
+        self._limited_v = _as_slice(self.actuated[self.limited])
 
         nb, ne, nf = 2 * N_CORNERS * N_EDGES, 12, 3 * len(self.loop_ids)
         self.cols = {"qdd": slice(0, nv), "beta": slice(nv, nv + nb)}
@@ -178,23 +204,43 @@ class WholeBodyQp:
         )
         P[self.cols["eta"], self.cols["eta"]] = 2.0 * np.eye(ne)
         P[self.cols["f"], self.cols["f"]] = 2.0 * LOOP_FORCE_WEIGHT * np.eye(nf)
+        self.P = P
+        """The constant Hessian of the cost, full and symmetric, shape (n, n)."""
+        self.n_eq = self.rows["contact"].start
+        """Rows dyn and loop are equalities (ProxQP's A z = b); the rest are l ≤ C z ≤ u."""
+        self._prox: proxqp.dense.QP | None = None
         self.solver = osqp.OSQP()
-        self.solver.setup(
-            sp.triu(sp.csc_matrix(P)).tocsc(),
-            np.zeros(self.n),
-            A0,
-            np.zeros(self.m),
-            np.zeros(self.m),
-            verbose=False,
-            eps_abs=TOLERANCE,
-            eps_rel=TOLERANCE,
-            polishing=False,  # `_exact` makes the equalities exact; polishing costs ~20 %
-            warm_starting=True,
-            max_iter=MAX_ITERATIONS,
-        )
+        if solver == "osqp":
+            self.solver.setup(
+                sp.triu(sp.csc_matrix(P)).tocsc(),
+                np.zeros(self.n),
+                A0,
+                np.zeros(self.m),
+                np.zeros(self.m),
+                verbose=False,
+                eps_abs=TOLERANCE,
+                eps_rel=TOLERANCE,
+                polishing=False,  # `_exact` makes the equalities exact; polishing costs ~20 %
+                warm_starting=True,
+                max_iter=MAX_ITERATIONS,
+            )
         self.zero_v = np.zeros(nv)
+        # The bounds that do not change: |τ| (before h), β ≥ 0, |η| ≤ η_max, free contact rows.
+        self._lower0, self._upper0 = np.full(self.m, -np.inf), np.full(self.m, np.inf)
+        self._lower0[self.rows["tau"]] = -weights.tau_max[self.limited]
+        self._upper0[self.rows["tau"]] = weights.tau_max[self.limited]
+        self._lower0[self.rows["beta"]] = 0.0
+        self._lower0[self.rows["eta"]], self._upper0[self.rows["eta"]] = (
+            -weights.eta_max,
+            weights.eta_max,
+        )
+        self._GH2 = 2.0 * self.G_u.T @ self.H_u
         self.last_x: np.ndarray | None = None
         self.last_solver_s = 0.0
+        self.last_problem: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        """(p, l, u) of the last sample (A is self.A, P self.P)."""
+        self.last_duals: tuple[np.ndarray, np.ndarray] | None = None
+        """ProxQP's multipliers of the last sample: (equality rows, inequality rows)."""
         """Wall time of the last sample's solver call alone [s]."""
 
     def _structure(self):
@@ -231,7 +277,7 @@ class WholeBodyQp:
     def _fill(self, M, Phi, J_feet, J_loop, out: np.ndarray | None = None) -> np.ndarray:
         """Write the configuration-dependent blocks of A (also used on 0/1 structure)."""
         A = np.zeros((self.m, self.n)) if out is None else out
-        r, c, u, lim = self.rows, self.cols, self.unactuated, self.actuated[self.limited]
+        r, c, u, lim = self.rows, self.cols, self._u, self._limited_v
         A[r["dyn"], c["qdd"]] = M[u]
         A[r["dyn"], c["beta"]] = -Phi[u]
         A[r["dyn"], c["f"]] = -J_loop[:, u].T
@@ -258,16 +304,17 @@ class WholeBodyQp:
         pin.computeJointJacobians(model, data, q)
         pin.forwardKinematics(model, data, q, v, self.zero_v)
         pin.updateFramePlacements(model, data)
-        J_feet, drift_feet, Phi = [], [], []
-        for fid, corners in zip(self.foot_ids, self.corners, strict=True):
-            J = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
-            R = data.oMf[fid].rotation
-            J_world = np.vstack([R @ J[:3], R @ J[3:]])
-            offsets = corners @ R.T  # corner positions relative to the foot origin, world axes
-            G = self._wrench_map(offsets)
-            J_feet.append(J)
-            drift_feet.append(pin.getFrameAcceleration(model, data, fid, pin.LOCAL).vector)
-            Phi.append(J_world.T @ G)
+        # Both feet at once (a few numpy calls instead of a few per foot).
+        J_feet = np.array([pin.getFrameJacobian(model, data, f, pin.LOCAL) for f in self.foot_ids])
+        R = np.array([data.oMf[f].rotation for f in self.foot_ids])  # (2, 3, 3)
+        drift_feet = np.concatenate(
+            [pin.getFrameAcceleration(model, data, f, pin.LOCAL).vector for f in self.foot_ids]
+        )
+        nv = self.nv
+        J_world = (R[:, None] @ J_feet.reshape(2, 2, 3, nv)).reshape(2, 6, nv)
+        offsets = self.corners_array @ R.transpose(0, 2, 1)  # corners from the foot origin, world
+        G = self._wrench_maps(offsets)  # (2, 6, 16)
+        Phi = (J_world.transpose(0, 2, 1) @ G).transpose(1, 0, 2).reshape(nv, 2 * G.shape[2])
         J_loop, drift_loop = [], []
         for a, b in self.loop_ids:
             J_a = pin.getFrameJacobian(model, data, a, pin.LOCAL_WORLD_ALIGNED)[:3]
@@ -280,27 +327,28 @@ class WholeBodyQp:
         return Terms(
             M=M,
             h=h,
-            Phi=np.hstack(Phi),
-            J_feet=np.vstack(J_feet),
-            drift_feet=np.concatenate(drift_feet),
+            Phi=Phi,
+            J_feet=J_feet.reshape(12, nv),
+            drift_feet=drift_feet,
             J_loop=np.vstack(J_loop) if J_loop else np.zeros((0, self.nv)),
             drift_loop=np.concatenate(drift_loop) if drift_loop else np.zeros(0),
             com_acc=com_acc,
         )
 
-    def _wrench_map(self, offsets: np.ndarray) -> np.ndarray:
-        """Wrench at the foot origin (force; moment, world axes) of the foot's 16 β, (6, 16).
+    def _wrench_maps(self, offsets: np.ndarray) -> np.ndarray:
+        """Wrench at each foot's origin (force; moment, world axes) of its 16 β, (2, 6, 16),
+        from the corners' offsets (2, 4, 3).
 
         Column (c, i) is [w_i; r_c × w_i] with r_c the corner's offset from the foot origin.
         """
         W = self.W
-        x, y, z = offsets[:, 0:1], offsets[:, 1:2], offsets[:, 2:3]
-        G = np.empty((6, N_CORNERS, N_EDGES))
-        G[:3] = W[:, None, :]
-        G[3] = y * W[2] - z * W[1]
-        G[4] = z * W[0] - x * W[2]
-        G[5] = x * W[1] - y * W[0]
-        return G.reshape(6, N_CORNERS * N_EDGES)
+        x, y, z = offsets[..., 0:1], offsets[..., 1:2], offsets[..., 2:3]
+        G = np.empty((len(offsets), 6, N_CORNERS, N_EDGES))
+        G[:, :3] = W[:, None, :]
+        G[:, 3] = y * W[2] - z * W[1]
+        G[:, 4] = z * W[0] - x * W[2]
+        G[:, 5] = x * W[1] - y * W[0]
+        return G.reshape(len(offsets), 6, N_CORNERS * N_EDGES)
 
     def solve(
         self,
@@ -312,38 +360,39 @@ class WholeBodyQp:
     ) -> SampleSolution:
         w, r, c = self.weights, self.rows, self.cols
         self._fill(terms.M, terms.Phi, terms.J_feet, terms.J_loop, out=self.A)
-        lower, upper = np.empty(self.m), np.empty(self.m)
-        lower[r["dyn"]] = upper[r["dyn"]] = -terms.h[self.unactuated]
+        lower, upper = self._lower0.copy(), self._upper0.copy()
+        lower[r["dyn"]] = upper[r["dyn"]] = -terms.h[self._u]
         loop_rhs = -terms.drift_loop - w.alpha * (terms.J_loop @ v)
         lower[r["loop"]] = upper[r["loop"]] = loop_rhs
         slip = -terms.drift_feet - w.alpha * (terms.J_feet @ v)
-        in_contact = np.repeat(contacts, 6)
-        lower[r["contact"]] = np.where(in_contact, slip, -np.inf)
-        upper[r["contact"]] = np.where(in_contact, slip, np.inf)
-        h_lim = terms.h[self.actuated[self.limited]]
-        lower[r["tau"]] = -w.tau_max[self.limited] - h_lim
-        upper[r["tau"]] = w.tau_max[self.limited] - h_lim
-        lower[r["beta"]] = 0.0
-        upper[r["beta"]] = np.where(np.repeat(contacts, N_CORNERS * N_EDGES), np.inf, 0.0)
-        lower[r["eta"]], upper[r["eta"]] = -w.eta_max, w.eta_max
+        for foot, down in enumerate(contacts):
+            if down:  # else free (±inf), as in _lower0/_upper0
+                rows = slice(r["contact"].start + 6 * foot, r["contact"].start + 6 * foot + 6)
+                lower[rows] = upper[rows] = slip[6 * foot : 6 * foot + 6]
+            else:  # a foot in the air pushes nothing: β = 0
+                start = r["beta"].start + foot * N_CORNERS * N_EDGES
+                upper[start : start + N_CORNERS * N_EDGES] = 0.0
+        h_lim = terms.h[self._limited_v]
+        lower[r["tau"]] -= h_lim
+        upper[r["tau"]] -= h_lim
 
         # V (eq. 5): ūᵀH_uū + 2 g_uᵀū with ū = G_u β + d, d = g − c̈_des.
-        p_bar = com_error[:3]
-        g_u = w.a * w.q_lqr * p_bar + B_COM.T @ w.S @ com_error
         d = self.gravity - terms.com_acc
         p = np.zeros(self.n)
         p[c["qdd"]] = -2.0 * w.w_qdd * qdd_des
-        p[c["beta"]] = 2.0 * self.G_u.T @ (self.H_u @ d + g_u)
-        self.solver.update(q=p, l=lower, u=upper, Ax=self.A[self.nz_rows, self.nz_cols])
-        begin = time.perf_counter()
-        result = self.solver.solve(raise_error=False)
-        self.last_solver_s = time.perf_counter() - begin
-        status = result.info.status.removesuffix(" inaccurate")
-        x = None if result.x is None else np.asarray(result.x)
+        if com_error.any():
+            g_u = w.a * w.q_lqr * com_error[:3] + B_COM.T @ w.S @ com_error
+            p[c["beta"]] = 2.0 * self.G_u.T @ (self.H_u @ d + g_u)
+        else:  # the feed-forward case, x̄ = 0
+            p[c["beta"]] = self._GH2 @ d
+        self.last_problem = (p, lower, upper)
+        if self.solver_name == "proxqp":
+            status, x, raw = self._solve_proxqp(p, lower, upper)
+        else:
+            status, x, raw = self._solve_osqp(p, lower, upper)
         if status in FAILED_STATUSES or x is None or not np.all(np.isfinite(x)):
-            if self.last_x is not None:
-                self.solver.warm_start(x=self.last_x)
-            reason = FAILED_STATUSES.get(status, f"OSQP returned {result.info.status!r}")
+            self._restart()
+            reason = FAILED_STATUSES.get(status, f"{self.solver_name} returned {raw!r}")
             return SampleSolution(False, reason, *(np.full(0, np.nan),) * 3)
         self.last_x = x
         beta = np.where(
@@ -352,13 +401,63 @@ class WholeBodyQp:
         qdd, f_loop = self._exact(terms, loop_rhs, x[c["qdd"]], beta, x[c["f"]])
         return SampleSolution(True, status, qdd, beta, f_loop)
 
+    def _solve_osqp(self, p, lower, upper) -> tuple[str, np.ndarray | None, str]:
+        self.solver.update(q=p, l=lower, u=upper, Ax=self.A[self.nz_rows, self.nz_cols])
+        begin = time.perf_counter()
+        result = self.solver.solve(raise_error=False)
+        self.last_solver_s = time.perf_counter() - begin
+        status = result.info.status.removesuffix(" inaccurate")
+        x = None if result.x is None else np.asarray(result.x)
+        return status, x, result.info.status
+
+    def _solve_proxqp(self, p, lower, upper) -> tuple[str, np.ndarray | None, str]:
+        """ProxQP (dense) on the same QP: A z = b for the equality rows, l ≤ C z ≤ u for the
+        others (a foot's contact rows with l = u when it is down); warm from the last sample."""
+        e, A = self.n_eq, self.A
+        l_in = np.maximum(lower[e:], -PROXQP_INFINITY)
+        u_in = np.minimum(upper[e:], PROXQP_INFINITY)
+        begin = time.perf_counter()
+        if self._prox is None:
+            qp = proxqp.dense.QP(self.n, e, self.m - e)
+            qp.settings.eps_abs = TOLERANCE
+            qp.settings.eps_rel = 0.0
+            qp.settings.max_iter = MAX_ITERATIONS
+            qp.settings.verbose = False
+            qp.settings.initial_guess = proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
+            qp.init(self.P, p, A[:e], lower[:e], A[e:], l_in, u_in)
+            self._prox = qp
+        else:
+            self._prox.update(g=p, A=A[:e], b=lower[:e], C=A[e:], l=l_in, u=u_in)
+        self._prox.solve()
+        self.last_solver_s = time.perf_counter() - begin
+        raw = self._prox.results.info.status
+        self.last_duals = (np.array(self._prox.results.y), np.array(self._prox.results.z))
+        status = PROXQP_STATUSES.get(raw, str(raw))
+        return status, np.array(self._prox.results.x), str(raw)
+
+    def _restart(self) -> None:
+        """After a failed sample, start the next from the last good solution (OSQP) or cold
+        (ProxQP), not from the failed iterate."""
+        if self.solver_name == "proxqp":
+            self._prox = None
+        elif self.last_x is not None:
+            self.solver.warm_start(x=self.last_x)
+
+    def reset(self) -> None:
+        """Forget the warm start: the next sample is solved cold, as by a fresh WholeBodyQp (so
+        a chunk of samples solves the same in any process)."""
+        self._prox = None
+        self.last_x = None
+        if self.solver_name == "osqp":
+            self.solver.warm_start(x=np.zeros(self.n), y=np.zeros(self.m))
+
     def corner_forces(self, beta: np.ndarray) -> np.ndarray:
         """λ at each sole corner, world frame [N], shape (2, 4, 3) (eq. 11)."""
         return beta.reshape(2, N_CORNERS, N_EDGES) @ self.W.T
 
     def torques(self, terms: Terms, solution: SampleSolution) -> np.ndarray:
         """τ of eq. 10 (B_a = I) [N·m], shape (n_actuated,)."""
-        a = self.actuated
+        a = self._a
         return (
             terms.M[a] @ solution.qdd
             + terms.h[a]
@@ -368,8 +467,12 @@ class WholeBodyQp:
 
     def _exact(self, terms: Terms, loop_rhs, qdd, beta, f_loop):
         """Smallest change of q̈ and f_loop that makes eq. 13 and the loop rows hold exactly
-        (OSQP meets them only to its tolerance); β, already inside the pyramids, is kept."""
-        u = self.unactuated
+        (the solver meets them only to its tolerance); β, already inside the pyramids, is kept."""
+        u = self._u
+        if not self.loop_ids:  # E = M_u has full row rank: the minimum-norm step
+            E = terms.M[u]
+            residual = -terms.h[u] + terms.Phi[u] @ beta - E @ qdd
+            return qdd + E.T @ np.linalg.solve(E @ E.T, residual), f_loop
         E_dyn = np.hstack([terms.M[u], -terms.J_loop[:, u].T])
         E_loop = np.hstack([terms.J_loop, np.zeros((len(terms.J_loop), len(f_loop)))])
         E = np.vstack([E_dyn, E_loop])
@@ -380,3 +483,10 @@ class WholeBodyQp:
         else:  # E = M_u has full row rank: the minimum-norm step
             step = E.T @ np.linalg.solve(E @ E.T, residual)
         return qdd + step[: self.nv], f_loop + step[self.nv :]
+
+
+def _as_slice(indices: np.ndarray) -> slice | np.ndarray:
+    """A slice for contiguous ascending indices (numpy then returns views), else the indices."""
+    if len(indices) and np.array_equal(indices, np.arange(indices[0], indices[0] + len(indices))):
+        return slice(int(indices[0]), int(indices[0]) + len(indices))
+    return indices

@@ -1,0 +1,109 @@
+"""The torque feed-forward over every core: a pool of warm worker processes.
+
+`FeedForwardPool` starts its processes once (spawn: fresh interpreters, no forked threads or
+sockets) with BLAS and OpenMP pinned to one thread each, and keeps them for every later run.
+`torque_feedforward(..., pool=pool)` hands it the trajectory's chunks (app.core.dynamics.wbc
+CHUNK_SAMPLES contiguous samples, each solved cold at its first sample and warm along it);
+each worker keeps the QPs it has built, by robot, parameters and solver, so a second run on
+the same robot pays no set-up. The chunks come back in order and are solved exactly as
+`solve_chunk` solves them in one process, so the torques are bit-identical to a serial run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import multiprocessing
+import os
+import pickle
+from collections.abc import Callable, Iterator
+from multiprocessing.pool import Pool
+
+from app.core.dynamics.wbc import ChunkInput, ChunkResult, WbcParams, make_qp, solve_chunk
+from app.core.dynamics.wbc_qp import QpSolver, WholeBodyQp
+from app.core.robot.model import RobotModel
+
+SINGLE_THREAD_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+"""Thread counts pinned to 1 in the workers: one process per core already uses them all."""
+MAX_CACHED_QPS = 4
+"""QPs a worker keeps (robots × parameters × solver) before it forgets the oldest."""
+
+_worker_qps: dict[tuple, tuple[RobotModel, WholeBodyQp]] = {}
+"""In a worker process only: the QPs it has built, oldest first."""
+
+
+class FeedForwardPool:
+    """Warm worker processes for the torque feed-forward; use `with` or call `close`."""
+
+    def __init__(self, workers: int | None = None) -> None:
+        self.workers = max(1, workers or os.cpu_count() or 1)
+        with _single_thread_environment():  # the processes start here, inheriting it
+            self._pool: Pool = multiprocessing.get_context("spawn").Pool(self.workers)
+            self._pool.map(_warm_up, range(self.workers), chunksize=1)
+        self._robot: tuple[RobotModel, str, bytes] | None = None
+
+    def map_chunks(
+        self,
+        robot: RobotModel,
+        params: WbcParams,
+        solver: QpSolver,
+        chunks: list[ChunkInput],
+        progress: Callable[[float], None] | None,
+    ) -> list[ChunkResult]:
+        """Solve the chunks in the workers, results in chunk order."""
+        key, blob = self._pickled(robot)
+        tasks = [(key, blob, params, solver, chunk) for chunk in chunks]
+        results = []
+        for done, result in enumerate(self._pool.imap(_solve_task, tasks, chunksize=1)):
+            results.append(result)
+            if progress is not None:
+                progress((done + 1) / len(chunks))
+        return results
+
+    def _pickled(self, robot: RobotModel) -> tuple[str, bytes]:
+        """The robot pickled once (and its digest, the workers' cache key) per robot object."""
+        if self._robot is None or self._robot[0] is not robot:
+            blob = pickle.dumps(robot, protocol=pickle.HIGHEST_PROTOCOL)
+            self._robot = (robot, hashlib.sha1(blob).hexdigest(), blob)
+        return self._robot[1], self._robot[2]
+
+    def close(self) -> None:
+        self._pool.terminate()
+        self._pool.join()
+
+    def __enter__(self) -> FeedForwardPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+@contextlib.contextmanager
+def _single_thread_environment() -> Iterator[None]:
+    saved = {name: os.environ.get(name) for name in SINGLE_THREAD_ENV}
+    os.environ.update(dict.fromkeys(SINGLE_THREAD_ENV, "1"))
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+def _warm_up(_index: int) -> int:
+    """Import the solver stack in the worker (the first real task then pays nothing)."""
+    return os.getpid()
+
+
+def _solve_task(task: tuple[str, bytes, WbcParams, QpSolver, ChunkInput]) -> ChunkResult:
+    key, blob, params, solver, chunk = task
+    cache_key = (key, params, solver)
+    if cache_key not in _worker_qps:
+        robot = pickle.loads(blob)
+        _worker_qps[cache_key] = (robot, make_qp(robot, params, solver))
+        while len(_worker_qps) > MAX_CACHED_QPS:
+            del _worker_qps[next(iter(_worker_qps))]
+    _, qp = _worker_qps[cache_key]
+    return solve_chunk(qp, chunk, params)

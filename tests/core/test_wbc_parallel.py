@@ -1,0 +1,71 @@
+"""The torque feed-forward over worker processes gives the serial run's answer.
+
+The chunks are solved the same way wherever they run (cold first sample, warm along the
+chunk), so the answers agree to round-off, not bit for bit: OpenBLAS's and Eigen's vectorised
+sums run in an order that depends on the alignment of each array in memory (measured: moving
+the same trajectory by 8 bytes changes τ by ~1e-9 N·m) and on their thread count (1 in the
+workers). The tolerance below is 1e-9 of the largest torque, ten orders under the QP's."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from app.core.dynamics.parallel import FeedForwardPool
+from app.core.dynamics.wbc import CHUNK_SAMPLES, WbcParams, torque_feedforward
+from app.core.motions.library import run_motion
+from app.core.robot.loading import load_robot
+
+
+@pytest.fixture(scope="module")
+def pool():
+    with FeedForwardPool(workers=2) as pool:
+        yield pool
+
+
+@pytest.fixture(scope="module")
+def one_worker():
+    with FeedForwardPool(workers=1) as pool:
+        yield pool
+
+
+def _same(a, b) -> None:
+    for field in ("tau_Nm", "contact_forces_N", "qdd", "loop_forces_N"):
+        x, y = getattr(a, field), getattr(b, field)
+        assert x.shape == y.shape and np.all(np.isnan(x) == np.isnan(y)), field
+        scale = max(1.0, float(np.nanmax(np.abs(x)))) if x.size else 1.0
+        assert np.nanmax(np.abs(x - y), initial=0.0) <= 1e-9 * scale, field
+    assert a.status == b.status
+    assert a.notes == b.notes
+
+
+def test_parallel_torques_equal_serial(pool, one_worker):
+    robot = load_robot("servo_biped")
+    trajectory = run_motion(robot, "one_leg_squats", dt=0.01).trajectory
+    assert trajectory.n_samples > 3 * CHUNK_SAMPLES  # several chunks, both workers busy
+    serial = torque_feedforward(robot, trajectory, pool=one_worker)
+    seen = []
+    parallel = torque_feedforward(robot, trajectory, pool=pool, progress=seen.append)
+    _same(serial, parallel)
+    assert seen[-1] == 1.0 and seen == sorted(seen)
+    # Warm workers (their QPs already built) answer the same again.
+    _same(serial, torque_feedforward(robot, trajectory, pool=pool))
+
+
+def test_workers_keep_parameters_apart(pool, one_worker):
+    """A second parameter set on the same robot is solved with its own QP in the workers."""
+    robot = load_robot("servo_biped")
+    trajectory = run_motion(robot, "one_leg_squats", dt=0.01).trajectory
+    params = dataclasses.replace(WbcParams(), mu=0.3)
+    serial = torque_feedforward(robot, trajectory, params, pool=one_worker)
+    _same(serial, torque_feedforward(robot, trajectory, params, pool=pool))
+    default = torque_feedforward(robot, trajectory, pool=pool)
+    assert not np.array_equal(serial.contact_forces_N, default.contact_forces_N)
+
+
+def test_in_process_run_agrees(pool):
+    robot = load_robot("servo_biped")
+    trajectory = run_motion(robot, "one_leg_squats", dt=0.01).trajectory
+    _same(torque_feedforward(robot, trajectory), torque_feedforward(robot, trajectory, pool=pool))
