@@ -57,6 +57,7 @@ PARAMETER_KEYS = ("name", "kind", "min", "max", "levels")
 STRUCTURAL = ("baseline",)
 """Settings a sweep cannot vary (not a number)."""
 
+KIND_WORDS = {int: "whole number", str: "text", bool: "true or false", dict: "table", list: "list"}
 Sense = Literal["min", "max"]
 
 
@@ -169,7 +170,7 @@ def read_sweep_toml(path: Path) -> SweepSpec:
 
 def _typed(value: Any, kind: type, what: str) -> Any:
     if not isinstance(value, kind) or (kind is not bool and isinstance(value, bool)):
-        raise SweepSpecError(f"{what} = {value!r} is not a {kind.__name__}")
+        raise SweepSpecError(f"{what} = {value!r} is not a {KIND_WORDS[kind]}")
     return value
 
 
