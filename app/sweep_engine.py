@@ -87,7 +87,8 @@ class SweepEngine:
                 )
                 if not fallback_local:
                     raise SweepEngineError(
-                        f"{message}; check the address, or allow the local fallback"
+                        f"{message}; check the address, or allow the local fallback "
+                        "(sweep --local-fallback)"
                     ) from None
                 self.notes.append(f"{message}; running on a local cluster instead")
         n = n_workers or local_cores()

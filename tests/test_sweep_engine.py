@@ -97,5 +97,7 @@ def test_a_killed_worker_loses_only_its_points_which_are_retried(engine):
 
 
 def test_an_unreachable_scheduler_is_a_clear_error():
-    with pytest.raises(SweepEngineError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:9"):
+    with pytest.raises(
+        SweepEngineError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:9"
+    ):
         SweepEngine("tcp://127.0.0.1:9")

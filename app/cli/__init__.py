@@ -12,7 +12,17 @@ import json
 import sys
 from collections.abc import Callable
 
-from app.cli import compensate, feedforward, limits, motion, plan, robots, serve, simulate
+from app.cli import (
+    compensate,
+    feedforward,
+    limits,
+    motion,
+    plan,
+    robots,
+    serve,
+    simulate,
+    sweep,
+)
 from app.cli.common import DEFAULTS
 from app.core.errors import StudioError
 
@@ -42,6 +52,7 @@ PARSERS: tuple[Callable[..., None], ...] = (
     plan.add_parser,
     simulate.add_parser,
     limits.add_parser,
+    sweep.add_parser,
 )
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "serve": serve.run,
@@ -55,6 +66,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "simulate": simulate.run,
     "bench": _bench,
     "limits": limits.run,
+    "sweep": sweep.run,
 }
 
 

@@ -19,7 +19,9 @@ def _base_height(robot) -> float:
 
 def test_longer_segments_raise_the_standing_base_by_their_extra_length():
     plain = RobotVariant.of("dircon_biped", {}).load()
-    longer = RobotVariant.of("dircon_biped", {"thigh_length_m": 0.43, "shank_length_m": 0.36}).load()
+    longer = RobotVariant.of(
+        "dircon_biped", {"thigh_length_m": 0.43, "shank_length_m": 0.36}
+    ).load()
     extra = (0.43 - 0.3905) + (0.36 - 0.3905)
     # both models stand with their soles on z = 0: the base rises by the legs' extra length
     assert _base_height(longer) - _base_height(plain) == pytest.approx(extra, abs=1e-6)

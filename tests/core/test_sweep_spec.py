@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
+from app.core.sweeps.robot_variants import SweepSpecError
 from app.core.sweeps.sampling import sample_values, sweep_points, unit_samples
 from app.core.sweeps.spec import MAX_POINTS, SweepSpec, read_sweep_toml
-from app.core.sweeps.robot_variants import SweepSpecError
 
 
 def spec(**top) -> dict:
@@ -34,7 +34,10 @@ def param(name="step_length_m", kind="gait", lo=0.1, hi=0.3, **more) -> dict:
         (spec(samples=-3), "at least 1"),
         (spec(samples=10**9), f"limit of {MAX_POINTS}"),
         (
-            spec(sampling="grid", parameter=[param(levels=200), param("H_s", lo=0.5, hi=1.0, levels=200)]),
+            spec(
+                sampling="grid",
+                parameter=[param(levels=200), param("H_s", lo=0.5, hi=1.0, levels=200)],
+            ),
             f"limit of {MAX_POINTS}",
         ),
         (spec(parameter=[param("wings")]), "unknown gait parameter 'wings'"),
@@ -128,6 +131,6 @@ def test_random_points_lie_in_their_ranges_and_carry_the_fixed_settings():
     for p in points:
         assert 0.1 <= p.settings.step_length_m <= 0.3
         assert p.settings.knots == 12 and p.settings.K0 == 3.0
-        (name, value), = p.robot.values
+        ((name, value),) = p.robot.values
         assert name == "thigh_length_m" and 0.35 <= value <= 0.45
         assert p.values == (p.settings.step_length_m, value)

@@ -7,6 +7,7 @@ import dataclasses
 import io
 from collections.abc import Sequence
 from pathlib import Path
+from typing import IO
 
 import numpy as np
 
@@ -67,4 +68,8 @@ def results_csv(spec: SweepSpec, results: Sequence[PointResult]) -> str:
 
 def write_results_csv(spec: SweepSpec, results: Sequence[PointResult], path: Path) -> None:
     text = results_csv(spec, results)
-    write_atomically(path, lambda file: file.write(text))
+
+    def write(file: IO[str]) -> None:
+        file.write(text)
+
+    write_atomically(path, write)

@@ -58,11 +58,21 @@ ROBOT_PARAMETERS: dict[str, dict[str, RobotParameter]] = {
         p.name: p
         for p in (
             RobotParameter(
-                "thigh_length_m", 0.25, 0.55, 0.3905, _leg("thigh"), _leg("knee"),
+                "thigh_length_m",
+                0.25,
+                0.55,
+                0.3905,
+                _leg("thigh"),
+                _leg("knee"),
                 "Hip pitch to knee axis [m] (built: 0.3905)",
             ),
             RobotParameter(
-                "shank_length_m", 0.25, 0.55, 0.3905, _leg("shank"), _leg("ankle_pitch"),
+                "shank_length_m",
+                0.25,
+                0.55,
+                0.3905,
+                _leg("shank"),
+                _leg("ankle_pitch"),
                 "Knee to ankle axis [m] (built: 0.3905)",
             ),
             RobotParameter("base_mass_kg", 2.0, 20.0, 7.624, ("base",), (), "Table 2: 7.624"),
@@ -70,7 +80,7 @@ ROBOT_PARAMETERS: dict[str, dict[str, RobotParameter]] = {
             RobotParameter("shank_mass_kg", 0.3, 4.0, 1.597, _leg("shank"), (), "Table 2: 1.597"),
             RobotParameter("foot_mass_kg", 0.1, 2.0, 0.300, _leg("foot"), (), "Table 2: 0.300"),
         )
-    }  # fmt: skip
+    }
 }
 
 

@@ -63,7 +63,11 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
 
     Settings are not validated here: a point whose combination the planner refuses (e.g.
     swing clearance above the swing height where both are swept) is reported as refused, with
-    the reason, by its evaluation."""
+    the reason, by its evaluation. `defaults` None: the planner's defaults for the robot."""
+    if defaults is None:
+        from app.core.collocation.defaults import default_settings
+
+        defaults = default_settings(RobotVariant(spec.robot).load())
     base = spec.base_settings(defaults)
     points = []
     for i, row in enumerate(sample_values(spec)):
@@ -76,5 +80,7 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
                 robot[p.name] = float(value)
         settings = dataclasses.replace(base, **gait)  # type: ignore[arg-type]
         variant = RobotVariant.of(spec.robot, robot)
-        points.append(SweepPoint(i, tuple(float(v) for v in row), variant, settings, spec.warm_start))
+        points.append(
+            SweepPoint(i, tuple(float(v) for v in row), variant, settings, spec.warm_start)
+        )
     return points

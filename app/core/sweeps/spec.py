@@ -235,7 +235,7 @@ def _check_gait_range(name: str, lo: float, hi: float, base: GaitSettings, where
     for value in (lo, hi):
         typed: float | int = round(value) if isinstance(getattr(base, name), int) else value
         try:
-            dataclasses.replace(base, **{name: typed}).validate()
+            dataclasses.replace(base, **{name: typed}).validate()  # type: ignore[arg-type]
         except GaitSettingsError as error:
             raise SweepSpecError(
                 f"{where}: {name} range [{lo:g}, {hi:g}] leaves what the planner accepts: {error}"
