@@ -91,6 +91,10 @@ def run_bench(args: argparse.Namespace) -> int:
             }
         finally:
             studio.stop()
+    if getattr(args, "sweep", False):
+        from app.sweep_bench import bench_sweep
+
+        results["sweep"] = bench_sweep()
     if args.json:
         print(json.dumps(results, indent=2))
         return 0
@@ -172,6 +176,11 @@ def run_bench(args: argparse.Namespace) -> int:
         f"{row['seconds']:.2f} s (target ≤ {SIMULATE_CLICK_TARGET_S:.0f} s) "
         f"{_mark(row['seconds'] <= SIMULATE_CLICK_TARGET_S)}"
     )
+    if "sweep" in results:
+        from app.sweep_bench import sweep_lines
+
+        for line in sweep_lines(results["sweep"], _mark):
+            print(line)
     return 0
 
 

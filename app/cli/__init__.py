@@ -40,6 +40,9 @@ def _add_bench_parser(sub) -> None:
     )
     bench.add_argument("--repeats", type=int, default=200)
     bench.add_argument("--json", action="store_true")
+    bench.add_argument(
+        "--sweep", action="store_true", help="also time a gait sweep on 1 worker and all cores"
+    )
 
 
 PARSERS: tuple[Callable[..., None], ...] = (
