@@ -118,6 +118,12 @@ class SweepEngine:
         """Submit every point; iterate `results()` of the returned run for them."""
         return SweepRun(self.client, points)
 
+    def solve(self, point: SweepPoint) -> Any:
+        """The GaitResult of one point, solved on a worker (whose NLP may be warm)."""
+        from app.core.sweeps.evaluate import solve_point
+
+        return self.client.submit(solve_point, point, pure=False, retries=RETRIES).result()
+
     def close(self) -> None:
         with contextlib.suppress(Exception):  # closing a half-dead cluster must not raise
             self.client.close()

@@ -23,6 +23,7 @@ from app.studio.playback_session import PlaybackSession
 from app.studio.pose_session import PoseSession
 from app.studio.robot_session import RobotSession, prepare
 from app.studio.state import StudioState
+from app.studio.sweep_session import SweepSession
 from app.web.guard import guarded_server
 
 
@@ -61,6 +62,7 @@ class Studio:
         self.playback = PlaybackSession(server, state)
         self.compensation = CompensationSession(server, state, notifier)
         self.gait = GaitSession(server, state, notifier, config.package_roots)
+        self.sweep = SweepSession(server, state, notifier)
         if robot is None:
             robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)
             prepare(robot)
@@ -70,6 +72,7 @@ class Studio:
     def stop(self) -> None:
         self.playback.stop()
         self.gait.close()
+        self.sweep.close()
         self.compensation.close()
         with contextlib.redirect_stdout(sys.stderr):  # viser's "Server stopped" is not output
             self.server.stop()

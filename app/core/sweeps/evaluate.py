@@ -158,3 +158,11 @@ def _unsolved(point: SweepPoint, status: str, reason: str, worker: str) -> Point
 def failed_point(point: SweepPoint, message: str) -> PointResult:
     """The result of a point whose evaluation itself failed (a worker lost too often, a bug)."""
     return _unsolved(point, "failed", message, "")
+
+
+def solve_point(point: SweepPoint, cache: ProblemCache | None = None) -> GaitResult:
+    """The point's gait itself (the same cold or warm solve as `evaluate_point`), to load the
+    design into the studio; a picklable GaitResult, solved where the NLP is warm."""
+    cache = cache if cache is not None else _process_cache()
+    problem, _ = cache.get((point.robot, *point.settings.structure))
+    return problem.solve(point.settings, cold=not point.warm_start)
