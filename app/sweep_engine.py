@@ -27,6 +27,7 @@ import logging
 import os
 import threading
 import time
+import uuid
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
@@ -148,10 +149,11 @@ class SweepRun:
         self.started_s = time.perf_counter()
         self._client = client
         self._cancelled = threading.Event()
+        run_id = uuid.uuid4().hex[:12]
         self._futures = client.map(
             evaluate_point,
             list(points),
-            key=[f"sweep-point-{p.index}-{id(self)}" for p in points],
+            key=[f"sweep-{run_id}-point-{p.index}" for p in points],
             retries=RETRIES,
             pure=False,
         )
