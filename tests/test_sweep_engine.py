@@ -101,3 +101,21 @@ def test_an_unreachable_scheduler_is_a_clear_error():
         SweepEngineError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:9"
     ):
         SweepEngine("tcp://127.0.0.1:9")
+
+
+def test_the_same_sweep_runs_unchanged_against_a_scheduler_address(engine):
+    points = sweep_points(small_spec(2, seed=8))
+    local = {r.index: r for r in engine.start(points).results()}
+    with SweepEngine(engine.address) as remote:  # a client of the running cluster's scheduler
+        assert remote.address == engine.address and remote.n_workers == 2
+        by_address = {r.index: r for r in remote.start(points).results()}
+    assert sorted(by_address) == sorted(local)
+    for index, result in by_address.items():
+        for metric in METRICS:
+            assert result.metric(metric) == pytest.approx(local[index].metric(metric), rel=1e-6)
+
+
+def test_an_unreachable_scheduler_falls_back_to_a_local_cluster_only_when_asked():
+    with SweepEngine("tcp://127.0.0.1:9", 1, fallback_local=True) as fallback:
+        assert any("running on a local cluster instead" in note for note in fallback.notes)
+        assert fallback.n_workers == 1

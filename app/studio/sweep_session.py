@@ -70,6 +70,8 @@ class SweepSession:
         self.points: dict[int, SweepPoint] = {}
         self.on_sweep_done: Signal[SweepOutcome] = Signal("on_sweep_done")
         self.on_point_loaded: Signal[int] = Signal("on_point_loaded")
+        self.on_result: Signal[PointResult] = Signal("on_result")
+        """Each point's result as it arrives (after the panel shows it)."""
         choices = _choices()
         ordered = ["gait:step_length_m", "gait:H_s"]
         ordered += [c for c in choices if c not in ordered]
@@ -121,6 +123,7 @@ class SweepSession:
             for result in run.results():
                 results.append(result)
                 self._progress(spec, results, len(points), time.perf_counter() - start)
+                self.on_result.emit(result)
             cancelled = run.cancelled
         except StudioError as failure:
             error = str(failure)

@@ -4,11 +4,13 @@ its robot variant and a walk of its gait."""
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 
 from app.core.sweeps.pareto import pareto_mask
-from tests.studio.conftest import wait_for_signal
+from tests.studio.conftest import GUARD_S, wait_for_signal
 
 
 def test_sweep_panel_runs_plots_and_loads_a_point(studio):
@@ -71,3 +73,18 @@ def test_sweep_panel_runs_plots_and_loads_a_point(studio):
     motion = studio.state.motion
     assert motion is not None and f"sweep point #{best}" in motion.summary
     assert motion.trajectory.duration > 0
+
+    # Cancel: a larger sweep stops after its first result; the loaded design stays
+    panel.samples.value = 12
+    done = threading.Event()
+    ends: list = []
+    disconnect = session.on_sweep_done.connect(lambda o: (ends.append(o), done.set()))
+    try:
+        wait_for_signal(session.on_result, lambda: setattr(panel.run_button, "value", True))
+        panel.cancel_button.value = True
+        assert done.wait(GUARD_S)
+    finally:
+        disconnect()
+    assert ends[0].cancelled and len(ends[0].results) < 12
+    assert "Sweep cancelled" in panel.status.content and not panel.run_button.disabled
+    assert studio.state.robot is robot
