@@ -13,6 +13,7 @@ panel's status line and the notifier, and the studio keeps its state.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import threading
 import time
 from typing import Any
@@ -31,6 +32,8 @@ from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.state import StudioState
 from panels.sweep_panel import SweepPanel
+
+log = logging.getLogger(__name__)
 
 SWEEP_ROBOT = "dircon_biped"
 """The robot the panel sweeps (the only one with robot parameters, and the planner's own)."""
@@ -128,6 +131,10 @@ class SweepSession:
         except StudioError as failure:
             error = str(failure)
             self._notifier.error("The sweep failed", error, client)
+        except Exception as failure:  # a thread boundary: report, and give the panel back
+            log.exception("the sweep failed")
+            error = f"the sweep failed: {type(failure).__name__}: {failure}"
+            self._notifier.error("The sweep failed", error, client)
         finally:
             self._run = None
         front = tuple(pareto_indices(spec, results))
@@ -203,7 +210,9 @@ class SweepSession:
                 self._state.set_robot(robot, report)
                 self._state.set_motion(walk.trajectory, summary, robot)
             self._state.on_play.emit(None)
-        except StudioError as error:
+        except Exception as error:  # a thread boundary: bad input, or a worker lost meanwhile
+            if not isinstance(error, StudioError):
+                log.exception("loading a sweep point failed")
             self.panel.status.content = f"⚠️ {error}"
             self._notifier.error("Cannot load this point", str(error), client)
             return
