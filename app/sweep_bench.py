@@ -80,7 +80,7 @@ def sweep_lines(row: dict, mark) -> list[str]:
     """The bench's printed lines for a `bench_sweep` result."""
     one, many = row["one_worker"], row["all_cores"]
     return [
-        f"sweep, dircon_biped gait points ({row['knots']} knots, cold solves): "
+        f"sweep, dircon_biped gait points ({row['knots']} knots, anchor starts): "
         f"{one['points_per_s']:.2f} points/s on 1 worker, {many['points_per_s']:.2f} on "
         f"{row['cores']} (same {many['points']} points): scaling {row['scaling']:.2f}× "
         f"(target ≥ {row['scaling_target']:.1f}×) {mark(row['scaling'] >= row['scaling_target'])}",

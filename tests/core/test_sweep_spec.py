@@ -65,6 +65,7 @@ def param(name="step_length_m", kind="gait", lo=0.1, hi=0.3, **more) -> dict:
         (spec(parameter=[param(lo="0.1")]), "is not a number"),
         (spec(extra=1), "unknown key(s) extra"),
         (spec(parameter=[param(levels=0)]), "levels = 0"),
+        (spec(start="warm"), "start = 'warm'"),
     ],
 )
 def test_hostile_specs_are_refused_with_the_reason(data, words):

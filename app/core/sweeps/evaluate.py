@@ -3,9 +3,10 @@
 `evaluate_point` runs wherever it is called: in this process, or in a Dask worker. The gait
 NLP of a structure (robot variant, knots, baseline) takes seconds to build and cannot be
 pickled, so each process keeps the NLPs it built in a `ProblemCache` and re-solves them point
-after point ("warm" NLPs). Each point is solved from the planner's own initial guess (cold) by
-default, so its metrics depend on the point only, not on which worker ran it or what that
-worker solved before; `warm_start` trades this for speed.
+after point ("warm" NLPs). By default ("anchor" start) each point's solve starts from the gait
+of the sweep's fixed settings on the same NLP, solved once per process and structure: a few
+IPOPT iterations instead of hundreds from the initial guess, and still a function of the point
+only, not of which worker ran it or what that worker solved before.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import numpy as np
 
 from app.core.collocation.planar_model import BASE_DOF
 from app.core.collocation.result import GaitResult
+from app.core.collocation.settings import GaitSettings
 from app.core.sweeps.sampling import SweepPoint
 
 CACHE_SIZE = 8
@@ -54,7 +56,8 @@ class PointResult:
     solve_s: float
     """IPOPT time [s]."""
     build_s: float
-    """Time spent building the NLP for this point [s]: 0 when the worker had it warm."""
+    """Time spent building the NLP (and solving its anchor gait) for this point [s]: 0 when
+    the worker had them."""
     worker: str
     """host:pid of the process that evaluated the point."""
 
@@ -70,6 +73,7 @@ class ProblemCache:
 
     def __init__(self, size: int = CACHE_SIZE) -> None:
         self._problems: OrderedDict[Hashable, Any] = OrderedDict()
+        self._anchors: dict[tuple[Hashable, GaitSettings], GaitResult] = {}
         self._size = size
         self.builds = 0
         """How many NLPs this cache has built (a warm hit builds none)."""
@@ -88,8 +92,34 @@ class ProblemCache:
         self.builds += 1
         self._problems[key] = problem
         while len(self._problems) > self._size:
-            self._problems.popitem(last=False)
+            old, _ = self._problems.popitem(last=False)
+            self._anchors = {k: v for k, v in self._anchors.items() if k[0] != old}
         return problem, time.perf_counter() - start
+
+    def anchor(
+        self, key: Hashable, problem: Any, settings: GaitSettings
+    ) -> tuple[GaitResult, float]:
+        """The gait of `settings` on `problem` (solved cold, once per key and settings) and the
+        seconds spent solving it now (0.0 when it was cached)."""
+        if (key, settings) in self._anchors:
+            return self._anchors[(key, settings)], 0.0
+        start = time.perf_counter()
+        self._anchors[(key, settings)] = result = problem.solve(settings, cold=True)
+        return result, time.perf_counter() - start
+
+
+def _solve(point: SweepPoint, cache: ProblemCache) -> tuple[GaitResult, float]:
+    """The point's gait and the setup time (NLP build, anchor solve) [s]."""
+    key = (point.robot, *point.settings.structure)
+    problem, setup_s = cache.get(key)
+    if point.start == "previous":
+        return problem.solve(point.settings), setup_s
+    if point.start == "anchor" and point.anchor is not None:
+        anchor, anchor_s = cache.anchor(key, problem, point.anchor)
+        setup_s += anchor_s
+        if anchor.converged:
+            return problem.solve(point.settings, warm_start=anchor), setup_s
+    return problem.solve(point.settings, cold=True), setup_s
 
 
 def _process_cache() -> ProblemCache:
@@ -113,10 +143,9 @@ def evaluate_point(point: SweepPoint, cache: ProblemCache | None = None) -> Poin
     worker = f"{socket.gethostname()}:{os.getpid()}"
     try:
         point.settings.validate()
-        problem, build_s = cache.get((point.robot, *point.settings.structure))
+        result, build_s = _solve(point, cache)
     except StudioError as error:
         return _unsolved(point, "refused", str(error), worker)
-    result = problem.solve(point.settings, cold=not point.warm_start)
     return metrics_of(point, result, build_s, worker)
 
 
@@ -161,8 +190,6 @@ def failed_point(point: SweepPoint, message: str) -> PointResult:
 
 
 def solve_point(point: SweepPoint, cache: ProblemCache | None = None) -> GaitResult:
-    """The point's gait itself (the same cold or warm solve as `evaluate_point`), to load the
-    design into the studio; a picklable GaitResult, solved where the NLP is warm."""
-    cache = cache if cache is not None else _process_cache()
-    problem, _ = cache.get((point.robot, *point.settings.structure))
-    return problem.solve(point.settings, cold=not point.warm_start)
+    """The point's gait itself (the same solve as `evaluate_point`), to load the design into the
+    studio; a picklable GaitResult, solved where the NLP is warm."""
+    return _solve(point, cache if cache is not None else _process_cache())[0]

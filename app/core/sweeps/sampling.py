@@ -26,7 +26,11 @@ class SweepPoint:
     """The swept parameters' values, in the spec's parameter order."""
     robot: RobotVariant
     settings: GaitSettings
-    warm_start: bool = False
+    start: str = "anchor"
+    """Where the solve starts: "anchor", "cold" or "previous" (app.core.sweeps.spec.START)."""
+    anchor: GaitSettings | None = None
+    """The sweep's fixed settings on this point's structure: the gait an "anchor" start
+    starts from."""
 
 
 def unit_samples(spec: SweepSpec) -> np.ndarray:
@@ -81,6 +85,13 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
         settings = dataclasses.replace(base, **gait)  # type: ignore[arg-type]
         variant = RobotVariant.of(spec.robot, robot)
         points.append(
-            SweepPoint(i, tuple(float(v) for v in row), variant, settings, spec.warm_start)
+            SweepPoint(
+                i,
+                tuple(float(v) for v in row),
+                variant,
+                settings,
+                spec.start,
+                dataclasses.replace(base, knots=settings.knots),
+            )
         )
     return points

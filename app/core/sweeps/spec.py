@@ -7,8 +7,7 @@ A sweep file (TOML) looks like:
     samples = 40                # random and latin; a grid multiplies the parameters' levels
     seed = 1
     pareto = { sr = "min", max_torque_Nm = "min" }
-    warm_start = false          # true: each worker starts a solve from its last gait (faster,
-                                # but a point's result then depends on what its worker did before)
+    start = "anchor"            # where each solve starts (see START)
 
     [gait]                      # fixed GaitSettings for every point
     knots = 12
@@ -52,7 +51,15 @@ METRICS = {
 """The metrics a Pareto front may use, with what they mean."""
 SAMPLINGS = ("grid", "random", "latin")
 KINDS = ("gait", "robot", "servo")
-TOP_KEYS = ("robot", "sampling", "samples", "seed", "pareto", "warm_start", "gait", "parameter")
+TOP_KEYS = ("robot", "sampling", "samples", "seed", "pareto", "start", "gait", "parameter")
+START = {
+    "anchor": "from the gait of the [gait] settings on the same NLP (solved once per worker): "
+    "fast, and a point's result depends on the point only",
+    "cold": "from the planner's own initial guess: slower, depends on the point only",
+    "previous": "from the worker's last gait: fastest, but a point's result then depends on "
+    "what its worker solved before",
+}
+"""Where each point's solve starts."""
 PARAMETER_KEYS = ("name", "kind", "min", "max", "levels")
 STRUCTURAL = ("baseline",)
 """Settings a sweep cannot vary (not a number)."""
@@ -91,7 +98,8 @@ class SweepSpec:
     """(metric, "min" | "max") pairs the Pareto front trades off."""
     gait: tuple[tuple[str, Any], ...] = ()
     """Fixed GaitSettings overrides for every point."""
-    warm_start: bool = False
+    start: str = "anchor"
+    """A key of START."""
 
     @property
     def n_points(self) -> int:
@@ -129,7 +137,9 @@ class SweepSpec:
         seed = _integer(data.get("seed", 0), f"{source}: seed")
         if not 0 <= seed < 2**32:
             raise SweepSpecError(f"{source}: seed = {seed}; give a seed in [0, 2³²)")
-        warm = _typed(data.get("warm_start", False), bool, f"{source}: warm_start")
+        start = _typed(data.get("start", "anchor"), str, f"{source}: start")
+        if start not in START:
+            raise SweepSpecError(f"{source}: start = {start!r}; give one of {', '.join(START)}")
         gait = _typed(data.get("gait", {}), dict, f"{source}: [gait]")
         try:
             base = GaitSettings.from_mapping(dict(gait), source=f"{source}: [gait]")
@@ -151,7 +161,7 @@ class SweepSpec:
         pareto = _pareto(data.get("pareto", {"sr": "min", "max_torque_Nm": "min"}), source)
         spec = cls(
             robot, parameters, sampling, samples, seed, pareto,
-            tuple(sorted(gait.items())), warm,
+            tuple(sorted(gait.items())), start,
         )  # fmt: skip
         if sampling != "grid" and samples < 1:
             raise SweepSpecError(f"{source}: samples = {samples}; give at least 1 point")
