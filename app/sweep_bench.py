@@ -57,7 +57,7 @@ def _timed(n_workers: int, warmup: list[SweepPoint], points: list[SweepPoint]) -
     }
 
 
-def bench_sweep(points: int = 12) -> dict:
+def bench_sweep(points: int = 40) -> dict:
     """Throughput on 1 and on all local cores, the scaling ratio and the first-result time."""
     cores = local_cores()
     warmup = sweep_points(_spec(cores, seed=100))
