@@ -116,6 +116,10 @@ ENTRIES: dict[str, BenchEntry] = {}
 """Every bench entry by name, in the order they run: add one with `@bench_entry(name)`."""
 
 
+OPT_IN = ("sweep",)
+"""Entries that run only when asked (`--sweep`, or `--only sweep`): they take minutes."""
+
+
 def bench_entry(name: str) -> Callable[[BenchEntry], BenchEntry]:
     """Register a function returning (raw results, figures) as the bench entry `name`."""
 
@@ -145,6 +149,8 @@ def run_bench(args: argparse.Namespace) -> int:
             context = BenchContext(studio, robot, roban, args.repeats, reference)
             for name, entry in ENTRIES.items():
                 if only and name not in only:
+                    continue
+                if name in OPT_IN and not (getattr(args, name, False) or name in only):
                     continue
                 raw, entry_figures = entry(context)
                 results[name] = raw
@@ -406,6 +412,37 @@ def _entry_replay(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             "the same frames shown on a live scene",
             f"CPU {row['export_cpu_s']:.1f} s vs {row['baseline_playback_cpu_s']:.1f} s",
         )
+    ]
+
+
+@bench_entry("sweep")
+def _entry_sweep(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    from app.sweep_bench import FIRST_RESULT_TARGET_S, SWEEP_200_TARGET_S, bench_sweep
+
+    row = bench_sweep()
+    one, many = row["one_worker"], row["all_cores"]
+    return row, [
+        Figure(
+            f"sweep, dircon_biped gait points ({row['knots']} knots), time per point on "
+            f"{row['cores']} workers",
+            1.0 / many["points_per_s"],
+            "s",
+            f"scaling ≥ {row['scaling_target']:.1f}×",
+            row["scaling"] >= row["scaling_target"],
+            1.0 / one["points_per_s"],
+            "the same points on 1 worker",
+            f"scaling {row['scaling']:.2f}×; 200 points ≈ {row['sweep_200_estimate_s']:.0f} s "
+            f"(target ≤ {SWEEP_200_TARGET_S:.0f} s)",
+        ),
+        Figure(
+            "sweep, first result after start (cluster start and NLP build included)",
+            many["first_result_s"],
+            "s",
+            f"≤ {FIRST_RESULT_TARGET_S:.0f} s",
+            many["first_result_s"] <= FIRST_RESULT_TARGET_S,
+            ctx.reference("s"),
+            "machine reference",
+        ),
     ]
 
 

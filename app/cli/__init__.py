@@ -12,7 +12,18 @@ import json
 import sys
 from collections.abc import Callable
 
-from app.cli import compensate, feedforward, limits, motion, plan, replay, robots, serve, simulate
+from app.cli import (
+    compensate,
+    feedforward,
+    limits,
+    motion,
+    plan,
+    replay,
+    robots,
+    serve,
+    simulate,
+    sweep,
+)
 from app.cli.common import DEFAULTS
 from app.core.errors import StudioError
 
@@ -32,6 +43,9 @@ def _add_bench_parser(sub) -> None:
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--markdown", action="store_true", help="print the README's speed table")
     bench.add_argument("--only", default="", help="comma-separated entries, e.g. drag,feedforward")
+    bench.add_argument(
+        "--sweep", action="store_true", help="also time a gait sweep on 1 worker and all cores"
+    )
 
 
 PARSERS: tuple[Callable[..., None], ...] = (
@@ -45,6 +59,7 @@ PARSERS: tuple[Callable[..., None], ...] = (
     simulate.add_parser,
     limits.add_parser,
     replay.add_parser,
+    sweep.add_parser,
 )
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "serve": serve.run,
@@ -59,6 +74,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "bench": _bench,
     "limits": limits.run,
     "replay": replay.run,
+    "sweep": sweep.run,
 }
 
 

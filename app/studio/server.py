@@ -27,6 +27,7 @@ from app.studio.project_session import ProjectSession
 from app.studio.robot_session import RobotSession, prepare
 from app.studio.share_session import ShareSession
 from app.studio.state import StudioState
+from app.studio.sweep_session import SweepSession
 from app.web.guard import guarded_server
 
 
@@ -75,6 +76,7 @@ class Studio:
             layers=lambda: self.compensation.replay_layers(self.playback.panel.traces.value),
         )
         self.demo = DemoSession(server)
+        self.sweep = SweepSession(server, state, notifier)
         if robot is None:
             robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)
             prepare(robot)
@@ -102,6 +104,7 @@ class Studio:
         self.playback.stop()
         self.share.close()
         self.gait.close()
+        self.sweep.close()
         self.compensation.close()
         with contextlib.redirect_stdout(sys.stderr):  # viser's "Server stopped" is not output
             self.server.stop()

@@ -1,0 +1,107 @@
+"""`sweep`: a design sweep (sweep.toml) on Dask workers, its results CSV and Pareto set."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from app.cli.common import output_target
+from app.core.errors import StudioError
+
+
+def add_parser(sub) -> None:
+    sweep = sub.add_parser(
+        "sweep",
+        help="solve a gait at every point of a sweep over robot and gait parameters (Dask), "
+        "and report the Pareto set",
+    )
+    sweep.add_argument("spec", type=Path, help="sweep.toml (see examples/sweep_dircon.toml)")
+    sweep.add_argument(
+        "--scheduler",
+        default=None,
+        help="Dask scheduler address tcp://HOST:PORT (default: a local cluster on this machine)",
+    )
+    sweep.add_argument(
+        "--workers", type=int, default=None, help="local worker processes (default: one per core)"
+    )
+    sweep.add_argument(
+        "--local-fallback",
+        action="store_true",
+        help="if the scheduler cannot be reached, run on a local cluster instead of failing",
+    )
+    sweep.add_argument("--out", type=Path, default=None, help="results CSV to write")
+    sweep.add_argument("--json", action="store_true")
+
+
+def run(args: argparse.Namespace) -> int:
+    from app.core.sweeps.evaluate import PointResult
+    from app.core.sweeps.results import SweepSummary, pareto_indices, write_results_csv
+    from app.core.sweeps.sampling import sweep_points
+    from app.core.sweeps.spec import read_sweep_toml
+    from app.sweep_engine import SweepEngine
+
+    if args.scheduler is not None and args.workers is not None:
+        raise StudioError("--workers sizes the local cluster; a --scheduler has its own workers")
+    spec = read_sweep_toml(args.spec)
+    if args.out is not None and not args.out.resolve().parent.is_dir():
+        raise StudioError(f"--out {args.out}: its folder does not exist")  # before the sweep
+    points = sweep_points(spec)
+    start = time.perf_counter()
+    results: list[PointResult] = []
+    first_s = float("nan")
+    with SweepEngine(args.scheduler, args.workers, fallback_local=args.local_fallback) as engine:
+        for note in engine.notes:
+            print(f"note: {note}", file=sys.stderr)
+        for result in engine.start(points).results():
+            if not results:
+                first_s = time.perf_counter() - start
+            results.append(result)
+            if not args.json:
+                what = f"SR {result.sr:.4f}" if result.solved else result.status
+                print(
+                    f"point {len(results)}/{len(points)} (#{result.index}): {what}", file=sys.stderr
+                )
+        notes = list(engine.notes)
+    wall = time.perf_counter() - start
+    front = pareto_indices(spec, results)
+    summary = SweepSummary(
+        points=len(results),
+        solved=sum(r.solved for r in results),
+        failed=sum(r.status == "failed" for r in results),
+        pareto=tuple(front),
+        pareto_metrics=spec.pareto,
+        wall_s=wall,
+        points_per_s=len(results) / wall if wall > 0 else float("nan"),
+        first_result_s=first_s,
+    )
+    if args.out is not None:
+        write_results_csv(spec, results, args.out)
+    by_index = {r.index: r for r in results}
+    if args.json:
+        report = {
+            "ok": True,
+            **summary.as_dict(),
+            "parameters": [p.name for p in spec.parameters],
+            "pareto_points": [by_index[i].row() for i in front],
+            "notes": notes,
+            "out": None if args.out is None else str(args.out),
+        }
+        print(json.dumps(report, indent=2))
+        return 0
+    metrics = " vs ".join(f"{m} ({s})" for m, s in spec.pareto)
+    print(
+        f"sweep {args.spec.name}: {summary.points} points, {summary.solved} solved, "
+        f"{summary.failed} failed in {wall:.1f} s ({summary.points_per_s:.2f} points/s, first "
+        f"after {first_s:.1f} s); Pareto set of {metrics}: {len(front)} points "
+        f"{list(front)}{output_target(args.out)}"
+    )
+    names = [p.name for p in spec.parameters]
+    for i in front:
+        r = by_index[i]
+        values = ", ".join(f"{n} = {v:.4g}" for n, v in zip(names, r.values, strict=True))
+        shown = ", ".join(f"{m} = {r.metric(m):.4g}" for m, _ in spec.pareto)
+        print(f"  #{i}: {values} → {shown}")
+    return 0

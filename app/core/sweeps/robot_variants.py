@@ -1,0 +1,191 @@
+"""Robot parameters of a sweep: a built-in robot's URDF with segment lengths and masses changed.
+
+The built-in builders (robots/<name>/build.py) take no arguments: their numbers are the papers'.
+A sweep changes the generated URDF instead, where the change is well defined:
+
+- a segment length (`thigh_length_m`, `shank_length_m`) moves the joint at the segment's end
+  (knee, ankle) to the new length on both legs, and stretches the segment's own link along its
+  axis by the same ratio: inertial and visual origins, the lengths of the axial cylinders, and
+  the inertia about the transverse axes (× ratio², a slender rod);
+- a link mass (`base_mass_kg`, `thigh_mass_kg`, ...) sets the mass of that link (both legs' for
+  a leg link) and scales its inertia tensor by the same ratio.
+
+Only dircon_biped, the gait planner's robot, has sweep parameters so far; the ranges keep the
+robot buildable and its legs able to stand (the planner refuses what it cannot walk).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import tempfile
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+from app.core.errors import StudioError
+
+
+class SweepSpecError(StudioError):
+    """A sweep description that cannot be run: unknown parameter, bad range, too many points."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotParameter:
+    """One sweepable number of a built-in robot."""
+
+    name: str
+    minimum: float
+    maximum: float
+    default: float
+    links: tuple[str, ...]
+    """Links changed (both legs)."""
+    end_joints: tuple[str, ...] = ()
+    """For a length: the joints at the segment's far end, moved to −length along z."""
+    hint: str = ""
+
+    @property
+    def is_length(self) -> bool:
+        return bool(self.end_joints)
+
+
+def _leg(link: str) -> tuple[str, str]:
+    return f"left_{link}", f"right_{link}"
+
+
+ROBOT_PARAMETERS: dict[str, dict[str, RobotParameter]] = {
+    "dircon_biped": {
+        p.name: p
+        for p in (
+            RobotParameter(
+                "thigh_length_m",
+                0.25,
+                0.55,
+                0.3905,
+                _leg("thigh"),
+                _leg("knee"),
+                "Hip pitch to knee axis [m] (built: 0.3905)",
+            ),
+            RobotParameter(
+                "shank_length_m",
+                0.25,
+                0.55,
+                0.3905,
+                _leg("shank"),
+                _leg("ankle_pitch"),
+                "Knee to ankle axis [m] (built: 0.3905)",
+            ),
+            RobotParameter("base_mass_kg", 2.0, 20.0, 7.624, ("base",), (), "Table 2: 7.624"),
+            RobotParameter("thigh_mass_kg", 0.3, 4.0, 1.116, _leg("thigh"), (), "Table 2: 1.116"),
+            RobotParameter("shank_mass_kg", 0.3, 4.0, 1.597, _leg("shank"), (), "Table 2: 1.597"),
+            RobotParameter("foot_mass_kg", 0.1, 2.0, 0.300, _leg("foot"), (), "Table 2: 0.300"),
+        )
+    }
+}
+
+
+def robot_parameter(robot: str, name: str) -> RobotParameter:
+    """The parameter `name` of built-in `robot`, or SweepSpecError naming the known ones."""
+    known = ROBOT_PARAMETERS.get(robot)
+    if known is None:
+        robots = ", ".join(sorted(ROBOT_PARAMETERS))
+        raise SweepSpecError(
+            f"robot parameter {name!r}: {robot!r} has no sweepable robot parameters "
+            f"(robots with some: {robots}); sweep its gait parameters only"
+        )
+    if name not in known:
+        raise SweepSpecError(
+            f"unknown robot parameter {name!r} for {robot}; known: {', '.join(known)}"
+        )
+    return known[name]
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotVariant:
+    """A built-in robot with some parameters changed: hashable and picklable, so a Dask worker
+    can rebuild it (and key its cache of built NLPs on it)."""
+
+    robot: str = "dircon_biped"
+    values: tuple[tuple[str, float], ...] = ()
+    """(parameter, value) pairs, sorted by name."""
+
+    @classmethod
+    def of(cls, robot: str, values: dict[str, float]) -> RobotVariant:
+        for name, value in values.items():
+            p = robot_parameter(robot, name)
+            if not (math.isfinite(value) and p.minimum <= value <= p.maximum):
+                raise SweepSpecError(
+                    f"{name} = {value}: give a value in [{p.minimum:g}, {p.maximum:g}]"
+                )
+        return cls(robot, tuple(sorted((k, float(v)) for k, v in values.items())))
+
+    def urdf_text(self) -> str:
+        """The built-in robot's URDF with this variant's values."""
+        from robots.catalogue import BUILTIN_ROBOTS
+
+        if self.robot not in BUILTIN_ROBOTS:
+            raise SweepSpecError(f"{self.robot!r} is not a built-in robot")
+        text = BUILTIN_ROBOTS[self.robot].urdf_path.read_text(encoding="utf-8")
+        if not self.values:
+            return text
+        root = ET.fromstring(text)
+        for name, value in self.values:
+            _apply(root, robot_parameter(self.robot, name), value)
+        return ET.tostring(root, encoding="unicode")
+
+    def load(self):  # -> RobotModel (imported lazily: pinocchio is heavy)
+        """The variant as a RobotModel (loaded from a temporary URDF, removed at once)."""
+        from app.core.robot.loading import load_robot
+
+        if not self.values:
+            return load_robot(self.robot)
+        handle, name = tempfile.mkstemp(suffix=".urdf", prefix=f"{self.robot}_variant_")
+        try:
+            with os.fdopen(handle, "w", encoding="utf-8") as file:
+                file.write(self.urdf_text())
+            return load_robot(Path(name))
+        finally:
+            os.unlink(name)
+
+
+def _floats(text: str | None) -> list[float]:
+    return [float(x) for x in (text or "0 0 0").split()]
+
+
+def _fmt(values: list[float]) -> str:
+    return " ".join(f"{x:.9g}" for x in values)
+
+
+def _apply(root: ET.Element, p: RobotParameter, value: float) -> None:
+    links = {link.get("name"): link for link in root.iter("link")}
+    joints = {joint.get("name"): joint for joint in root.iter("joint")}
+    for link_name in p.links:
+        link = links[link_name]
+        inertial = link.find("inertial")
+        assert inertial is not None
+        mass = inertial.find("mass")
+        inertia = inertial.find("inertia")
+        assert mass is not None and inertia is not None
+        if p.is_length:
+            ratio = value / p.default
+            for element in link.iter("origin"):
+                xyz = _floats(element.get("xyz"))
+                element.set("xyz", _fmt([xyz[0], xyz[1], xyz[2] * ratio]))
+            for visual in (*link.findall("visual"), *link.findall("collision")):
+                origin, cylinder = visual.find("origin"), visual.find("geometry/cylinder")
+                axial = origin is None or not any(_floats(origin.get("rpy")))
+                if cylinder is not None and axial:
+                    length = float(cylinder.get("length", "0"))
+                    cylinder.set("length", f"{length * ratio:.9g}")
+            for axis in ("ixx", "iyy"):
+                inertia.set(axis, f"{float(inertia.get(axis, '0')) * ratio**2:.9g}")
+        else:
+            ratio = value / float(mass.get("value", "1"))
+            mass.set("value", f"{value:.9g}")
+            for axis in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"):
+                inertia.set(axis, f"{float(inertia.get(axis, '0')) * ratio:.9g}")
+    for joint_name in p.end_joints:
+        origin = joints[joint_name].find("origin")
+        assert origin is not None
+        xyz = _floats(origin.get("xyz"))
+        origin.set("xyz", _fmt([xyz[0], xyz[1], -value]))

@@ -1,0 +1,268 @@
+"""SweepSpec: what a design sweep varies, how it samples, and which metrics it trades off.
+
+A sweep file (TOML) looks like:
+
+    robot = "dircon_biped"
+    sampling = "latin"          # grid | random | latin (Latin hypercube)
+    samples = 40                # random and latin; a grid multiplies the parameters' levels
+    seed = 1
+    pareto = { sr = "min", max_torque_Nm = "min" }
+    start = "anchor"            # where each solve starts (see START)
+
+    [gait]                      # fixed GaitSettings for every point
+    knots = 12
+
+    [[parameter]]
+    name = "step_length_m"      # a GaitSettings field, a robot parameter, or a servo parameter
+    kind = "gait"               # gait | robot | servo
+    min = 0.1
+    max = 0.3
+    levels = 3                  # grid only (default 3)
+
+Everything is checked before a single point runs: unknown names, NaN, crossed ranges, ranges
+outside what the planner's settings (`GaitSettings.validate`) or the robot builder accept, zero
+samples, and more than MAX_POINTS points.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any, Literal
+
+from app.core import input_gate
+from app.core.collocation.settings import GaitSettings, GaitSettingsError
+from app.core.sweeps.robot_variants import SweepSpecError, robot_parameter
+from robots.catalogue import BUILTIN_ROBOTS
+
+MAX_POINTS = 20_000
+"""Most points one sweep may have: 20 000 gait solves are hours on a laptop."""
+MAX_PARAMETERS = 12
+DEFAULT_LEVELS = 3
+METRICS = {
+    "sr": "specific resistance E / (M g d) (eq. 9)",
+    "sr_incl_impacts": "specific resistance with the impact losses",
+    "max_torque_Nm": "largest |joint torque| at the knots [N·m]",
+    "max_joint_speed_radps": "largest |joint speed| at the knots [rad/s]",
+    "energy_J": "positive mechanical work of the joints over the gait [J]",
+    "solve_s": "IPOPT time of the point [s]",
+}
+"""The metrics a Pareto front may use, with what they mean."""
+SAMPLINGS = ("grid", "random", "latin")
+KINDS = ("gait", "robot", "servo")
+TOP_KEYS = ("robot", "sampling", "samples", "seed", "pareto", "start", "gait", "parameter")
+START = {
+    "anchor": "from the gait of the [gait] settings on the same NLP (solved once per worker): "
+    "fast, and a point's result depends on the point only",
+    "cold": "from the planner's own initial guess: slower, depends on the point only",
+    "previous": "from the worker's last gait: fastest, but a point's result then depends on "
+    "what its worker solved before",
+}
+"""Where each point's solve starts."""
+PARAMETER_KEYS = ("name", "kind", "min", "max", "levels")
+STRUCTURAL = ("baseline",)
+"""Settings a sweep cannot vary (not a number)."""
+
+KIND_WORDS = {int: "whole number", str: "text", bool: "true or false", dict: "table", list: "list"}
+Sense = Literal["min", "max"]
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepParameter:
+    """One swept number: its kind, its name and its closed range [minimum, maximum]."""
+
+    kind: str
+    name: str
+    minimum: float
+    maximum: float
+    levels: int = DEFAULT_LEVELS
+    """Grid values of this parameter (grid sampling only)."""
+
+    @property
+    def is_integer(self) -> bool:
+        return self.kind == "gait" and isinstance(getattr(GaitSettings, self.name), int)
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepSpec:
+    """A validated sweep; `SweepSpec.from_mapping` is the only way in from user data."""
+
+    robot: str
+    parameters: tuple[SweepParameter, ...]
+    sampling: str = "latin"
+    samples: int = 20
+    """Points of random and latin sampling (a grid has the product of the levels)."""
+    seed: int = 0
+    pareto: tuple[tuple[str, Sense], ...] = (("sr", "min"), ("max_torque_Nm", "min"))
+    """(metric, "min" | "max") pairs the Pareto front trades off."""
+    gait: tuple[tuple[str, Any], ...] = ()
+    """Fixed GaitSettings overrides for every point."""
+    start: str = "anchor"
+    """A key of START."""
+
+    @property
+    def n_points(self) -> int:
+        if self.sampling == "grid":
+            return math.prod(p.levels for p in self.parameters)
+        return self.samples
+
+    def base_settings(self, defaults: GaitSettings | None = None) -> GaitSettings:
+        """The settings every point starts from: `defaults` (the robot's, see
+        app.core.collocation.defaults; the paper's if None) with `gait` applied."""
+        return GaitSettings.from_mapping(dict(self.gait), source="[gait]", base=defaults)
+
+    @classmethod
+    def from_mapping(cls, data: dict[str, Any], source: str = "sweep") -> SweepSpec:
+        """Check user data (a parsed TOML, the panel's values) and build the spec."""
+        if not isinstance(data, dict):
+            raise SweepSpecError(f"{source}: a sweep is a table of keys, not {type(data).__name__}")
+        unknown = sorted(set(data) - set(TOP_KEYS))
+        if unknown:
+            raise SweepSpecError(
+                f"{source}: unknown key(s) {', '.join(unknown)}; known: {', '.join(TOP_KEYS)}"
+            )
+        robot = _typed(data.get("robot", "dircon_biped"), str, f"{source}: robot")
+        if robot not in BUILTIN_ROBOTS:
+            raise SweepSpecError(
+                f"{source}: robot = {robot!r}; a sweep runs on a built-in robot: "
+                f"{', '.join(BUILTIN_ROBOTS)}"
+            )
+        sampling = _typed(data.get("sampling", "latin"), str, f"{source}: sampling")
+        if sampling not in SAMPLINGS:
+            raise SweepSpecError(
+                f"{source}: sampling = {sampling!r}; give one of {', '.join(SAMPLINGS)}"
+            )
+        samples = _integer(data.get("samples", 20), f"{source}: samples")
+        seed = _integer(data.get("seed", 0), f"{source}: seed")
+        if not 0 <= seed < 2**32:
+            raise SweepSpecError(f"{source}: seed = {seed}; give a seed in [0, 2³²)")
+        start = _typed(data.get("start", "anchor"), str, f"{source}: start")
+        if start not in START:
+            raise SweepSpecError(f"{source}: start = {start!r}; give one of {', '.join(START)}")
+        gait = _typed(data.get("gait", {}), dict, f"{source}: [gait]")
+        try:
+            base = GaitSettings.from_mapping(dict(gait), source=f"{source}: [gait]")
+        except GaitSettingsError as error:
+            raise SweepSpecError(str(error)) from None
+        raw = _typed(data.get("parameter", []), list, f"{source}: [[parameter]]")
+        if not raw:
+            raise SweepSpecError(f"{source}: no [[parameter]]: name at least one to sweep")
+        if len(raw) > MAX_PARAMETERS:
+            raise SweepSpecError(f"{source}: {len(raw)} parameters; at most {MAX_PARAMETERS}")
+        parameters = tuple(
+            _parameter(entry, f"{source}: parameter {i + 1}", robot, base)
+            for i, entry in enumerate(raw)
+        )
+        names = [p.name for p in parameters]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise SweepSpecError(f"{source}: parameter(s) {', '.join(twice)} given twice")
+        pareto = _pareto(data.get("pareto", {"sr": "min", "max_torque_Nm": "min"}), source)
+        spec = cls(
+            robot, parameters, sampling, samples, seed, pareto,
+            tuple(sorted(gait.items())), start,
+        )  # fmt: skip
+        if sampling != "grid" and samples < 1:
+            raise SweepSpecError(f"{source}: samples = {samples}; give at least 1 point")
+        if spec.n_points > MAX_POINTS:
+            raise SweepSpecError(
+                f"{source}: {spec.n_points} points is more than the limit of {MAX_POINTS}; "
+                "use fewer samples or levels, or split the sweep"
+            )
+        return spec
+
+
+def read_sweep_toml(path: Path) -> SweepSpec:
+    """A sweep file (TOML, ≤ 1 MiB) checked into a SweepSpec."""
+    return SweepSpec.from_mapping(input_gate.read_toml(path, SweepSpecError), str(path))
+
+
+def _typed(value: Any, kind: type, what: str) -> Any:
+    if not isinstance(value, kind) or (kind is not bool and isinstance(value, bool)):
+        raise SweepSpecError(f"{what} = {value!r} is not a {KIND_WORDS[kind]}")
+    return value
+
+
+def _integer(value: Any, what: str) -> int:
+    return int(_typed(value, int, what))
+
+
+def _number(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise SweepSpecError(f"{what} = {value!r} is not a number")
+    if not math.isfinite(value):
+        raise SweepSpecError(f"{what} = {value}: give a finite number")
+    return float(value)
+
+
+def _parameter(entry: Any, where: str, robot: str, base: GaitSettings) -> SweepParameter:
+    entry = _typed(entry, dict, where)
+    unknown = sorted(set(entry) - set(PARAMETER_KEYS))
+    if unknown:
+        raise SweepSpecError(
+            f"{where}: unknown key(s) {', '.join(unknown)}; known: {', '.join(PARAMETER_KEYS)}"
+        )
+    for key in ("name", "min", "max"):
+        if key not in entry:
+            raise SweepSpecError(f"{where}: missing {key!r}")
+    name = _typed(entry["name"], str, f"{where}: name")
+    kind = _typed(entry.get("kind", "gait"), str, f"{where}: kind")
+    lo = _number(entry["min"], f"{where} ({name}): min")
+    hi = _number(entry["max"], f"{where} ({name}): max")
+    levels = _integer(entry.get("levels", DEFAULT_LEVELS), f"{where} ({name}): levels")
+    if not 1 <= levels <= MAX_POINTS:
+        raise SweepSpecError(f"{where} ({name}): levels = {levels}; give 1 to {MAX_POINTS}")
+    if lo > hi:
+        raise SweepSpecError(f"{where} ({name}): min = {lo:g} > max = {hi:g}")
+    if kind == "gait":
+        _check_gait_range(name, lo, hi, base, where)
+    elif kind == "robot":
+        p = robot_parameter(robot, name)
+        if lo < p.minimum or hi > p.maximum:
+            raise SweepSpecError(
+                f"{where}: {name} range [{lo:g}, {hi:g}] leaves what the {robot} builder "
+                f"accepts, [{p.minimum:g}, {p.maximum:g}]"
+            )
+    elif kind == "servo":
+        raise SweepSpecError(
+            f"{where}: servo parameter {name!r}: servo parameters (compliance, dead band, "
+            "compensation) act only through the simulation, which sweeps do not run yet; "
+            "sweep gait or robot parameters"
+        )
+    else:
+        raise SweepSpecError(f"{where}: kind = {kind!r}; give one of {', '.join(KINDS)}")
+    return SweepParameter(kind, name, lo, hi, levels)
+
+
+def _check_gait_range(name: str, lo: float, hi: float, base: GaitSettings, where: str) -> None:
+    fields = {f.name for f in dataclasses.fields(GaitSettings)}
+    if name not in fields or name in STRUCTURAL:
+        numeric = [f for f in fields if f not in STRUCTURAL]
+        raise SweepSpecError(
+            f"{where}: unknown gait parameter {name!r}; known: {', '.join(sorted(numeric))}"
+        )
+    for value in (lo, hi):
+        typed: float | int = round(value) if isinstance(getattr(base, name), int) else value
+        try:
+            dataclasses.replace(base, **{name: typed}).validate()  # type: ignore[arg-type]
+        except GaitSettingsError as error:
+            raise SweepSpecError(
+                f"{where}: {name} range [{lo:g}, {hi:g}] leaves what the planner accepts: {error}"
+            ) from None
+
+
+def _pareto(value: Any, source: str) -> tuple[tuple[str, Sense], ...]:
+    table = _typed(value, dict, f"{source}: pareto")
+    if len(table) != 2:
+        raise SweepSpecError(f"{source}: pareto names {len(table)} metrics; give exactly two")
+    out: list[tuple[str, Sense]] = []
+    for metric, sense in table.items():
+        if metric not in METRICS:
+            raise SweepSpecError(
+                f"{source}: pareto metric {metric!r} is unknown; known: {', '.join(METRICS)}"
+            )
+        if sense not in ("min", "max"):
+            raise SweepSpecError(f"{source}: pareto {metric} = {sense!r}; give 'min' or 'max'")
+        out.append((metric, sense))
+    return tuple(out)

@@ -1,0 +1,234 @@
+"""Design sweeps in the studio: the Sweep panel, a Dask engine, live progress and Pareto plot, and
+loading a chosen point (its robot variant and a walk of its gait) into the state.
+
+The sweep runs on a named thread, "sweep-runner", which starts the local Dask cluster the
+first time (kept for later sweeps, closed with the studio) and consumes results as they finish;
+`on_sweep_done` announces the end (finished or cancelled) with the results. Loading a point
+solves its gait on a worker (the NLP is warm there), loads the variant robot with
+`StudioState.set_robot` and plays a walk of the gait with `set_motion`, on "sweep-loader";
+`on_point_loaded` announces it. Bad input (the panel's ranges, an unknown point) goes to the
+panel's status line and the notifier, and the studio keeps its state.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import threading
+import time
+from typing import Any
+
+import numpy as np
+import viser
+
+from app.core.collocation.controls import CONTROLS
+from app.core.errors import StudioError
+from app.core.sweeps.evaluate import PointResult
+from app.core.sweeps.results import pareto_indices
+from app.core.sweeps.robot_variants import ROBOT_PARAMETERS
+from app.core.sweeps.sampling import SweepPoint, sweep_points
+from app.core.sweeps.spec import METRICS, SweepSpec
+from app.studio.notifier import Notifier
+from app.studio.signals import Signal
+from app.studio.state import StudioState
+from panels.sweep_panel import SweepPanel
+
+log = logging.getLogger(__name__)
+
+SWEEP_ROBOT = "dircon_biped"
+"""The robot the panel sweeps (the only one with robot parameters, and the planner's own)."""
+WALK_STEPS = 4
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepOutcome:
+    spec: SweepSpec
+    results: tuple[PointResult, ...]
+    pareto: tuple[int, ...]
+    cancelled: bool
+    error: str = ""
+
+
+def _choices() -> dict[str, tuple[float, float]]:
+    out = {f"gait:{c.field}": (float(c.minimum), float(c.maximum)) for c in CONTROLS}
+    out["gait:step_length_m"] = (0.12, 0.28)
+    out["gait:H_s"] = (0.6, 0.9)
+    for p in ROBOT_PARAMETERS[SWEEP_ROBOT].values():
+        out[f"robot:{p.name}"] = (p.minimum, p.maximum)
+    return out
+
+
+class SweepSession:
+    """Owns the Sweep panel and the Dask engine of the studio's sweeps."""
+
+    def __init__(self, server: viser.ViserServer, state: StudioState, notifier: Notifier) -> None:
+        self._server = server
+        self._state = state
+        self._notifier = notifier
+        self._lock = threading.Lock()
+        self._engine: Any = None
+        self._run: Any = None
+        self._thread: threading.Thread | None = None
+        self.outcome: SweepOutcome | None = None
+        self.points: dict[int, SweepPoint] = {}
+        self.on_sweep_done: Signal[SweepOutcome] = Signal("on_sweep_done")
+        self.on_point_loaded: Signal[int] = Signal("on_point_loaded")
+        self.on_result: Signal[PointResult] = Signal("on_result")
+        """Each point's result as it arrives (after the panel shows it)."""
+        choices = _choices()
+        ordered = ["gait:step_length_m", "gait:H_s"]
+        ordered += [c for c in choices if c not in ordered]
+        self.panel = SweepPanel(server.gui, self, ordered, tuple(METRICS), choices)
+
+    # --- running ------------------------------------------------------------------------------
+
+    def run(self, client: viser.ClientHandle | None = None) -> None:
+        """Check the panel's sweep and start it; a bad one is refused with the reason."""
+        with self._lock:
+            if self._thread is not None and self._thread.is_alive():
+                return
+            try:
+                spec = SweepSpec.from_mapping(
+                    {"robot": SWEEP_ROBOT, **self.panel.spec_values()}, "sweep panel"
+                )
+                workers = _whole(self.panel.workers.value, "workers")
+                points = sweep_points(spec)
+            except StudioError as error:
+                self.panel.status.content = f"⚠️ {error}"
+                self._notifier.error("Cannot run this sweep", str(error), client)
+                return
+            self.panel.running(True)
+            self.panel.status.content = f"Starting {len(points)} points on {workers} workers…"
+            self._thread = threading.Thread(
+                target=self._sweep, args=(spec, points, workers, client), name="sweep-runner"
+            )
+            self._thread.start()
+
+    def cancel(self) -> None:
+        run = self._run
+        if run is not None:
+            run.cancel()
+
+    def _sweep(self, spec: SweepSpec, points: list[SweepPoint], workers: int, client: Any) -> None:
+        from app.sweep_engine import SweepEngine
+
+        results: list[PointResult] = []
+        error = ""
+        cancelled = False
+        start = time.perf_counter()
+        try:
+            engine = self._engine
+            if engine is None or engine.n_workers != workers:
+                if engine is not None:
+                    engine.close()
+                self._engine = engine = SweepEngine(n_workers=workers)
+            self._run = run = engine.start(points)
+            for result in run.results():
+                results.append(result)
+                self._progress(spec, results, len(points), time.perf_counter() - start)
+                self.on_result.emit(result)
+            cancelled = run.cancelled
+        except StudioError as failure:
+            error = str(failure)
+            self._notifier.error("The sweep failed", error, client)
+        except Exception as failure:  # a thread boundary: report, and give the panel back
+            log.exception("the sweep failed")
+            error = f"the sweep failed: {type(failure).__name__}: {failure}"
+            self._notifier.error("The sweep failed", error, client)
+        finally:
+            self._run = None
+        front = tuple(pareto_indices(spec, results))
+        self.points = {p.index: p for p in points}
+        self.outcome = SweepOutcome(spec, tuple(results), front, cancelled, error)
+        done = "cancelled" if cancelled else "done"
+        if error:
+            self.panel.status.content = f"⚠️ {error}"
+        else:
+            self.panel.status.content += f"  \nSweep {done}; Pareto points: {list(front)}."
+        self.panel.running(False)
+        self.panel.load_button.disabled = not any(r.solved for r in results)
+        self.on_sweep_done.emit(self.outcome)
+
+    def _progress(
+        self, spec: SweepSpec, results: list[PointResult], total: int, seconds: float
+    ) -> None:
+        solved = [r for r in results if r.solved]
+        failed = sum(r.status == "failed" for r in results)
+        self.panel.status.content = (
+            f"{len(results)} / {total} done, {len(solved)} solved, {failed} failed, "
+            f"{len(results) / seconds:.2f} points/s"
+        )
+        if not solved:
+            return
+        metrics = tuple(m for m, _ in spec.pareto)
+        front = set(pareto_indices(spec, results))
+        xy = np.array([[r.metric(m) for m in metrics] for r in solved])
+        on = np.array([r.index in front for r in solved])
+        with self._server.atomic():
+            self.panel.show_points((metrics[0], metrics[1]), xy, on)
+
+    # --- loading a point ----------------------------------------------------------------------
+
+    def load_point(self, client: viser.ClientHandle | None = None) -> None:
+        """Load the chosen point's robot and play a walk of its gait, on "sweep-loader"."""
+        outcome, engine = self.outcome, self._engine
+        try:
+            index = _whole(self.panel.point.value, "Point #")
+            if outcome is None or engine is None:
+                raise StudioError("run a sweep first")
+            result = next((r for r in outcome.results if r.index == index), None)
+            if result is None or not result.solved:
+                solved = [r.index for r in outcome.results if r.solved]
+                raise StudioError(f"point {index} has no gait; solved points: {solved}")
+        except StudioError as error:
+            self.panel.status.content = f"⚠️ {error}"
+            self._notifier.error("Cannot load this point", str(error), client)
+            return
+        point = self.points[index]
+        threading.Thread(
+            target=self._load, args=(engine, point, client), name="sweep-loader"
+        ).start()
+
+    def _load(self, engine: Any, point: SweepPoint, client: Any) -> None:
+        from app.core.collocation.planar_model import PlanarModel
+        from app.core.robot.report import robot_report
+        from app.core.walking.walk import build_walk
+
+        try:
+            gait = engine.solve(point)
+            if not gait.converged:
+                raise StudioError(f"point {point.index} did not solve again: {gait.status}")
+            robot = point.robot.load()
+            walk = build_walk(PlanarModel(robot), gait, steps=WALK_STEPS)
+            report = robot_report(robot)
+            changed = ", ".join(f"{n} = {v:.4g}" for n, v in point.robot.values) or "as built"
+            summary = (
+                f"**sweep point #{point.index}** — {robot.name} ({changed}), SR {gait.sr:.4f}, "
+                f"max |τ| {gait.max_abs_tau_Nm:.2f} N·m; a walk of {WALK_STEPS} steps"
+            )
+            with self._state.lock, self._server.atomic():
+                self._state.set_robot(robot, report)
+                self._state.set_motion(walk.trajectory, summary, robot)
+            self._state.on_play.emit(None)
+        except Exception as error:  # a thread boundary: bad input, or a worker lost meanwhile
+            if not isinstance(error, StudioError):
+                log.exception("loading a sweep point failed")
+            self.panel.status.content = f"⚠️ {error}"
+            self._notifier.error("Cannot load this point", str(error), client)
+            return
+        self.panel.status.content += f"  \nLoaded point #{point.index}."
+        self.on_point_loaded.emit(point.index)
+
+    def close(self) -> None:
+        self.cancel()
+        thread = self._thread
+        if thread is not None:
+            thread.join(30.0)
+        if self._engine is not None:
+            self._engine.close()
+
+
+def _whole(value: float, what: str) -> int:
+    if not np.isfinite(value) or not float(value).is_integer() or value < 0:
+        raise StudioError(f"{what} = {value}: give a whole number")
+    return int(value)

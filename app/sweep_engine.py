@@ -1,0 +1,203 @@
+"""Run a sweep's points on Dask distributed: a local cluster by default, or a scheduler address.
+
+    engine = SweepEngine(scheduler=None, n_workers=2)     # starts a LocalCluster
+    run = engine.start(points)                            # submits every point
+    for result in run.results():                          # as they finish (as_completed)
+        ...
+    run.cancel()                                          # from any thread: stops the sweep
+    engine.close()
+
+Local cluster: worker *processes* (a solve holds the GIL), one thread each, one per core;
+BLAS/OpenMP pinned to one thread in each (the workers' environment), so n workers use n cores.
+A remote scheduler's workers must have this package installed and should set
+OMP_NUM_THREADS=1 themselves.
+
+Each point is one task, `app.core.sweeps.evaluate.evaluate_point`; the process's cache of built
+NLPs survives between tasks, so a worker builds each structure once. A worker that dies
+mid-point (killed, out of memory) loses only its running points: the scheduler hands them to
+another worker (up to `distributed.scheduler.allowed-failures` deaths per point), and a point
+whose task raised is retried `RETRIES` times. A point that still fails is reported as failed, not
+dropped.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import threading
+import time
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+from app.core.errors import StudioError
+from app.core.sweeps.evaluate import PointResult, evaluate_point, failed_point
+from app.core.sweeps.sampling import SweepPoint
+
+log = logging.getLogger(__name__)
+
+RETRIES = 2
+"""Times a point whose task raised is run again."""
+CONNECT_TIMEOUT_S = 5.0
+"""How long to try reaching a scheduler address [s]."""
+SINGLE_THREAD_ENV = {
+    name: "1"
+    for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
+}
+
+
+class SweepEngineError(StudioError):
+    """The sweep cannot run: scheduler unreachable, cluster failed to start."""
+
+
+def local_cores() -> int:
+    """Cores this process may use."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+class SweepEngine:
+    """A Dask client on a local cluster (owned, closed with the engine) or a remote scheduler."""
+
+    def __init__(
+        self,
+        scheduler: str | None = None,
+        n_workers: int | None = None,
+        *,
+        fallback_local: bool = False,
+    ) -> None:
+        """`scheduler` "tcp://host:port" connects to a running cluster; None starts a local one
+        of `n_workers` processes (default: one per core). An unreachable scheduler raises
+        SweepEngineError unless `fallback_local`, which starts the local cluster instead (and
+        says so in `notes`)."""
+        from distributed import Client, LocalCluster
+
+        self.notes: list[str] = []
+        self._cluster: Any = None
+        if n_workers is not None and not 1 <= n_workers <= 256:
+            raise SweepEngineError(f"workers = {n_workers}: give 1 to 256")
+        if scheduler is not None:
+            try:
+                self.client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
+                self.address = scheduler
+                return
+            except (OSError, TimeoutError, ValueError) as error:
+                message = (
+                    f"cannot reach the Dask scheduler at {scheduler} "
+                    f"({type(error).__name__}: {error})"
+                )
+                if not fallback_local:
+                    raise SweepEngineError(
+                        f"{message}; check the address, or allow the local fallback "
+                        "(sweep --local-fallback)"
+                    ) from None
+                self.notes.append(f"{message}; running on a local cluster instead")
+        n = n_workers or local_cores()
+        try:
+            self._cluster = LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                env=SINGLE_THREAD_ENV,
+                silence_logs=logging.ERROR,
+            )
+        except Exception as error:  # a cluster that cannot start: ports, memory, sandboxing
+            raise SweepEngineError(f"the local Dask cluster did not start: {error}") from None
+        self.client = Client(self._cluster)
+        self.address = self._cluster.scheduler_address
+
+    @property
+    def n_workers(self) -> int:
+        return len(self.client.scheduler_info(n_workers=-1)["workers"])
+
+    def worker_pids(self) -> dict[str, int]:
+        """Worker address → its process id (for tests and diagnostics)."""
+        return self.client.run(os.getpid)
+
+    def start(self, points: Sequence[SweepPoint]) -> SweepRun:
+        """Submit every point; iterate `results()` of the returned run for them."""
+        return SweepRun(self.client, points)
+
+    def solve(self, point: SweepPoint) -> Any:
+        """The GaitResult of one point, solved on a worker (whose NLP may be warm)."""
+        from app.core.sweeps.evaluate import solve_point
+
+        return self.client.submit(solve_point, point, pure=False, retries=RETRIES).result()
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):  # closing a half-dead cluster must not raise
+            self.client.close()
+        if self._cluster is not None:
+            with contextlib.suppress(Exception):
+                self._cluster.close()
+
+    def __enter__(self) -> SweepEngine:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+class SweepRun:
+    """The submitted points of one sweep: results as they finish, cancel from any thread."""
+
+    def __init__(self, client: Any, points: Sequence[SweepPoint]) -> None:
+        from distributed import as_completed
+
+        self.points = {p.index: p for p in points}
+        self.started_s = time.perf_counter()
+        self._client = client
+        self._cancelled = threading.Event()
+        run_id = uuid.uuid4().hex[:12]
+        self._futures = client.map(
+            evaluate_point,
+            list(points),
+            key=[f"sweep-{run_id}-point-{p.index}" for p in points],
+            retries=RETRIES,
+            pure=False,
+        )
+        self._index = {f.key: p.index for f, p in zip(self._futures, points, strict=True)}
+        self._completed = as_completed(self._futures)
+
+    @property
+    def cancelled(self) -> bool:
+        return self._cancelled.is_set()
+
+    def cancel(self) -> None:
+        """Stop the sweep: unfinished points are dropped (running solves are abandoned on their
+        workers), and `results()` ends after at most the result it is delivering."""
+        self._cancelled.set()
+        self._completed.clear()  # ends the iteration in `results`
+        with contextlib.suppress(Exception):
+            self._client.cancel(self._futures)
+
+    def results(self) -> Iterator[PointResult]:
+        """Each point's result as soon as it is known, in finishing order; a point that failed
+        every retry comes back as a failed result. Ends when all are in or on cancel."""
+        for future in self._completed:
+            if self._cancelled.is_set():
+                return
+            index = self._index[future.key]
+            if future.status == "finished":
+                yield future.result()
+            elif future.status == "cancelled":
+                continue
+            else:
+                error = future.exception()
+                yield failed_point(self.points[index], f"{type(error).__name__}: {error}")
+            future.release()
+
+
+def run_sweep(
+    engine: SweepEngine,
+    points: Sequence[SweepPoint],
+    on_result: Callable[[PointResult], None] | None = None,
+) -> list[PointResult]:
+    """Every point's result (finishing order), calling `on_result` for each as it arrives."""
+    out = []
+    for result in engine.start(points).results():
+        out.append(result)
+        if on_result is not None:
+            on_result(result)
+    return out

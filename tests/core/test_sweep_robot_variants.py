@@ -1,0 +1,51 @@
+"""Robot parameters: a changed URDF whose geometry and masses pinocchio confirms."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from app.core.sweeps.robot_variants import RobotVariant, SweepSpecError
+
+
+def _mass(robot) -> float:
+    return float(sum(inertia.mass for inertia in robot.model.inertias))
+
+
+def _base_height(robot) -> float:
+    return float(robot.q_neutral[2])
+
+
+def test_longer_segments_raise_the_standing_base_by_their_extra_length():
+    plain = RobotVariant.of("dircon_biped", {}).load()
+    longer = RobotVariant.of(
+        "dircon_biped", {"thigh_length_m": 0.43, "shank_length_m": 0.36}
+    ).load()
+    extra = (0.43 - 0.3905) + (0.36 - 0.3905)
+    # both models stand with their soles on z = 0: the base rises by the legs' extra length
+    assert _base_height(longer) - _base_height(plain) == pytest.approx(extra, abs=1e-6)
+    assert _mass(longer) == pytest.approx(_mass(plain), abs=1e-9)  # lengths keep the masses
+    # the thigh's centre of mass moved with its length (a rod: in proportion)
+    thigh = longer.model.getJointId("left_hip_pitch")
+    base_thigh = plain.model.getJointId("left_hip_pitch")
+    ratio = longer.model.inertias[thigh].lever[2] / plain.model.inertias[base_thigh].lever[2]
+    assert ratio == pytest.approx(0.43 / 0.3905, rel=1e-6)
+
+
+def test_masses_change_the_total_mass_by_exactly_the_difference():
+    plain = RobotVariant.of("dircon_biped", {}).load()
+    heavy = RobotVariant.of("dircon_biped", {"base_mass_kg": 10.0, "foot_mass_kg": 0.5}).load()
+    assert _mass(heavy) - _mass(plain) == pytest.approx((10.0 - 7.624) + 2 * (0.5 - 0.3), abs=1e-6)
+    mass_matrix = pin.crba(heavy.model, heavy.model.createData(), heavy.q_neutral)
+    mass_matrix = np.triu(mass_matrix) + np.triu(mass_matrix, 1).T
+    assert np.linalg.eigvalsh(mass_matrix).min() > 0.0  # inertias still physical
+
+
+def test_out_of_range_and_unknown_parameters_are_refused():
+    with pytest.raises(SweepSpecError, match=r"\[0.25, 0.55\]"):
+        RobotVariant.of("dircon_biped", {"thigh_length_m": 0.9})
+    with pytest.raises(SweepSpecError, match="no sweepable robot parameters"):
+        RobotVariant.of("servo_biped", {"thigh_length_m": 0.3})
+    with pytest.raises(SweepSpecError, match="known: thigh_length_m"):
+        RobotVariant.of("dircon_biped", {"tail_m": 0.3})

@@ -1,0 +1,137 @@
+"""Sweep files: good ones become points, hostile ones are refused with a message that says why."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from app.core.sweeps.robot_variants import SweepSpecError
+from app.core.sweeps.sampling import sample_values, sweep_points, unit_samples
+from app.core.sweeps.spec import MAX_POINTS, SweepSpec, read_sweep_toml
+
+
+def spec(**top) -> dict:
+    data = {
+        "samples": 5,
+        "parameter": [{"name": "step_length_m", "kind": "gait", "min": 0.1, "max": 0.3}],
+    }
+    data.update(top)
+    return data
+
+
+def param(name="step_length_m", kind="gait", lo=0.1, hi=0.3, **more) -> dict:
+    return {"name": name, "kind": kind, "min": lo, "max": hi, **more}
+
+
+@pytest.mark.parametrize(
+    ("data", "words"),
+    [
+        (spec(parameter=[param(lo=math.nan)]), "finite"),
+        (spec(parameter=[param(hi=math.inf)]), "finite"),
+        (spec(samples=0), "at least 1"),
+        (spec(samples=-3), "at least 1"),
+        (spec(samples=10**9), f"limit of {MAX_POINTS}"),
+        (
+            spec(
+                sampling="grid",
+                parameter=[param(levels=200), param("H_s", lo=0.5, hi=1.0, levels=200)],
+            ),
+            f"limit of {MAX_POINTS}",
+        ),
+        (spec(parameter=[param("wings")]), "unknown gait parameter 'wings'"),
+        (spec(parameter=[param("wings", kind="robot")]), "unknown robot parameter 'wings'"),
+        (spec(parameter=[param(kind="hydraulic")]), "kind = 'hydraulic'"),
+        (spec(parameter=[param(lo=0.3, hi=0.1)]), "min = 0.3 > max = 0.1"),
+        (spec(parameter=[param(hi=2.0)]), "leaves what the planner accepts"),
+        (spec(parameter=[param("knots", lo=5, hi=500)]), "leaves what the planner accepts"),
+        (
+            spec(parameter=[param("thigh_length_m", kind="robot", lo=0.3, hi=0.9)]),
+            "leaves what the dircon_biped builder accepts",
+        ),
+        (spec(parameter=[param("compliance", kind="servo", lo=0, hi=1)]), "simulation"),
+        (spec(parameter=[param(), param()]), "given twice"),
+        (spec(parameter=[]), "no [[parameter]]"),
+        (spec(parameter=[param("baseline", lo=0, hi=1)]), "unknown gait parameter 'baseline'"),
+        (spec(pareto={"sr": "min", "speed": "max"}), "pareto metric 'speed'"),
+        (spec(pareto={"sr": "least", "energy_J": "min"}), "give 'min' or 'max'"),
+        (spec(pareto={"sr": "min"}), "exactly two"),
+        (spec(robot="/etc/passwd"), "built-in robot"),
+        (spec(sampling="sobol"), "sampling = 'sobol'"),
+        (spec(samples=True), "is not a whole number"),
+        (spec(gait={"knots": 2}), "at least"),
+        (spec(gait={"wings": 2}), "unknown key"),
+        (spec(parameter=[param(lo="0.1")]), "is not a number"),
+        (spec(extra=1), "unknown key(s) extra"),
+        (spec(parameter=[param(levels=0)]), "levels = 0"),
+        (spec(start="warm"), "start = 'warm'"),
+    ],
+)
+def test_hostile_specs_are_refused_with_the_reason(data, words):
+    with pytest.raises(SweepSpecError) as info:
+        SweepSpec.from_mapping(data)
+    assert words in str(info.value)
+
+
+def test_a_toml_file_with_nan_is_refused_before_it_becomes_a_spec(tmp_path):
+    path = tmp_path / "sweep.toml"
+    path.write_text('[[parameter]]\nname = "H_s"\nmin = nan\nmax = 1.0\n')
+    with pytest.raises(SweepSpecError, match="finite|nan"):
+        read_sweep_toml(path)
+
+
+def test_the_example_sweep_file_reads():
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "sweep_dircon.toml"
+    loaded = read_sweep_toml(example)
+    assert loaded.n_points == len(sweep_points(loaded))
+
+
+def test_latin_hypercube_puts_one_point_in_every_stratum_of_every_parameter():
+    n = 17
+    s = SweepSpec.from_mapping(
+        spec(sampling="latin", samples=n, seed=3, parameter=[param(), param("H_s", lo=0.5, hi=1.0)])
+    )
+    unit = unit_samples(s)
+    assert unit.shape == (n, 2)
+    for column in unit.T:
+        assert sorted(np.floor(column * n).astype(int)) == list(range(n))
+    again = unit_samples(s)
+    np.testing.assert_array_equal(unit, again)  # the seed fixes the sample
+
+
+def test_grid_is_the_product_of_evenly_spaced_levels():
+    s = SweepSpec.from_mapping(
+        spec(
+            sampling="grid",
+            parameter=[param(levels=3), param("knots", lo=10, hi=16, levels=4)],
+        )
+    )
+    values = sample_values(s)
+    expected = [(a, b) for a in (0.1, 0.2, 0.3) for b in (10, 12, 14, 16)]
+    np.testing.assert_allclose(values, expected)
+    points = sweep_points(s)
+    assert [p.settings.knots for p in points[:4]] == [10, 12, 14, 16]
+    assert all(isinstance(p.settings.knots, int) for p in points)
+
+
+def test_random_points_lie_in_their_ranges_and_carry_the_fixed_settings():
+    s = SweepSpec.from_mapping(
+        spec(
+            sampling="random",
+            samples=50,
+            seed=1,
+            gait={"knots": 12, "K0": 3.0},
+            parameter=[param(), param("thigh_length_m", kind="robot", lo=0.35, hi=0.45)],
+        )
+    )
+    points = sweep_points(s)
+    assert len(points) == 50
+    for p in points:
+        assert 0.1 <= p.settings.step_length_m <= 0.3
+        assert p.settings.knots == 12 and p.settings.K0 == 3.0
+        ((name, value),) = p.robot.values
+        assert name == "thigh_length_m" and 0.35 <= value <= 0.45
+        assert p.values == (p.settings.step_length_m, value)

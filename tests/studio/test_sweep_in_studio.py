@@ -1,0 +1,90 @@
+"""The Sweep panel driven through its handles on a real studio: a small sweep on a real Dask
+cluster fills the Pareto plot, bad input is refused keeping the state, and a picked point loads
+its robot variant and a walk of its gait."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from app.core.sweeps.pareto import pareto_mask
+from tests.studio.conftest import GUARD_S, wait_for_signal
+
+
+def test_sweep_panel_runs_plots_and_loads_a_point(studio):
+    session, panel = studio.sweep, studio.sweep.panel
+    robot_before = studio.state.robot
+
+    # bad input: a range the planner refuses; nothing starts, the robot stays
+    panel.param_a.value = "gait:step_length_m"
+    panel.min_a.value, panel.max_a.value = 0.1, 3.0
+    session.run(None)
+    assert "leaves what the planner accepts" in panel.status.content
+    assert session.outcome is None and studio.state.robot is robot_before
+
+    panel.min_a.value, panel.max_a.value = 0.14, 0.26
+    panel.param_b.value = "robot:thigh_length_m"
+    panel.min_b.value, panel.max_b.value = 0.37, 0.41
+    panel.samples.value = 3
+    panel.knots.value = 14
+    panel.workers.value = 2
+    panel.metric_x.value, panel.metric_y.value = "sr", "max_torque_Nm"
+    outcome = wait_for_signal(
+        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
+    )
+    assert not outcome.error and not outcome.cancelled
+    assert len(outcome.results) == 3
+    solved = [r for r in outcome.results if r.solved]
+    assert solved, [r.reason for r in outcome.results]
+    for r in outcome.results:
+        assert 0.14 <= r.values[0] <= 0.26 and 0.37 <= r.values[1] <= 0.41
+    # the front shown is the Pareto set of the solved points' two metrics
+    xy = np.array([[r.sr, r.max_torque_Nm] for r in solved])
+    expected = {
+        r.index for r, on in zip(solved, pareto_mask(xy, ["min", "min"]), strict=True) if on
+    }
+    assert set(outcome.pareto) == expected
+    assert panel.plot is not None
+    x, y, front = panel.plot.data
+    assert sorted(x) == sorted(xy[:, 0]) and sorted(y) == sorted(xy[:, 1])
+    assert np.count_nonzero(np.isfinite(front)) == len(expected)
+    assert "3 / 3 done" in panel.status.content
+
+    # an unsolved or unknown point is refused with the reason
+    panel.point.value = 99
+    session.load_point(None)
+    assert "point 99 has no gait" in panel.status.content
+
+    best = outcome.pareto[0]
+    panel.point.value = best
+    loaded = wait_for_signal(
+        session.on_point_loaded, lambda: setattr(panel.load_button, "value", True)
+    )
+    assert loaded == best
+    robot = studio.state.robot
+    assert robot is not robot_before and robot.name == "dircon_biped"
+    point = session.points[best]
+    ((name, thigh),) = point.robot.values
+    knee = robot.model.getJointId("left_knee")
+    assert name == "thigh_length_m"
+    assert -robot.model.jointPlacements[knee].translation[2] == pytest.approx(thigh)
+    motion = studio.state.motion
+    assert motion is not None and f"sweep point #{best}" in motion.summary
+    assert motion.trajectory.duration > 0
+
+    # Cancel: a larger sweep stops after its first result; the loaded design stays
+    panel.samples.value = 12
+    done = threading.Event()
+    ends: list = []
+    disconnect = session.on_sweep_done.connect(lambda o: (ends.append(o), done.set()))
+    try:
+        wait_for_signal(session.on_result, lambda: setattr(panel.run_button, "value", True))
+        panel.cancel_button.value = True
+        assert done.wait(GUARD_S)
+    finally:
+        disconnect()
+    assert ends[0].cancelled and len(ends[0].results) < 12
+    assert "Sweep cancelled" in panel.status.content and not panel.run_button.disabled
+    assert studio.state.robot is robot

@@ -1,0 +1,69 @@
+"""`biped-studio sweep` as a user runs it: a subprocess on a tiny sweep, its CSV and JSON."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from tests.core.test_sweep_pareto import brute_force
+
+REPO = Path(__file__).resolve().parents[1]
+TINY = """
+samples = 3
+seed = 2
+pareto = { sr = "min", max_torque_Nm = "min" }
+[gait]
+knots = 14
+[[parameter]]
+name = "step_length_m"
+min = 0.12
+max = 0.28
+"""
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "app", "sweep", *args],
+        capture_output=True, text=True, timeout=600, check=False, cwd=REPO,
+    )  # fmt: skip
+
+
+def test_sweep_writes_every_point_and_the_pareto_set_of_its_rows(tmp_path):
+    spec, out = tmp_path / "sweep.toml", tmp_path / "results.csv"
+    spec.write_text(TINY)
+    result = run(str(spec), "--workers", "2", "--out", str(out), "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    rows = list(csv.DictReader(out.open()))
+    assert report["points"] == len(rows) == 3
+    assert report["solved"] == sum(row["solved"] == "True" for row in rows)
+    assert report["first_result_s"] <= report["wall_s"]
+    values = np.array([[float(r["sr"]), float(r["max_torque_Nm"])] for r in rows])
+    expected = {
+        int(r["index"])
+        for r, on in zip(rows, brute_force(values, ["min", "min"]), strict=True)
+        if on
+    }
+    assert set(report["pareto"]) == expected
+    assert {int(r["index"]) for r in rows if r["pareto"] == "1"} == expected
+    for row in rows:  # the step length sampled is inside the range asked for
+        assert 0.12 <= float(row["step_length_m"]) <= 0.28
+
+
+def test_bad_sweep_files_and_an_unreachable_scheduler_fail_in_one_line(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(TINY.replace("samples = 3", "samples = 1000000"))
+    result = run(str(bad))
+    assert result.returncode == 1
+    assert "limit of 20000" in result.stderr and len(result.stderr.strip().splitlines()) == 1
+    good = tmp_path / "good.toml"
+    good.write_text(TINY)
+    result = run(str(good), "--scheduler", "tcp://127.0.0.1:9")
+    assert result.returncode == 1
+    assert "cannot reach the Dask scheduler" in result.stderr
+    assert "Traceback" not in result.stderr

@@ -1,0 +1,121 @@
+"""Sweeps on a real Dask LocalCluster (2 worker processes): same metrics as in-process, results
+streamed, cancel, a killed worker's points retried, an unreachable scheduler refused."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from app.core.sweeps.evaluate import ProblemCache, evaluate_point
+from app.core.sweeps.sampling import sweep_points
+from app.core.sweeps.spec import SweepSpec
+from app.sweep_engine import SweepEngine, SweepEngineError
+
+KNOTS = 14
+"""Few knots: a cheap NLP (about 1 s a cold solve)."""
+METRICS = ("sr", "max_torque_Nm", "max_joint_speed_radps", "energy_J")
+
+
+def small_spec(samples: int, **more) -> SweepSpec:
+    return SweepSpec.from_mapping(
+        {
+            "sampling": "latin",
+            "samples": samples,
+            "seed": 4,
+            "gait": {"knots": KNOTS},
+            "parameter": [
+                {"name": "step_length_m", "min": 0.12, "max": 0.28},
+                {"name": "H_s", "min": 0.65, "max": 0.8},
+            ],
+            **more,
+        }
+    )
+
+
+@pytest.fixture(scope="module")
+def engine():
+    with SweepEngine(n_workers=2) as engine:
+        yield engine
+
+
+def test_cluster_results_equal_the_same_points_solved_one_by_one(engine):
+    points = sweep_points(small_spec(4))
+    remote = {r.index: r for r in engine.start(points).results()}
+    assert sorted(remote) == [p.index for p in points]
+    pids = {r.worker.rsplit(":", 1)[1] for r in remote.values()}
+    assert pids <= {str(pid) for pid in engine.worker_pids().values()}
+    assert str(os.getpid()) not in pids  # solved in the workers, not here
+    cache = ProblemCache()
+    for point in points:
+        local = evaluate_point(point, cache)
+        assert remote[point.index].solved == local.solved
+        assert remote[point.index].status == local.status
+        for metric in METRICS:
+            assert remote[point.index].metric(metric) == pytest.approx(
+                local.metric(metric), rel=1e-6, abs=1e-9
+            ), metric
+    assert cache.builds == 1  # one structure: built once, solved four times
+    # the workers kept their NLP warm: each built at most once for four points
+    assert sum(r.build_s > 0 for r in remote.values()) <= 2
+
+
+def test_cancel_stops_the_sweep_and_the_engine_runs_the_next(engine):
+    points = sweep_points(small_spec(10, seed=5))
+    run = engine.start(points)
+    received = []
+    for result in run.results():
+        received.append(result)
+        run.cancel()
+    assert len(received) == 1 and run.cancelled
+    after = list(engine.start(sweep_points(small_spec(1, seed=6))).results())
+    assert len(after) == 1 and after[0].solved
+
+
+def test_a_killed_worker_loses_only_its_points_which_are_retried(engine):
+    points = sweep_points(small_spec(6, seed=7))
+    run = engine.start(points)
+    received = {}
+    killed: tuple[int, set[int]] | None = None
+    for result in run.results():
+        received[result.index] = result
+        if killed is None:
+            processing = {w: keys for w, keys in engine.client.processing().items() if keys}
+            if processing:
+                worker, keys = next(iter(processing.items()))
+                pid = engine.worker_pids()[worker]
+                lost = {run._index[k] for k in keys}
+                os.kill(pid, signal.SIGKILL)
+                killed = (pid, lost)
+    assert killed is not None, "no point was running when a result came back"
+    pid, lost = killed
+    assert sorted(received) == [p.index for p in points]  # nothing lost
+    for index in lost:
+        assert received[index].solved, received[index].reason
+        assert received[index].worker.rsplit(":", 1)[1] != str(pid)  # rerun elsewhere
+
+
+def test_an_unreachable_scheduler_is_a_clear_error():
+    with pytest.raises(
+        SweepEngineError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:9"
+    ):
+        SweepEngine("tcp://127.0.0.1:9")
+
+
+def test_the_same_sweep_runs_unchanged_against_a_scheduler_address(engine):
+    points = sweep_points(small_spec(2, seed=8))
+    local = {r.index: r for r in engine.start(points).results()}
+    with SweepEngine(engine.address) as remote:  # a client of the running cluster's scheduler
+        assert remote.address == engine.address and remote.n_workers == 2
+        by_address = {r.index: r for r in remote.start(points).results()}
+    assert sorted(by_address) == sorted(local)
+    for index, result in by_address.items():
+        for metric in METRICS:
+            assert result.metric(metric) == pytest.approx(local[index].metric(metric), rel=1e-6)
+
+
+def test_an_unreachable_scheduler_falls_back_to_a_local_cluster_only_when_asked():
+    with SweepEngine("tcp://127.0.0.1:9", 1, fallback_local=True) as fallback:
+        assert any("running on a local cluster instead" in note for note in fallback.notes)
+        assert fallback.n_workers == 1
