@@ -33,8 +33,10 @@ class ProjectPanel:
 
     def __init__(self, gui: viser.GuiApi, actions: ProjectActions, projects_dir: str) -> None:
         self._actions = actions
-        with gui.add_folder("Project", order=-10):
-            self.title = gui.add_markdown("**untitled** — not saved yet")
+        # The name and dirty marker stay in view; the buttons fold away (the studio opens on
+        # the robot, not on file handling).
+        self.title = gui.add_markdown("**untitled** — not saved yet", order=-11)
+        with gui.add_folder("Project", order=-10, expand_by_default=False):
             self.save = gui.add_button("Save", icon=viser.Icon.DEVICE_FLOPPY)
             self.path = gui.add_text(
                 "Path",
