@@ -3,12 +3,19 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from app.config import StudioConfig
 from app.core.errors import StudioError
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams
+
+if TYPE_CHECKING:
+    from app.core.dynamics.wbc import FeedForward
+    from app.core.motions.trajectory import Trajectory
+    from app.core.servo.model import ServoModel
 
 DEFAULTS = StudioConfig()
 """The studio's configuration defaults: the one source of the CLI's defaults."""
@@ -75,3 +82,52 @@ def coefficients_from_args(
     if coefficients is None:
         raise StudioError("give --preset or a k.toml of coefficients")
     return read_coefficients_toml(coefficients).for_joints(robot.joint_names)
+
+
+PROJECT_SUFFIX = ".bstudio"
+MOTION_HELP = (
+    "motion CSV (biped-studio motion --out), or a project (.bstudio): its robot, motion, "
+    "torques, coefficients and servos are the defaults of the options below"
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class MotionInputs:
+    """What a headless stage reads: the robot and motion, and — from a project — the work
+    done on them in the studio (None where the project has none)."""
+
+    robot: RobotModel
+    trajectory: Trajectory
+    source: str
+    """Where the motion came from, for messages."""
+    feedforward: FeedForward | None = None
+    compensation: CompensationParams | None = None
+    servo: ServoModel | None = None
+
+
+def motion_inputs(args: argparse.Namespace) -> MotionInputs:
+    """The robot and motion of `args.trajectory`: a motion CSV on --robot, or a project file
+    (its own robot: --robot is then not used)."""
+    path = Path(args.trajectory)
+    if path.suffix.lower() != PROJECT_SUFFIX:
+        from app.core.motions.csv_files import read_trajectory_csv
+
+        robot = load_robot_from_args(args)
+        return MotionInputs(robot, read_trajectory_csv(path, robot), str(path))
+    from app.core.projects.files import read_project
+    from app.core.projects.project import check_fits
+    from app.core.projects.robot_files import load_project_robot
+
+    project = read_project(path)
+    robot = load_project_robot(
+        project.robot, StudioConfig().uploads_dir, package_roots=tuple(args.package_root)
+    )
+    check_fits(project, robot)
+    if project.motion is None:
+        raise StudioError(f"{path} holds no motion: generate or plan one in the studio and save")
+    feedforward = project.feedforward
+    if feedforward is not None and feedforward.tau_Nm.shape[0] != project.motion.n_samples:
+        feedforward = None  # torques of an earlier motion: recomputed where they are needed
+    return MotionInputs(
+        robot, project.motion, str(path), feedforward, project.compensation, project.servo
+    )

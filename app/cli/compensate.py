@@ -9,9 +9,10 @@ from pathlib import Path
 
 from app.cli.common import (
     DEFAULTS,
+    MOTION_HELP,
     add_robot_options,
     coefficients_from_args,
-    load_robot_from_args,
+    motion_inputs,
     output_target,
 )
 from app.core.atomic_write import write_atomically
@@ -27,12 +28,15 @@ def add_parser(sub) -> None:
         "compensate",
         help="servo commands q + k·τ (+ φ·sign) for a motion and its torque feed-forward",
     )
-    compensate.add_argument("trajectory", type=Path, help="motion CSV (biped-studio motion --out)")
+    compensate.add_argument("trajectory", type=Path, help=MOTION_HELP)
     compensate.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
     compensate.add_argument(
-        "--tau", type=Path, required=True, help="torque CSV: t [s], tau:<joint> [N·m]…, status"
+        "--tau",
+        type=Path,
+        default=None,
+        help="torque CSV: t [s], tau:<joint> [N·m]…, status (default: a project's torques)",
     )
-    source = compensate.add_mutually_exclusive_group(required=True)
+    source = compensate.add_mutually_exclusive_group()
     source.add_argument(
         "--coeffs", type=Path, help="k.toml: [joints.<name>] k_deg_per_Nm, phi_deg, enabled"
     )
@@ -69,16 +73,25 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from app.core.motions.csv_files import read_trajectory_csv
     from app.core.servo.commands import servo_commands, torques_of_motion
     from app.core.servo.files import read_torque_csv, write_command_csv
 
-    robot = load_robot_from_args(args)
-    traj = read_trajectory_csv(args.trajectory, robot)
-    torques = read_torque_csv(args.tau, robot.joint_names)
-    tau = torques_of_motion(traj, torques, str(args.tau))
-    params = coefficients_from_args(robot, args.preset, args.clearance, args.coeffs)
-    commands = servo_commands(robot, traj, tau, params, torques.status)
+    inputs = motion_inputs(args)
+    robot, traj = inputs.robot, inputs.trajectory
+    if args.tau is not None:
+        torques = read_torque_csv(args.tau, robot.joint_names)
+        tau, status = torques_of_motion(traj, torques, str(args.tau)), torques.status
+    elif inputs.feedforward is not None:
+        tau, status = inputs.feedforward.tau_Nm, inputs.feedforward.status
+    else:
+        raise StudioError(
+            "give --tau (biped-studio feedforward --out), or a project with computed torques"
+        )
+    if args.preset is None and args.coeffs is None and inputs.compensation is not None:
+        params = inputs.compensation
+    else:
+        params = coefficients_from_args(robot, args.preset, args.clearance, args.coeffs)
+    commands = servo_commands(robot, traj, tau, params, status)
     q_plan, q_cmd, warnings = commands.q_plan_rad, commands.q_cmd_rad, list(commands.warnings)
     if args.out is not None:
         write_command_csv(

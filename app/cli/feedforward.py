@@ -10,8 +10,9 @@ from pathlib import Path
 from app.cli.common import (
     DEFAULTS,
     MAX_WARNING_LINES,
+    MOTION_HELP,
     add_robot_options,
-    load_robot_from_args,
+    motion_inputs,
     output_target,
 )
 from app.core.errors import StudioError
@@ -22,7 +23,7 @@ def add_parser(sub) -> None:
         "feedforward",
         help="joint torques of a motion CSV by the whole-body QP (LQR CoM, friction pyramids)",
     )
-    feedforward.add_argument("trajectory", type=Path, help="motion CSV (as written by `motion`)")
+    feedforward.add_argument("trajectory", type=Path, help=MOTION_HELP)
     feedforward.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
     feedforward.add_argument(
         "--out", type=Path, default=None, help="torque CSV: t [s], tau:<joint> [N·m]…, status"
@@ -44,11 +45,10 @@ def run(args: argparse.Namespace) -> int:
 
     from app.core.dynamics.peaks import torque_peaks
     from app.core.dynamics.wbc import torque_feedforward
-    from app.core.motions.csv_files import read_trajectory_csv
     from app.core.servo.files import write_torque_csv
 
-    robot = load_robot_from_args(args)
-    traj = read_trajectory_csv(args.trajectory, robot)
+    inputs = motion_inputs(args)
+    robot, traj = inputs.robot, inputs.trajectory
     if args.workers < 0:
         raise StudioError(f"--workers must be 0 (one per core) or more, got {args.workers}")
     begin = time.perf_counter()

@@ -9,9 +9,11 @@ from pathlib import Path
 
 from app.cli.common import (
     DEFAULTS,
+    MOTION_HELP,
+    MotionInputs,
     add_robot_options,
     coefficients_from_args,
-    load_robot_from_args,
+    motion_inputs,
     output_target,
 )
 from app.core.errors import StudioError
@@ -24,9 +26,9 @@ def add_parser(sub) -> None:
         "simulate",
         help="simulate a motion on compliant servos with dead bands (MuJoCo): does it stay up?",
     )
-    simulate.add_argument("trajectory", type=Path, help="motion CSV (biped-studio motion --out)")
+    simulate.add_argument("trajectory", type=Path, help=MOTION_HELP)
     simulate.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
-    source = simulate.add_mutually_exclusive_group(required=True)
+    source = simulate.add_mutually_exclusive_group()
     source.add_argument("--cmd", type=Path, help="servo commands CSV (biped-studio compensate)")
     source.add_argument(
         "--compensation", type=Path, help="k.toml: command q + k·τ (+ φ·sign) from these"
@@ -65,9 +67,11 @@ def add_parser(sub) -> None:
     add_robot_options(simulate)
 
 
-def _torques(args: argparse.Namespace, robot, traj):
+def _torques(args: argparse.Namespace, robot, traj, inputs: MotionInputs):
     import numpy as np
 
+    if args.tau is None and inputs.feedforward is not None:
+        return inputs.feedforward.tau_Nm
     if args.tau is None:
         from app.core.dynamics.wbc import torque_feedforward
 
@@ -83,7 +87,6 @@ def _torques(args: argparse.Namespace, robot, traj):
 
 
 def run(args: argparse.Namespace) -> int:
-    from app.core.motions.csv_files import read_trajectory_csv
     from app.core.servo.compensation import compensated_command
     from app.core.servo.model import joint_angles
     from app.core.simulation.files import (
@@ -97,9 +100,17 @@ def run(args: argparse.Namespace) -> int:
 
     if args.clearance and args.preset != "table3":
         raise StudioError("--clearance goes with --preset table3 (a k.toml sets phi_deg itself)")
-    robot = load_robot_from_args(args)
-    traj = read_trajectory_csv(args.trajectory, robot)
-    servo = default_servos(robot) if args.servo is None else read_servo_toml(args.servo, robot)
+    inputs = motion_inputs(args)
+    robot, traj = inputs.robot, inputs.trajectory
+    if args.servo is not None:
+        servo = read_servo_toml(args.servo, robot)
+    else:
+        servo = inputs.servo if inputs.servo is not None else default_servos(robot)
+    from_project = args.cmd is None and args.preset is None and args.compensation is None
+    if from_project and inputs.compensation is None:
+        raise StudioError(
+            "give --cmd, --compensation or --preset, or a project with compensation coefficients"
+        )
     options = SimOptions(friction=args.friction, hulls=args.hulls, command_hold=args.hold)
     q_plan = joint_angles(robot, traj.q)
     if args.cmd is not None:
@@ -107,8 +118,12 @@ def run(args: argparse.Namespace) -> int:
     elif args.preset == "plan":
         q_cmd, label = q_plan, "without compensation"
     else:
-        params = coefficients_from_args(robot, args.preset, args.clearance, args.compensation)
-        q_cmd = compensated_command(q_plan, _torques(args, robot, traj), params)
+        params = (
+            inputs.compensation
+            if from_project and inputs.compensation is not None
+            else coefficients_from_args(robot, args.preset, args.clearance, args.compensation)
+        )
+        q_cmd = compensated_command(q_plan, _torques(args, robot, traj, inputs), params)
         label = "with compensation"
     commands = {label: q_cmd}
     if args.baseline and args.preset != "plan":
