@@ -73,13 +73,15 @@ class LegChains:
     def base_to_foot(self, foot: int, q: np.ndarray) -> np.ndarray:
         """T_base_foot of foot 0 (left) or 1 (right) at configurations q (T, nq), (T, 4, 4)."""
         n = len(q)
-        # The rotation as its three columns over all samples, columns[j] = R[:, j] (3, T):
-        # composing with a fixed matrix mixes columns, elementwise over long rows.
-        columns = np.broadcast_to(np.eye(3)[:, :, None], (3, 3, n)).copy()
-        position = np.zeros((3, n))
+        # The rotation as its three columns over all samples, columns[j] = R[:, j] (3, T) (or
+        # (3, 1) while it is still the same for every sample): composing with a fixed matrix
+        # mixes columns, elementwise over long rows.
+        columns = [np.eye(3)[:, j, None] for j in range(3)]
+        position = np.zeros((3, 1))
         for joint in self.joints[foot]:
             # T ← T · placement · motion(q)
-            position = position + _combine(joint.placement[:3, 3], columns)
+            if np.any(joint.placement[:3, 3]):
+                position = position + _combine(joint.placement[:3, 3], columns)
             if not np.array_equal(joint.placement[:3, :3], np.eye(3)):
                 columns = _compose(columns, joint.placement[:3, :3])
             if joint.kind == "prismatic":
@@ -89,27 +91,28 @@ class LegChains:
                 angle = np.arctan2(q[:, joint.idx_q + 1], q[:, joint.idx_q])
             else:
                 angle = q[:, joint.idx_q]
+            sin, cos = np.sin(angle), np.cos(angle)
             aligned = np.flatnonzero(joint.axis)
             if len(aligned) == 1 and joint.axis[aligned[0]] in (1.0, -1.0):
                 # about a coordinate axis: only the two other columns turn
                 i = int(aligned[0])
                 j, k = (i + 1) % 3, (i + 2) % 3
-                sin, cos = joint.axis[i] * np.sin(angle), np.cos(angle)
-                turned = columns.copy()
-                turned[j] = cos * columns[j] + sin * columns[k]
-                turned[k] = cos * columns[k] - sin * columns[j]
-                columns = turned
+                sin = joint.axis[i] * sin
+                columns = list(columns)
+                columns[j], columns[k] = (
+                    cos * columns[j] + sin * columns[k],
+                    cos * columns[k] - sin * columns[j],
+                )
                 continue
             # R · Rot(axis, angle) = R + sin·(R K) + (1 − cos)·(R K²)  (Rodrigues)
             cross = _cross_matrix(joint.axis)
-            columns = (
-                columns
-                + np.sin(angle) * _compose(columns, cross)
-                + (1.0 - np.cos(angle)) * _compose(columns, cross @ cross)
-            )
+            turn, bend = _compose(columns, cross), _compose(columns, cross @ cross)
+            columns = [columns[j] + sin * turn[j] + (1.0 - cos) * bend[j] for j in range(3)]
         foot_placement = self.foot_placements[foot]
         out = np.zeros((n, 4, 4))
-        out[:, :3, :3] = _compose(columns, foot_placement[:3, :3]).transpose(2, 1, 0)
+        final = _compose(columns, foot_placement[:3, :3])
+        for j in range(3):
+            out[:, :3, j] = final[j].T
         out[:, :3, 3] = (position + _combine(foot_placement[:3, 3], columns)).T
         out[:, 3, 3] = 1.0
         return out
@@ -142,20 +145,20 @@ def _chain_joint(model: pin.Model, data: pin.Data, j: int) -> ChainJoint | None:
     return None
 
 
-def _combine(weights: np.ndarray, columns: np.ndarray) -> np.ndarray:
-    """Σ_k weights[k]·columns[k], (3, T): R·w for the rotations held as columns (3, 3, T)."""
-    out = np.zeros(columns.shape[1:])
+def _combine(weights: np.ndarray, columns: list[np.ndarray]) -> np.ndarray:
+    """Σ_k weights[k]·columns[k]: R·w for a rotation held as its columns (exact zeros of w
+    skipped: most placements and axes are aligned)."""
+    out: np.ndarray = np.zeros((3, 1))
     for k in range(3):
         if weights[k] != 0.0:
-            out += weights[k] * columns[k]
+            out = out + weights[k] * columns[k]
     return out
 
 
-def _compose(columns: np.ndarray, matrix: np.ndarray) -> np.ndarray:
-    """The columns (3, 3, T) of R·M for rotations R held as columns and a fixed 3×3 M (exact
-    zeros of M skipped: most placements and axes are aligned). Plain elementwise numpy, so
-    no BLAS threads wake for these small products."""
-    return np.stack([_combine(matrix[:, j], columns) for j in range(3)])
+def _compose(columns: list[np.ndarray], matrix: np.ndarray) -> list[np.ndarray]:
+    """The columns of R·M for a rotation R held as its columns and a fixed 3×3 M. Plain
+    elementwise numpy, so no BLAS threads wake for these small products."""
+    return [_combine(matrix[:, j], columns) for j in range(3)]
 
 
 def _cross_matrix(axis: np.ndarray) -> np.ndarray:
