@@ -125,11 +125,20 @@ class RobotView:
             T = oMf[ids[link]] if parent is None else oMf[ids[parent]].actInv(oMf[ids[link]])
             relative = T.homogeneous
             last = self._sent.get(link)
-            if last is not None and np.abs(relative - last).max() < SEND_TOLERANCE:
+            # A revolute joint turns its link without moving it: send only what changed (each
+            # pose field is one message, and one more check inside viser).
+            moved = last is None or np.abs(relative[:3, 3] - last[:3, 3]).max() >= SEND_TOLERANCE
+            turned = last is None or np.abs(relative[:3, :3] - last[:3, :3]).max() >= SEND_TOLERANCE
+            if not (moved or turned):
                 continue
-            self._sent[link] = relative
-            frame.position = relative[:3, 3]
-            frame.wxyz = matrix_to_wxyz(relative[:3, :3])
+            sent = relative.copy() if last is None else last.copy()
+            if moved:
+                frame.position = relative[:3, 3]
+                sent[:3, 3] = relative[:3, 3]
+            if turned:
+                frame.wxyz = matrix_to_wxyz(relative[:3, :3])
+                sent[:3, :3] = relative[:3, :3]
+            self._sent[link] = sent  # what the scene shows: creeping changes still get sent
         if self._com.visible:
             com = pin.centerOfMass(self.robot.model, self.data, q, False)
             self._com.position = com
