@@ -14,6 +14,9 @@ the fixed pinocchio workload of app.bench_report) so that the ratio carries acro
   convergence, overlays, sliders), p50 / p95 over a circle of targets; target p95 ≤ 5 ms.
 - playback: scene pushes per second while showing a trajectory's samples back to back
   (robot, overlays, timeline); target ≥ 60 Hz.
+- playback_ghosts: the same on Roban S14 with the four ghosts (planned, command, without, with)
+  and the traces, CPU per push, beside the same pushes with the ghosts drawn one scene node per
+  link (a RobotView each, as before the batched ghosts); target ≥ 60 Hz.
 - interpolate: a keyframed motion (the three one-leg squats) sampled at 100 Hz with IK at
   every sample, scaled to 10 s of motion; target ≤ 1 s.
 - feedforward: the whole-body QP per sample (median, p95) and for 10 s of motion at 100 Hz
@@ -240,6 +243,25 @@ def _entry_playback(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             ctx.reference("ms"),
             "machine reference",
             f"{row['pushes_per_s']:.0f} Hz",
+        )
+    ]
+
+
+@bench_entry("playback_ghosts")
+def _entry_playback_ghosts(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    if ctx.roban is None:
+        return {}, []
+    row = _bench_playback_ghosts(ctx.studio, ctx.roban)
+    return row, [
+        Figure(
+            "playback scene push, Roban S14 with four ghosts and traces (CPU)",
+            row["cpu_ms"],
+            "ms",
+            f"≥ {PLAYBACK_TARGET_HZ:.0f} Hz (≤ {1000.0 / PLAYBACK_TARGET_HZ:.1f} ms)",
+            row["cpu_ms"] <= 1000.0 / PLAYBACK_TARGET_HZ,
+            row["per_node_cpu_ms"],
+            "the same pushes, ghosts drawn one scene node per link",
+            f"{1000.0 / row['cpu_ms']:.0f} Hz of CPU; wall {row['wall_hz']:.0f} Hz",
         )
     ]
 
@@ -837,6 +859,68 @@ def _bench_playback(studio: Studio, robot: str, seconds: float = 2.0) -> dict:
             studio.state.set_time((count * 0.01) % trajectory.duration)
         count += 1
     return {"pushes": count, "pushes_per_s": count / (time.perf_counter() - begin)}
+
+
+def _bench_playback_ghosts(studio: Studio, roban: Path, frames: int = 120) -> dict:
+    """Roban S14's one-leg stand with its torques: the timeline stepped sample by sample with
+    the four ghosts shown and the traces on; then the same steps with the ghosts hidden and
+    four per-node RobotViews placed at the ghosts' poses instead (the path before batching)."""
+    from app.views.robot_view import RobotView
+
+    studio.robots.load(str(roban))
+    set_value(studio.motions.panel.motion, "one_leg_stand")
+    set_value(studio.motions.panel.generate, True)
+    _compute_torques(studio)
+    session, trajectory = studio.compensation, studio.state.trajectory
+    assert trajectory is not None and session.ghosts is not None
+    shown = ("planned", "command", "without", "with")
+    for name in shown:
+        set_value(session.panel.ghosts[name], True)
+    set_value(studio.playback.panel.traces, True)
+
+    def push(count: int) -> None:
+        with studio.state.lock, studio.server.atomic():
+            studio.state.set_time(float(trajectory.t[count % trajectory.n_samples]))
+
+    cpu, begin = time.thread_time(), time.perf_counter()
+    for count in range(frames):
+        push(count)
+    cpu_ms = (time.thread_time() - cpu) / frames * 1000.0
+    wall_hz = frames / (time.perf_counter() - begin)
+    for name in shown:
+        set_value(session.panel.ghosts[name], False)
+    robot = studio.state.robot
+    assert robot is not None and session.prediction is not None
+    views = [
+        RobotView(studio.server, robot, root=f"/bench_ghosts/{name}", with_collision=False)
+        for name in shown
+    ]
+    prediction = session.prediction
+    cpu = time.thread_time()
+    for count in range(frames):
+        k = count % trajectory.n_samples
+        push(count)
+        with studio.server.atomic():
+            for view, q in zip(
+                views,
+                (
+                    trajectory.q[k],
+                    prediction.q_world_compensated[k],  # stands in for the command ghost
+                    prediction.q_world_uncompensated[k],
+                    prediction.q_world_compensated[k],
+                ),
+                strict=True,
+            ):
+                view.update(q)
+    per_node_cpu_ms = (time.thread_time() - cpu) / frames * 1000.0
+    for view in views:
+        view.remove()
+    return {
+        "frames": frames,
+        "cpu_ms": cpu_ms,
+        "wall_hz": wall_hz,
+        "per_node_cpu_ms": per_node_cpu_ms,
+    }
 
 
 def _bench_load(studio: Studio, robot: str, runs: int = 5) -> dict:

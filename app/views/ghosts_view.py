@@ -126,7 +126,7 @@ class GhostsView:
                 handle.batched_wxyzs = self._wxyzs[i].copy()
                 self._sent_wxyzs[i] = self._wxyzs[i]
             if rescaled:
-                handle.batched_scales = self._scales.copy()
+                handle.batched_scales = self._scales.astype(np.float32)
         self._sent_scales = self._scales.copy()
 
     def remove(self) -> None:
