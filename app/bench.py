@@ -271,13 +271,14 @@ def _entry_interpolate(ctx: BenchContext) -> tuple[dict, list[Figure]]:
     row = _bench_interpolate(ctx.studio)
     return row, [
         Figure(
-            "keyframed motion at 100 Hz with IK at every sample, per 10 s",
-            row["per_10s_s"],
+            "keyframed motion at 100 Hz with IK at every sample, per 10 s (CPU)",
+            row["cpu_per_10s_s"],
             "s",
             f"≤ {INTERPOLATE_TARGET_S} s",
-            row["per_10s_s"] <= INTERPOLATE_TARGET_S,
-            ctx.reference("s"),
-            "machine reference",
+            row["cpu_per_10s_s"] <= INTERPOLATE_TARGET_S,
+            row["ik_cpu_per_10s_s"],
+            "the whole-body IK's own solves in the same run, CPU",
+            f"wall {row['per_10s_s']:.2f} s",
         )
     ]
 
@@ -751,23 +752,43 @@ def _bench_plot_cursor(studio: Studio, repeats: int = 20) -> dict:
 
 
 def _bench_interpolate(studio: Studio) -> dict:
+    """The one-leg squats interpolated at 100 Hz; beside it, the CPU time spent inside the
+    whole-body IK's own solves during the same run (the rest is the motion code's)."""
     from app.core.motions.keyframes import interpolate
     from app.core.motions.library import MOTIONS, resolve_params
+    from app.core.posing.ik import WholeBodyIK
+    from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT
 
     studio.robots.load("servo_biped")
-    assert studio.state.robot is not None
-    plan = MOTIONS["one_leg_squats"].build(
-        studio.state.robot, **resolve_params("one_leg_squats", {})
-    )
-    begin = time.perf_counter()
-    result = interpolate(studio.state.robot, plan.keyframes, dt=0.01)
+    robot = studio.state.robot
+    assert robot is not None
+    plan = MOTIONS["one_leg_squats"].build(robot, **resolve_params("one_leg_squats", {}))
+
+    class TimedIK(WholeBodyIK):
+        """The real solver, its solves' CPU time added up."""
+
+        solve_cpu_s = 0.0
+
+        def solve(self, *args, **kwargs):
+            begin = time.thread_time()
+            try:
+                return super().solve(*args, **kwargs)
+            finally:
+                self.solve_cpu_s += time.thread_time() - begin
+
+    ik = TimedIK(robot, com_in_support=True, posture_weight=MOTION_POSTURE_WEIGHT)
+    begin, begin_cpu = time.perf_counter(), time.thread_time()
+    result = interpolate(robot, plan.keyframes, dt=0.01, ik=ik)
     seconds = time.perf_counter() - begin
+    cpu_s = time.thread_time() - begin_cpu
     duration = result.trajectory.duration
     return {
         "motion": "one_leg_squats",
         "duration_s": duration,
         "seconds": seconds,
         "per_10s_s": seconds * 10.0 / duration,
+        "cpu_per_10s_s": cpu_s * 10.0 / duration,
+        "ik_cpu_per_10s_s": ik.solve_cpu_s * 10.0 / duration,
     }
 
 
