@@ -13,8 +13,8 @@ import numpy as np
 import pinocchio as pin
 import viser
 
+from app.core.quaternions import matrices_to_xyzquat
 from app.core.robot.model import RobotModel
-from app.core.servo.grounding import matrices_to_xyzquat
 
 GHOSTS = {
     "planned": ((60, 120, 230), "planned motion"),

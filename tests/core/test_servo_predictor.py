@@ -11,9 +11,10 @@ import pinocchio as pin
 import pytest
 
 from app.core.motions.library import run_motion
+from app.core.quaternions import matrices_to_xyzquat, xyzquat_to_matrices
 from app.core.robot.loading import load_robot
 from app.core.servo.compensation import CompensationParams
-from app.core.servo.grounding import LegChains, matrices_to_xyzquat, xyzquat_to_matrices
+from app.core.servo.grounding import LegChains
 from app.core.servo.model import Prediction, Predictor, ServoModel, command_configuration, predict
 
 ROBAN = Path(__file__).resolve().parents[1] / "third_party/roban_s14/urdf/robanS14.urdf"

@@ -38,18 +38,14 @@ import pinocchio as pin
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.posing.stance import anchor_on_foot, stance_link
+from app.core.quaternions import matrices_to_xyzquat, xyzquat_to_matrices
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import (
     MAX_ABS_K_DEG_PER_NM,
     CompensationParams,
     compensated_command,
 )
-from app.core.servo.grounding import (
-    LegChains,
-    matrices_to_xyzquat,
-    se3_inverse,
-    xyzquat_to_matrices,
-)
+from app.core.servo.grounding import LegChains, se3_inverse
 
 
 class ServoModelError(StudioError):
