@@ -306,7 +306,8 @@ def predict(
     planned_placements: list[pin.SE3] | None = None,
 ) -> Prediction:
     """Commands and predicted motion of a plan on compliant servos, with and without
-    compensation. `tau_Nm` (T, n_actuated) follows the robot's joint order; coefficients and
+    compensation, grounded with pinocchio sample by sample and nothing cached (the reference
+    `Predictor` is checked against; a slider uses `Predictor`). `tau_Nm` (T, n_actuated) follows the robot's joint order; coefficients and
     servos may name a subset of the joints (the others are uncompensated / rigid).
     `planned_placements` (from `planned_stance_placements`, which depends on the plan only)
     saves recomputing them when only the coefficients or servos change."""
