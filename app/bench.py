@@ -14,6 +14,9 @@ the fixed pinocchio workload of app.bench_report) so that the ratio carries acro
   convergence, overlays, sliders), p50 / p95 over a circle of targets; target p95 ≤ 5 ms.
 - playback: scene pushes per second while showing a trajectory's samples back to back
   (robot, overlays, timeline); target ≥ 60 Hz.
+- playback_ghosts: the same on Roban S14 with the four ghosts (planned, command, without, with)
+  and the traces, CPU per push, beside the same pushes with the ghosts drawn one scene node per
+  link (a RobotView each, as before the batched ghosts); target ≥ 60 Hz.
 - interpolate: a keyframed motion (the three one-leg squats) sampled at 100 Hz with IK at
   every sample, scaled to 10 s of motion; target ≤ 1 s.
 - feedforward: the whole-body QP per sample (median, p95) and for 10 s of motion at 100 Hz
@@ -21,6 +24,10 @@ the fixed pinocchio workload of app.bench_report) so that the ratio carries acro
   pool of every core against a pool of one, speed-up ≥ 0.7 × cores.
 - compensation slider: a k slider moved with a 10 s motion loaded: re-prediction, ghosts and
   plots (τ not recomputed); target ≤ 50 ms.
+- compensation slider, long motions: the same k slider on the one-leg squats repeated to 6 000
+  and 60 000 samples (τ tiled from the 10 s motion's), the slider's CPU time (p95) beside the
+  uncached path (`app.core.servo.model.predict`, pinocchio sample by sample) on the same motion;
+  targets ≤ 50 ms and ≤ 200 ms.
 - plot cursor: the four plots' time cursor moved on that motion (it moves ≤ 4×/s during
   playback, off the player's thread), beside the same plots resent without a cursor; target
   ≤ 25 ms.
@@ -83,13 +90,14 @@ LOAD_TARGET_S = 2.0
 SLIDER_TARGET_MS = 5.0
 DRAG_TARGET_MS = 5.0
 PLAYBACK_TARGET_HZ = 60.0
-INTERPOLATE_TARGET_S = 1.0
+INTERPOLATE_TARGET_S = 0.5
 COMPENSATION_TARGET_MS = 50.0
 PLAN_COLD_TARGET_S = 10.0
 PLAN_WARM_TARGET_S = 1.0
 WALK_TARGET_S = 5.0
 PLAN_FIRST_CLICK_TARGET_S = 3.0
 PLOT_CURSOR_TARGET_MS = 25.0
+COMPENSATION_LONG_TARGETS_MS = {6000: 50.0, 60000: 200.0}
 SIMULATE_CLICK_TARGET_S = 2.0
 PROJECT_TARGET_S = 1.0
 
@@ -254,18 +262,38 @@ def _entry_playback(ctx: BenchContext) -> tuple[dict, list[Figure]]:
     ]
 
 
+@bench_entry("playback_ghosts")
+def _entry_playback_ghosts(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    if ctx.roban is None:
+        return {}, []
+    row = _bench_playback_ghosts(ctx.studio, ctx.roban)
+    return row, [
+        Figure(
+            "playback scene push, Roban S14 with four ghosts and traces (CPU)",
+            row["cpu_ms"],
+            "ms",
+            f"≥ {PLAYBACK_TARGET_HZ:.0f} Hz (≤ {1000.0 / PLAYBACK_TARGET_HZ:.1f} ms)",
+            row["cpu_ms"] <= 1000.0 / PLAYBACK_TARGET_HZ,
+            row["per_node_cpu_ms"],
+            "the same pushes, ghosts drawn one scene node per link",
+            f"{1000.0 / row['cpu_ms']:.0f} Hz of CPU; wall {row['wall_hz']:.0f} Hz",
+        )
+    ]
+
+
 @bench_entry("interpolate")
 def _entry_interpolate(ctx: BenchContext) -> tuple[dict, list[Figure]]:
     row = _bench_interpolate(ctx.studio)
     return row, [
         Figure(
-            "keyframed motion at 100 Hz with IK at every sample, per 10 s",
-            row["per_10s_s"],
+            "keyframed motion at 100 Hz with IK at every sample, per 10 s (CPU)",
+            row["cpu_per_10s_s"],
             "s",
             f"≤ {INTERPOLATE_TARGET_S} s",
-            row["per_10s_s"] <= INTERPOLATE_TARGET_S,
-            ctx.reference("s"),
-            "machine reference",
+            row["cpu_per_10s_s"] <= INTERPOLATE_TARGET_S,
+            row["ik_cpu_per_10s_s"],
+            "the whole-body IK's own solves in the same run, CPU",
+            f"wall {row['per_10s_s']:.2f} s",
         )
     ]
 
@@ -330,6 +358,27 @@ def _entry_compensation_slider(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             "machine reference",
         )
     ]
+
+
+@bench_entry("compensation_slider_long")
+def _entry_compensation_slider_long(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    rows, figures = {}, []
+    for samples, target_ms in COMPENSATION_LONG_TARGETS_MS.items():
+        row = rows[str(samples)] = _bench_compensation_slider_long(ctx.studio, samples)
+        figures.append(
+            Figure(
+                f"compensation slider → prediction, ghosts, plots ({row['samples']} samples, "
+                "CPU p95)",
+                row["cpu_p95_ms"],
+                "ms",
+                f"≤ {target_ms:.0f} ms",
+                row["cpu_p95_ms"] <= target_ms,
+                row["uncached_cpu_ms"],
+                "the uncached prediction alone (pinocchio sample by sample), CPU",
+                f"wall p50 {row['wall_p50_ms']:.0f} ms",
+            )
+        )
+    return rows, figures
 
 
 @bench_entry("plot_cursor")
@@ -849,6 +898,59 @@ def _bench_compensation_slider(studio: Studio, repeats: int = 20) -> dict:
     }
 
 
+def _bench_compensation_slider_long(studio: Studio, samples: int, repeats: int = 10) -> dict:
+    """The k slider on the one-leg squats repeated to about `samples` samples, its τ tiled
+    from the 10 s motion's (the slider never recomputes τ, so tiling changes no work)."""
+    from app.core.servo.model import predict
+
+    _bench_compensation_slider(studio, repeats=1)  # the 10 s motion and its τ
+    session, robot = studio.compensation, studio.state.robot
+    base, feedforward = studio.state.trajectory, session.feedforward
+    assert robot is not None and base is not None and feedforward is not None
+    copies = max(1, round(samples / base.n_samples))
+    n = base.n_samples * copies
+
+    def tiled(array: np.ndarray) -> np.ndarray:
+        return np.tile(array, (copies,) + (1,) * (array.ndim - 1))
+
+    t = np.arange(n) * base.dt
+    trajectory = dataclasses.replace(
+        base, t=t, q=tiled(base.q), v=tiled(base.v), a=tiled(base.a), contacts=tiled(base.contacts)
+    )
+    long_feedforward = dataclasses.replace(
+        feedforward,
+        t=t,
+        tau_Nm=tiled(feedforward.tau_Nm),
+        contact_forces_N=tiled(feedforward.contact_forces_N),
+        qdd=tiled(feedforward.qdd),
+        loop_forces_N=tiled(feedforward.loop_forces_N),
+        status=feedforward.status * copies,
+        qp_time_s=tiled(feedforward.qp_time_s),
+        solver_time_s=None,
+    )
+    studio.state.set_motion(trajectory, "bench", robot)
+    session._accept(robot, trajectory, long_feedforward)  # τ as if computed for this motion
+    panel = session.panel
+    cpu, wall = [], []
+    for k in range(repeats):
+        begin_cpu, begin = time.thread_time(), time.perf_counter()
+        set_value(panel.k, 1.0 + (k % 2))
+        cpu.append(time.thread_time() - begin_cpu)
+        wall.append(time.perf_counter() - begin)
+    params, servo = session.params, session.servo
+    assert params is not None and servo is not None
+    begin_cpu = time.thread_time()
+    predict(robot, trajectory, np.nan_to_num(long_feedforward.tau_Nm), params, servo)
+    uncached = time.thread_time() - begin_cpu
+    return {
+        "samples": n,
+        "cpu_p50_ms": float(np.percentile(cpu, 50) * 1000.0),
+        "cpu_p95_ms": float(np.percentile(cpu, 95) * 1000.0),
+        "wall_p50_ms": float(np.percentile(wall, 50) * 1000.0),
+        "uncached_cpu_ms": uncached * 1000.0,
+    }
+
+
 def _bench_plot_cursor(studio: Studio, repeats: int = 20) -> dict:
     """The plots' cursor moved across the motion the compensation slider bench left loaded,
     against the same data pushes without a cursor (what a data push cost before it)."""
@@ -881,23 +983,43 @@ def _bench_plot_cursor(studio: Studio, repeats: int = 20) -> dict:
 
 
 def _bench_interpolate(studio: Studio) -> dict:
+    """The one-leg squats interpolated at 100 Hz; beside it, the CPU time spent inside the
+    whole-body IK's own solves during the same run (the rest is the motion code's)."""
     from app.core.motions.keyframes import interpolate
     from app.core.motions.library import MOTIONS, resolve_params
+    from app.core.posing.ik import WholeBodyIK
+    from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT
 
     studio.robots.load("servo_biped")
-    assert studio.state.robot is not None
-    plan = MOTIONS["one_leg_squats"].build(
-        studio.state.robot, **resolve_params("one_leg_squats", {})
-    )
-    begin = time.perf_counter()
-    result = interpolate(studio.state.robot, plan.keyframes, dt=0.01)
+    robot = studio.state.robot
+    assert robot is not None
+    plan = MOTIONS["one_leg_squats"].build(robot, **resolve_params("one_leg_squats", {}))
+
+    class TimedIK(WholeBodyIK):
+        """The real solver, its solves' CPU time added up."""
+
+        solve_cpu_s = 0.0
+
+        def solve(self, *args, **kwargs):
+            begin = time.thread_time()
+            try:
+                return super().solve(*args, **kwargs)
+            finally:
+                self.solve_cpu_s += time.thread_time() - begin
+
+    ik = TimedIK(robot, com_in_support=True, posture_weight=MOTION_POSTURE_WEIGHT)
+    begin, begin_cpu = time.perf_counter(), time.thread_time()
+    result = interpolate(robot, plan.keyframes, dt=0.01, ik=ik)
     seconds = time.perf_counter() - begin
+    cpu_s = time.thread_time() - begin_cpu
     duration = result.trajectory.duration
     return {
         "motion": "one_leg_squats",
         "duration_s": duration,
         "seconds": seconds,
         "per_10s_s": seconds * 10.0 / duration,
+        "cpu_per_10s_s": cpu_s * 10.0 / duration,
+        "ik_cpu_per_10s_s": ik.solve_cpu_s * 10.0 / duration,
     }
 
 
@@ -989,6 +1111,68 @@ def _bench_playback(studio: Studio, robot: str, seconds: float = 2.0) -> dict:
             studio.state.set_time((count * 0.01) % trajectory.duration)
         count += 1
     return {"pushes": count, "pushes_per_s": count / (time.perf_counter() - begin)}
+
+
+def _bench_playback_ghosts(studio: Studio, roban: Path, frames: int = 120) -> dict:
+    """Roban S14's one-leg stand with its torques: the timeline stepped sample by sample with
+    the four ghosts shown and the traces on; then the same steps with the ghosts hidden and
+    four per-node RobotViews placed at the ghosts' poses instead (the path before batching)."""
+    from app.views.robot_view import RobotView
+
+    studio.robots.load(str(roban))
+    set_value(studio.motions.panel.motion, "one_leg_stand")
+    set_value(studio.motions.panel.generate, True)
+    _compute_torques(studio)
+    session, trajectory = studio.compensation, studio.state.trajectory
+    assert trajectory is not None and session.ghosts is not None
+    shown = ("planned", "command", "without", "with")
+    for name in shown:
+        set_value(session.panel.ghosts[name], True)
+    set_value(studio.playback.panel.traces, True)
+
+    def push(count: int) -> None:
+        with studio.state.lock, studio.server.atomic():
+            studio.state.set_time(float(trajectory.t[count % trajectory.n_samples]))
+
+    cpu, begin = time.thread_time(), time.perf_counter()
+    for count in range(frames):
+        push(count)
+    cpu_ms = (time.thread_time() - cpu) / frames * 1000.0
+    wall_hz = frames / (time.perf_counter() - begin)
+    for name in shown:
+        set_value(session.panel.ghosts[name], False)
+    robot = studio.state.robot
+    assert robot is not None and session.prediction is not None
+    views = [
+        RobotView(studio.server, robot, root=f"/bench_ghosts/{name}", with_collision=False)
+        for name in shown
+    ]
+    prediction = session.prediction
+    cpu = time.thread_time()
+    for count in range(frames):
+        k = count % trajectory.n_samples
+        push(count)
+        with studio.server.atomic():
+            for view, q in zip(
+                views,
+                (
+                    trajectory.q[k],
+                    prediction.q_world_compensated[k],  # stands in for the command ghost
+                    prediction.q_world_uncompensated[k],
+                    prediction.q_world_compensated[k],
+                ),
+                strict=True,
+            ):
+                view.update(q)
+    per_node_cpu_ms = (time.thread_time() - cpu) / frames * 1000.0
+    for view in views:
+        view.remove()
+    return {
+        "frames": frames,
+        "cpu_ms": cpu_ms,
+        "wall_hz": wall_hz,
+        "per_node_cpu_ms": per_node_cpu_ms,
+    }
 
 
 def _bench_load(studio: Studio, robot: str, runs: int = 5) -> dict:

@@ -8,8 +8,6 @@ every curve's global and per-bucket extrema survive, so no peak a user looks for
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 
 MAX_POINTS = 2000
@@ -18,22 +16,23 @@ MAX_POINTS = 2000
 
 def thin_minmax(t: np.ndarray, curves: np.ndarray, max_points: int = MAX_POINTS) -> np.ndarray:
     """Indices (sorted, unique) of the samples to keep: t (T,), curves (C, T). All samples when
-    T ≤ max_points. NaN samples are ignored when looking for extrema."""
+    T ≤ max_points. NaN (and infinite) samples are ignored when looking for extrema."""
     n = len(t)
     if n <= max_points:
         return np.arange(n)
     curves = np.atleast_2d(np.asarray(curves, dtype=float))
     buckets = max(1, (max_points - 2) // (2 * max(1, len(curves))))
     edges = np.linspace(0, n, buckets + 1).astype(int)
-    keep = [np.array([0, n - 1])]
-    finite = np.where(np.isfinite(curves), curves, np.nan)
-    for start, stop in itertools.pairwise(edges):
-        if stop <= start:
-            continue
-        block = finite[:, start:stop]
-        valid = ~np.all(np.isnan(block), axis=1)
-        if not valid.any():
-            continue
-        keep.append(start + np.nanargmin(block[valid], axis=1))
-        keep.append(start + np.nanargmax(block[valid], axis=1))
-    return np.unique(np.concatenate(keep))
+    starts, sizes = edges[:-1], np.diff(edges)
+    starts, sizes = starts[sizes > 0], sizes[sizes > 0]
+    # Every bucket at once, one row each; a short bucket is padded with its own last sample
+    # (a repeat never wins: arg-min/max return the first occurrence).
+    columns = starts[:, None] + np.minimum(np.arange(sizes.max()), sizes[:, None] - 1)
+    block = curves[:, columns]  # (C, buckets, width)
+    missing = ~np.isfinite(block)  # NaN and ±inf samples are ignored
+    valid = ~np.all(missing, axis=2)  # (C, buckets): the curve has a sample in the bucket
+    lowest = np.argmin(np.where(missing, np.inf, block), axis=2)
+    highest = np.argmax(np.where(missing, -np.inf, block), axis=2)
+    bucket = np.nonzero(valid)[1]
+    picked = [np.array([0, n - 1]), columns[bucket, lowest[valid]], columns[bucket, highest[valid]]]
+    return np.unique(np.concatenate(picked))

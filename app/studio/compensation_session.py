@@ -37,11 +37,10 @@ from app.core.servo.compensation import (
 from app.core.servo.files import write_command_csv, write_torque_csv
 from app.core.servo.model import (
     Prediction,
+    Predictor,
     ServoModel,
     command_configuration,
     joint_angles,
-    planned_stance_placements,
-    predict,
 )
 from app.core.servo.preset_safety import implausible_prediction, scaled_to_limits
 from app.core.servo.presets import PRESETS, preset_params
@@ -105,8 +104,10 @@ class CompensationSession:
         self._predictions: Coalescer[str, None] = Coalescer(lambda _key, _value: self._repredict())
         self._then: tuple[str, ...] = ()
         """Stages the current motion asked for (the one-click pipeline), not yet run."""
-        self._placements: list = []
-        self._placements_for: Trajectory | None = None
+        self._predictor: Predictor | None = None
+        """The current motion's and torques' predictor: what the coefficients do not change,
+        computed once per motion and τ."""
+        self._predictor_for: FeedForward | None = None
         self.simulation: Simulation | None = None
         """The last good simulation of the current motion (physics, app.core.simulation)."""
         self.simulation_stale = False
@@ -379,18 +380,17 @@ class CompensationSession:
                 return
             assert feedforward is not None and params is not None and servo is not None
             assert robot is not None and trajectory is not None
-            if self._placements_for is not trajectory:  # the plan's own: computed once per motion
-                self._placements = planned_stance_placements(robot, trajectory)
-                self._placements_for = trajectory
             try:
-                prediction = predict(
-                    robot,
-                    trajectory,
-                    np.nan_to_num(feedforward.tau_Nm),
-                    params,
-                    servo,
-                    planned_placements=self._placements,
-                )
+                predictor = self._predictor
+                if (
+                    predictor is None
+                    or predictor.trajectory is not trajectory
+                    or self._predictor_for is not feedforward
+                ):
+                    predictor = Predictor(robot, trajectory, np.nan_to_num(feedforward.tau_Nm))
+                    self._predictor = predictor
+                    self._predictor_for = feedforward
+                prediction = predictor.predict(params, servo)
             except StudioError as error:
                 self._fail("Cannot predict the motion", str(error), None)
                 return

@@ -185,3 +185,29 @@ def test_keyframe_is_a_frozen_value():
     kf = Keyframe("a", 1.0, np.eye(4), np.eye(4))
     with pytest.raises(dataclasses.FrozenInstanceError):
         kf.name = "b"  # type: ignore[misc]
+
+
+def test_the_stance_slide_check_in_reused_data_equals_full_forward_kinematics(servo):
+    """The per-sample slide check places only the stance feet, in data reused across samples;
+    it must measure what full forward kinematics on fresh data measures."""
+    from app.core.motions.keyframes import _slide_m
+
+    robot = servo
+    rng = np.random.default_rng(4)
+    start = {"left": np.eye(4), "right": np.eye(4)}
+    start["left"][:3, 3], start["right"][:3, 3] = rng.normal(size=3), rng.normal(size=3)
+    scratch = robot.model.createData()
+    for _ in range(20):
+        q = pin.randomConfiguration(robot.model)
+        q[:3] = rng.normal(size=3)
+        placements = robot.link_placements(q, robot.model.createData())
+        for stance, sides in (
+            ("left", ("left",)),
+            ("right", ("right",)),
+            ("both", ("left", "right")),
+        ):
+            expected = max(
+                np.linalg.norm(placements[robot.foot(s).link][:3, 3] - start[s][:3, 3])
+                for s in sides
+            )
+            assert _slide_m(robot, scratch, start, q, stance) == pytest.approx(expected, abs=1e-12)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from app.core.thinning import thin_minmax
@@ -40,3 +42,30 @@ def test_every_bucket_extremum_and_the_global_ones_survive():
                 continue
             assert np.nanmax(curve[inside]) >= np.nanmax(window)
             assert np.nanmin(curve[inside]) <= np.nanmin(window)
+
+
+def brute_force(t, curves, max_points):
+    """Bucket by bucket, curve by curve: the first smallest and largest finite sample."""
+    n = len(t)
+    buckets = max(1, (max_points - 2) // (2 * len(curves)))
+    edges = np.linspace(0, n, buckets + 1).astype(int)
+    keep = {0, n - 1}
+    for start, stop in itertools.pairwise(edges):
+        for curve in curves:
+            finite = [i for i in range(start, stop) if np.isfinite(curve[i])]
+            if finite:
+                keep.add(min(finite, key=lambda i: (curve[i], i)))
+                keep.add(min(finite, key=lambda i: (-curve[i], i)))
+    return np.array(sorted(keep))
+
+
+def test_the_kept_samples_are_each_buckets_first_extrema():
+    rng = np.random.default_rng(11)
+    for n, c in ((2001, 1), (5706, 12), (12_345, 6), (9000, 3)):
+        curves = np.round(np.cumsum(rng.standard_normal((c, n)), axis=1))  # ties, on purpose
+        curves[rng.uniform(size=curves.shape) < 0.01] = np.nan
+        curves[:, 100:400] = np.nan  # whole buckets without a finite sample
+        curves[0, 5] = np.inf
+        np.testing.assert_array_equal(
+            thin_minmax(np.arange(n), curves, 2000), brute_force(np.arange(n), curves, 2000)
+        )

@@ -11,6 +11,17 @@ import pytest
 from tests.studio.conftest import compute_torques, start_studio, wait_for_signal
 
 
+def assert_ghost_at(ghosts, name, q):
+    """The ghost is drawn, each of its meshes where the robot at q has it (pinocchio)."""
+    robot = ghosts.robot
+    placements = robot.link_placements(q, robot.model.createData())
+    positions, _ = ghosts.mesh_poses(name)
+    visuals = [mesh for mesh in robot.meshes if mesh.role != "collision"]
+    expected = [(placements[mesh.link] @ mesh.T_link_mesh)[:3, 3] for mesh in visuals]
+    assert ghosts.shown(name)
+    np.testing.assert_allclose(positions, expected, atol=1e-9)
+
+
 @pytest.fixture
 def studio(tmp_path):
     """A studio with the one-leg stand and its torques (each test gets its own)."""
@@ -36,11 +47,7 @@ def test_torques_plots_and_ghosts_follow_the_motion(studio):
     # The ghosts stand where the prediction says at the shown sample.
     studio.playback.seek(3.0)
     k = studio.state.trajectory.index_at(3.0)
-    position, _ = session.ghosts._views["with"].link_pose(studio.state.robot.tree.root)
-    expected = studio.state.robot.link_placements(
-        prediction.q_world_compensated[k], studio.state.robot.model.createData()
-    )
-    np.testing.assert_allclose(position, expected[studio.state.robot.tree.root][:3, 3], atol=1e-9)
+    assert_ghost_at(session.ghosts, "with", prediction.q_world_compensated[k])
 
 
 def test_the_plots_time_cursor_follows_the_timeline(studio):
@@ -160,9 +167,8 @@ def test_simulate_shows_a_verdict_ghosts_and_simulated_curves(studio):
     robot = studio.state.robot
     studio.playback.seek(1.0)
     k = studio.state.trajectory.index_at(1.0)
-    position, _ = session.ghosts._views["sim_with"].link_pose(robot.tree.root)
-    expected = robot.link_placements(with_.q[k], robot.model.createData())[robot.tree.root]
-    np.testing.assert_allclose(position, expected[:3, 3], atol=1e-9)
+    assert_ghost_at(session.ghosts, "sim_with", with_.q[k])
+    assert robot is session.ghosts.robot
     # A coefficient change marks the simulation stale, and keeps it.
     session.panel.k.value = float(session.panel.k.value) + 0.5
     assert session.simulation_stale and "Stale" in session.panel.verdict.content

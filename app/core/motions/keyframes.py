@@ -184,6 +184,7 @@ def interpolate(
         robot, com_in_support=com_in_support, posture_weight=MOTION_POSTURE_WEIGHT
     )
     data = robot.model.createData()
+    scratch = robot.model.createData()  # for the stance-slide checks, reused every sample
     ends = np.cumsum([0.0] + [kf.duration_s for kf in keyframes[1:]])
     n = math.ceil(float(ends[-1]) / dt - 1e-9) + 1
     warnings: list[SampleWarning] = []
@@ -217,8 +218,12 @@ def interpolate(
         result = ik.solve(q, targets, com_in_support=com_in_support, max_iterations=iterations)
         messages: list[str] = []
         if k > 0:
-            result, messages = _keep_stance(robot, ik, q, start, targets, result, com_in_support)
-            q_next, jump = _continuous(robot, ik, q, result.q, start, targets, dt, com_in_support)
+            result, messages = _keep_stance(
+                robot, ik, q, start, targets, result, com_in_support, scratch
+            )
+            q_next, jump = _continuous(
+                robot, ik, q, result.q, start, targets, dt, com_in_support, scratch
+            )
             if jump is not None:
                 messages.append(jump)
             q = q_next
@@ -343,12 +348,13 @@ def _keep_stance(
     targets: IkTargets,
     result: IkResult,
     com_in_support: bool,
+    scratch: pin.Data,
 ) -> tuple[IkResult, list[str]]:
     """Make sure a sample does not slide a stance foot from where it stood at the start of
     the segment. When the IK's compromise with an unreachable CoM target moves a held foot
     (its hold is a heavy soft task), the sample is solved again without the CoM target; if a
     foot still slides, the previous pose is kept."""
-    slid = _slide_m(robot, start, result.q, targets.stance)
+    slid = _slide_m(robot, scratch, start, result.q, targets.stance)
     if slid <= STANCE_SLIDE_M:
         return result, []
     message = f"the CoM target would slide a standing foot {slid * 1000:.1f} mm"
@@ -359,7 +365,7 @@ def _keep_stance(
             com_in_support=com_in_support,
             max_iterations=SOLVE_ITERATIONS,
         )
-        if _slide_m(robot, start, retry.q, targets.stance) <= STANCE_SLIDE_M:
+        if _slide_m(robot, scratch, start, retry.q, targets.stance) <= STANCE_SLIDE_M:
             return retry, [f"{message}: solved without it"]
     return dataclasses.replace(result, q=q), [f"{message}: the previous pose is kept"]
 
@@ -373,6 +379,7 @@ def _continuous(
     targets: IkTargets,
     dt: float,
     com_in_support: bool,
+    scratch: pin.Data,
 ) -> tuple[np.ndarray, str | None]:
     """q_new with no joint faster than its limit (app.core.motions.continuity). When the
     scaled step slides a stance foot, the standing feet are re-planted by the IK around the
@@ -382,7 +389,7 @@ def _continuous(
     if jump is None:
         return q, None
     for _ in range(3):
-        if _slide_m(robot, start, q, targets.stance) <= STANCE_SLIDE_M:
+        if _slide_m(robot, scratch, start, q, targets.stance) <= STANCE_SLIDE_M:
             return q, jump
         # re-plant the standing feet, keeping the scaled pose's pelvis and free foot
         where = _where(robot, q, robot.model.createData())
@@ -393,21 +400,28 @@ def _continuous(
         fix = IkTargets(held["left"], held["right"], where["pelvis"], None, targets.stance)
         solved = ik.solve(q, fix, com_in_support=com_in_support, max_iterations=SOLVE_ITERATIONS)
         q, _ = limit_joint_steps(robot, q_prev, solved.q, dt)
-    if _slide_m(robot, start, q, targets.stance) <= STANCE_SLIDE_M:
+    if _slide_m(robot, scratch, start, q, targets.stance) <= STANCE_SLIDE_M:
         return q, jump
     return q_prev.copy(), f"{jump}; it would slide a standing foot: the previous pose is kept"
 
 
 def _slide_m(
-    robot: RobotModel, start: dict[str, np.ndarray], q: np.ndarray, stance: Stance
+    robot: RobotModel,
+    scratch: pin.Data,
+    start: dict[str, np.ndarray],
+    q: np.ndarray,
+    stance: Stance,
 ) -> float:
-    """How far the stance feet are at q from where they were at the segment's start [m]."""
-    data = robot.model.createData()
-    pin.framesForwardKinematics(robot.model, data, q)
+    """How far the stance feet are at q from where they were at the segment's start [m]
+    (`scratch`: pinocchio data to compute in; only the stance feet's frames are placed)."""
+    pin.forwardKinematics(robot.model, scratch, q)
     return max(
         float(
             np.linalg.norm(
-                data.oMf[robot.link_frame_ids[foot.link]].translation - start[foot.side][:3, 3]
+                pin.updateFramePlacement(
+                    robot.model, scratch, robot.link_frame_ids[foot.link]
+                ).translation
+                - start[foot.side][:3, 3]
             )
         )
         for foot in robot.feet

@@ -38,12 +38,14 @@ import pinocchio as pin
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.posing.stance import anchor_on_foot, stance_link
+from app.core.quaternions import matrices_to_xyzquat, xyzquat_to_matrices
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import (
     MAX_ABS_K_DEG_PER_NM,
     CompensationParams,
     compensated_command,
 )
+from app.core.servo.grounding import LegChains, se3_inverse
 
 
 class ServoModelError(StudioError):
@@ -304,20 +306,13 @@ def predict(
     planned_placements: list[pin.SE3] | None = None,
 ) -> Prediction:
     """Commands and predicted motion of a plan on compliant servos, with and without
-    compensation. `tau_Nm` (T, n_actuated) follows the robot's joint order; coefficients and
+    compensation, grounded with pinocchio sample by sample and nothing cached (the reference
+    `Predictor` is checked against; a slider uses `Predictor`). `tau_Nm` (T, n_actuated) follows the robot's joint order; coefficients and
     servos may name a subset of the joints (the others are uncompensated / rigid).
     `planned_placements` (from `planned_stance_placements`, which depends on the plan only)
     saves recomputing them when only the coefficients or servos change."""
-    if tuple(trajectory.joint_names) != robot.joint_names:
-        raise ServoModelError(
-            f"trajectory {trajectory.name!r} was made for other joints than {robot.name}'s"
-        )
+    _check_inputs(robot, trajectory, tau_Nm)
     tau = np.asarray(tau_Nm, dtype=float)
-    if tau.shape != (trajectory.n_samples, robot.n_actuated):
-        raise ServoModelError(
-            f"torques have shape {tau.shape}; expected ({trajectory.n_samples}, "
-            f"{robot.n_actuated}): one per sample and actuated joint"
-        )
     params = comp_params.for_joints(robot.joint_names)
     servos = servo.for_joints(robot.joint_names)
     q_plan = joint_angles(robot, trajectory.q)
@@ -351,6 +346,19 @@ def predict(
     )
 
 
+def _check_inputs(robot: RobotModel, trajectory: Trajectory, tau_Nm: np.ndarray) -> None:
+    if tuple(trajectory.joint_names) != robot.joint_names:
+        raise ServoModelError(
+            f"trajectory {trajectory.name!r} was made for other joints than {robot.name}'s"
+        )
+    tau = np.asarray(tau_Nm)
+    if tau.shape != (trajectory.n_samples, robot.n_actuated):
+        raise ServoModelError(
+            f"torques have shape {tau.shape}; expected ({trajectory.n_samples}, "
+            f"{robot.n_actuated}): one per sample and actuated joint"
+        )
+
+
 def command_configuration(
     robot: RobotModel, trajectory: Trajectory, prediction: Prediction, k: int
 ) -> np.ndarray:
@@ -363,3 +371,87 @@ def command_configuration(
     foot = stance_link(robot, trajectory.contacts[k])
     data = robot.model.createData()
     return anchor_on_foot(robot, q, foot, robot.link_placements(planned, data)[foot], data)
+
+
+class Predictor:
+    """`predict` for one plan and its torques, fast enough to follow a coefficient slider.
+
+    What the coefficients cannot change is computed once: the planned joint angles, the plan's
+    stance-foot placements and attitude, and (for the last servos asked for) the uncompensated
+    prediction. The grounding's forward kinematics runs over all samples at once
+    (app.core.servo.grounding) where the legs allow it, else sample by sample as `predict` does.
+    The result equals `predict`'s to round-off.
+    """
+
+    def __init__(self, robot: RobotModel, trajectory: Trajectory, tau_Nm: np.ndarray) -> None:
+        _check_inputs(robot, trajectory, tau_Nm)
+        if not robot.floating_base:
+            raise ServoModelError(
+                f"{robot.name} has a fixed base: the torso cannot tilt, there is nothing to predict"
+            )
+        self.robot, self.trajectory = robot, trajectory
+        self.tau = np.asarray(tau_Nm, dtype=float)
+        self.q_plan = joint_angles(robot, trajectory.q)
+        self.roll_plan, self.pitch_plan = base_roll_pitch(trajectory.q)
+        self._right = stance_is_right(trajectory.contacts)
+        self._chains = LegChains.of(robot)
+        self._placements: list[pin.SE3] = []
+        self._placement_matrices = np.empty((0, 4, 4))
+        if self._chains is None:
+            self._placements = planned_stance_placements(robot, trajectory)
+        else:
+            self._placement_matrices = xyzquat_to_matrices(
+                trajectory.q[:, :7]
+            ) @ self._chains.stance_to_base(self._right, trajectory.q)
+        self._uncompensated: tuple[ServoModel, np.ndarray, np.ndarray] | None = None
+
+    @property
+    def vectorised(self) -> bool:
+        """Whether the grounding runs over all samples at once (else sample by sample)."""
+        return self._chains is not None
+
+    def grounded(self, q_joints: np.ndarray) -> np.ndarray:
+        """`grounded_configurations` of this plan for joint angles (T, n)."""
+        if self._chains is None:
+            return grounded_configurations(self.robot, self.trajectory, q_joints, self._placements)
+        out = with_joint_angles(self.robot, self.trajectory.q, q_joints)
+        base = self._placement_matrices @ se3_inverse(self._chains.stance_to_base(self._right, out))
+        out[:, :7] = matrices_to_xyzquat(base)
+        return out
+
+    def predict(self, comp_params: CompensationParams, servo: ServoModel) -> Prediction:
+        params = comp_params.for_joints(self.robot.joint_names)
+        servos = servo.for_joints(self.robot.joint_names)
+        cached = self._uncompensated
+        if (
+            cached is not None
+            and np.array_equal(cached[0].compliance_deg_per_Nm, servos.compliance_deg_per_Nm)
+            and np.array_equal(cached[0].backlash_deg, servos.backlash_deg)
+        ):
+            _, q_unc, world_unc = cached
+        else:
+            q_unc = servo_response(self.q_plan, self.tau, servos)
+            world_unc = self.grounded(q_unc)
+            self._uncompensated = (servos, q_unc, world_unc)
+        q_cmd = compensated_command(self.q_plan, self.tau, params)
+        q_comp = servo_response(q_cmd, self.tau, servos)
+        world_comp = self.grounded(q_comp)
+        roll_unc, pitch_unc = base_roll_pitch(world_unc)
+        roll_comp, pitch_comp = base_roll_pitch(world_comp)
+        return Prediction(
+            joint_names=self.robot.joint_names,
+            t=self.trajectory.t,
+            tau_Nm=self.tau,
+            q_plan_rad=self.q_plan,
+            q_cmd_rad=q_cmd,
+            q_actual_uncompensated_rad=q_unc,
+            q_actual_compensated_rad=q_comp,
+            q_world_uncompensated=world_unc,
+            q_world_compensated=world_comp,
+            roll_planned_rad=self.roll_plan,
+            pitch_planned_rad=self.pitch_plan,
+            roll_uncompensated_rad=roll_unc,
+            pitch_uncompensated_rad=pitch_unc,
+            roll_compensated_rad=roll_comp,
+            pitch_compensated_rad=pitch_comp,
+        )
