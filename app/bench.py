@@ -18,7 +18,7 @@ the fixed pinocchio workload of app.bench_report) so that the ratio carries acro
   and the traces, CPU per push, beside the same pushes with the ghosts drawn one scene node per
   link (a RobotView each, as before the batched ghosts); target ≥ 60 Hz.
 - interpolate: a keyframed motion (the three one-leg squats) sampled at 100 Hz with IK at
-  every sample, scaled to 10 s of motion; target ≤ 1 s.
+  every sample, scaled to 10 s of motion; target ≤ 0.5 s.
 - feedforward: the whole-body QP per sample (median, p95) and for 10 s of motion at 100 Hz
   (app.core.dynamics.wbc_bench); targets ≤ 0.25 ms median, ≤ 0.25 s on one core; over a
   pool of every core against a pool of one, speed-up ≥ 0.7 × cores.
