@@ -32,43 +32,7 @@ def write_atomically(
 
     The text is UTF-8 with newline="" (csv writers choose their own line ends); the data is
     fsync-ed before the rename, which is atomic within one folder (POSIX rename(2))."""
-    target = Path(os.fspath(path))
-    try:
-        info = os.stat(target)
-    except FileNotFoundError:
-        info = None
-    except OSError as exc:
-        raise error(f"cannot write {target}: {exc.strerror or exc}") from None
-    if info is not None and not stat.S_ISREG(info.st_mode):
-        raise error(f"cannot write {target}: it exists and is not a regular file")
-    folder = target.parent if str(target.parent) else Path(".")
-    try:
-        fd, temp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
-    except OSError as exc:
-        raise error(f"cannot write {target}: {exc.strerror or exc}") from None
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as file:
-            write(file)
-            file.flush()
-            os.fsync(file.fileno())
-        if info is not None:
-            os.chmod(temp_name, stat.S_IMODE(info.st_mode))
-        else:
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(temp_name, 0o666 & ~umask)
-        os.replace(temp_name, target)
-    except OSError as exc:
-        _remove(temp_name)
-        raise error(f"cannot write {target}: {exc.strerror or exc}; nothing was written") from None
-    except BaseException:
-        _remove(temp_name)
-        raise
-
-
-def _remove(name: str) -> None:
-    with contextlib.suppress(OSError):
-        os.unlink(name)
+    _replace(path, lambda fd: os.fdopen(fd, "w", encoding="utf-8", newline=""), write, error)
 
 
 def write_bytes_atomically(
@@ -76,6 +40,18 @@ def write_bytes_atomically(
 ) -> None:
     """Write `data` to `path` whole or not at all (temporary file, fsync, rename), with the
     checks of `write_atomically`: the binary counterpart, for archives."""
+    _replace(path, lambda fd: os.fdopen(fd, "wb"), lambda file: file.write(data), error)
+
+
+def _replace(
+    path: str | os.PathLike[str],
+    open_fd: Callable[[int], IO],
+    write: Callable[[IO], object],
+    error: type[StudioError],
+) -> None:
+    """Refuse a target that is not a regular file; `write` a temporary file beside it (opened
+    by `open_fd` from its descriptor); fsync; keep the target's mode (else the umask's);
+    rename into place."""
     target = Path(os.fspath(path))
     try:
         info = os.stat(target)
@@ -91,8 +67,8 @@ def write_bytes_atomically(
     except OSError as exc:
         raise error(f"cannot write {target}: {exc.strerror or exc}") from None
     try:
-        with os.fdopen(fd, "wb") as file:
-            file.write(data)
+        with open_fd(fd) as file:
+            write(file)
             file.flush()
             os.fsync(file.fileno())
         umask = os.umask(0)
@@ -105,3 +81,8 @@ def write_bytes_atomically(
     except BaseException:
         _remove(temp_name)
         raise
+
+
+def _remove(name: str) -> None:
+    with contextlib.suppress(OSError):
+        os.unlink(name)
