@@ -25,7 +25,7 @@ class OutputError(StudioError):
 
 def write_atomically(
     path: str | os.PathLike[str],
-    write: Callable[[IO[str]], None],
+    write: Callable[[IO[str]], object],
     error: type[StudioError] = OutputError,
 ) -> None:
     """Call write(file) on a temporary text file beside `path`, then move it into place.

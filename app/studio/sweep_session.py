@@ -16,6 +16,7 @@ import dataclasses
 import logging
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -61,8 +62,16 @@ def _choices() -> dict[str, tuple[float, float]]:
 class SweepSession:
     """Owns the Sweep panel and the Dask engine of the studio's sweeps."""
 
-    def __init__(self, server: viser.ViserServer, state: StudioState, notifier: Notifier) -> None:
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        state: StudioState,
+        notifier: Notifier,
+        variants_dir: Path,
+    ) -> None:
         self._server = server
+        self._variants_dir = variants_dir
+        """Where the URDFs of loaded sweep designs are kept (the data folder's variants/)."""
         self._state = state
         self._notifier = notifier
         self._lock = threading.Lock()
@@ -191,6 +200,7 @@ class SweepSession:
 
     def _load(self, engine: Any, point: SweepPoint, client: Any) -> None:
         from app.core.collocation.planar_model import PlanarModel
+        from app.core.robot.loading import load_robot
         from app.core.robot.report import robot_report
         from app.core.walking.walk import build_walk
 
@@ -198,7 +208,10 @@ class SweepSession:
             gait = engine.solve(point)
             if not gait.converged:
                 raise StudioError(f"point {point.index} did not solve again: {gait.status}")
-            robot = point.robot.load()
+            if point.robot.values:  # a file that stays: the gait worker and saves read it
+                robot = load_robot(point.robot.write_urdf(self._variants_dir))
+            else:
+                robot = point.robot.load()
             walk = build_walk(PlanarModel(robot), gait, steps=WALK_STEPS)
             report = robot_report(robot)
             changed = ", ".join(f"{n} = {v:.4g}" for n, v in point.robot.values) or "as built"

@@ -5,10 +5,13 @@ its robot variant and a walk of its gait."""
 from __future__ import annotations
 
 import threading
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from app.core.projects.files import read_project
+from app.core.projects.robot_files import load_project_robot
 from app.core.sweeps.pareto import pareto_mask
 from tests.studio.conftest import GUARD_S, wait_for_signal
 
@@ -73,6 +76,13 @@ def test_sweep_panel_runs_plots_and_loads_a_point(studio):
     motion = studio.state.motion
     assert motion is not None and f"sweep point #{best}" in motion.summary
     assert motion.trajectory.duration > 0
+    # The design's URDF stays where the studio keeps it (the gait worker and project saves
+    # read the robot's source again), and a saved project opens it in a fresh load.
+    assert Path(robot.source).is_file()
+    assert studio.project.save_as("design"), studio.project.last_error
+    saved = studio.project.path
+    reopened = load_project_robot(read_project(saved).robot, studio.config.uploads_dir)
+    assert reopened.model.jointPlacements[knee].translation[2] == pytest.approx(-thigh)
 
     # Cancel: a larger sweep stops after its first result; the loaded design stays
     panel.samples.value = 12

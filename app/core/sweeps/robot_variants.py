@@ -17,6 +17,7 @@ robot buildable and its legs able to stand (the planner refuses what it cannot w
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 import os
 import tempfile
@@ -133,8 +134,23 @@ class RobotVariant:
             _apply(root, robot_parameter(self.robot, name), value)
         return ET.tostring(root, encoding="unicode")
 
+    def write_urdf(self, folder: Path) -> Path:
+        """The variant's URDF as a file in `folder` that stays (named by its content), for a
+        robot the studio keeps using: its gait worker, project saves and autosave read the
+        robot's source file again."""
+        from app.core.atomic_write import write_atomically
+
+        text = self.urdf_text()
+        digest = hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+        path = folder / f"{self.robot}_variant_{digest}.urdf"
+        if not path.is_file():
+            folder.mkdir(parents=True, exist_ok=True)
+            write_atomically(path, lambda file: file.write(text))
+        return path
+
     def load(self):  # -> RobotModel (imported lazily: pinocchio is heavy)
-        """The variant as a RobotModel (loaded from a temporary URDF, removed at once)."""
+        """The variant as a RobotModel (loaded from a temporary URDF, removed at once: for a
+        robot kept in the studio, load `write_urdf`'s file instead)."""
         from app.core.robot.loading import load_robot
 
         if not self.values:
