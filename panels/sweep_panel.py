@@ -15,6 +15,8 @@ import numpy as np
 import viser
 import viser.uplot as uplot
 
+from panels.quiet import set_value
+
 NONE = "(none)"
 ALL_COLOUR = "#7f7f7f"
 FRONT_COLOUR = "#d62728"
@@ -76,6 +78,35 @@ class SweepPanel:
         self.run_button.on_click(lambda event: actions.run(event.client))
         self.cancel_button.on_click(lambda _: actions.cancel())
         self.load_button.on_click(lambda event: actions.load_point(event.client))
+
+    def show_spec(self, data: dict) -> None:
+        """Show a sweep's data (as `spec_values` gives it, checked already): its parameters and
+        ranges, samples, knots and metrics. Choices this panel does not offer are left as
+        they are."""
+        rows = (
+            (self.param_a, self.min_a, self.max_a),
+            (self.param_b, self.min_b, self.max_b),
+        )
+        parameters = list(data.get("parameter", []))
+        for (choice, low, high), parameter in zip(rows, [*parameters, None], strict=False):
+            if parameter is None:
+                if NONE in choice.options:
+                    set_value(choice, NONE)
+                continue
+            key = f"{parameter['kind']}:{parameter['name']}"
+            if key in choice.options:
+                set_value(choice, key)  # resets the range: set it after
+                set_value(low, float(parameter["min"]))
+                set_value(high, float(parameter["max"]))
+        if "samples" in data:
+            set_value(self.samples, data["samples"])
+        knots = dict(data.get("gait", {})).get("knots")
+        if knots is not None:
+            set_value(self.knots, knots)
+        metrics = list(dict(data.get("pareto", {})))
+        for handle, metric in zip((self.metric_x, self.metric_y), metrics, strict=False):
+            if metric in handle.options:
+                set_value(handle, metric)
 
     def _reset_range(self, choice, low, high) -> None:
         if choice.value in self._defaults:

@@ -87,7 +87,7 @@ class Studio:
             state,
             notifier,
             config,
-            (self.motions, self.compensation, self.gait),
+            (self.motions, self.compensation, self.gait, self.sweep),
             self.motions,
         )
         if config.project is not None:

@@ -13,6 +13,7 @@ panel's status line and the notifier, and the studio keeps its state.
 from __future__ import annotations
 
 import dataclasses
+import json
 import logging
 import threading
 import time
@@ -24,8 +25,9 @@ import viser
 
 from app.core.collocation.controls import CONTROLS
 from app.core.errors import StudioError
+from app.core.projects.project import Project
 from app.core.sweeps.evaluate import PointResult
-from app.core.sweeps.results import pareto_indices
+from app.core.sweeps.results import SweepRecord, pareto_indices
 from app.core.sweeps.robot_variants import ROBOT_PARAMETERS
 from app.core.sweeps.sampling import SweepPoint, sweep_points
 from app.core.sweeps.spec import METRICS, SweepSpec
@@ -80,6 +82,10 @@ class SweepSession:
         self._thread: threading.Thread | None = None
         self.outcome: SweepOutcome | None = None
         self.points: dict[int, SweepPoint] = {}
+        self.record: SweepRecord | None = None
+        """The last sweep as a project keeps it (None before the first result)."""
+        self._data: dict[str, object] = {}
+        """The sweep data of the sweep under way (what SweepSpec.from_mapping took)."""
         self.on_sweep_done: Signal[SweepOutcome] = Signal("on_sweep_done")
         self.on_point_loaded: Signal[int] = Signal("on_point_loaded")
         self.on_result: Signal[PointResult] = Signal("on_result")
@@ -97,9 +103,8 @@ class SweepSession:
             if self._thread is not None and self._thread.is_alive():
                 return
             try:
-                spec = SweepSpec.from_mapping(
-                    {"robot": SWEEP_ROBOT, **self.panel.spec_values()}, "sweep panel"
-                )
+                data = {"robot": SWEEP_ROBOT, **self.panel.spec_values()}
+                spec = SweepSpec.from_mapping(data, "sweep panel")
                 workers = _whole(self.panel.workers.value, "workers")
                 points = sweep_points(spec)
             except StudioError as error:
@@ -108,6 +113,7 @@ class SweepSession:
                 return
             self.panel.running(True)
             self.panel.status.content = f"Starting {len(points)} points on {workers} workers…"
+            self._data = data
             self._thread = threading.Thread(
                 target=self._sweep, args=(spec, points, workers, client), name="sweep-runner"
             )
@@ -149,6 +155,7 @@ class SweepSession:
         front = tuple(pareto_indices(spec, results))
         self.points = {p.index: p for p in points}
         self.outcome = SweepOutcome(spec, tuple(results), front, cancelled, error)
+        self.record = SweepRecord.of(self._data, results, cancelled) if results else None
         done = "cancelled" if cancelled else "done"
         if error:
             self.panel.status.content = f"⚠️ {error}"
@@ -183,7 +190,7 @@ class SweepSession:
         outcome, engine = self.outcome, self._engine
         try:
             index = _whole(self.panel.point.value, "Point #")
-            if outcome is None or engine is None:
+            if outcome is None:
                 raise StudioError("run a sweep first")
             result = next((r for r in outcome.results if r.index == index), None)
             if result is None or not result.solved:
@@ -205,6 +212,13 @@ class SweepSession:
         from app.core.walking.walk import build_walk
 
         try:
+            if engine is None:  # a sweep restored from a project: start the workers now
+                from app.sweep_engine import SweepEngine
+
+                with self._lock:
+                    if self._engine is None:
+                        self._engine = SweepEngine(n_workers=1)
+                    engine = self._engine
             gait = engine.solve(point)
             if not gait.converged:
                 raise StudioError(f"point {point.index} did not solve again: {gait.status}")
@@ -231,6 +245,36 @@ class SweepSession:
             return
         self.panel.status.content += f"  \nLoaded point #{point.index}."
         self.on_point_loaded.emit(point.index)
+
+    # --- projects ------------------------------------------------------------------------------
+
+    def snapshot(self) -> dict[str, object]:
+        return {"sweep": self.record}
+
+    def restore(self, project: Project) -> None:
+        """Show the project's sweep: its points, the Pareto plot, and Load point for its
+        solved points (re-solved on demand; the points are rebuilt from the spec)."""
+        record = project.sweep
+        self.record = record
+        if record is None:
+            return
+        spec = record.spec()  # checked when the project was read
+        results = record.results
+        front = tuple(pareto_indices(spec, results))
+        self.points = {p.index: p for p in sweep_points(spec)}
+        self.outcome = SweepOutcome(spec, results, front, record.cancelled)
+        self.panel.show_spec(json.loads(record.spec_json))
+        solved = [r for r in results if r.solved]
+        self.panel.status.content = (
+            f"From the project: {len(results)} points, {len(solved)} solved; Pareto points: "
+            f"{list(front)}."
+        )
+        self.panel.load_button.disabled = not solved
+        if solved:
+            metrics = tuple(m for m, _ in spec.pareto)
+            xy = np.array([[r.metric(m) for m in metrics] for r in solved])
+            on = np.array([r.index in front for r in solved])
+            self.panel.show_points((metrics[0], metrics[1]), xy, on)
 
     def close(self) -> None:
         self.cancel()

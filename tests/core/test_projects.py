@@ -16,6 +16,7 @@ import trimesh
 
 from app.core.collocation.dircon import GaitProblem, GaitSettings, PlanarModel
 from app.core.dynamics.wbc import torque_feedforward
+from app.core.errors import StudioError
 from app.core.motions.keyframes import capture_keyframe
 from app.core.motions.library import run_motion
 from app.core.projects.autosave import AutosaveStore
@@ -27,7 +28,30 @@ from app.core.robot.loading import load_robot
 from app.core.robot.uploads import store_upload
 from app.core.servo.model import ServoModel
 from app.core.servo.presets import PRESETS, preset_params
+from app.core.sweeps.evaluate import PointResult
+from app.core.sweeps.results import SweepRecord
 from tests.same_values import assert_same
+
+SWEEP_DATA = {
+    "robot": "dircon_biped",
+    "sampling": "latin",
+    "samples": 2,
+    "gait": {"knots": 14},
+    "pareto": {"sr": "min", "max_torque_Nm": "min"},
+    "parameter": [{"kind": "gait", "name": "step_length_m", "min": 0.14, "max": 0.26}],
+}
+NAN = float("nan")
+
+
+def sweep_record(values: tuple[float, ...] = (0.2,)) -> SweepRecord:
+    """A sweep of two points: one walked, one without a gait (NaN metrics, by design)."""
+    walked = PointResult(
+        0, values, True, "solved", "", 0.21, 0.25, 3.2, 4.5, 1.7, 12, 0.3, 2.1, "h:1"
+    )
+    failed = PointResult(
+        1, values, False, "failed", "torque bound", *[NAN] * 5, 40, NAN, 0.0, "h:2"
+    )
+    return SweepRecord.of(SWEEP_DATA, (walked, failed))
 
 
 @pytest.fixture(scope="module")
@@ -61,6 +85,7 @@ def work(robot) -> Project:
         gait_settings=gait.settings,
         gait_steps=4,
         gait_symmetric=gait,
+        sweep=sweep_record(),
     )
 
 
@@ -71,6 +96,37 @@ def test_round_trip_gives_back_every_value(work, tmp_path):
     assert opened.saved_at  # stamped on save
     assert_same(dataclasses.replace(opened, saved_at=""), work)
     assert np.isnan(opened.gait_symmetric.mid_force).any()  # NaN by design survives
+    assert opened.sweep is not None and opened.sweep.spec() == work.sweep.spec()
+    assert np.isnan(opened.sweep.results[1].sr) and opened.sweep.results[1].reason == "torque bound"
+
+
+@pytest.mark.parametrize(
+    "spec_json, words",
+    [
+        ('{"robot": "nope"}', "a sweep runs on a built-in robot"),
+        ("not json", "not JSON"),
+        (json.dumps({**SWEEP_DATA, "samples": 10**9}), "samples"),
+    ],
+)
+def test_a_sweep_that_is_not_a_valid_sweep_is_refused(work, tmp_path, spec_json, words):
+    path = tmp_path / "work.bstudio"
+    save_project(path, work)
+    with zipfile.ZipFile(path) as archive:
+        entries = {name: archive.read(name) for name in archive.namelist()}
+    manifest = json.loads(entries["manifest.json"])
+    manifest["project"]["sweep"]["spec_json"] = spec_json
+    entries["manifest.json"] = json.dumps(manifest).encode()
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        for name, content in entries.items():
+            archive.writestr(name, content)
+    with pytest.raises(ProjectError, match=f"project.sweep.*{words}"):
+        parse_project(buffer.getvalue(), "edited.bstudio")
+
+
+def test_sweep_results_must_fit_their_sweep():
+    with pytest.raises(StudioError, match="does not fit"):
+        sweep_record(values=(0.2, 0.3))  # two values, one swept parameter
 
 
 def test_the_archive_holds_a_manifest_and_plain_npy_arrays(work, tmp_path):

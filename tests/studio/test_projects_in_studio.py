@@ -222,3 +222,76 @@ def test_undo_and_redo_walk_back_through_pose_and_keyframe_edits(studio):
     wait_for_signal(project.autosaved, lambda: studio.motions.capture(1.5))
     assert project.panel.redo.disabled and not project.redo()
     assert [k.duration_s for k in studio.motions.keyframes] == [1.5]
+
+
+def test_a_sweep_travels_with_the_project(studio, tmp_path):
+    """The Sweep panel's last sweep is saved with the project and comes back in a fresh
+    studio: its points, the Pareto plot (the front recomputed by brute force here), the panel's
+    choices, and Load point for the walked designs."""
+    import dataclasses
+
+    from app.core.projects.files import save_project
+    from app.core.sweeps.evaluate import PointResult
+    from app.core.sweeps.results import SweepRecord
+
+    data = {
+        "robot": "dircon_biped",
+        "sampling": "latin",
+        "samples": 4,
+        "gait": {"knots": 16},
+        "pareto": {"energy_J": "min", "max_torque_Nm": "min"},
+        "parameter": [{"kind": "gait", "name": "H_s", "min": 0.65, "max": 0.85}],
+    }
+    metrics = [(1.0, 5.0), (2.0, 2.0), (3.0, 4.0), (float("nan"), float("nan"))]
+    results = tuple(
+        PointResult(
+            i,
+            (0.7,),
+            i < 3,
+            "solved" if i < 3 else "failed",
+            "",
+            0.2,
+            0.3,
+            torque,
+            4.0,
+            energy,
+            10,
+            0.1,
+            0.0,
+            "h:1",
+        )
+        for i, (energy, torque) in enumerate(metrics)
+    )
+    path = tmp_path / "swept.bstudio"
+    save_project(
+        path, dataclasses.replace(studio.project.project(), sweep=SweepRecord.of(data, results))
+    )
+    fresh = start_studio(tmp_path / "fresh")
+    try:
+        assert fresh.project.open(path, trusted=True), fresh.project.last_error
+        session, panel = fresh.sweep, fresh.sweep.panel
+        assert session.outcome is not None
+        assert_same(session.outcome.results, results)  # NaN metrics of the failed point too
+        dominated = {
+            i
+            for i, (e, t) in enumerate(metrics[:3])
+            for j, (e2, t2) in enumerate(metrics[:3])
+            if j != i and e2 <= e and t2 <= t and (e2, t2) != (e, t)
+        }
+        assert set(session.outcome.pareto) == {0, 1, 2} - dominated == {0, 1}
+        assert sorted(session.points) == [0, 1, 2, 3]
+        assert (panel.param_a.value, panel.min_a.value, panel.max_a.value) == (
+            "gait:H_s",
+            0.65,
+            0.85,
+        )
+        assert (panel.samples.value, panel.knots.value) == (4, 16)
+        assert (panel.metric_x.value, panel.metric_y.value) == ("energy_J", "max_torque_Nm")
+        assert panel.plot is not None
+        x, y, front = panel.plot.data
+        assert list(x) == [1.0, 2.0, 3.0] and list(y) == [5.0, 2.0, 4.0]
+        assert np.count_nonzero(np.isfinite(front)) == 2  # the front: points 0 and 1
+        assert not panel.load_button.disabled
+        assert fresh.project.project().sweep is session.record  # saved again as it came
+    finally:
+        fresh.stop()

@@ -51,6 +51,13 @@ NONFINITE_FIELDS = frozenset(
         "GaitResult.lam_g",
         "GaitResult.lam_x",
         "FeedForward.qp_time_s",
+        "PointResult.sr",
+        "PointResult.sr_incl_impacts",
+        "PointResult.max_torque_Nm",
+        "PointResult.max_joint_speed_radps",
+        "PointResult.energy_J",
+        "PointResult.solve_s",
+        "PointResult.build_s",
     }
 )
 """Class.field names whose values may be NaN or infinite (everything else must be finite)."""

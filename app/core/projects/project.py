@@ -23,6 +23,7 @@ from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
 from app.core.simulation.result import SimulationResult
+from app.core.sweeps.results import SweepRecord
 from app.core.walking.walk import Walk
 
 
@@ -75,6 +76,8 @@ class Project:
     """The last good physics runs of `motion` (without, then with compensation)."""
     simulation_stale: bool = False
     """The coefficients or servos changed after `simulation` ran."""
+    sweep: SweepRecord | None = None
+    """The Sweep panel's last sweep (its spec and every point's metrics)."""
     saved_at: str = ""
     """UTC time of the save, ISO 8601."""
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
+import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import IO
@@ -14,7 +15,42 @@ import numpy as np
 from app.core.atomic_write import write_atomically
 from app.core.sweeps.evaluate import PointResult
 from app.core.sweeps.pareto import pareto_mask
+from app.core.sweeps.robot_variants import SweepSpecError
 from app.core.sweeps.spec import SweepSpec
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class SweepRecord:
+    """A finished (or cancelled) sweep as a project keeps it: the spec as the user data it was
+    built from (checked again by `SweepSpec.from_mapping` whenever it is read back) and the
+    points' results; the Pareto front and the points are recomputed from these."""
+
+    spec_json: str
+    """The sweep's data (as `SweepSpec.from_mapping` takes it), JSON."""
+    results: tuple[PointResult, ...]
+    cancelled: bool = False
+
+    def __post_init__(self) -> None:
+        spec = self.spec()  # a record that does not hold a valid sweep is refused here
+        width = len(spec.parameters)
+        for result in self.results:
+            if len(result.values) != width or not 0 <= result.index < spec.n_points:
+                raise SweepSpecError(
+                    f"result of point {result.index} does not fit the sweep's "
+                    f"{spec.n_points} points of {width} parameters"
+                )
+
+    @classmethod
+    def of(cls, data: dict, results: Sequence[PointResult], cancelled: bool = False) -> SweepRecord:
+        return cls(json.dumps(data, sort_keys=True), tuple(results), cancelled)
+
+    def spec(self) -> SweepSpec:
+        try:
+            data = json.loads(self.spec_json)
+        except ValueError as error:
+            raise SweepSpecError(f"the sweep's spec is not JSON: {error}") from None
+        return SweepSpec.from_mapping(data, "the project's sweep")
+
 
 COLUMNS = tuple(f.name for f in dataclasses.fields(PointResult) if f.name != "values")
 
