@@ -153,8 +153,10 @@ class RobotSession:
         name = Path(str(source)).name
         progress = self._notifier.progress("Loading", name, client)
         started_s = time.monotonic()
+        current = ["starting"]
 
         def stage(what: str) -> None:
+            current[0] = what
             elapsed = time.monotonic() - started_s
             self._say(f"⏳ Loading **{name}**: {what}… ({elapsed:.1f} s)", progress)
 
@@ -170,7 +172,11 @@ class RobotSession:
         except Exception as error:  # a third-party parser or mesh library failed: same answer
             log.exception("loading %s", source)
             first_line = (str(error).strip().splitlines() or [""])[0]
-            self._fail("Could not load the robot", f"{type(error).__name__}: {first_line}", client)
+            self._fail(
+                "Could not load the robot",
+                f"{type(error).__name__} while {current[0]}: {first_line}",
+                client,
+            )
             return False
         finally:
             progress.done()

@@ -66,3 +66,20 @@ def test_a_refused_upload_ends_on_why(studio):
     assert seen[0].startswith("Received **broken.urdf**")
     status = studio.robots.panel.status.content
     assert status.startswith("⚠️") and "previous robot is still loaded" in status
+
+
+def test_a_library_failure_names_the_stage_it_failed_in(studio, monkeypatch):
+    """A failure no check of ours foresaw (injected here: the feet finder raising) is reported
+    with the stage the load was in, and the previous robot stays."""
+    import app.core.robot.loading as loading
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(loading, "find_foot_links", broken)
+    content, _meshes = _ros_layout_zip()
+    studio.robots.panel.receive_upload(viser.UploadedFile("tiny.zip", content))
+    assert studio.state.robot.name == "servo_biped"
+    status = studio.robots.panel.status.content
+    assert "ZeroDivisionError while finding the feet: float division by zero" in status
+    assert "previous robot is still loaded" in status
