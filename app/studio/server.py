@@ -74,6 +74,7 @@ class Studio:
             notifier,
             config.data_dir,
             layers=lambda: self.compensation.replay_layers(self.playback.panel.traces.value),
+            pause_playback=self.playback.player.pause,
         )
         self.demo = DemoSession(server)
         self.sweep = SweepSession(server, state, notifier, config.data_dir / "variants")

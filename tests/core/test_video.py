@@ -82,7 +82,7 @@ def test_gif_keeps_frames_and_timing(tmp_path):
         writer.add(frame)
     path = writer.close()
     with Image.open(path) as gif:
-        assert gif.n_frames == plan.n_frames
+        assert getattr(gif, "n_frames", 1) == plan.n_frames
         assert gif.size == (plan.width, plan.height)
         assert gif.info["duration"] == 100
     decoded = iio.imread(path, index=None)

@@ -87,7 +87,7 @@ def plan_video(
     if height > MAX_SIDE:
         raise VideoError(f"height {height} px: the limit is {MAX_SIDE} px; narrow the video")
     times = tuple(min(k / fps, duration_s) for k in range(n_frames))
-    return VideoPlan(times, int(fps), _even(width), height, video_format)  # type: ignore[arg-type]
+    return VideoPlan(times, int(fps), _even(width), height, video_format)
 
 
 class VideoWriter:
