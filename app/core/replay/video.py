@@ -72,9 +72,9 @@ def plan_video(
     if duration_s < 0.0:
         raise VideoError(f"the motion lasts {duration_s} s; nothing to film")
     if not MIN_FPS <= fps <= MAX_FPS or fps != int(fps):
-        raise VideoError(f"fps {fps}: give a whole number from {MIN_FPS} to {MAX_FPS}")
+        raise VideoError(f"fps {fps:g}: give a whole number from {MIN_FPS} to {MAX_FPS}")
     if not MIN_SIDE <= width <= MAX_SIDE:
-        raise VideoError(f"width {width} px: give {MIN_SIDE} to {MAX_SIDE} px")
+        raise VideoError(f"width {width:g} px: give {MIN_SIDE} to {MAX_SIDE} px")
     if not 0.1 <= aspect <= 10.0:
         raise VideoError(f"the view's aspect ratio {aspect:.3g} is not a picture's")
     n_frames = math.floor(duration_s * fps + 1e-9) + 1
