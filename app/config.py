@@ -49,6 +49,8 @@ class StudioConfig:
     """Restore the newest autosave at start (serve does, unless --project, --robot or --fresh)."""
     autosave: bool = True
     """Save the work to data_dir/autosave/ after every change."""
+    presenter_only: bool = False
+    """Only the oldest open tab may change the work (`--presenter-only`); others only watch."""
 
     @property
     def access_token(self) -> str | None:

@@ -44,6 +44,12 @@ def add_parser(sub) -> None:
         "could then drive the studio)",
     )
     serve.add_argument(
+        "--presenter-only",
+        action="store_true",
+        help="demo mode: only the first tab opened (the presenter's) can change the work; "
+        "other tabs watch and can follow its camera",
+    )
+    serve.add_argument(
         "--open-browser", action="store_true", help="open the studio's link in the browser"
     )
     serve.add_argument(
@@ -72,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
         prepare_gait=True,
         allow=tuple(args.allow),
         project=args.project,
+        presenter_only=args.presenter_only,
         restore_autosave=not (args.fresh or explicit_robot or args.project is not None),
     )
     check_bind(config.host, config.access_token)

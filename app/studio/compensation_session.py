@@ -138,6 +138,9 @@ class CompensationSession:
                 "servo": self.servo,
                 "simulation": runs,
                 "simulation_stale": self.simulation_stale if runs else False,
+                "simulation_wall_s": simulation.waited_s
+                if runs and simulation is not None
+                else None,
             }
 
     def restore(self, project: Project) -> None:
@@ -168,6 +171,7 @@ class CompensationSession:
                     job=SimulationJob((), ()),
                     started_s=0.0,
                     results={WITHOUT: without, WITH: with_},
+                    waited_s=project.simulation_wall_s,
                 )
         self._repredict()
         self.panel.status.content = _torque_summary(
@@ -660,7 +664,9 @@ def _torque_summary(peaks: TorquePeaks, trajectory: Trajectory) -> str:
 
 
 def _simulation_summary(simulation: Simulation) -> str:
-    lines = [f"**Simulated** (MuJoCo) in {simulation.waited_s:.1f} s:"]
+    waited = simulation.waited_s
+    took = "restored from the project" if waited is None else f"in {waited:.1f} s"
+    lines = [f"**Simulated** (MuJoCo) {took}:"]
     for label in (WITHOUT, WITH):
         run = simulation.results[label]
         roll = np.degrees(np.max(np.abs(run.roll_rad - run.roll_planned_rad)))

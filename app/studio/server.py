@@ -74,8 +74,9 @@ class Studio:
             notifier,
             config.data_dir,
             layers=lambda: self.compensation.replay_layers(self.playback.panel.traces.value),
+            pause_playback=self.playback.player.pause,
         )
-        self.demo = DemoSession(server)
+        self.demo = DemoSession(server, presenter_only=config.presenter_only)
         self.sweep = SweepSession(server, state, notifier, config.data_dir / "variants")
         if robot is None:
             robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)

@@ -1,10 +1,14 @@
 """Sharing from the studio: *Export replay* records the current motion as shown (robot, the
 ghosts and traces that are on, a title card) into a folder that plays in any browser, and
-*Screenshot* saves a tab's render as a PNG. Both write under the data folder.
+*Screenshot* saves a tab's render as a PNG, and *Export video* films the current motion from a
+tab's renders (MP4 or GIF). All write under the data folder.
 
 The recording is drawn on a private viser server (app/replay_recorder.py): the live tabs see
 nothing of it. An export runs in one named thread, "replay-export"; its end is announced by
-`exported` (the result, or None after a failure), a screenshot's by `screenshot_saved`.
+`exported` (the result, or None after a failure), a screenshot's by `screenshot_saved`. A video
+is filmed in the "video-export" thread (viser's callback thread stays free): the timeline is
+moved frame by frame and the tab asked for a render of each; the time shown before is restored
+after, and the end is announced by `video_saved` (the file, or None after a failure or Cancel).
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ import viser
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.replay.scene import ReplayLayers, replay_scene, title_card
+from app.core.replay.video import VideoError, VideoPlan, VideoWriter, plan_video
 from app.core.robot.model import RobotModel
 from app.replay_recorder import RecordedReplay, export_replay
 from app.studio.notifier import Notifier
@@ -33,6 +38,8 @@ from panels.share_panel import SharePanel
 log = logging.getLogger(__name__)
 
 MAX_SCREENSHOT_SIDE = 4096
+MAX_DOWNLOAD_BYTES = 100_000_000
+"""A video larger than this is left on disk, not also sent to the tab."""
 
 
 def _slug(text: str) -> str:
@@ -58,6 +65,7 @@ class ShareSession:
         notifier: Notifier,
         data_dir: Path,
         layers: Callable[[], ReplayLayers],
+        pause_playback: Callable[[], None] = lambda: None,
     ) -> None:
         self._server, self._state, self._notifier = server, state, notifier
         self._data_dir, self._layers = Path(data_dir), layers
@@ -65,6 +73,10 @@ class ShareSession:
         self._worker: threading.Thread | None = None
         self.exported: Signal[RecordedReplay | None] = Signal("replay_exported")
         self.screenshot_saved: Signal[Path | None] = Signal("screenshot_saved")
+        self.video_saved: Signal[Path | None] = Signal("video_saved")
+        self._pause_playback = pause_playback
+        self._video_worker: threading.Thread | None = None
+        self._video_cancel = threading.Event()
 
     # --- replay ----------------------------------------------------------------------------
 
@@ -164,11 +176,118 @@ class ShareSession:
             self._fail("Screenshot failed", str(error), client)
         self.screenshot_saved.emit(path)
 
+    # --- video ---------------------------------------------------------------------------------
+
+    def export_video(self, client: viser.ClientHandle | None = None) -> None:
+        """Start filming the current motion from `client`'s view in the "video-export" thread."""
+        with self._state.lock:
+            trajectory, time_s = self._state.trajectory, self._state.time_s
+        if self._video_worker is not None and self._video_worker.is_alive():
+            self._notifier.notify("Video running", "one video at a time", client, "yellow")
+            return
+        try:
+            if client is None:
+                raise VideoError("a video is filmed from a browser tab; none asked")
+            if trajectory is None:
+                raise VideoError("no motion to film: generate or build a motion first")
+            tab_w, tab_h = int(client.camera.image_width), int(client.camera.image_height)
+            if tab_w <= 0 or tab_h <= 0:
+                raise VideoError("the tab has not drawn the scene yet")
+            plan = plan_video(
+                trajectory.duration,
+                float(self.panel.video_fps.value),
+                float(self.panel.video_width.value),
+                tab_w / tab_h,
+                str(self.panel.video_format.value),
+            )
+        except VideoError as error:
+            self._fail("Video export failed", str(error), client)
+            self.video_saved.emit(None)
+            return
+        self._pause_playback()
+        self._video_cancel = cancel = threading.Event()
+        path = (
+            self._data_dir
+            / "exports"
+            / f"{_slug(trajectory.name)}-{time.strftime('%Y%m%d-%H%M%S')}.{plan.format}"
+        )
+        self.panel.show_video_progress(0.0)
+        self.panel.status.content = f"Filming **{trajectory.name}** ({plan.n_frames} frames)…"
+        self._video_worker = threading.Thread(
+            target=self._film,
+            args=(client, trajectory, time_s, plan, path, cancel, (tab_w, tab_h)),
+            name="video-export",
+            daemon=True,
+        )
+        self._video_worker.start()
+
+    def cancel_video(self) -> None:
+        """Stop the video being filmed (no file is kept)."""
+        self._video_cancel.set()
+
+    def _film(
+        self,
+        client: viser.ClientHandle,
+        trajectory: Trajectory,
+        time_before: float,
+        plan: VideoPlan,
+        path: Path,
+        cancel: threading.Event,
+        tab_size: tuple[int, int],
+    ) -> None:
+        saved: Path | None = None
+        writer: VideoWriter | None = None
+        # The tab renders at most its own size; the writer fits the frames to the plan's.
+        width, height = min(plan.width, tab_size[0]), min(plan.height, tab_size[1])
+        try:
+            writer = VideoWriter(path, plan)
+            for k, time_s in enumerate(plan.times):
+                if cancel.is_set():
+                    raise VideoError("cancelled; no file kept")
+                with self._state.lock, self._server.atomic():
+                    if self._state.trajectory is not trajectory:
+                        raise VideoError("the motion changed while it was filmed; no file kept")
+                    self._state.set_time(time_s)
+                writer.add(client.get_render(height, width, timeout=60.0))
+                self.panel.show_video_progress((k + 1) / plan.n_frames)
+            saved = writer.close()
+        except (StudioError, OSError, TimeoutError, RuntimeError) as error:
+            # RuntimeError: viser's answer when the tab closed while a frame was awaited.
+            if writer is not None:
+                writer.abort()
+            self._fail("Video export failed", str(error) or type(error).__name__, client)
+        finally:
+            self.panel.show_video_progress(None)
+            with self._state.lock, self._server.atomic():
+                if self._state.trajectory is trajectory:
+                    self._state.set_time(time_before)
+        if saved is not None:
+            size_mb = saved.stat().st_size / 1e6
+            self.panel.status.content = (
+                f"Video of **{trajectory.name}** ({plan.n_frames} frames at {plan.fps} fps, "
+                f"{plan.width}×{plan.height}, {size_mb:.1f} MB) saved to `{saved}`."
+            )
+            self._notifier.notify("Video saved", str(saved), client)
+            self._offer_download(client, saved)
+        self.video_saved.emit(saved)
+
+    def _offer_download(self, client: viser.ClientHandle, path: Path) -> None:
+        """Send the file to the tab as a download; the file on disk is what counts."""
+        if path.stat().st_size > MAX_DOWNLOAD_BYTES or client.client_id not in (
+            self._server.get_clients()
+        ):
+            return
+        try:
+            client.send_file_download(path.name, path.read_bytes())
+        except Exception:  # a closed tab: the file is saved, the status line names it
+            log.info("video download not sent to client %s", client.client_id, exc_info=True)
+
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
         self.panel.status.content = f"⚠️ {title}: {body}"
         self._notifier.error(title, body, client)
 
     def close(self) -> None:
-        worker = self._worker
-        if worker is not None:
-            worker.join()
+        self._video_cancel.set()
+        for worker in (self._worker, self._video_worker):
+            if worker is not None:
+                worker.join()

@@ -46,7 +46,8 @@ class Simulation:
     results: dict[str, SimulationResult] = dataclasses.field(default_factory=dict)
     error: str = ""
     """Why it failed ("cancelled", a blow-up's message, a crashed worker)."""
-    waited_s: float = 0.0
+    waited_s: float | None = 0.0
+    """Wall time of the run [s]; None for a run restored from a project that did not keep it."""
 
 
 class SimulationRunner:

@@ -64,6 +64,10 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path):
         assert cb.ghosts is not None
         assert_same(cb.simulation.results, ca.simulation.results, "simulation")
         assert cb.simulation_stale and ca.simulation_stale and "Stale" in cb.panel.verdict.content
+        # The wait the user saw is kept, not "0.0 s".
+        waited = ca.simulation.waited_s
+        assert waited is not None and waited > 0 and cb.simulation.waited_s == waited
+        assert f"(MuJoCo) in {waited:.1f} s" in cb.panel.verdict.content
         cb.select_joint(joint)
         for field in ("enabled", "k", "phi", "compliance", "backlash"):
             assert getattr(cb.panel, field).value == getattr(ca.panel, field).value, field
@@ -76,6 +80,15 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path):
         assert b.gait.panel.settings(False) == a.gait.panel.settings(False)
         title = b.project.panel.title.content
         assert "session" in title and "unsaved" not in title
+        # A file saved before the wall time was kept still opens, and says where it came from.
+        older = tmp_path / "older.bstudio"
+        older.write_bytes(
+            _crafted(path.read_bytes(), lambda m: m["project"].pop("simulation_wall_s"))
+        )
+        assert b.project.open(str(older)), b.project.last_error
+        assert b.compensation.simulation.waited_s is None
+        assert "(MuJoCo) restored from the project" in b.compensation.panel.verdict.content
+        assert_same(b.compensation.simulation.results, ca.simulation.results, "simulation")
     finally:
         b.stop()
 

@@ -76,6 +76,8 @@ class Project:
     """The last good physics runs of `motion` (without, then with compensation)."""
     simulation_stale: bool = False
     """The coefficients or servos changed after `simulation` ran."""
+    simulation_wall_s: float | None = None
+    """How long the user waited for `simulation` [s]; None in files saved before it was kept."""
     sweep: SweepRecord | None = None
     """The Sweep panel's last sweep (its spec and every point's metrics)."""
     saved_at: str = ""
@@ -134,6 +136,10 @@ def check_fits(project: Project, robot: RobotModel) -> None:
         need(len(ff.status) == motion.n_samples, "the torques' status does not match the motion")
     for label, part in (("compensation", project.compensation), ("servo", project.servo)):
         need(part is None or part.joint_names == names, f"the {label} joints differ")
+    need(
+        project.simulation_wall_s is None or project.simulation_wall_s >= 0.0,
+        f"the simulation's wall time is {project.simulation_wall_s} s",
+    )
     for run in project.simulation:
         need(
             motion is not None and run.q.shape == motion.q.shape and run.joint_names == names,
