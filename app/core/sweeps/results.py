@@ -16,6 +16,7 @@ from app.core.atomic_write import write_atomically
 from app.core.sweeps.evaluate import PointResult
 from app.core.sweeps.pareto import pareto_mask
 from app.core.sweeps.robot_variants import SweepSpecError
+from app.core.sweeps.servo_metrics import SimulationMetrics
 from app.core.sweeps.spec import SweepSpec
 
 
@@ -52,7 +53,19 @@ class SweepRecord:
         return SweepSpec.from_mapping(data, "the project's sweep")
 
 
-COLUMNS = tuple(f.name for f in dataclasses.fields(PointResult) if f.name != "values")
+SIMULATION_COLUMNS = tuple(f.name for f in dataclasses.fields(SimulationMetrics))
+"""Columns of a sweep with simulate = true only."""
+COLUMNS = tuple(
+    f.name
+    for f in dataclasses.fields(PointResult)
+    if f.name != "values" and f.name not in SIMULATION_COLUMNS
+)
+"""The metrics' columns of every sweep."""
+
+
+def columns(spec: SweepSpec) -> tuple[str, ...]:
+    """The result columns of this sweep (after its parameters, before `pareto`)."""
+    return COLUMNS + SIMULATION_COLUMNS if spec.simulate else COLUMNS
 
 
 def pareto_indices(spec: SweepSpec, results: Sequence[PointResult]) -> list[int]:
@@ -93,11 +106,12 @@ def results_csv(spec: SweepSpec, results: Sequence[PointResult]) -> str:
     front = set(pareto_indices(spec, results))
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow([*(p.name for p in spec.parameters), *COLUMNS, "pareto"])
+    metrics = columns(spec)
+    writer.writerow([*(p.name for p in spec.parameters), *metrics, "pareto"])
     for r in sorted(results, key=lambda r: r.index):
         row = r.row()
         writer.writerow(
-            [*(repr(v) for v in r.values), *(row[c] for c in COLUMNS), int(r.index in front)]
+            [*(repr(v) for v in r.values), *(row[c] for c in metrics), int(r.index in front)]
         )
     return out.getvalue()
 
