@@ -67,3 +67,16 @@ def test_bad_sweep_files_and_an_unreachable_scheduler_fail_in_one_line(tmp_path)
     assert result.returncode == 1
     assert "cannot reach the Dask scheduler" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_sweep_writes_parquet_for_a_parquet_path(tmp_path):
+    import pyarrow.parquet as pq
+
+    spec, out = tmp_path / "sweep.toml", tmp_path / "results.parquet"
+    spec.write_text(TINY.replace("samples = 3", "samples = 1"))
+    result = run(str(spec), "--workers", "1", "--out", str(out), "--json")
+    assert result.returncode == 0, result.stderr
+    table = pq.read_table(out)
+    assert table.num_rows == 1
+    assert table.column_names[0] == "step_length_m" and table.column_names[-1] == "pareto"
+    assert table.column("index").to_pylist() == [0]

@@ -1,4 +1,5 @@
-"""`sweep`: a design sweep (sweep.toml) on Dask workers, its results CSV and Pareto set."""
+"""`sweep`: a design sweep (sweep.toml) on Dask workers, its results (CSV or Parquet) and
+Pareto set."""
 
 from __future__ import annotations
 
@@ -32,13 +33,18 @@ def add_parser(sub) -> None:
         action="store_true",
         help="if the scheduler cannot be reached, run on a local cluster instead of failing",
     )
-    sweep.add_argument("--out", type=Path, default=None, help="results CSV to write")
+    sweep.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="results table to write: Parquet for .parquet / .pq, CSV otherwise",
+    )
     sweep.add_argument("--json", action="store_true")
 
 
 def run(args: argparse.Namespace) -> int:
     from app.core.sweeps.evaluate import PointResult
-    from app.core.sweeps.results import SweepSummary, pareto_indices, write_results_csv
+    from app.core.sweeps.results import SweepSummary, pareto_indices, write_results
     from app.core.sweeps.sampling import sweep_points
     from app.core.sweeps.spec import read_sweep_toml
     from app.sweep_engine import SweepEngine
@@ -78,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
         first_result_s=first_s,
     )
     if args.out is not None:
-        write_results_csv(spec, results, args.out)
+        write_results(spec, results, args.out)
     by_index = {r.index: r for r in results}
     if args.json:
         report = {
