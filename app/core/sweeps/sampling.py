@@ -13,7 +13,7 @@ import itertools
 import numpy as np
 
 from app.core.collocation.settings import GaitSettings
-from app.core.sweeps.robot_variants import RobotVariant
+from app.core.sweeps.robot_variants import RobotVariant, robot_parameter
 from app.core.sweeps.servo_metrics import SimulationSetup
 from app.core.sweeps.spec import SweepSpec
 
@@ -88,6 +88,9 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
                 servo[p.name] = float(value)
             else:
                 robot[p.name] = float(value)
+                setting = robot_parameter(spec.robot, p.name).gait_setting
+                if setting:  # the planner's bound follows the robot's (torque limit)
+                    gait[setting] = float(value)
         settings = dataclasses.replace(base, **gait)  # type: ignore[arg-type]
         variant = RobotVariant.of(spec.robot, robot)
         points.append(

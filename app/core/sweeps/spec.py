@@ -158,7 +158,9 @@ class SweepSpec:
         if robot not in BUILTIN_ROBOTS:
             raise SweepSpecError(
                 f"{source}: robot = {robot!r}; a sweep runs on a built-in robot: "
-                f"{', '.join(BUILTIN_ROBOTS)}"
+                f"{', '.join(BUILTIN_ROBOTS)} (a loaded URDF has no robot parameters: its "
+                "links have no known segment axis or shape to stretch, so a length is not "
+                "defined for it)"
             )
         sampling = _typed(data.get("sampling", "latin"), str, f"{source}: sampling")
         if sampling not in SAMPLINGS:
@@ -190,6 +192,12 @@ class SweepSpec:
         twice = sorted({n for n in names if names.count(n) > 1})
         if twice:
             raise SweepSpecError(f"{source}: parameter(s) {', '.join(twice)} given twice")
+        for p in parameters:
+            setting = robot_parameter(robot, p.name).gait_setting if p.kind == "robot" else ""
+            if setting in names:
+                raise SweepSpecError(
+                    f"{source}: {p.name} sets the planner's {setting} itself; sweep one of them"
+                )
         pareto = _pareto(data.get("pareto", {"sr": "min", "max_torque_Nm": "min"}), source)
         simulate = bool(_typed(data.get("simulate", False), bool, f"{source}: simulate"))
         walk_steps = _integer(data.get("walk_steps", DEFAULT_WALK_STEPS), f"{source}: walk_steps")
