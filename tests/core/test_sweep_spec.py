@@ -121,10 +121,11 @@ def test_a_toml_file_with_nan_is_refused_before_it_becomes_a_spec(tmp_path):
         read_sweep_toml(path)
 
 
-def test_the_example_sweep_file_reads():
+@pytest.mark.parametrize("name", ["sweep_dircon.toml", "sweep_servos.toml"])
+def test_the_example_sweep_files_read(name):
     from pathlib import Path
 
-    example = Path(__file__).resolve().parents[2] / "examples" / "sweep_dircon.toml"
+    example = Path(__file__).resolve().parents[2] / "examples" / name
     loaded = read_sweep_toml(example)
     assert loaded.n_points == len(sweep_points(loaded))
 
