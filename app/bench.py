@@ -482,7 +482,8 @@ def _entry_sweep(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             "the same points on 1 worker",
             f"scaling {row['scaling']:.2f}×; 200 points ≈ {row['sweep_200_estimate_s']:.0f} s "
             f"(target ≤ {SWEEP_200_TARGET_S:.0f} s); workers got {many['busy_cores']:.2f} of "
-            f"{row['cores']} cores (CPU s / wall s), {one['busy_cores']:.2f} of 1",
+            f"{row['cores']} cores (CPU s / wall s), {one['busy_cores']:.2f} of 1; with a core "
+            f"each: {row['cpu_scaling']:.2f}×",
         ),
         Figure(
             "sweep, first result after start (cluster start and NLP build included)",

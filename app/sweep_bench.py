@@ -8,7 +8,8 @@ timed points on warm workers. Scaling = (points/s on n workers) / (points/s on 1
 CPU-time aware: the workers' process CPU seconds over the timed points are read before and after
 (`Client.run(time.process_time)`), so `busy_cores` = CPU s / wall s says how many cores the
 workers actually got; on a shared machine a scaling short of the target with busy_cores < n is
-the other load, not the sweep. The first result's time is split into the cluster start, the NLP
+the other load, not the sweep (`cpu_scaling` is the scaling had each worker had its core). The
+first result's time is split into the cluster start, the NLP
 build with its anchor solve on the worker (`build_s`), and the point's own solve.
 """
 
@@ -82,12 +83,16 @@ def bench_sweep(points: int = 40) -> dict:
     one = _timed(1, warmup, timed)
     many = _timed(cores, warmup, timed)
     scaling = many["points_per_s"] / one["points_per_s"]
+    # what the scaling would be if every worker had its core: n × (CPU s per point on 1 worker)
+    # / (CPU s per point on n); below n only by the sweep's own overhead (scheduling, copies)
+    cpu_scaling = cores * one["cpu_s_per_point"] / many["cpu_s_per_point"]
     return {
         "knots": BENCH_KNOTS,
         "cores": cores,
         "one_worker": one,
         "all_cores": many,
         "scaling": scaling,
+        "cpu_scaling": cpu_scaling,
         "scaling_target": SCALING_TARGET * cores,
         "sweep_200_estimate_s": 200.0 / many["points_per_s"],
     }

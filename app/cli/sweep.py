@@ -4,9 +4,11 @@ Pareto set."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from app.cli.common import output_target
@@ -54,11 +56,23 @@ def run(args: argparse.Namespace) -> int:
     spec = read_sweep_toml(args.spec)
     if args.out is not None and not args.out.resolve().parent.is_dir():
         raise StudioError(f"--out {args.out}: its folder does not exist")  # before the sweep
-    points = sweep_points(spec)
     start = time.perf_counter()
+    # the cluster starts (worker processes, seconds) while this process samples the points (it
+    # loads the robot for its planner defaults)
+    with ThreadPoolExecutor(1, thread_name_prefix="sweep-cluster") as pool:
+        starting = pool.submit(
+            SweepEngine, args.scheduler, args.workers, fallback_local=args.local_fallback
+        )
+        try:
+            points = sweep_points(spec)
+        except BaseException:
+            with contextlib.suppress(Exception):
+                starting.result().close()
+            raise
+        engine = starting.result()
     results: list[PointResult] = []
     first_s = float("nan")
-    with SweepEngine(args.scheduler, args.workers, fallback_local=args.local_fallback) as engine:
+    with engine:
         for note in engine.notes:
             print(f"note: {note}", file=sys.stderr)
         for result in engine.start(points).results():
