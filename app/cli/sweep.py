@@ -81,6 +81,8 @@ def run(args: argparse.Namespace) -> int:
             results.append(result)
             if not args.json:
                 what = f"SR {result.sr:.4f}" if result.solved else result.status
+                if spec.simulate and result.sim_status:
+                    what += f"; {result.sim_status}"
                 print(
                     f"point {len(results)}/{len(points)} (#{result.index}): {what}", file=sys.stderr
                 )
