@@ -481,7 +481,9 @@ def _entry_sweep(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             1.0 / one["points_per_s"],
             "the same points on 1 worker",
             f"scaling {row['scaling']:.2f}×; 200 points ≈ {row['sweep_200_estimate_s']:.0f} s "
-            f"(target ≤ {SWEEP_200_TARGET_S:.0f} s)",
+            f"(target ≤ {SWEEP_200_TARGET_S:.0f} s); workers got {many['busy_cores']:.2f} of "
+            f"{row['cores']} cores (CPU s / wall s), {one['busy_cores']:.2f} of 1; with a core "
+            f"each: {row['cpu_scaling']:.2f}×",
         ),
         Figure(
             "sweep, first result after start (cluster start and NLP build included)",
@@ -491,6 +493,8 @@ def _entry_sweep(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             many["first_result_s"] <= FIRST_RESULT_TARGET_S,
             ctx.reference("s"),
             "machine reference",
+            f"cluster start {many['cluster_start_s']:.1f} s, NLP build + anchor solve "
+            f"{many['first_build_s']:.1f} s, the point's solve {many['first_solve_s']:.1f} s",
         ),
     ]
 

@@ -119,6 +119,21 @@ class SweepEngine:
         """Submit every point; iterate `results()` of the returned run for them."""
         return SweepRun(self.client, points)
 
+    def prepare(self, point: SweepPoint) -> dict[str, float]:
+        """Have every worker build the NLP of `point`'s structure and solve its anchor gait now,
+        so that a sweep started afterwards on that structure pays only solves; worker address →
+        the seconds it spent (0.0 where it was warm)."""
+        from app.core.sweeps.evaluate import prepare_point
+
+        workers = list(self.client.scheduler_info(n_workers=-1)["workers"])
+        futures = [  # a task on each worker (its task thread, where the points run)
+            self.client.submit(
+                prepare_point, point, workers=[address], allow_other_workers=False, pure=False
+            )
+            for address in workers
+        ]
+        return dict(zip(workers, self.client.gather(futures), strict=True))
+
     def solve(self, point: SweepPoint) -> Any:
         """The GaitResult of one point, solved on a worker (whose NLP may be warm)."""
         from app.core.sweeps.evaluate import solve_point

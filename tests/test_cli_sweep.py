@@ -67,3 +67,30 @@ def test_bad_sweep_files_and_an_unreachable_scheduler_fail_in_one_line(tmp_path)
     assert result.returncode == 1
     assert "cannot reach the Dask scheduler" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_sweep_writes_parquet_for_a_parquet_path(tmp_path):
+    import pyarrow.parquet as pq
+
+    spec, out = tmp_path / "sweep.toml", tmp_path / "results.parquet"
+    spec.write_text(TINY.replace("samples = 3", "samples = 1"))
+    result = run(str(spec), "--workers", "1", "--out", str(out), "--json")
+    assert result.returncode == 0, result.stderr
+    table = pq.read_table(out)
+    assert table.num_rows == 1
+    assert table.column_names[0] == "step_length_m" and table.column_names[-1] == "pareto"
+    assert table.column("index").to_pylist() == [0]
+
+
+def test_a_simulated_sweep_reports_each_points_verdict(tmp_path):
+    spec, out = tmp_path / "sweep.toml", tmp_path / "results.csv"
+    text = TINY.replace("samples = 3", "samples = 1\nsimulate = true\nwalk_steps = 1")
+    spec.write_text(text.replace("[gait]", "[servo]\ncompensation = false\n[gait]"))
+    result = run(str(spec), "--workers", "1", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    (row,) = list(csv.DictReader(out.open()))
+    assert row["solved"] == "True"
+    assert row["fell"] in ("0.0", "1.0")
+    verdict = "stays up" if row["fell"] == "0.0" else "falls at"
+    assert row["sim_status"].startswith(verdict)
+    assert f"; {row['sim_status']}" in result.stderr  # the progress line says it too

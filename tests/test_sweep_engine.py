@@ -61,6 +61,17 @@ def test_cluster_results_equal_the_same_points_solved_one_by_one(engine):
     assert sum(r.build_s > 0 for r in remote.values()) <= 2
 
 
+def test_prepared_workers_pay_only_a_solve_for_their_first_point():
+    with SweepEngine(n_workers=2) as fresh:
+        points = sweep_points(small_spec(2, seed=9))
+        spent = fresh.prepare(points[0])
+        assert len(spent) == 2 and all(s > 0 for s in spent.values())  # each built its NLP
+        assert all(s == 0.0 for s in fresh.prepare(points[0]).values())  # now warm
+        results = list(fresh.start(points).results())
+    assert [r.build_s for r in results] == [0.0, 0.0]
+    assert all(r.solved for r in results)
+
+
 def test_cancel_stops_the_sweep_and_the_engine_runs_the_next(engine):
     points = sweep_points(small_spec(10, seed=5))
     run = engine.start(points)

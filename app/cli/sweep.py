@@ -1,11 +1,14 @@
-"""`sweep`: a design sweep (sweep.toml) on Dask workers, its results CSV and Pareto set."""
+"""`sweep`: a design sweep (sweep.toml) on Dask workers, its results (CSV or Parquet) and
+Pareto set."""
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from app.cli.common import output_target
@@ -32,13 +35,18 @@ def add_parser(sub) -> None:
         action="store_true",
         help="if the scheduler cannot be reached, run on a local cluster instead of failing",
     )
-    sweep.add_argument("--out", type=Path, default=None, help="results CSV to write")
+    sweep.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="results table to write: Parquet for .parquet / .pq, CSV otherwise",
+    )
     sweep.add_argument("--json", action="store_true")
 
 
 def run(args: argparse.Namespace) -> int:
     from app.core.sweeps.evaluate import PointResult
-    from app.core.sweeps.results import SweepSummary, pareto_indices, write_results_csv
+    from app.core.sweeps.results import SweepSummary, pareto_indices, write_results
     from app.core.sweeps.sampling import sweep_points
     from app.core.sweeps.spec import read_sweep_toml
     from app.sweep_engine import SweepEngine
@@ -48,11 +56,23 @@ def run(args: argparse.Namespace) -> int:
     spec = read_sweep_toml(args.spec)
     if args.out is not None and not args.out.resolve().parent.is_dir():
         raise StudioError(f"--out {args.out}: its folder does not exist")  # before the sweep
-    points = sweep_points(spec)
     start = time.perf_counter()
+    # the cluster starts (worker processes, seconds) while this process samples the points (it
+    # loads the robot for its planner defaults)
+    with ThreadPoolExecutor(1, thread_name_prefix="sweep-cluster") as pool:
+        starting = pool.submit(
+            SweepEngine, args.scheduler, args.workers, fallback_local=args.local_fallback
+        )
+        try:
+            points = sweep_points(spec)
+        except BaseException:
+            with contextlib.suppress(Exception):
+                starting.result().close()
+            raise
+        engine = starting.result()
     results: list[PointResult] = []
     first_s = float("nan")
-    with SweepEngine(args.scheduler, args.workers, fallback_local=args.local_fallback) as engine:
+    with engine:
         for note in engine.notes:
             print(f"note: {note}", file=sys.stderr)
         for result in engine.start(points).results():
@@ -61,6 +81,8 @@ def run(args: argparse.Namespace) -> int:
             results.append(result)
             if not args.json:
                 what = f"SR {result.sr:.4f}" if result.solved else result.status
+                if spec.simulate and result.sim_status:
+                    what += f"; {result.sim_status}"
                 print(
                     f"point {len(results)}/{len(points)} (#{result.index}): {what}", file=sys.stderr
                 )
@@ -78,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
         first_result_s=first_s,
     )
     if args.out is not None:
-        write_results_csv(spec, results, args.out)
+        write_results(spec, results, args.out)
     by_index = {r.index: r for r in results}
     if args.json:
         report = {

@@ -30,7 +30,7 @@ from app.core.sweeps.evaluate import PointResult
 from app.core.sweeps.results import SweepRecord, pareto_indices
 from app.core.sweeps.robot_variants import ROBOT_PARAMETERS
 from app.core.sweeps.sampling import SweepPoint, sweep_points
-from app.core.sweeps.spec import METRICS, SweepSpec
+from app.core.sweeps.spec import METRICS, SIMULATION_METRICS, SweepSpec
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.state import StudioState
@@ -93,7 +93,9 @@ class SweepSession:
         choices = _choices()
         ordered = ["gait:step_length_m", "gait:H_s"]
         ordered += [c for c in choices if c not in ordered]
-        self.panel = SweepPanel(server.gui, self, ordered, tuple(METRICS), choices)
+        # the panel runs gait sweeps: the simulation metrics and servo parameters are the CLI's
+        gait_metrics = tuple(m for m in METRICS if m not in SIMULATION_METRICS)
+        self.panel = SweepPanel(server.gui, self, ordered, gait_metrics, choices)
 
     # --- running ------------------------------------------------------------------------------
 

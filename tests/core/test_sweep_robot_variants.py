@@ -45,7 +45,52 @@ def test_masses_change_the_total_mass_by_exactly_the_difference():
 def test_out_of_range_and_unknown_parameters_are_refused():
     with pytest.raises(SweepSpecError, match=r"\[0.25, 0.55\]"):
         RobotVariant.of("dircon_biped", {"thigh_length_m": 0.9})
-    with pytest.raises(SweepSpecError, match="no sweepable robot parameters"):
+    with pytest.raises(SweepSpecError, match=r"\[0.07, 0.16\]"):
         RobotVariant.of("servo_biped", {"thigh_length_m": 0.3})
+    with pytest.raises(SweepSpecError, match="no sweepable robot parameters"):
+        RobotVariant.of("hybrid_leg_biped", {"thigh_length_m": 0.3})
     with pytest.raises(SweepSpecError, match="known: thigh_length_m"):
         RobotVariant.of("dircon_biped", {"tail_m": 0.3})
+
+
+def test_servo_biped_lengths_masses_and_torque_limit_reach_pinocchio_and_the_planner():
+    from app.core.sweeps.sampling import sweep_points
+    from app.core.sweeps.spec import SweepSpec
+
+    plain = RobotVariant.of("servo_biped", {}).load()
+    values = {
+        "thigh_length_m": 0.12,
+        "shank_length_m": 0.10,
+        "torso_mass_kg": 2.0,
+        "torque_limit_Nm": 9.0,
+    }
+    changed = RobotVariant.of("servo_biped", values).load()
+    extra = (0.12 - 0.1028) + (0.10 - 0.129)
+    assert _base_height(changed) - _base_height(plain) == pytest.approx(extra, abs=1e-6)
+    assert _mass(changed) - _mass(plain) == pytest.approx(2.0 - 1.4, abs=1e-6)
+    legs = [j for j in changed.joint_names if j.startswith(("left_", "right_"))]
+    assert len(legs) == 12
+    for name in legs:
+        index = changed.model.getJointId(name)
+        assert changed.model.effortLimit[changed.model.joints[index].idx_v] == 9.0
+        assert plain.model.effortLimit[plain.model.joints[index].idx_v] == 6.0
+    # the planner's torque bound follows the servos' limit
+    spec = SweepSpec.from_mapping(
+        {
+            "robot": "servo_biped",
+            "samples": 3,
+            "parameter": [{"kind": "robot", "name": "torque_limit_Nm", "min": 4.0, "max": 12.0}],
+        }
+    )
+    for point in sweep_points(spec):
+        assert point.settings.tau_max_Nm == point.values[0]
+    with pytest.raises(SweepSpecError, match="sets the planner's tau_max_Nm itself"):
+        SweepSpec.from_mapping(
+            {
+                "robot": "servo_biped",
+                "parameter": [
+                    {"kind": "robot", "name": "torque_limit_Nm", "min": 4.0, "max": 12.0},
+                    {"kind": "gait", "name": "tau_max_Nm", "min": 4.0, "max": 12.0},
+                ],
+            }
+        )

@@ -50,7 +50,25 @@ def param(name="step_length_m", kind="gait", lo=0.1, hi=0.3, **more) -> dict:
             spec(parameter=[param("thigh_length_m", kind="robot", lo=0.3, hi=0.9)]),
             "leaves what the dircon_biped builder accepts",
         ),
-        (spec(parameter=[param("compliance", kind="servo", lo=0, hi=1)]), "simulation"),
+        (
+            spec(parameter=[param("compliance_deg_per_Nm", kind="servo", lo=0, hi=1)]),
+            "only through the simulation: set simulate = true",
+        ),
+        (spec(servo={"dead_band_deg": 1.0}), "only through the simulation"),
+        (spec(pareto={"sr": "min", "fell": "min"}), "pareto metric fell act(s) only"),
+        (
+            spec(simulate=True, parameter=[param("compliance", kind="servo", lo=0, hi=1)]),
+            "unknown servo parameter 'compliance'",
+        ),
+        (
+            spec(simulate=True, parameter=[param("dead_band_deg", kind="servo", lo=0, hi=45)]),
+            "dead_band_deg range [0, 45] leaves [0, 10]",
+        ),
+        (spec(simulate=True, servo={"compliance_deg_per_Nm": -1}), "leaves [0, 20]"),
+        (spec(simulate=True, servo={"compliance_deg_per_Nm": "stiff"}), "is not a number"),
+        (spec(simulate="yes"), "is not a true or false"),
+        (spec(simulate=True, walk_steps=0), "walk_steps = 0"),
+        (spec(simulate=True, walk_steps=50), "walk_steps = 50"),
         (spec(parameter=[param(), param()]), "given twice"),
         (spec(parameter=[]), "no [[parameter]]"),
         (spec(parameter=[param("baseline", lo=0, hi=1)]), "unknown gait parameter 'baseline'"),
@@ -74,6 +92,28 @@ def test_hostile_specs_are_refused_with_the_reason(data, words):
     assert words in str(info.value)
 
 
+def test_servo_parameters_reach_each_points_simulation_setup():
+    data = spec(
+        simulate=True,
+        walk_steps=3,
+        servo={"dead_band_deg": 1.5},
+        parameter=[
+            param(),
+            param("compliance_deg_per_Nm", kind="servo", lo=0.5, hi=4.0),
+            param("compensation", kind="servo", lo=0, hi=1),
+        ],
+    )
+    points = sweep_points(SweepSpec.from_mapping(data))
+    for point in points:
+        setup = point.simulation
+        assert setup is not None and setup.walk_steps == 3 and setup.dead_band_deg == 1.5
+        assert setup.compliance_deg_per_Nm == point.values[1]
+        assert point.values[2] in (0.0, 1.0)  # a switch is rounded, like knots
+        assert setup.compensation == (point.values[2] == 1.0)
+    assert {p.values[2] for p in points} == {0.0, 1.0}  # latin strata cover both halves
+    assert sweep_points(SweepSpec.from_mapping(spec()))[0].simulation is None
+
+
 def test_a_toml_file_with_nan_is_refused_before_it_becomes_a_spec(tmp_path):
     path = tmp_path / "sweep.toml"
     path.write_text('[[parameter]]\nname = "H_s"\nmin = nan\nmax = 1.0\n')
@@ -81,10 +121,11 @@ def test_a_toml_file_with_nan_is_refused_before_it_becomes_a_spec(tmp_path):
         read_sweep_toml(path)
 
 
-def test_the_example_sweep_file_reads():
+@pytest.mark.parametrize("name", ["sweep_dircon.toml", "sweep_servos.toml"])
+def test_the_example_sweep_files_read(name):
     from pathlib import Path
 
-    example = Path(__file__).resolve().parents[2] / "examples" / "sweep_dircon.toml"
+    example = Path(__file__).resolve().parents[2] / "examples" / name
     loaded = read_sweep_toml(example)
     assert loaded.n_points == len(sweep_points(loaded))
 

@@ -58,6 +58,11 @@ NONFINITE_FIELDS = frozenset(
         "PointResult.energy_J",
         "PointResult.solve_s",
         "PointResult.build_s",
+        "PointResult.fell",
+        "PointResult.fall_time_s",
+        "PointResult.max_torso_error_deg",
+        "PointResult.max_tracking_error_deg",
+        "PointResult.rms_joint_error_deg",
     }
 )
 """Class.field names whose values may be NaN or infinite (everything else must be finite)."""

@@ -26,6 +26,7 @@ from app.core.collocation.planar_model import BASE_DOF
 from app.core.collocation.result import GaitResult
 from app.core.collocation.settings import GaitSettings
 from app.core.sweeps.sampling import SweepPoint
+from app.core.sweeps.servo_metrics import not_simulated, simulation_metrics
 
 CACHE_SIZE = 8
 """Built NLPs a process keeps (least recently used dropped first); one is ~50–200 MB."""
@@ -60,6 +61,18 @@ class PointResult:
     the worker had them."""
     worker: str
     """host:pid of the process that evaluated the point."""
+    fell: float = math.nan
+    """Simulation (a sweep with simulate = true; NaN otherwise): 1.0 fell, 0.0 stayed up."""
+    fall_time_s: float = math.nan
+    max_torso_error_deg: float = math.nan
+    """Largest torso roll or pitch error against the plan in the simulation [°]."""
+    max_tracking_error_deg: float = math.nan
+    """Largest |joint angle − plan| in the simulation [°]."""
+    rms_joint_error_deg: float = math.nan
+    sim_status: str = ""
+    """The simulation's verdict, or why it did not run ("" without simulation)."""
+    sim_s: float = 0.0
+    """Time of the point's walk, torques and simulation [s]."""
 
     def metric(self, name: str) -> float:
         return float(getattr(self, name))
@@ -108,18 +121,18 @@ class ProblemCache:
         return result, time.perf_counter() - start
 
 
-def _solve(point: SweepPoint, cache: ProblemCache) -> tuple[GaitResult, float]:
-    """The point's gait and the setup time (NLP build, anchor solve) [s]."""
+def _solve(point: SweepPoint, cache: ProblemCache) -> tuple[GaitResult, float, Any]:
+    """The point's gait, the setup time (NLP build, anchor solve) [s] and the GaitProblem."""
     key = (point.robot, *point.settings.structure)
     problem, setup_s = cache.get(key)
     if point.start == "previous":
-        return problem.solve(point.settings), setup_s
+        return problem.solve(point.settings), setup_s, problem
     if point.start == "anchor" and point.anchor is not None:
         anchor, anchor_s = cache.anchor(key, problem, point.anchor)
         setup_s += anchor_s
         if anchor.converged:
-            return problem.solve(point.settings, warm_start=anchor), setup_s
-    return problem.solve(point.settings, cold=True), setup_s
+            return problem.solve(point.settings, warm_start=anchor), setup_s, problem
+    return problem.solve(point.settings, cold=True), setup_s, problem
 
 
 def _process_cache() -> ProblemCache:
@@ -143,10 +156,17 @@ def evaluate_point(point: SweepPoint, cache: ProblemCache | None = None) -> Poin
     worker = f"{socket.gethostname()}:{os.getpid()}"
     try:
         point.settings.validate()
-        result, build_s = _solve(point, cache)
+        result, build_s, problem = _solve(point, cache)
     except StudioError as error:
         return _unsolved(point, "refused", str(error), worker)
-    return metrics_of(point, result, build_s, worker)
+    out = metrics_of(point, result, build_s, worker)
+    if point.simulation is None:
+        return out
+    if not out.solved:
+        sim = not_simulated("not simulated: no gait")
+    else:
+        sim = simulation_metrics(problem.model, result, point.simulation)
+    return dataclasses.replace(out, **dataclasses.asdict(sim))
 
 
 def metrics_of(point: SweepPoint, result: GaitResult, build_s: float, worker: str) -> PointResult:
@@ -187,6 +207,17 @@ def _unsolved(point: SweepPoint, status: str, reason: str, worker: str) -> Point
 def failed_point(point: SweepPoint, message: str) -> PointResult:
     """The result of a point whose evaluation itself failed (a worker lost too often, a bug)."""
     return _unsolved(point, "failed", message, "")
+
+
+def prepare_point(point: SweepPoint, cache: ProblemCache | None = None) -> float:
+    """Build the NLP of the point's structure and solve its anchor gait here, ahead of the
+    points (so the first of them pays only its solve); the seconds it took (0.0 when warm)."""
+    cache = cache if cache is not None else _process_cache()
+    key = (point.robot, *point.settings.structure)
+    problem, build_s = cache.get(key)
+    if point.start == "anchor" and point.anchor is not None:
+        build_s += cache.anchor(key, problem, point.anchor)[1]
+    return build_s
 
 
 def solve_point(point: SweepPoint, cache: ProblemCache | None = None) -> GaitResult:

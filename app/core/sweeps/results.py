@@ -1,4 +1,5 @@
-"""A sweep's results as a table: CSV writing and the summary (points, solved, Pareto set)."""
+"""A sweep's results as a table: CSV or Parquet writing and the summary (points, solved, Pareto
+set). Both formats hold the same columns: the swept parameters, the metrics, and `pareto`."""
 
 from __future__ import annotations
 
@@ -12,10 +13,11 @@ from typing import IO
 
 import numpy as np
 
-from app.core.atomic_write import write_atomically
+from app.core.atomic_write import write_atomically, write_bytes_atomically
 from app.core.sweeps.evaluate import PointResult
 from app.core.sweeps.pareto import pareto_mask
 from app.core.sweeps.robot_variants import SweepSpecError
+from app.core.sweeps.servo_metrics import SimulationMetrics
 from app.core.sweeps.spec import SweepSpec
 
 
@@ -52,7 +54,19 @@ class SweepRecord:
         return SweepSpec.from_mapping(data, "the project's sweep")
 
 
-COLUMNS = tuple(f.name for f in dataclasses.fields(PointResult) if f.name != "values")
+SIMULATION_COLUMNS = tuple(f.name for f in dataclasses.fields(SimulationMetrics))
+"""Columns of a sweep with simulate = true only."""
+COLUMNS = tuple(
+    f.name
+    for f in dataclasses.fields(PointResult)
+    if f.name != "values" and f.name not in SIMULATION_COLUMNS
+)
+"""The metrics' columns of every sweep."""
+
+
+def columns(spec: SweepSpec) -> tuple[str, ...]:
+    """The result columns of this sweep (after its parameters, before `pareto`)."""
+    return COLUMNS + SIMULATION_COLUMNS if spec.simulate else COLUMNS
 
 
 def pareto_indices(spec: SweepSpec, results: Sequence[PointResult]) -> list[int]:
@@ -93,13 +107,52 @@ def results_csv(spec: SweepSpec, results: Sequence[PointResult]) -> str:
     front = set(pareto_indices(spec, results))
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow([*(p.name for p in spec.parameters), *COLUMNS, "pareto"])
+    metrics = columns(spec)
+    writer.writerow([*(p.name for p in spec.parameters), *metrics, "pareto"])
     for r in sorted(results, key=lambda r: r.index):
         row = r.row()
         writer.writerow(
-            [*(repr(v) for v in r.values), *(row[c] for c in COLUMNS), int(r.index in front)]
+            [*(repr(v) for v in r.values), *(row[c] for c in metrics), int(r.index in front)]
         )
     return out.getvalue()
+
+
+def results_columns(
+    spec: SweepSpec, results: Sequence[PointResult]
+) -> dict[str, list[float | int | bool | str]]:
+    """The table column by column, rows in index order: the same cells as `results_csv`."""
+    front = set(pareto_indices(spec, results))
+    ordered = sorted(results, key=lambda r: r.index)
+    out: dict[str, list[float | int | bool | str]] = {}
+    for j, p in enumerate(spec.parameters):
+        out[p.name] = [float(r.values[j]) for r in ordered]
+    rows = [r.row() for r in ordered]
+    for c in columns(spec):
+        out[c] = [row[c] for row in rows]
+    out["pareto"] = [int(r.index in front) for r in ordered]
+    return out
+
+
+def results_parquet(spec: SweepSpec, results: Sequence[PointResult]) -> bytes:
+    """The results table as a Parquet file (pyarrow; floats float64, NaN where no value)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.table(results_columns(spec, results))
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
+    return bytes(sink.getvalue().to_pybytes())
+
+
+PARQUET_SUFFIXES = (".parquet", ".pq")
+
+
+def write_results(spec: SweepSpec, results: Sequence[PointResult], path: Path) -> None:
+    """Parquet for a .parquet / .pq path, CSV otherwise."""
+    if path.suffix.lower() in PARQUET_SUFFIXES:
+        write_bytes_atomically(path, results_parquet(spec, results))
+    else:
+        write_results_csv(spec, results, path)
 
 
 def write_results_csv(spec: SweepSpec, results: Sequence[PointResult], path: Path) -> None:

@@ -10,8 +10,16 @@ A sweep changes the generated URDF instead, where the change is well defined:
 - a link mass (`base_mass_kg`, `thigh_mass_kg`, ...) sets the mass of that link (both legs' for
   a leg link) and scales its inertia tensor by the same ratio.
 
-Only dircon_biped, the gait planner's robot, has sweep parameters so far; the ranges keep the
-robot buildable and its legs able to stand (the planner refuses what it cannot walk).
+- a torque limit (`torque_limit_Nm`, servo_biped) sets the effort limit of every leg joint, and
+  the planner's torque bound (`GaitSettings.tau_max_Nm`, which defaults to the smallest effort
+  limit) with it.
+
+dircon_biped and servo_biped have sweep parameters; the ranges keep the robot buildable and its
+legs able to stand (the planner refuses what it cannot walk). servo_biped's segments are boxes:
+a length moves them along the leg with the joint, their sizes stay. A loaded URDF has none: its
+links have no known segment axis or shape to stretch, so "length" is not defined for it. The
+foot size is not a parameter yet (the sole is one box among a foot's shapes; the contact points
+and the planner's foot model would have to follow it).
 """
 
 from __future__ import annotations
@@ -44,6 +52,10 @@ class RobotParameter:
     end_joints: tuple[str, ...] = ()
     """For a length: the joints at the segment's far end, moved to −length along z."""
     hint: str = ""
+    effort_joints: tuple[str, ...] = ()
+    """For a torque limit: the joints whose URDF effort limit it sets."""
+    gait_setting: str = ""
+    """A GaitSettings field that follows the value (the planner's torque bound)."""
 
     @property
     def is_length(self) -> bool:
@@ -81,8 +93,37 @@ ROBOT_PARAMETERS: dict[str, dict[str, RobotParameter]] = {
             RobotParameter("shank_mass_kg", 0.3, 4.0, 1.597, _leg("shank"), (), "Table 2: 1.597"),
             RobotParameter("foot_mass_kg", 0.1, 2.0, 0.300, _leg("foot"), (), "Table 2: 0.300"),
         )
-    }
-}
+    },
+    "servo_biped": {
+        p.name: p
+        for p in (
+            RobotParameter(
+                "thigh_length_m", 0.07, 0.16, 0.1028, _leg("thigh"), _leg("knee"),
+                "Hip pitch to knee axis [m] (built: 0.1028, Roban)",
+            ),
+            RobotParameter(
+                "shank_length_m", 0.09, 0.19, 0.129, _leg("shank"), _leg("ankle_pitch"),
+                "Knee to ankle pitch axis [m] (built: 0.129, Roban)",
+            ),
+            RobotParameter("base_mass_kg", 0.2, 3.0, 0.6, ("base",), (), "pelvis (built: 0.6)"),
+            RobotParameter("torso_mass_kg", 0.4, 4.0, 1.4, ("torso",), (), "chest (built: 1.4)"),
+            RobotParameter("thigh_mass_kg", 0.1, 1.5, 0.4, _leg("thigh"), (), "built: 0.4"),
+            RobotParameter("shank_mass_kg", 0.1, 1.5, 0.4, _leg("shank"), (), "built: 0.4"),
+            RobotParameter("foot_mass_kg", 0.1, 1.0, 0.3, _leg("foot"), (), "built: 0.3"),
+            RobotParameter(
+                "torque_limit_Nm", 2.0, 20.0, 6.0, (), (), "leg servos' torque (built: 6.0)",
+                effort_joints=tuple(
+                    f"{side}_{joint}"
+                    for side in ("left", "right")
+                    for joint in (
+                        "hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"
+                    )
+                ),
+                gait_setting="tau_max_Nm",
+            ),
+        )
+    },
+}  # fmt: skip
 
 
 def robot_parameter(robot: str, name: str) -> RobotParameter:
@@ -200,6 +241,10 @@ def _apply(root: ET.Element, p: RobotParameter, value: float) -> None:
             mass.set("value", f"{value:.9g}")
             for axis in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"):
                 inertia.set(axis, f"{float(inertia.get(axis, '0')) * ratio:.9g}")
+    for joint_name in p.effort_joints:
+        limit = joints[joint_name].find("limit")
+        assert limit is not None
+        limit.set("effort", f"{value:.9g}")
     for joint_name in p.end_joints:
         origin = joints[joint_name].find("origin")
         assert origin is not None

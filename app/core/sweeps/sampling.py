@@ -13,7 +13,8 @@ import itertools
 import numpy as np
 
 from app.core.collocation.settings import GaitSettings
-from app.core.sweeps.robot_variants import RobotVariant
+from app.core.sweeps.robot_variants import RobotVariant, robot_parameter
+from app.core.sweeps.servo_metrics import SimulationSetup
 from app.core.sweeps.spec import SweepSpec
 
 
@@ -31,6 +32,8 @@ class SweepPoint:
     anchor: GaitSettings | None = None
     """The sweep's fixed settings on this point's structure: the gait an "anchor" start
     starts from."""
+    simulation: SimulationSetup | None = None
+    """The walk and servos to simulate the point's gait on (None: no simulation)."""
 
 
 def unit_samples(spec: SweepSpec) -> np.ndarray:
@@ -77,11 +80,17 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
     for i, row in enumerate(sample_values(spec)):
         gait: dict[str, float | int] = {}
         robot: dict[str, float] = {}
+        servo: dict[str, float] = dict(spec.servo)
         for p, value in zip(spec.parameters, row, strict=True):
             if p.kind == "gait":
                 gait[p.name] = int(value) if p.is_integer else float(value)
+            elif p.kind == "servo":
+                servo[p.name] = float(value)
             else:
                 robot[p.name] = float(value)
+                setting = robot_parameter(spec.robot, p.name).gait_setting
+                if setting:  # the planner's bound follows the robot's (torque limit)
+                    gait[setting] = float(value)
         settings = dataclasses.replace(base, **gait)  # type: ignore[arg-type]
         variant = RobotVariant.of(spec.robot, robot)
         points.append(
@@ -92,6 +101,7 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
                 settings,
                 spec.start,
                 dataclasses.replace(base, knots=settings.knots),
+                SimulationSetup.of(spec.walk_steps, servo) if spec.simulate else None,
             )
         )
     return points

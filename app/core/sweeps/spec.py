@@ -8,6 +8,11 @@ A sweep file (TOML) looks like:
     seed = 1
     pareto = { sr = "min", max_torque_Nm = "min" }
     start = "anchor"            # where each solve starts (see START)
+    simulate = false            # true: walk, torques, compensation and MuJoCo per point
+    walk_steps = 2              # steps of that walk
+
+    [servo]                     # fixed servo parameters (with simulate = true)
+    compliance_deg_per_Nm = 1.4
 
     [gait]                      # fixed GaitSettings for every point
     knots = 12
@@ -18,6 +23,10 @@ A sweep file (TOML) looks like:
     min = 0.1
     max = 0.3
     levels = 3                  # grid only (default 3)
+
+The simulation metrics (fell, torso and tracking errors) cost about 1 s more per point on
+dircon_biped with 2 steps (app.core.sweeps.servo_metrics); servo parameters act only through
+them, so they need `simulate = true`.
 
 Everything is checked before a single point runs: unknown names, NaN, crossed ranges, ranges
 outside what the planner's settings (`GaitSettings.validate`) or the robot builder accept, zero
@@ -34,6 +43,11 @@ from typing import Any, Literal
 from app.core import input_gate
 from app.core.collocation.settings import GaitSettings, GaitSettingsError
 from app.core.sweeps.robot_variants import SweepSpecError, robot_parameter
+from app.core.sweeps.servo_metrics import (
+    DEFAULT_WALK_STEPS,
+    MAX_WALK_STEPS,
+    SERVO_PARAMETERS,
+)
 from robots.catalogue import BUILTIN_ROBOTS
 
 MAX_POINTS = 20_000
@@ -48,10 +62,21 @@ METRICS = {
     "energy_J": "positive mechanical work of the joints over the gait [J]",
     "solve_s": "IPOPT time of the point [s]",
 }
+SIMULATION_METRICS = {
+    "fell": "1 if the walk fell in the simulation, 0 if it stayed up",
+    "max_torso_error_deg": "largest torso roll or pitch error against the plan [°]",
+    "max_tracking_error_deg": "largest |joint angle − plan| in the simulation [°]",
+    "rms_joint_error_deg": "RMS joint error against the plan in the simulation [°]",
+}
+"""Metrics of the simulation (a sweep with simulate = true)."""
+METRICS.update(SIMULATION_METRICS)
 """The metrics a Pareto front may use, with what they mean."""
 SAMPLINGS = ("grid", "random", "latin")
 KINDS = ("gait", "robot", "servo")
-TOP_KEYS = ("robot", "sampling", "samples", "seed", "pareto", "start", "gait", "parameter")
+TOP_KEYS = (
+    "robot", "sampling", "samples", "seed", "pareto", "start", "gait", "parameter",
+    "simulate", "walk_steps", "servo",
+)  # fmt: skip
 START = {
     "anchor": "from the gait of the [gait] settings on the same NLP (solved once per worker): "
     "fast, and a point's result depends on the point only",
@@ -81,6 +106,8 @@ class SweepParameter:
 
     @property
     def is_integer(self) -> bool:
+        if self.kind == "servo":
+            return SERVO_PARAMETERS[self.name].is_switch
         return self.kind == "gait" and isinstance(getattr(GaitSettings, self.name), int)
 
 
@@ -100,6 +127,11 @@ class SweepSpec:
     """Fixed GaitSettings overrides for every point."""
     start: str = "anchor"
     """A key of START."""
+    simulate: bool = False
+    """Whether each solved point is walked, compensated and simulated (servo_metrics)."""
+    walk_steps: int = DEFAULT_WALK_STEPS
+    servo: tuple[tuple[str, float], ...] = ()
+    """Fixed servo parameters (names of SERVO_PARAMETERS) for every point."""
 
     @property
     def n_points(self) -> int:
@@ -126,7 +158,9 @@ class SweepSpec:
         if robot not in BUILTIN_ROBOTS:
             raise SweepSpecError(
                 f"{source}: robot = {robot!r}; a sweep runs on a built-in robot: "
-                f"{', '.join(BUILTIN_ROBOTS)}"
+                f"{', '.join(BUILTIN_ROBOTS)} (a loaded URDF has no robot parameters: its "
+                "links have no known segment axis or shape to stretch, so a length is not "
+                "defined for it)"
             )
         sampling = _typed(data.get("sampling", "latin"), str, f"{source}: sampling")
         if sampling not in SAMPLINGS:
@@ -158,10 +192,33 @@ class SweepSpec:
         twice = sorted({n for n in names if names.count(n) > 1})
         if twice:
             raise SweepSpecError(f"{source}: parameter(s) {', '.join(twice)} given twice")
+        for p in parameters:
+            setting = robot_parameter(robot, p.name).gait_setting if p.kind == "robot" else ""
+            if setting in names:
+                raise SweepSpecError(
+                    f"{source}: {p.name} sets the planner's {setting} itself; sweep one of them"
+                )
         pareto = _pareto(data.get("pareto", {"sr": "min", "max_torque_Nm": "min"}), source)
+        simulate = bool(_typed(data.get("simulate", False), bool, f"{source}: simulate"))
+        walk_steps = _integer(data.get("walk_steps", DEFAULT_WALK_STEPS), f"{source}: walk_steps")
+        if not 1 <= walk_steps <= MAX_WALK_STEPS:
+            raise SweepSpecError(
+                f"{source}: walk_steps = {walk_steps}; give 1 to {MAX_WALK_STEPS} steps"
+            )
+        servo = _servo_table(data.get("servo", {}), source)
+        if not simulate:
+            needs = [f"servo parameter {p.name}" for p in parameters if p.kind == "servo"]
+            needs += [f"[servo] {name}" for name, _ in servo]
+            needs += [f"pareto metric {m}" for m, _ in pareto if m in SIMULATION_METRICS]
+            if needs:
+                raise SweepSpecError(
+                    f"{source}: {', '.join(needs)} act(s) only through the simulation: set "
+                    "simulate = true (a walk, its torques and a MuJoCo run per point, about "
+                    "1 s more per point)"
+                )
         spec = cls(
             robot, parameters, sampling, samples, seed, pareto,
-            tuple(sorted(gait.items())), start,
+            tuple(sorted(gait.items())), start, simulate, walk_steps, servo,
         )  # fmt: skip
         if sampling != "grid" and samples < 1:
             raise SweepSpecError(f"{source}: samples = {samples}; give at least 1 point")
@@ -225,11 +282,7 @@ def _parameter(entry: Any, where: str, robot: str, base: GaitSettings) -> SweepP
                 f"accepts, [{p.minimum:g}, {p.maximum:g}]"
             )
     elif kind == "servo":
-        raise SweepSpecError(
-            f"{where}: servo parameter {name!r}: servo parameters (compliance, dead band, "
-            "compensation) act only through the simulation, which sweeps do not run yet; "
-            "sweep gait or robot parameters"
-        )
+        _check_servo_range(name, lo, hi, where)
     else:
         raise SweepSpecError(f"{where}: kind = {kind!r}; give one of {', '.join(KINDS)}")
     return SweepParameter(kind, name, lo, hi, levels)
@@ -250,6 +303,30 @@ def _check_gait_range(name: str, lo: float, hi: float, base: GaitSettings, where
             raise SweepSpecError(
                 f"{where}: {name} range [{lo:g}, {hi:g}] leaves what the planner accepts: {error}"
             ) from None
+
+
+def _check_servo_range(name: str, lo: float, hi: float, where: str) -> None:
+    if name not in SERVO_PARAMETERS:
+        raise SweepSpecError(
+            f"{where}: unknown servo parameter {name!r}; known: {', '.join(SERVO_PARAMETERS)}"
+        )
+    p = SERVO_PARAMETERS[name]
+    if lo < p.minimum or hi > p.maximum:
+        raise SweepSpecError(
+            f"{where}: {name} range [{lo:g}, {hi:g}] leaves [{p.minimum:g}, {p.maximum:g}] "
+            f"({p.hint})"
+        )
+
+
+def _servo_table(value: Any, source: str) -> tuple[tuple[str, float], ...]:
+    table = _typed(value, dict, f"{source}: [servo]")
+    out = []
+    for name, raw in sorted(table.items()):
+        where = f"{source}: [servo] {name}"
+        number = float(raw) if isinstance(raw, bool) else _number(raw, where)
+        _check_servo_range(name, number, number, f"{source}: [servo]")
+        out.append((name, number))
+    return tuple(out)
 
 
 def _pareto(value: Any, source: str) -> tuple[tuple[str, Sense], ...]:
