@@ -1,6 +1,10 @@
 """Joint sliders in the studio: one per actuated joint, rebuilt for each robot; a slider sets
 its joint (clamped to its limits), closing the robot's declared loops, and follows the pose
-when something else moves the robot."""
+when something else moves the robot.
+
+During a drag the sliders are refreshed off the drag path, at most every SLIDER_REFRESH_S
+and always with the drag's last pose (a Throttle's trailing call): a dozen slider messages
+per gizmo event would cost more than the IK."""
 
 from __future__ import annotations
 
@@ -10,10 +14,13 @@ import viser
 from app.core.robot.loops import close_loops
 from app.core.robot.model import RobotModel
 from app.studio.state import LoadedRobot, Pose, StudioState
+from app.studio.throttle import Throttle
 from panels.joints_panel import JointsPanel
 
 LOOP_TOLERANCE_M = 1e-6
 """A pose whose loops cannot close to this gap is refused."""
+SLIDER_REFRESH_S = 0.1
+"""The sliders follow a drag at most this often (10 Hz), and show its last pose."""
 
 
 class JointsSession:
@@ -22,6 +29,9 @@ class JointsSession:
         self.panel = JointsPanel(server.gui, self.set_joint_angle)
         self._robot: RobotModel | None = None
         self._data = None
+        self._dragged: Throttle[Pose] = Throttle(
+            SLIDER_REFRESH_S, self._show_dragged, name="joint sliders during a drag"
+        )
         state.on_robot.connect(self._on_robot)
         state.on_pose.connect(self._on_pose)
 
@@ -32,8 +42,24 @@ class JointsSession:
 
     def _on_pose(self, pose: Pose) -> None:
         robot, panel = self._robot, self.panel
-        if robot is not None and pose.origin != "slider":
-            panel.set_angles(robot, robot.joint_angles(pose.q))
+        if robot is None or pose.origin == "slider":
+            return
+        if pose.dragged is not None:
+            self._dragged.submit(pose)
+            return
+        self._dragged.cancel()
+        panel.set_angles(robot, robot.joint_angles(pose.q))
+
+    def _show_dragged(self, pose: Pose) -> None:
+        """The sliders at a drag's pose, unless something has moved the robot since (that
+        pose's own subscriber call set them, or a newer drag pose is on its way here)."""
+        state = self._state
+        with state.lock:
+            robot = self._robot
+            if robot is None or state.pose is not pose or robot is not state.robot:
+                return
+            with self._server.atomic():
+                self.panel.set_angles(robot, robot.joint_angles(pose.q))
 
     def set_joint_angle(self, index: int, value: float) -> None:
         """Set one actuated joint [rad or m], clamped to its limits; NaN and unknown joints are
