@@ -52,6 +52,10 @@ step): a far, unreachable target otherwise asks for huge steps at a stretched, n
 leg, and the iterations jump between configurations instead of settling."""
 OFF_POLYGON = np.array([[1e3, 1e3], [1e3, -1e3], [-1e3, -1e3], [-1e3, 1e3]])
 """Clockwise square [m] that no CoM leaves: the polygon constraint's "off" state."""
+POLYGON_CACHE_M = 1e-6
+"""Stance soles that moved less than this [m, and rotation-matrix entries] since the support
+polygon was computed keep it: solver residue on a held foot (~1e-9 m) never misses the cache,
+and the polygon is then at most about this far from the exact one."""
 STANCE_WEIGHT = 1e4
 """Stance feet are soft tasks of overwhelming weight rather than hard equalities: with both
 feet of a 5-DOF-leg robot (dircon_biped) held, hard 6-D equalities are rank-deficient and
@@ -144,8 +148,10 @@ class WholeBodyIK:
         self._com_target.mask.set_axises("xy")
         self._com_target.configure("com target", "soft", 0.0)
         self._data = robot.model.createData()
-        self._polygon_cache: tuple[tuple, np.ndarray] | None = None
-        """(stance and stance-feet placements, polygon) of the last support polygon."""
+        self._polygon_cache: tuple[str, np.ndarray, np.ndarray] | None = None
+        """(stance, stance-feet placements, polygon) of the last support polygon computed."""
+        self._halfplanes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        """(polygon, inward edge normals, offsets) of the last polygon a margin was taken in."""
         self._hard_stance = True
         self._soft_goals: list[tuple[placo.FrameTask, str, np.ndarray]] = []
         """(task, frame, target) of soft frame targets, approached at most MAX_STEP per step."""
@@ -158,29 +164,53 @@ class WholeBodyIK:
                 self._posture.set_joint(joint.name, float(angle))
 
     def support_polygon(self, q: np.ndarray, stance: Stance) -> np.ndarray:
-        """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q."""
-        placements = self.robot.link_placements(q, self._data)
+        """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q.
+
+        Cached per stance: while the stance soles stay within POLYGON_CACHE_M of where the
+        polygon was computed (a drag of the other foot, solver residue along a motion), the
+        same polygon is returned without a new hull."""
         sides = ("left", "right") if stance == "both" else (stance,)
         feet = [foot for foot in self.robot.feet if foot.side in sides]
-        key = (stance, *(placements[foot.link].round(12).tobytes() for foot in feet))
-        if self._polygon_cache is not None and self._polygon_cache[0] == key:
-            return self._polygon_cache[1]  # the stance feet have not moved (a drag of the other)
-        points = []
-        for foot in feet:
-            T = placements[foot.link]
-            points.append((T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T[:, :2])
+        pin.framesForwardKinematics(self.robot.model, self._data, q)
+        oMf, ids = self._data.oMf, self.robot.link_frame_ids
+        placements = np.array([oMf[ids[foot.link]].homogeneous for foot in feet])
+        cache = self._polygon_cache
+        if (
+            cache is not None
+            and cache[0] == stance
+            and float(np.abs(placements - cache[1]).max()) < POLYGON_CACHE_M
+        ):
+            return cache[2]
+        points = [
+            (T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T[:, :2]
+            for foot, T in zip(feet, placements, strict=True)
+        ]
         polygon = convex_polygon(np.concatenate(points))
-        self._polygon_cache = (key, polygon)
+        self._polygon_cache = (stance, placements, polygon)
         return polygon
 
     def com_margin(self, q: np.ndarray, polygon: np.ndarray) -> float:
         """Signed distance [m] of the CoM's ground projection inside a convex polygon."""
-        com = self.robot.com(q, self._data)[:2]
-        edges = np.roll(polygon, -1, axis=0) - polygon
-        normals = (
-            np.stack([edges[:, 1], -edges[:, 0]], axis=1) / np.linalg.norm(edges, axis=1)[:, None]
-        )
-        return float(np.min(np.einsum("ij,ij->i", polygon - com, normals)))
+        return self._margin_of(self.robot.com(q, self._data)[:2], polygon)
+
+    def _margin_of(self, com_xy: np.ndarray, polygon: np.ndarray) -> float:
+        """Signed distance [m] of a point inside a convex polygon (its edges' inward normals
+        kept for the last polygon asked about)."""
+        if self._halfplanes is None or self._halfplanes[0] is not polygon:
+            edges = np.roll(polygon, -1, axis=0) - polygon
+            normals = (
+                np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+                / np.linalg.norm(edges, axis=1)[:, None]
+            )
+            self._halfplanes = (polygon, normals, np.einsum("ij,ij->i", polygon, normals))
+        _, normals, offsets = self._halfplanes
+        return float(np.min(offsets - normals @ com_xy))
+
+    def _placements(self, q: np.ndarray, links: list[str]) -> dict[str, np.ndarray]:
+        """T_world_link (4x4) of some links at q (RobotModel.link_placements does them all)."""
+        pin.framesForwardKinematics(self.robot.model, self._data, q)
+        oMf, ids = self._data.oMf, self.robot.link_frame_ids
+        return {link: oMf[ids[link]].homogeneous for link in links}
 
     def _guard_com(self, q: np.ndarray, polygon: np.ndarray) -> None:
         """Hard CoM-in-polygon constraint once the CoM is inside (the QP stays feasible from
@@ -188,7 +218,8 @@ class WholeBodyIK:
         while the CoM is outside, a CoM task pulls it towards the polygon's centroid."""
         if self._polygon_on:
             return
-        inside = self.com_margin(q, polygon) >= 0.0
+        del q  # the wrapper's kinematics are at q: its CoM is the one asked about
+        inside = self._margin_of(np.asarray(self._wrapper.com_world())[:2], polygon) >= 0.0
         self._set_polygon(inside, polygon)
         if inside:
             self._com_pull.configure("com pull", "soft", 0.0)
@@ -314,7 +345,7 @@ class WholeBodyIK:
         self._set_posture(robot.q_neutral if targets.posture_q is None else targets.posture_q)
         wrapper.state.q = start.copy()
         wrapper.update_kinematics()
-        placements = robot.link_placements(start, self._data)
+        placements = self._placements(start, [foot.link for foot in robot.feet])
         stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
         wanted = {}
         self._soft_goals = []
@@ -372,7 +403,7 @@ class WholeBodyIK:
             warnings.append(f"IK step failed ({error}); the pose was kept")
             q, iterations = start, 0
 
-        placements = robot.link_placements(q, self._data)
+        placements = self._placements(q, [self._pelvis_frame, *(foot.link for foot in robot.feet)])
         position_error, orientation_error = {}, {}
         for label, T_target in wanted.items():
             frame = self._pelvis_frame if label == "pelvis" else robot.foot(label).link
