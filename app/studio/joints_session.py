@@ -13,6 +13,7 @@ import viser
 
 from app.core.robot.loops import close_loops
 from app.core.robot.model import RobotModel
+from app.studio.signals import Signal
 from app.studio.state import LoadedRobot, Pose, StudioState
 from app.studio.throttle import Throttle
 from panels.joints_panel import JointsPanel
@@ -32,6 +33,8 @@ class JointsSession:
         self._dragged: Throttle[Pose] = Throttle(
             SLIDER_REFRESH_S, self._show_dragged, name="joint sliders during a drag"
         )
+        self.followed_drag: Signal[Pose] = Signal("joint_sliders_followed_drag")
+        """Emitted with a drag's pose once the sliders show it."""
         state.on_robot.connect(self._on_robot)
         state.on_pose.connect(self._on_pose)
 
@@ -60,6 +63,7 @@ class JointsSession:
                 return
             with self._server.atomic():
                 self.panel.set_angles(robot, robot.joint_angles(pose.q))
+            self.followed_drag.emit(pose)
 
     def set_joint_angle(self, index: int, value: float) -> None:
         """Set one actuated joint [rad or m], clamped to its limits; NaN and unknown joints are
