@@ -54,5 +54,7 @@ def test_the_polygon_is_kept_while_the_stance_foot_moves_by_residue_and_redone_a
     moved[0] += 0.01
     shifted = ik.support_polygon(moved, "right")
     # Independently: the polygon of a robot translated by 1 cm is the polygon translated.
-    assert np.allclose(np.sort(shifted, axis=0), np.sort(polygon + [0.01, 0.0], axis=0), atol=1e-12)
+    assert np.allclose(
+        np.sort(shifted, axis=0), np.sort(polygon + np.array([0.01, 0.0]), axis=0), atol=1e-12
+    )
     assert ik.support_polygon(q, "both") is not shifted
