@@ -17,6 +17,7 @@ Each `solve` iterates the QP from the given configuration until the step vanishe
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Literal
 
 import numpy as np
@@ -152,6 +153,8 @@ class WholeBodyIK:
         """(stance, stance-feet placements, polygon) of the last support polygon computed."""
         self._halfplanes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         """(polygon, inward edge normals, offsets) of the last polygon a margin was taken in."""
+        self._cost_here: float | None = None
+        """The goal cost at the wrapper's configuration, when the last step computed it."""
         self._hard_stance = True
         self._soft_goals: list[tuple[placo.FrameTask, str, np.ndarray]] = []
         """(task, frame, target) of soft frame targets, approached at most MAX_STEP per step."""
@@ -250,11 +253,14 @@ class WholeBodyIK:
         self._set_polygon(False)
         self._com_pull.configure("com pull", "soft", 0.0)
         iterations = 0
+        self._cost_here = None
         for iterations in range(1, max_iterations + 1):  # noqa: B007 - returned
             before = wrapper.state.q.copy()
             if polygon is not None:
                 self._guard_com(before, polygon)
-            cost = self._goal_cost()
+            # The goals do not change during the iterations: the cost the last accepted step
+            # was judged by is the cost here.
+            cost = self._goal_cost() if self._cost_here is None else self._cost_here
             for task, frame, goal in self._soft_goals:
                 task.T_world_frame = _clamped_towards(wrapper.get_T_world_frame(frame), goal)
             dq = np.asarray(self._solver.solve(False))
@@ -264,7 +270,7 @@ class WholeBodyIK:
                 before, dq, cost, pulling=polygon is not None and not self._polygon_on
             ):
                 break  # no step along dq lowers the goal cost: the closest pose is reached
-            if float(np.linalg.norm(dq)) < step_tolerance:
+            if math.sqrt(float(dq @ dq)) < step_tolerance:
                 break
         return wrapper.state.q.copy(), iterations
 
@@ -273,8 +279,9 @@ class WholeBodyIK:
         cost = 0.0
         for _, frame, goal in self._soft_goals:
             current = self._wrapper.get_T_world_frame(frame)
-            cost += float(np.sum((goal[:3, 3] - current[:3, 3]) ** 2))
-            cost += ROTATION_WEIGHT * float(np.sum(pin.log3(current[:3, :3].T @ goal[:3, :3]) ** 2))
+            delta = goal[:3, 3] - current[:3, 3]
+            turn = pin.log3(current[:3, :3].T @ goal[:3, :3])
+            cost += float(delta @ delta) + ROTATION_WEIGHT * float(turn @ turn)
         return cost
 
     def _take_step(self, before: np.ndarray, dq: np.ndarray, cost: float, pulling: bool) -> bool:
@@ -282,6 +289,7 @@ class WholeBodyIK:
         the CoM is being pulled into the polygon, or when there is no soft goal). False, with
         the configuration unchanged, when none does: iterating further would only wander."""
         model, wrapper = self.robot.model, self._wrapper
+        self._cost_here = None
         if pulling or not self._soft_goals or cost < 1e-12:
             wrapper.state.q = pin.integrate(model, before, dq)
             wrapper.update_kinematics()
@@ -289,7 +297,9 @@ class WholeBodyIK:
         for gain in (1.0, 0.5, 0.25, 0.125, 0.0625):
             wrapper.state.q = pin.integrate(model, before, gain * dq)
             wrapper.update_kinematics()
-            if self._goal_cost() < cost * (1.0 - 1e-9):
+            after = self._goal_cost()
+            if after < cost * (1.0 - 1e-9):
+                self._cost_here = after
                 return True
         wrapper.state.q = before
         wrapper.update_kinematics()
@@ -463,11 +473,11 @@ def _clamped_towards(T_current: np.ndarray, T_goal: np.ndarray) -> np.ndarray:
     """T_goal, or the pose MAX_STEP_M / MAX_STEP_RAD from T_current in its direction."""
     out = np.array(T_goal, dtype=float)
     delta = T_goal[:3, 3] - T_current[:3, 3]
-    distance = float(np.linalg.norm(delta))
+    distance = math.sqrt(float(delta @ delta))
     if distance > MAX_STEP_M:
         out[:3, 3] = T_current[:3, 3] + delta * (MAX_STEP_M / distance)
     rotation = pin.log3(T_current[:3, :3].T @ T_goal[:3, :3])
-    angle = float(np.linalg.norm(rotation))
+    angle = math.sqrt(float(rotation @ rotation))
     if angle > MAX_STEP_RAD:
         out[:3, :3] = T_current[:3, :3] @ pin.exp3(rotation * (MAX_STEP_RAD / angle))
     return out
