@@ -136,6 +136,7 @@ class WholeBodyIK:
             task.configure(f"loop {loop.name}", "soft", LOOP_WEIGHT)
         self._posture = self._solver.add_joints_task()
         self._posture.configure("posture", "soft", posture_weight)
+        self._posture_angles: np.ndarray | None = None
         self._set_posture(robot.q_neutral)
         self._damping = self._solver.add_regularization_task(DAMPING_MIN)
         self._polygon = self._solver.add_com_polygon_constraint([np.zeros(2)] * 3, com_margin_m)
@@ -155,6 +156,9 @@ class WholeBodyIK:
         """(polygon, inward edge normals, offsets) of the last polygon a margin was taken in."""
         self._cost_here: float | None = None
         """The goal cost at the wrapper's configuration, when the last step computed it."""
+        self._goals_here: list[tuple[np.ndarray, np.ndarray]] = []
+        """(frame placement, rotation to the goal) of each soft goal where the goal cost was
+        last computed: the clamped targets of the next step start from them."""
         self._hard_stance = True
         self._soft_goals: list[tuple[placo.FrameTask, str, np.ndarray]] = []
         """(task, frame, target) of soft frame targets, approached at most MAX_STEP per step."""
@@ -162,6 +166,9 @@ class WholeBodyIK:
 
     def _set_posture(self, q: np.ndarray) -> None:
         angles = self.robot.joint_angles(q)
+        if self._posture_angles is not None and np.array_equal(angles, self._posture_angles):
+            return  # already the posture task's target (a motion's samples: the standing pose)
+        self._posture_angles = angles
         for joint, angle in zip(self.robot.joints, angles, strict=True):
             if joint.kind != "continuous":
                 self._posture.set_joint(joint.name, float(angle))
@@ -261,8 +268,10 @@ class WholeBodyIK:
             # The goals do not change during the iterations: the cost the last accepted step
             # was judged by is the cost here.
             cost = self._goal_cost() if self._cost_here is None else self._cost_here
-            for task, frame, goal in self._soft_goals:
-                task.T_world_frame = _clamped_towards(wrapper.get_T_world_frame(frame), goal)
+            for (task, _, goal), (current, turn) in zip(
+                self._soft_goals, self._goals_here, strict=True
+            ):
+                task.T_world_frame = _clamped_towards(current, goal, turn)
             dq = np.asarray(self._solver.solve(False))
             if not np.all(np.isfinite(dq)):
                 raise FloatingPointError("non-finite step")
@@ -277,11 +286,13 @@ class WholeBodyIK:
     def _goal_cost(self) -> float:
         """Weighted distance of the soft goals: Σ |Δp|² [m²] + ROTATION_WEIGHT·|Δθ|² [rad²]."""
         cost = 0.0
+        self._goals_here = []
         for _, frame, goal in self._soft_goals:
             current = self._wrapper.get_T_world_frame(frame)
             delta = goal[:3, 3] - current[:3, 3]
             turn = pin.log3(current[:3, :3].T @ goal[:3, :3])
             cost += float(delta @ delta) + ROTATION_WEIGHT * float(turn @ turn)
+            self._goals_here.append((current, turn))
         return cost
 
     def _take_step(self, before: np.ndarray, dq: np.ndarray, cost: float, pulling: bool) -> bool:
@@ -350,11 +361,9 @@ class WholeBodyIK:
         step_tolerance: float = 1e-6,
     ) -> IkResult:
         """Iterate the QP from q_start towards the targets; never returns NaN."""
-        robot, wrapper = self.robot, self._wrapper
+        robot = self.robot
         start = np.array(q_start, dtype=float)
         self._set_posture(robot.q_neutral if targets.posture_q is None else targets.posture_q)
-        wrapper.state.q = start.copy()
-        wrapper.update_kinematics()
         placements = self._placements(start, [foot.link for foot in robot.feet])
         stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
         wanted = {}
@@ -469,14 +478,18 @@ def convex_polygon(points_xy: np.ndarray) -> np.ndarray:
     return points_xy[hull.vertices]
 
 
-def _clamped_towards(T_current: np.ndarray, T_goal: np.ndarray) -> np.ndarray:
-    """T_goal, or the pose MAX_STEP_M / MAX_STEP_RAD from T_current in its direction."""
+def _clamped_towards(
+    T_current: np.ndarray, T_goal: np.ndarray, rotation: np.ndarray | None = None
+) -> np.ndarray:
+    """T_goal, or the pose MAX_STEP_M / MAX_STEP_RAD from T_current in its direction
+    (`rotation`: log3 of the rotation from T_current to T_goal, when already known)."""
     out = np.array(T_goal, dtype=float)
     delta = T_goal[:3, 3] - T_current[:3, 3]
     distance = math.sqrt(float(delta @ delta))
     if distance > MAX_STEP_M:
         out[:3, 3] = T_current[:3, 3] + delta * (MAX_STEP_M / distance)
-    rotation = pin.log3(T_current[:3, :3].T @ T_goal[:3, :3])
+    if rotation is None:
+        rotation = pin.log3(T_current[:3, :3].T @ T_goal[:3, :3])
     angle = math.sqrt(float(rotation @ rotation))
     if angle > MAX_STEP_RAD:
         out[:3, :3] = T_current[:3, :3] @ pin.exp3(rotation * (MAX_STEP_RAD / angle))
