@@ -4,9 +4,12 @@ when something else moves the robot.
 
 During a drag the sliders are refreshed off the drag path, at most every SLIDER_REFRESH_S
 and always with the drag's last pose (a Throttle's trailing call): a dozen slider messages
-per gizmo event would cost more than the IK."""
+per gizmo event would cost more than the IK. The refresh holds the panel's own lock, not the
+studio state's, so a drag event never waits for it."""
 
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 import viser
@@ -30,6 +33,10 @@ class JointsSession:
         self.panel = JointsPanel(server.gui, self.set_joint_angle)
         self._robot: RobotModel | None = None
         self._data = None
+        self._panel_lock = threading.Lock()
+        """Held while the sliders are set or rebuilt (the drag refresh runs on a timer thread)."""
+        self._latest: Pose | None = None
+        """The newest pose announced (poses are announced under the state's lock, in order)."""
         self._dragged: Throttle[Pose] = Throttle(
             SLIDER_REFRESH_S, self._show_dragged, name="joint sliders during a drag"
         )
@@ -40,10 +47,13 @@ class JointsSession:
 
     def _on_robot(self, loaded: LoadedRobot) -> None:
         robot = loaded.robot
-        self._robot, self._data = robot, robot.model.createData()
-        self.panel.show_robot(robot, robot.joint_angles(robot.q_neutral))
+        with self._panel_lock:
+            self._latest = None
+            self._robot, self._data = robot, robot.model.createData()
+            self.panel.show_robot(robot, robot.joint_angles(robot.q_neutral))
 
     def _on_pose(self, pose: Pose) -> None:
+        self._latest = pose  # a drag refresh still pending for an older pose is dropped
         robot, panel = self._robot, self.panel
         if robot is None or pose.origin == "slider":
             return
@@ -51,19 +61,19 @@ class JointsSession:
             self._dragged.submit(pose)
             return
         self._dragged.cancel()
-        panel.set_angles(robot, robot.joint_angles(pose.q))
+        with self._panel_lock:
+            panel.set_angles(robot, robot.joint_angles(pose.q))
 
     def _show_dragged(self, pose: Pose) -> None:
         """The sliders at a drag's pose, unless something has moved the robot since (that
         pose's own subscriber call set them, or a newer drag pose is on its way here)."""
-        state = self._state
-        with state.lock:
+        with self._panel_lock:
             robot = self._robot
-            if robot is None or state.pose is not pose or robot is not state.robot:
+            if robot is None or self._latest is not pose:
                 return
             with self._server.atomic():
                 self.panel.set_angles(robot, robot.joint_angles(pose.q))
-            self.followed_drag.emit(pose)
+        self.followed_drag.emit(pose)
 
     def set_joint_angle(self, index: int, value: float) -> None:
         """Set one actuated joint [rad or m], clamped to its limits; NaN and unknown joints are
@@ -86,7 +96,8 @@ class JointsSession:
                         f"⚠️ {joint.name} at {np.rad2deg(angles[index]):.1f}° cannot close "
                         f"the robot's loops (gap {closure.residual_m * 1000:.1f} mm): pose kept."
                     )
-                    self.panel.set_angles(robot, robot.joint_angles(pose.q))
+                    with self._panel_lock:
+                        self.panel.set_angles(robot, robot.joint_angles(pose.q))
                     return
                 q = closure.q
             self.panel.show_status("")
