@@ -10,6 +10,7 @@ worked through and no callback waits behind another tab's solve.
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import viser
 
 from app.core.errors import StudioError
@@ -36,6 +37,8 @@ class PoseSession:
         self.handles: DragHandles | None = None
         self.balance: BalanceView | None = None
         self.last_result: IkResult | None = None
+        self._data: pin.Data | None = None
+        """Pinocchio data of the loaded robot, for the handles' placements."""
         self._hidden_for_playback = False
         self._roots = AlternatingRoot("/pose")
         self._drags: Coalescer[str, np.ndarray] = Coalescer(self._solve_drag)
@@ -50,6 +53,7 @@ class PoseSession:
             if overlay is not None:
                 overlay.remove()
         self.posing = Posing(robot, com_in_support=self.panel.com_in_support.value)
+        self._data = robot.model.createData()
         lower, upper = robot.bounds_m(robot.q_neutral, robot.model.createData())
         frames = {
             "left": robot.feet[0].link,
@@ -70,14 +74,14 @@ class PoseSession:
         self.last_result = None
 
     def _on_pose(self, pose: Pose) -> None:
-        posing, handles, balance = self.posing, self.handles, self.balance
-        if posing is None or handles is None or balance is None:
+        posing, handles, balance, data = self.posing, self.handles, self.balance, self._data
+        if posing is None or handles is None or balance is None or data is None:
             return
         if pose.dragged is None:
             self.last_result = None
         posing.stance = pose.stance
         robot = posing.robot
-        handles.place(robot.link_placements(pose.q, robot.model.createData()), skip=pose.dragged)
+        handles.place(robot.link_placements(pose.q, data), skip=pose.dragged)
         state = posing.balance(pose.q)
         balance.update(
             state.polygon_xy,

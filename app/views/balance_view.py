@@ -7,6 +7,7 @@ import numpy as np
 import viser
 
 from app.core.quaternions import matrix_to_wxyz
+from app.views.pose_push import push_pose
 
 INSIDE_RGB = (40, 170, 80)
 OUTSIDE_RGB = (220, 40, 40)
@@ -49,12 +50,12 @@ class BalanceView:
         points[:, 0, :2], points[:, 1, :2] = closed[:-1], closed[1:]
         points[:, :, 2] = 0.002
         self._polygon.points = points.astype(np.float32)
-        self._com.position = (float(com_world[0]), float(com_world[1]), 0.003)
+        push_pose(self._com, np.array([com_world[0], com_world[1], 0.003]))
         self._com.color = INSIDE_RGB if com_inside else OUTSIDE_RGB
         for i, marker in enumerate(self._limits):
             marker.visible = self.visible and i < len(joints_near_limit_m)
             if i < len(joints_near_limit_m):
-                marker.position = joints_near_limit_m[i]
+                push_pose(marker, joints_near_limit_m[i])
         while len(self._contacts) < len(contact_frames):
             i = len(self._contacts)
             self._contacts.append(
@@ -63,8 +64,7 @@ class BalanceView:
                 )
             )
         for frame, T in zip(self._contacts, contact_frames, strict=False):
-            frame.position = T[:3, 3]
-            frame.wxyz = matrix_to_wxyz(T[:3, :3])
+            push_pose(frame, T[:3, 3], matrix_to_wxyz(T[:3, :3]))
             frame.visible = self.visible
 
     def set_visible(self, visible: bool) -> None:

@@ -12,6 +12,8 @@ import numpy as np
 import viser
 
 from app.core.quaternions import matrix_to_wxyz, wxyz_to_matrix
+from app.views.pose_push import push_pose
+from app.views.robot_view import SEND_TOLERANCE
 
 HANDLES = ("left", "right", "pelvis")
 
@@ -48,8 +50,12 @@ class DragHandles:
             if which == skip:
                 continue
             T = placements[self.frames[which]]
-            control.position = T[:3, 3]
-            control.wxyz = matrix_to_wxyz(T[:3, :3])
+            wxyz = matrix_to_wxyz(T[:3, :3])
+            if (
+                np.abs(T[:3, 3] - control.position).max() >= SEND_TOLERANCE
+                or np.abs(wxyz - control.wxyz).max() >= SEND_TOLERANCE
+            ):
+                push_pose(control, T[:3, 3], wxyz)
 
     def set_visible(self, visible: bool) -> None:
         for control in self._controls.values():

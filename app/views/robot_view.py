@@ -12,13 +12,15 @@ import viser
 
 from app.core.quaternions import matrix_to_wxyz, wxyz_to_matrix
 from app.core.robot.model import RobotModel
+from app.views.pose_push import push_pose
 
 DEFAULT_RGB = (150, 156, 168)
 COLLISION_RGB = (255, 140, 40)
 COM_RGB = (230, 40, 90)
-SEND_TOLERANCE = 1e-9
+SEND_TOLERANCE = 1e-7
 """A node whose relative placement changed less than this (m, and rotation-matrix entries)
-is not re-sent."""
+since it was last sent is not re-sent: far below what a screen shows, far above the IK's
+rounding residue on links that did not move."""
 
 
 class RobotView:
@@ -44,8 +46,12 @@ class RobotView:
             for link in self._links
         }
         self._link_frames: dict[str, viser.FrameHandle] = {}
-        self._sent: dict[str, np.ndarray] = {}
-        """Placement of each link's node relative to its parent link's node, as last sent."""
+        self._parent_index = np.array(
+            [self._links.index(p) if (p := self._parent[link]) else -1 for link in self._links]
+        )
+        self._shown: np.ndarray | None = None
+        """(links, 4, 4) placement of each link's node relative to its parent link's node, as
+        last sent (None: nothing sent yet)."""
         self._visuals: list[viser.SceneNodeHandle] = []
         self._collisions: list[viser.SceneNodeHandle] = []
         self._axes: list[viser.FrameHandle] = []
@@ -117,32 +123,66 @@ class RobotView:
         )
 
     def update(self, q: np.ndarray) -> None:
-        """Move every link to its placement at configuration q (only changed nodes are sent)."""
+        """Move every link to its placement at configuration q: one pass of forward
+        kinematics, the changed nodes found at once against what the scene shows, and only
+        their pose fields queued (app.views.pose_push, without viser's per-setter check)."""
         pin.framesForwardKinematics(self.robot.model, self.data, q)
+        relative = self._relative_placements()
+        if self._shown is None:
+            moved = turned = np.ones(len(self._links), dtype=bool)
+        else:
+            moved = np.abs(relative[:, :3, 3] - self._shown[:, :3, 3]).max(axis=1) >= SEND_TOLERANCE
+            turned = (
+                np.abs(relative[:, :3, :3] - self._shown[:, :3, :3]).max(axis=(1, 2))
+                >= SEND_TOLERANCE
+            )
+            self._shown = self._shown.copy()
+        shown = relative.copy() if self._shown is None else self._shown
+        for i in np.flatnonzero(moved | turned):
+            frame = self._link_frames[self._links[i]]
+            # A revolute joint turns its link without moving it: send only what changed.
+            position = relative[i, :3, 3] if moved[i] else None
+            wxyz = matrix_to_wxyz(relative[i, :3, :3]) if turned[i] else None
+            push_pose(frame, position, wxyz)
+            if moved[i]:
+                shown[i, :3, 3] = relative[i, :3, 3]
+            if turned[i]:
+                shown[i, :3, :3] = relative[i, :3, :3]
+        self._shown = shown  # what the scene shows: creeping changes still get sent
+        self._update_com(q)
+
+    def update_per_node(self, q: np.ndarray) -> None:
+        """The same scene through viser's setters, every link's position and orientation
+        assigned one by one: the reference the batched `update` is checked and timed against."""
+        pin.framesForwardKinematics(self.robot.model, self.data, q)
+        for link, relative in zip(self._links, self._relative_placements(), strict=True):
+            frame = self._link_frames[link]
+            frame.position = relative[:3, 3]
+            frame.wxyz = matrix_to_wxyz(relative[:3, :3])
+        self._shown = None
+        self._update_com(q)
+
+    def _relative_placements(self) -> np.ndarray:
+        """(links, 4, 4) placement of each link relative to its parent link, from self.data."""
         oMf, ids = self.data.oMf, self.robot.link_frame_ids
-        for link, frame in self._link_frames.items():
-            parent = self._parent[link]
-            T = oMf[ids[link]] if parent is None else oMf[ids[parent]].actInv(oMf[ids[link]])
-            relative = T.homogeneous
-            last = self._sent.get(link)
-            # A revolute joint turns its link without moving it: send only what changed (each
-            # pose field is one message, and one more check inside viser).
-            moved = last is None or np.abs(relative[:3, 3] - last[:3, 3]).max() >= SEND_TOLERANCE
-            turned = last is None or np.abs(relative[:3, :3] - last[:3, :3]).max() >= SEND_TOLERANCE
-            if not (moved or turned):
-                continue
-            sent = relative.copy() if last is None else last.copy()
-            if moved:
-                frame.position = relative[:3, 3]
-                sent[:3, 3] = relative[:3, 3]
-            if turned:
-                frame.wxyz = matrix_to_wxyz(relative[:3, :3])
-                sent[:3, :3] = relative[:3, :3]
-            self._sent[link] = sent  # what the scene shows: creeping changes still get sent
+        world = np.array([oMf[ids[link]].homogeneous for link in self._links])
+        parents = self._parent_index
+        relative = world.copy()
+        has_parent = parents >= 0
+        parent_T = world[parents[has_parent]]
+        R_t = np.transpose(parent_T[:, :3, :3], (0, 2, 1))
+        child = world[has_parent]
+        relative[has_parent, :3, :3] = R_t @ child[:, :3, :3]
+        relative[has_parent, :3, 3] = np.einsum(
+            "nij,nj->ni", R_t, child[:, :3, 3] - parent_T[:, :3, 3]
+        )
+        return relative
+
+    def _update_com(self, q: np.ndarray) -> None:
         if self._com.visible:
             com = pin.centerOfMass(self.robot.model, self.data, q, False)
-            self._com.position = com
-            self._com_ground.position = (com[0], com[1], 0.0)
+            push_pose(self._com, com)
+            push_pose(self._com_ground, np.array([com[0], com[1], 0.0]))
 
     def link_pose(self, link: str) -> tuple[np.ndarray, np.ndarray]:
         """World (position, wxyz) of a link's node, composed from what was sent to the scene."""

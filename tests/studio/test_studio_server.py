@@ -189,7 +189,8 @@ def test_dragging_a_foot_moves_it_and_keeps_the_other_planted(studio):
     right_before = _placement(studio, right)
     target = _placement(studio, left)
     target[:3, 3] += [0.02, 0.0, 0.03]
-    studio.pose.request_drag("left", target)
+    # The sliders follow a drag off its path (at most 10 Hz, ending on its last pose).
+    wait_for_signal(studio.joints.followed_drag, lambda: studio.pose.request_drag("left", target))
     np.testing.assert_allclose(_placement(studio, left)[:3, 3], target[:3, 3], atol=1e-3)
     np.testing.assert_allclose(_placement(studio, right), right_before, atol=1e-6)
     assert studio.state.pose.stance == "right"

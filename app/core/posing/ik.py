@@ -17,6 +17,7 @@ Each `solve` iterates the QP from the given configuration until the step vanishe
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Literal
 
 import numpy as np
@@ -52,6 +53,10 @@ step): a far, unreachable target otherwise asks for huge steps at a stretched, n
 leg, and the iterations jump between configurations instead of settling."""
 OFF_POLYGON = np.array([[1e3, 1e3], [1e3, -1e3], [-1e3, -1e3], [-1e3, 1e3]])
 """Clockwise square [m] that no CoM leaves: the polygon constraint's "off" state."""
+POLYGON_CACHE_M = 1e-6
+"""Stance soles that moved less than this [m, and rotation-matrix entries] since the support
+polygon was computed keep it: solver residue on a held foot (~1e-9 m) never misses the cache,
+and the polygon is then at most about this far from the exact one."""
 STANCE_WEIGHT = 1e4
 """Stance feet are soft tasks of overwhelming weight rather than hard equalities: with both
 feet of a 5-DOF-leg robot (dircon_biped) held, hard 6-D equalities are rank-deficient and
@@ -131,6 +136,7 @@ class WholeBodyIK:
             task.configure(f"loop {loop.name}", "soft", LOOP_WEIGHT)
         self._posture = self._solver.add_joints_task()
         self._posture.configure("posture", "soft", posture_weight)
+        self._posture_angles: np.ndarray | None = None
         self._set_posture(robot.q_neutral)
         self._damping = self._solver.add_regularization_task(DAMPING_MIN)
         self._polygon = self._solver.add_com_polygon_constraint([np.zeros(2)] * 3, com_margin_m)
@@ -144,8 +150,15 @@ class WholeBodyIK:
         self._com_target.mask.set_axises("xy")
         self._com_target.configure("com target", "soft", 0.0)
         self._data = robot.model.createData()
-        self._polygon_cache: tuple[tuple, np.ndarray] | None = None
-        """(stance and stance-feet placements, polygon) of the last support polygon."""
+        self._polygon_cache: tuple[str, np.ndarray, np.ndarray] | None = None
+        """(stance, stance-feet placements, polygon) of the last support polygon computed."""
+        self._halfplanes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        """(polygon, inward edge normals, offsets) of the last polygon a margin was taken in."""
+        self._cost_here: float | None = None
+        """The goal cost at the wrapper's configuration, when the last step computed it."""
+        self._goals_here: list[tuple[np.ndarray, np.ndarray]] = []
+        """(frame placement, rotation to the goal) of each soft goal where the goal cost was
+        last computed: the clamped targets of the next step start from them."""
         self._hard_stance = True
         self._soft_goals: list[tuple[placo.FrameTask, str, np.ndarray]] = []
         """(task, frame, target) of soft frame targets, approached at most MAX_STEP per step."""
@@ -153,34 +166,61 @@ class WholeBodyIK:
 
     def _set_posture(self, q: np.ndarray) -> None:
         angles = self.robot.joint_angles(q)
+        if self._posture_angles is not None and np.array_equal(angles, self._posture_angles):
+            return  # already the posture task's target (a motion's samples: the standing pose)
+        self._posture_angles = angles
         for joint, angle in zip(self.robot.joints, angles, strict=True):
             if joint.kind != "continuous":
                 self._posture.set_joint(joint.name, float(angle))
 
     def support_polygon(self, q: np.ndarray, stance: Stance) -> np.ndarray:
-        """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q."""
-        placements = self.robot.link_placements(q, self._data)
+        """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q.
+
+        Cached per stance: while the stance soles stay within POLYGON_CACHE_M of where the
+        polygon was computed (a drag of the other foot, solver residue along a motion), the
+        same polygon is returned without a new hull."""
         sides = ("left", "right") if stance == "both" else (stance,)
         feet = [foot for foot in self.robot.feet if foot.side in sides]
-        key = (stance, *(placements[foot.link].round(12).tobytes() for foot in feet))
-        if self._polygon_cache is not None and self._polygon_cache[0] == key:
-            return self._polygon_cache[1]  # the stance feet have not moved (a drag of the other)
-        points = []
-        for foot in feet:
-            T = placements[foot.link]
-            points.append((T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T[:, :2])
+        pin.framesForwardKinematics(self.robot.model, self._data, q)
+        oMf, ids = self._data.oMf, self.robot.link_frame_ids
+        placements = np.array([oMf[ids[foot.link]].homogeneous for foot in feet])
+        cache = self._polygon_cache
+        if (
+            cache is not None
+            and cache[0] == stance
+            and float(np.abs(placements - cache[1]).max()) < POLYGON_CACHE_M
+        ):
+            return cache[2]
+        points = [
+            (T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T[:, :2]
+            for foot, T in zip(feet, placements, strict=True)
+        ]
         polygon = convex_polygon(np.concatenate(points))
-        self._polygon_cache = (key, polygon)
+        self._polygon_cache = (stance, placements, polygon)
         return polygon
 
     def com_margin(self, q: np.ndarray, polygon: np.ndarray) -> float:
         """Signed distance [m] of the CoM's ground projection inside a convex polygon."""
-        com = self.robot.com(q, self._data)[:2]
-        edges = np.roll(polygon, -1, axis=0) - polygon
-        normals = (
-            np.stack([edges[:, 1], -edges[:, 0]], axis=1) / np.linalg.norm(edges, axis=1)[:, None]
-        )
-        return float(np.min(np.einsum("ij,ij->i", polygon - com, normals)))
+        return self._margin_of(self.robot.com(q, self._data)[:2], polygon)
+
+    def _margin_of(self, com_xy: np.ndarray, polygon: np.ndarray) -> float:
+        """Signed distance [m] of a point inside a convex polygon (its edges' inward normals
+        kept for the last polygon asked about)."""
+        if self._halfplanes is None or self._halfplanes[0] is not polygon:
+            edges = np.roll(polygon, -1, axis=0) - polygon
+            normals = (
+                np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+                / np.linalg.norm(edges, axis=1)[:, None]
+            )
+            self._halfplanes = (polygon, normals, np.einsum("ij,ij->i", polygon, normals))
+        _, normals, offsets = self._halfplanes
+        return float(np.min(offsets - normals @ com_xy))
+
+    def _placements(self, q: np.ndarray, links: list[str]) -> dict[str, np.ndarray]:
+        """T_world_link (4x4) of some links at q (RobotModel.link_placements does them all)."""
+        pin.framesForwardKinematics(self.robot.model, self._data, q)
+        oMf, ids = self._data.oMf, self.robot.link_frame_ids
+        return {link: oMf[ids[link]].homogeneous for link in links}
 
     def _guard_com(self, q: np.ndarray, polygon: np.ndarray) -> None:
         """Hard CoM-in-polygon constraint once the CoM is inside (the QP stays feasible from
@@ -188,7 +228,8 @@ class WholeBodyIK:
         while the CoM is outside, a CoM task pulls it towards the polygon's centroid."""
         if self._polygon_on:
             return
-        inside = self.com_margin(q, polygon) >= 0.0
+        del q  # the wrapper's kinematics are at q: its CoM is the one asked about
+        inside = self._margin_of(np.asarray(self._wrapper.com_world())[:2], polygon) >= 0.0
         self._set_polygon(inside, polygon)
         if inside:
             self._com_pull.configure("com pull", "soft", 0.0)
@@ -219,13 +260,18 @@ class WholeBodyIK:
         self._set_polygon(False)
         self._com_pull.configure("com pull", "soft", 0.0)
         iterations = 0
+        self._cost_here = None
         for iterations in range(1, max_iterations + 1):  # noqa: B007 - returned
             before = wrapper.state.q.copy()
             if polygon is not None:
                 self._guard_com(before, polygon)
-            cost = self._goal_cost()
-            for task, frame, goal in self._soft_goals:
-                task.T_world_frame = _clamped_towards(wrapper.get_T_world_frame(frame), goal)
+            # The goals do not change during the iterations: the cost the last accepted step
+            # was judged by is the cost here.
+            cost = self._goal_cost() if self._cost_here is None else self._cost_here
+            for (task, _, goal), (current, turn) in zip(
+                self._soft_goals, self._goals_here, strict=True
+            ):
+                task.T_world_frame = _clamped_towards(current, goal, turn)
             dq = np.asarray(self._solver.solve(False))
             if not np.all(np.isfinite(dq)):
                 raise FloatingPointError("non-finite step")
@@ -233,17 +279,20 @@ class WholeBodyIK:
                 before, dq, cost, pulling=polygon is not None and not self._polygon_on
             ):
                 break  # no step along dq lowers the goal cost: the closest pose is reached
-            if float(np.linalg.norm(dq)) < step_tolerance:
+            if math.sqrt(float(dq @ dq)) < step_tolerance:
                 break
         return wrapper.state.q.copy(), iterations
 
     def _goal_cost(self) -> float:
         """Weighted distance of the soft goals: Σ |Δp|² [m²] + ROTATION_WEIGHT·|Δθ|² [rad²]."""
         cost = 0.0
+        self._goals_here = []
         for _, frame, goal in self._soft_goals:
             current = self._wrapper.get_T_world_frame(frame)
-            cost += float(np.sum((goal[:3, 3] - current[:3, 3]) ** 2))
-            cost += ROTATION_WEIGHT * float(np.sum(pin.log3(current[:3, :3].T @ goal[:3, :3]) ** 2))
+            delta = goal[:3, 3] - current[:3, 3]
+            turn = pin.log3(current[:3, :3].T @ goal[:3, :3])
+            cost += float(delta @ delta) + ROTATION_WEIGHT * float(turn @ turn)
+            self._goals_here.append((current, turn))
         return cost
 
     def _take_step(self, before: np.ndarray, dq: np.ndarray, cost: float, pulling: bool) -> bool:
@@ -251,6 +300,7 @@ class WholeBodyIK:
         the CoM is being pulled into the polygon, or when there is no soft goal). False, with
         the configuration unchanged, when none does: iterating further would only wander."""
         model, wrapper = self.robot.model, self._wrapper
+        self._cost_here = None
         if pulling or not self._soft_goals or cost < 1e-12:
             wrapper.state.q = pin.integrate(model, before, dq)
             wrapper.update_kinematics()
@@ -258,7 +308,9 @@ class WholeBodyIK:
         for gain in (1.0, 0.5, 0.25, 0.125, 0.0625):
             wrapper.state.q = pin.integrate(model, before, gain * dq)
             wrapper.update_kinematics()
-            if self._goal_cost() < cost * (1.0 - 1e-9):
+            after = self._goal_cost()
+            if after < cost * (1.0 - 1e-9):
+                self._cost_here = after
                 return True
         wrapper.state.q = before
         wrapper.update_kinematics()
@@ -309,12 +361,10 @@ class WholeBodyIK:
         step_tolerance: float = 1e-6,
     ) -> IkResult:
         """Iterate the QP from q_start towards the targets; never returns NaN."""
-        robot, wrapper = self.robot, self._wrapper
+        robot = self.robot
         start = np.array(q_start, dtype=float)
         self._set_posture(robot.q_neutral if targets.posture_q is None else targets.posture_q)
-        wrapper.state.q = start.copy()
-        wrapper.update_kinematics()
-        placements = robot.link_placements(start, self._data)
+        placements = self._placements(start, [foot.link for foot in robot.feet])
         stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
         wanted = {}
         self._soft_goals = []
@@ -372,7 +422,7 @@ class WholeBodyIK:
             warnings.append(f"IK step failed ({error}); the pose was kept")
             q, iterations = start, 0
 
-        placements = robot.link_placements(q, self._data)
+        placements = self._placements(q, [self._pelvis_frame, *(foot.link for foot in robot.feet)])
         position_error, orientation_error = {}, {}
         for label, T_target in wanted.items():
             frame = self._pelvis_frame if label == "pelvis" else robot.foot(label).link
@@ -428,15 +478,19 @@ def convex_polygon(points_xy: np.ndarray) -> np.ndarray:
     return points_xy[hull.vertices]
 
 
-def _clamped_towards(T_current: np.ndarray, T_goal: np.ndarray) -> np.ndarray:
-    """T_goal, or the pose MAX_STEP_M / MAX_STEP_RAD from T_current in its direction."""
+def _clamped_towards(
+    T_current: np.ndarray, T_goal: np.ndarray, rotation: np.ndarray | None = None
+) -> np.ndarray:
+    """T_goal, or the pose MAX_STEP_M / MAX_STEP_RAD from T_current in its direction
+    (`rotation`: log3 of the rotation from T_current to T_goal, when already known)."""
     out = np.array(T_goal, dtype=float)
     delta = T_goal[:3, 3] - T_current[:3, 3]
-    distance = float(np.linalg.norm(delta))
+    distance = math.sqrt(float(delta @ delta))
     if distance > MAX_STEP_M:
         out[:3, 3] = T_current[:3, 3] + delta * (MAX_STEP_M / distance)
-    rotation = pin.log3(T_current[:3, :3].T @ T_goal[:3, :3])
-    angle = float(np.linalg.norm(rotation))
+    if rotation is None:
+        rotation = pin.log3(T_current[:3, :3].T @ T_goal[:3, :3])
+    angle = math.sqrt(float(rotation @ rotation))
     if angle > MAX_STEP_RAD:
         out[:3, :3] = T_current[:3, :3] @ pin.exp3(rotation * (MAX_STEP_RAD / angle))
     return out

@@ -1,0 +1,460 @@
+"""The whole-body IK as it was before the drag path was trimmed (commit 911ac9d), kept
+unchanged as the reference the trimmed solver must agree with (tests/core/test_ik_trimmed.py).
+
+Whole-body inverse kinematics of a biped: feet, pelvis, CoM in the support polygon.
+
+Built on placo's KinematicsSolver (a QP per step over the configuration increment):
+- stance feet are held where they are (they do not slide while the other foot moves) by
+  tasks of overwhelming weight (see STANCE_WEIGHT); the moving foot and the pelvis are soft frame tasks, so an unreachable target yields the
+  closest pose instead of a failure;
+- the CoM's ground projection is kept inside the support polygon (convex hull of the stance
+  soles' corners, shrunk by a margin), when that option is on: a hard inequality once inside,
+  a pull towards the polygon while outside (see COM_PULL_WEIGHT);
+- joint limits are hard; declared loop closures are heavily weighted relative-position tasks,
+  polished to numerical precision by app.core.robot.loops;
+- a light posture task towards the standing pose keeps the redundancy from wandering.
+
+Each `solve` iterates the QP from the given configuration until the step vanishes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Literal
+
+import numpy as np
+import pinocchio as pin
+import placo
+from scipy.spatial import ConvexHull, QhullError
+
+from app.core.posing.stance import anchor_on_foot
+from app.core.robot.loops import close_loops
+from app.core.robot.model import RobotModel
+from app.core.robot.urdf_xml import canonical_urdf
+
+Stance = Literal["left", "right", "both"]
+REACHED_M = 1e-3
+"""A target closer than this (and REACHED_RAD) counts as reached."""
+REACHED_RAD = np.deg2rad(0.5)
+NEAR_LIMIT_RAD = np.deg2rad(3.0)
+COM_PULL_WEIGHT = 1.0
+"""While the CoM is outside the support polygon (a hard constraint would make the QP
+infeasible), a CoM task this much heavier than the moving foot pulls it in; once inside, the
+polygon is a hard constraint."""
+LOOP_WEIGHT = 1e7
+COM_TARGET_WEIGHT = 10.0
+DAMPING_MIN = 1e-6
+FLOOR_TOLERANCE_M = 1e-4
+"""A sole this little below the floor is rounding, not a request to dig in."""
+ROTATION_WEIGHT = 0.01
+"""[m²/rad²] in the goal cost used to accept steps: 0.1 rad counts like 1 cm."""
+MAX_STEP_M = 0.03
+MAX_STEP_RAD = 0.3
+"""A soft target further than this is approached through intermediate targets (one per QP
+step): a far, unreachable target otherwise asks for huge steps at a stretched, near-singular
+leg, and the iterations jump between configurations instead of settling."""
+OFF_POLYGON = np.array([[1e3, 1e3], [1e3, -1e3], [-1e3, -1e3], [-1e3, 1e3]])
+"""Clockwise square [m] that no CoM leaves: the polygon constraint's "off" state."""
+STANCE_WEIGHT = 1e4
+"""Stance feet are soft tasks of overwhelming weight rather than hard equalities: with both
+feet of a 5-DOF-leg robot (dircon_biped) held, hard 6-D equalities are rank-deficient and
+the QP fails, while a consistent soft target is still met to ~1e-9 m."""
+
+
+@dataclasses.dataclass(frozen=True)
+class IkTargets:
+    """Where the feet and pelvis should be. None leaves a frame free (pelvis) or where it is (feet)."""
+
+    T_world_left: np.ndarray | None = None
+    T_world_right: np.ndarray | None = None
+    T_world_pelvis: np.ndarray | None = None
+    com_xy: np.ndarray | None = None
+    """Where the CoM's ground projection should be [m] (soft, heavier than the feet)."""
+    stance: Stance = "both"
+    """Feet held (overwhelming weight) at their target, or where they are when they have none;
+    the other foot follows its target (soft)."""
+    posture_q: np.ndarray | None = None
+    """Configuration whose joint angles the light posture task pulls towards (the redundancy:
+    what the targets leave free); None for the standing pose. Drag posing passes the pose
+    before the drag, so that moving a foot moves its leg and leaves the rest near where it
+    was."""
+
+
+@dataclasses.dataclass(frozen=True)
+class IkResult:
+    q: np.ndarray
+    """The solved configuration (the start configuration if the solve failed)."""
+    reached: bool
+    """Every soft target within REACHED_M and REACHED_RAD."""
+    iterations: int
+    position_error_m: dict[str, float]
+    """Per target ("left", "right", "pelvis", "com") distance to it [m]."""
+    orientation_error_rad: dict[str, float]
+    com_margin_m: float
+    """Distance of the CoM's ground projection inside the support polygon [m] (negative: outside)."""
+    joints_near_limit: tuple[str, ...]
+    warnings: tuple[str, ...]
+
+
+class WholeBodyIK:
+    """An IK solver bound to one robot. Not thread-safe: one per user of the robot."""
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        *,
+        com_in_support: bool = True,
+        com_margin_m: float = 0.01,
+        posture_weight: float = 1e-5,
+    ) -> None:
+        self.robot = robot
+        self.com_in_support = com_in_support
+        self.com_margin_m = com_margin_m
+        self._wrapper = placo.RobotWrapper("", 0, canonical_urdf(robot.tree))
+        if list(self._wrapper.model.names) != list(robot.model.names):
+            raise RuntimeError(
+                "placo and pinocchio disagree on the joint order"
+            )  # a bug, not input
+        self._solver = placo.KinematicsSolver(self._wrapper)
+        self._solver.enable_joint_limits(True)
+        self._solver.enable_velocity_limits(False)
+        self._solver.mask_fbase(not robot.floating_base)
+        left, right = (foot.link for foot in robot.feet)
+        self._feet = {
+            "left": self._solver.add_frame_task(left, np.eye(4)),
+            "right": self._solver.add_frame_task(right, np.eye(4)),
+        }
+        self._pelvis_frame = robot.tree.root
+        self._pelvis = self._solver.add_frame_task(self._pelvis_frame, np.eye(4))
+        self._pelvis.configure("pelvis", "soft", 0.0, 0.0)
+        for loop in robot.tree.loops:
+            task = self._solver.add_relative_position_task(loop.link_a, loop.link_b, np.zeros(3))
+            # Soft but dominant: a planar loop's out-of-plane rows are rank-deficient as hard
+            # equalities. close_loops() polishes the result to numerical precision.
+            task.configure(f"loop {loop.name}", "soft", LOOP_WEIGHT)
+        self._posture = self._solver.add_joints_task()
+        self._posture.configure("posture", "soft", posture_weight)
+        self._set_posture(robot.q_neutral)
+        self._damping = self._solver.add_regularization_task(DAMPING_MIN)
+        self._polygon = self._solver.add_com_polygon_constraint([np.zeros(2)] * 3, com_margin_m)
+        self._polygon.configure("com polygon", "hard", 1.0)
+        self._polygon_on = False
+        self._set_polygon(False)
+        self._com_pull = self._solver.add_com_task(np.zeros(3))
+        self._com_pull.mask.set_axises("xy")
+        self._com_pull.configure("com pull", "soft", 0.0)
+        self._com_target = self._solver.add_com_task(np.zeros(3))
+        self._com_target.mask.set_axises("xy")
+        self._com_target.configure("com target", "soft", 0.0)
+        self._data = robot.model.createData()
+        self._polygon_cache: tuple[tuple, np.ndarray] | None = None
+        """(stance and stance-feet placements, polygon) of the last support polygon."""
+        self._hard_stance = True
+        self._soft_goals: list[tuple[placo.FrameTask, str, np.ndarray]] = []
+        """(task, frame, target) of soft frame targets, approached at most MAX_STEP per step."""
+        """Stance feet are hard equalities unless that proved rank-deficient for this robot."""
+
+    def _set_posture(self, q: np.ndarray) -> None:
+        angles = self.robot.joint_angles(q)
+        for joint, angle in zip(self.robot.joints, angles, strict=True):
+            if joint.kind != "continuous":
+                self._posture.set_joint(joint.name, float(angle))
+
+    def support_polygon(self, q: np.ndarray, stance: Stance) -> np.ndarray:
+        """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q."""
+        placements = self.robot.link_placements(q, self._data)
+        sides = ("left", "right") if stance == "both" else (stance,)
+        feet = [foot for foot in self.robot.feet if foot.side in sides]
+        key = (stance, *(placements[foot.link].round(12).tobytes() for foot in feet))
+        if self._polygon_cache is not None and self._polygon_cache[0] == key:
+            return self._polygon_cache[1]  # the stance feet have not moved (a drag of the other)
+        points = []
+        for foot in feet:
+            T = placements[foot.link]
+            points.append((T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T[:, :2])
+        polygon = convex_polygon(np.concatenate(points))
+        self._polygon_cache = (key, polygon)
+        return polygon
+
+    def com_margin(self, q: np.ndarray, polygon: np.ndarray) -> float:
+        """Signed distance [m] of the CoM's ground projection inside a convex polygon."""
+        com = self.robot.com(q, self._data)[:2]
+        edges = np.roll(polygon, -1, axis=0) - polygon
+        normals = (
+            np.stack([edges[:, 1], -edges[:, 0]], axis=1) / np.linalg.norm(edges, axis=1)[:, None]
+        )
+        return float(np.min(np.einsum("ij,ij->i", polygon - com, normals)))
+
+    def _guard_com(self, q: np.ndarray, polygon: np.ndarray) -> None:
+        """Hard CoM-in-polygon constraint once the CoM is inside (the QP stays feasible from
+        there, and it stays on for the rest of the solve: switching back and forth chatters);
+        while the CoM is outside, a CoM task pulls it towards the polygon's centroid."""
+        if self._polygon_on:
+            return
+        inside = self.com_margin(q, polygon) >= 0.0
+        self._set_polygon(inside, polygon)
+        if inside:
+            self._com_pull.configure("com pull", "soft", 0.0)
+        else:
+            self._com_pull.target_world = np.array([*polygon.mean(axis=0), 0.0])
+            self._com_pull.configure("com pull", "soft", COM_PULL_WEIGHT)
+
+    def _set_polygon(self, on: bool, polygon: np.ndarray | None = None) -> None:
+        """Make the hard polygon constraint bite (the support polygon) or not (a huge square:
+        placo has no cheap on/off for a hard constraint, and removing one is unsafe)."""
+        if on and polygon is not None:
+            self._polygon.polygon = [np.array(p) for p in polygon[::-1]]  # placo wants clockwise
+        elif not on:
+            self._polygon.polygon = [np.array(p) for p in OFF_POLYGON]
+        self._polygon_on = on
+
+    def _iterate(
+        self,
+        start: np.ndarray,
+        polygon: np.ndarray | None,
+        max_iterations: int,
+        step_tolerance: float,
+    ) -> tuple[np.ndarray, int]:
+        """QP steps from start until they vanish; the CoM is guarded when a polygon is given."""
+        wrapper = self._wrapper
+        wrapper.state.q = start.copy()
+        wrapper.update_kinematics()
+        self._set_polygon(False)
+        self._com_pull.configure("com pull", "soft", 0.0)
+        iterations = 0
+        for iterations in range(1, max_iterations + 1):  # noqa: B007 - returned
+            before = wrapper.state.q.copy()
+            if polygon is not None:
+                self._guard_com(before, polygon)
+            cost = self._goal_cost()
+            for task, frame, goal in self._soft_goals:
+                task.T_world_frame = _clamped_towards(wrapper.get_T_world_frame(frame), goal)
+            dq = np.asarray(self._solver.solve(False))
+            if not np.all(np.isfinite(dq)):
+                raise FloatingPointError("non-finite step")
+            if not self._take_step(
+                before, dq, cost, pulling=polygon is not None and not self._polygon_on
+            ):
+                break  # no step along dq lowers the goal cost: the closest pose is reached
+            if float(np.linalg.norm(dq)) < step_tolerance:
+                break
+        return wrapper.state.q.copy(), iterations
+
+    def _goal_cost(self) -> float:
+        """Weighted distance of the soft goals: Σ |Δp|² [m²] + ROTATION_WEIGHT·|Δθ|² [rad²]."""
+        cost = 0.0
+        for _, frame, goal in self._soft_goals:
+            current = self._wrapper.get_T_world_frame(frame)
+            cost += float(np.sum((goal[:3, 3] - current[:3, 3]) ** 2))
+            cost += ROTATION_WEIGHT * float(np.sum(pin.log3(current[:3, :3].T @ goal[:3, :3]) ** 2))
+        return cost
+
+    def _take_step(self, before: np.ndarray, dq: np.ndarray, cost: float, pulling: bool) -> bool:
+        """Apply the longest of dq, dq/2, … dq/16 that lowers the goal cost (any step while
+        the CoM is being pulled into the polygon, or when there is no soft goal). False, with
+        the configuration unchanged, when none does: iterating further would only wander."""
+        model, wrapper = self.robot.model, self._wrapper
+        if pulling or not self._soft_goals or cost < 1e-12:
+            wrapper.state.q = pin.integrate(model, before, dq)
+            wrapper.update_kinematics()
+            return True
+        for gain in (1.0, 0.5, 0.25, 0.125, 0.0625):
+            wrapper.state.q = pin.integrate(model, before, gain * dq)
+            wrapper.update_kinematics()
+            if self._goal_cost() < cost * (1.0 - 1e-9):
+                return True
+        wrapper.state.q = before
+        wrapper.update_kinematics()
+        return False
+
+    def _anchor(self, q: np.ndarray, stance_targets: dict[str, np.ndarray]) -> np.ndarray:
+        """Move the floating base rigidly so the first stance foot is exactly on its target.
+
+        The QP's linearised steps can leave a held foot a fraction of a millimetre off after
+        a compromise with an unreachable target; a rigid correction of the base removes that
+        exactly without changing a joint (the whole robot shifts by the same amount).
+        """
+        if not self.robot.floating_base or not stance_targets:
+            return q
+        side, T_target = next(iter(stance_targets.items()))
+        return anchor_on_foot(self.robot, q, self.robot.foot(side).link, T_target, self._data)
+
+    def _solve_steps(
+        self,
+        start: np.ndarray,
+        polygon: np.ndarray | None,
+        stance_sides: tuple[str, ...],
+        warnings: list[str],
+        max_iterations: int,
+        step_tolerance: float,
+    ) -> tuple[np.ndarray, int]:
+        q, iterations = self._iterate(start, polygon, max_iterations, step_tolerance)
+        if polygon is not None and not self._polygon_on:
+            # The CoM never got inside: rather than a contorted compromise, show the pose
+            # without the polygon and say so.
+            warnings.append(
+                "the CoM cannot be brought over the support polygon from here "
+                "(a leg without ankle roll cannot shift it over one flat foot): shown without it"
+            )
+            q, iterations = self._iterate(start, None, max_iterations, step_tolerance)
+        if self.robot.tree.loops:
+            q = close_loops(self.robot, q, self._data).q
+        q = self._anchor(q, {side: self._feet[side].T_world_frame for side in stance_sides})
+        return q, iterations
+
+    def solve(
+        self,
+        q_start: np.ndarray,
+        targets: IkTargets,
+        *,
+        com_in_support: bool | None = None,
+        max_iterations: int = 60,
+        step_tolerance: float = 1e-6,
+    ) -> IkResult:
+        """Iterate the QP from q_start towards the targets; never returns NaN."""
+        robot, wrapper = self.robot, self._wrapper
+        start = np.array(q_start, dtype=float)
+        self._set_posture(robot.q_neutral if targets.posture_q is None else targets.posture_q)
+        wrapper.state.q = start.copy()
+        wrapper.update_kinematics()
+        placements = robot.link_placements(start, self._data)
+        stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
+        wanted = {}
+        self._soft_goals = []
+        warnings: list[str] = []
+        for foot in robot.feet:
+            given = targets.T_world_left if foot.side == "left" else targets.T_world_right
+            wanted[foot.side] = placements[foot.link] if given is None else np.asarray(given)
+            task = self._feet[foot.side]
+            task.T_world_frame = wanted[foot.side]
+            if foot.side not in stance_sides:
+                aim = _above_floor(wanted[foot.side], foot.sole_corners_m, foot.side, warnings)
+                task.T_world_frame = aim
+                task.configure(foot.side, "soft", 1.0, 1.0)
+                self._soft_goals.append((task, foot.link, aim))
+            elif self._hard_stance:
+                task.configure(foot.side, "hard", 1.0, 1.0)
+            else:
+                task.configure(foot.side, "soft", STANCE_WEIGHT, STANCE_WEIGHT)
+        if targets.T_world_pelvis is not None:
+            self._pelvis.T_world_frame = targets.T_world_pelvis
+            self._pelvis.configure("pelvis", "soft", 1.0, 1.0)
+            wanted["pelvis"] = np.asarray(targets.T_world_pelvis)
+            self._soft_goals.append((self._pelvis, self._pelvis_frame, wanted["pelvis"]))
+        else:
+            self._pelvis.configure("pelvis", "soft", 0.0, 0.0)
+        if targets.com_xy is not None:
+            self._com_target.target_world = np.array(
+                [*np.asarray(targets.com_xy, dtype=float)[:2], 0.0]
+            )
+            self._com_target.configure("com target", "soft", COM_TARGET_WEIGHT)
+        else:
+            self._com_target.configure("com target", "soft", 0.0)
+        use_polygon = self.com_in_support if com_in_support is None else com_in_support
+        polygon = self.support_polygon(start, targets.stance)
+
+        def steps() -> tuple[np.ndarray, int]:
+            chosen = polygon if use_polygon else None
+            return self._solve_steps(
+                start, chosen, stance_sides, warnings, max_iterations, step_tolerance
+            )
+
+        try:
+            try:
+                q, iterations = steps()
+            except RuntimeError:
+                if not self._hard_stance:
+                    raise
+                # Hard 6-D stance equalities are rank-deficient for legs with fewer than six
+                # joints (dircon_biped with both feet down): hold the feet by weight instead.
+                self._hard_stance = False
+                for side in stance_sides:
+                    self._feet[side].configure(side, "soft", STANCE_WEIGHT, STANCE_WEIGHT)
+                q, iterations = steps()
+        except (RuntimeError, FloatingPointError) as error:
+            warnings.append(f"IK step failed ({error}); the pose was kept")
+            q, iterations = start, 0
+
+        placements = robot.link_placements(q, self._data)
+        position_error, orientation_error = {}, {}
+        for label, T_target in wanted.items():
+            frame = self._pelvis_frame if label == "pelvis" else robot.foot(label).link
+            T = placements[frame]
+            position_error[label] = float(np.linalg.norm(T[:3, 3] - T_target[:3, 3]))
+            orientation_error[label] = float(
+                np.linalg.norm(pin.log3(T_target[:3, :3].T @ T[:3, :3]))
+            )
+        reached = all(
+            position_error[k] < REACHED_M and orientation_error[k] < REACHED_RAD for k in wanted
+        )
+        if not reached:
+            worst = max(wanted, key=lambda k: position_error[k])
+            warnings.append(
+                f"{worst} target out of reach: closest pose is {position_error[worst] * 1000:.1f} mm, "
+                f"{np.rad2deg(orientation_error[worst]):.1f}° away"
+            )
+        com_xy = robot.com(q, self._data)[:2]
+        if targets.com_xy is not None:
+            position_error["com"] = float(np.linalg.norm(com_xy - np.asarray(targets.com_xy)[:2]))
+            if position_error["com"] >= REACHED_M:
+                reached = False
+                warnings.append(
+                    f"CoM target out of reach: {position_error['com'] * 1000:.1f} mm away"
+                )
+        margin = self.com_margin(q, self.support_polygon(q, targets.stance))
+        angles = robot.joint_angles(q)
+        near = tuple(
+            joint.name
+            for joint, angle in zip(robot.joints, angles, strict=True)
+            if joint.kind != "continuous"
+            and min(angle - joint.lower, joint.upper - angle) < NEAR_LIMIT_RAD
+        )
+        return IkResult(
+            q, reached, iterations, position_error, orientation_error, margin, near, tuple(warnings)
+        )
+
+
+DEGENERATE_PAD_M = 5e-4
+"""Half-size of the square put around each point of a sole without area (a foot whose
+geometry is missing, or a line contact): its polygon is then a thin strip, not an error."""
+
+
+def convex_polygon(points_xy: np.ndarray) -> np.ndarray:
+    """Counter-clockwise corners of the convex hull of points (N, 2) [m]; points on a line (or
+    one point) give the hull of small squares around them."""
+    try:
+        hull = ConvexHull(points_xy)
+    except QhullError:
+        offsets = DEGENERATE_PAD_M * np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]])
+        points_xy = (points_xy[:, None, :] + offsets[None]).reshape(-1, 2)
+        hull = ConvexHull(points_xy)
+    return points_xy[hull.vertices]
+
+
+def _clamped_towards(T_current: np.ndarray, T_goal: np.ndarray) -> np.ndarray:
+    """T_goal, or the pose MAX_STEP_M / MAX_STEP_RAD from T_current in its direction."""
+    out = np.array(T_goal, dtype=float)
+    delta = T_goal[:3, 3] - T_current[:3, 3]
+    distance = float(np.linalg.norm(delta))
+    if distance > MAX_STEP_M:
+        out[:3, 3] = T_current[:3, 3] + delta * (MAX_STEP_M / distance)
+    rotation = pin.log3(T_current[:3, :3].T @ T_goal[:3, :3])
+    angle = float(np.linalg.norm(rotation))
+    if angle > MAX_STEP_RAD:
+        out[:3, :3] = T_current[:3, :3] @ pin.exp3(rotation * (MAX_STEP_RAD / angle))
+    return out
+
+
+def _above_floor(
+    T_goal: np.ndarray, sole_corners_m: np.ndarray, side: str, warnings: list[str]
+) -> np.ndarray:
+    """The goal raised so that no sole corner is below the floor (z = 0), with a warning."""
+    lowest = float((T_goal[:3, :3] @ sole_corners_m.T)[2].min() + T_goal[2, 3])
+    if lowest >= -FLOOR_TOLERANCE_M:
+        return T_goal
+    raised = np.array(T_goal, dtype=float)
+    raised[2, 3] -= lowest
+    warnings.append(
+        f"{side} foot target is {-lowest * 1000:.0f} mm below the floor: aiming for the floor instead"
+    )
+    return raised
