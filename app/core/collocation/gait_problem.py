@@ -332,13 +332,15 @@ class GaitProblem:
         iteration_callback: IterationCallback | None = None,
         *,
         cold: bool = False,
+        start_z: np.ndarray | None = None,
     ) -> GaitResult:
         """Solve for `settings`. Starts from `warm_start` if it is a converged result of this
         structure, else from the last converged solution of this problem, else (or with
         cold=True) from the built-in guess. Never raises for bad settings or a failed solve:
         the result says what happened, and `last_good` keeps the last converged gait.
         `iteration_callback(iteration, objective, violation)` runs at every IPOPT iteration and
-        may return True to stop the solve."""
+        may return True to stop the solve. `start_z` (nx,) is a primal starting point given
+        directly (e.g. a coarser mesh's optimum interpolated, app.core.collocation.refine)."""
         try:
             settings.validate()
         except GaitSettingsError as error:
@@ -357,6 +359,10 @@ class GaitProblem:
         ):
             start = warm_start
         x0 = self._guess(settings) if cold or start is None else start.z
+        if start_z is not None:
+            if start_z.shape != (self.nlp.nx,):
+                raise ValueError(f"start_z has shape {start_z.shape}, need ({self.nlp.nx},)")
+            x0, start = start_z, None
         lbx, ubx, lbg, ubg = self._bounds(settings)
         run = functools.partial(
             self.compiled.run, np.clip(x0, lbx, ubx), self._parameters(settings),
