@@ -338,7 +338,8 @@ def _entry_feedforward(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             par["scaling_ok"],
             par["one_worker_per_10s_s"],
             "the same pool code with one worker",
-            f"speed-up {par['scaling']:.2f}×",
+            f"speed-up {par['scaling']:.2f}× (busy loops on the same pools: "
+            f"{par['busy_loop_scaling']:.2f}×)",
         )
     )
     return ff, figures
