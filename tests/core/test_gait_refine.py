@@ -8,11 +8,11 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from app.core.collocation.gait_problem import GaitProblem
+from app.core.collocation.gait_problem import REFINE_ABOVE_KNOTS, GaitProblem
 from app.core.collocation.refine import interpolate_point, solve_refined
 from app.core.collocation.settings import GaitSettings
 
-FINE_KNOTS = 60
+FINE_KNOTS = 64
 
 
 @pytest.fixture(scope="module")
@@ -50,3 +50,14 @@ def test_interpolation_keeps_a_point_of_the_same_mesh(solved):
     coarse, _, _, refined, _ = solved
     z = refined.coarse.z
     np.testing.assert_allclose(interpolate_point(coarse, z, coarse), z, rtol=0, atol=1e-12)
+
+
+def test_a_first_solve_of_a_fine_mesh_refines_by_itself(solved):
+    """Above REFINE_ABOVE_KNOTS a solve without a warm start starts from the coarse optimum:
+    the same answer as the explicit refinement, in as few iterations."""
+    _, _, settings, refined, _ = solved
+    assert FINE_KNOTS > REFINE_ABOVE_KNOTS
+    auto = GaitProblem(knots=FINE_KNOTS).solve(settings)
+    assert auto.converged
+    np.testing.assert_allclose(auto.z, refined.fine.z, rtol=0, atol=1e-8)
+    assert auto.iterations == refined.fine.iterations
