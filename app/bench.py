@@ -548,7 +548,7 @@ def _entry_plan_fine(ctx: BenchContext) -> tuple[dict, list[Figure]]:
 def _bench_plan_fine() -> dict:
     """The paper's case at MAX_KNOTS: coarse solve, interpolation, warm fine solve (CPU)."""
     from app.core.collocation.gait_problem import GaitProblem
-    from app.core.collocation.refine import interpolate_point
+    from app.core.collocation.mesh_interpolation import interpolate_point
     from app.core.collocation.settings import MAX_KNOTS, GaitSettings
 
     coarse = GaitProblem()

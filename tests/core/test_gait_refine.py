@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from app.core.collocation.gait_problem import REFINE_ABOVE_KNOTS, GaitProblem
-from app.core.collocation.refine import interpolate_point, solve_refined
+from app.core.collocation.mesh_interpolation import interpolate_point
+from app.core.collocation.refine import solve_refined
 from app.core.collocation.settings import GaitSettings
 
 FINE_KNOTS = 64

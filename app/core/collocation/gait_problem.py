@@ -41,6 +41,7 @@ import numpy as np
 
 from app.core.collocation.blame import hardest_constraint
 from app.core.collocation.guess import initial_guess
+from app.core.collocation.mesh_interpolation import interpolate_point
 from app.core.collocation.nlp import CompiledNlp, IterationCallback, SolveOutcome, SxNlp
 from app.core.collocation.planar_model import BASE_DOF, PlanarModel
 from app.core.collocation.readout import read_result
@@ -397,8 +398,6 @@ class GaitProblem:
 
     def _refined_start(self, settings: GaitSettings) -> np.ndarray | None:
         """The COARSE_KNOTS optimum for these settings on this mesh, or None if it fails."""
-        from app.core.collocation.refine import interpolate_point
-
         if self._coarse is None:
             self._coarse = GaitProblem(self.model, COARSE_KNOTS, self.baseline)
         coarse = self._coarse.solve(dataclasses.replace(settings, knots=COARSE_KNOTS))
