@@ -79,9 +79,11 @@ IPOPT_OPTIONS: dict[str, Any] = {
 WARM_ITERATIONS_BEFORE_FALLBACK = 40
 """Iterations a primal-dual warm start gets before the solve restarts from the primal point
 alone (measured: 5–15 iterations after one slider step on the built-ins and Roban S14)."""
-REFINE_ABOVE_KNOTS = 60
+REFINE_ABOVE_KNOTS = 80
 """A cold solve of more knots than this starts from a 38-knot solve interpolated onto its mesh
-(app.core.collocation.refine): at 160 knots 6 s of CPU instead of ~280 s from the guess."""
+(app.core.collocation.refine): at 160 knots 6 s of CPU instead of ~280 s from the guess. Up to
+80 knots (the studio's slider) the guess does well enough (60 knots: 59 iterations, 3.9 s) that
+building the coarse problem (~5 s) would not pay."""
 COARSE_KNOTS = 38
 BASE_Z_LOW_RATIO = 0.4
 """Lowest base height, as a fraction of the straight-leg standing height (keeps IPOPT sane)."""
