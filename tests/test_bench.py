@@ -47,7 +47,14 @@ def test_markdown_table_has_a_row_per_figure_and_names_the_machine():
 
 def test_registry_holds_every_entry_in_run_order():
     assert list(ENTRIES)[:3] == ["load", "slider", "drag"]
-    for name in ("feedforward", "compensation_slider", "plan", "simulate", "simulate_click"):
+    for name in (
+        "feedforward",
+        "compensation_slider",
+        "plan",
+        "plan_fine",
+        "simulate",
+        "simulate_click",
+    ):
         assert name in ENTRIES
 
 

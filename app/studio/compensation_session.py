@@ -1,5 +1,6 @@
 """Torque feed-forward and compensation in the studio: compute τ for the current motion (in a
-named worker thread, with progress), keep the coefficients and the virtual servos, predict the
+named worker thread, with progress, over a warm pool of worker processes on every core: started
+by the first computation, kept for the next ones, closed with the studio), keep the coefficients and the virtual servos, predict the
 motion with and without compensation on every edit, and drive the ghosts and plots.
 
 Editing a coefficient never recomputes the torques: τ depends on the plan only. Edits from
@@ -18,6 +19,7 @@ import threading
 import numpy as np
 import viser
 
+from app.core.dynamics.parallel import FeedForwardPool
 from app.core.dynamics.peaks import TorquePeaks, torque_peaks
 from app.core.dynamics.wbc import FeedForward, torque_feedforward
 from app.core.errors import StudioError
@@ -101,6 +103,10 @@ class CompensationSession:
         self._lock = threading.Lock()
         """Guards coefficients, servos, torques and prediction (edits come from viser's pool)."""
         self._worker: threading.Thread | None = None
+        self._pool: FeedForwardPool | None = None
+        """The feed-forward's worker processes, started by the first computation."""
+        self._pool_lock = threading.Lock()
+        self._closed = False
         self._predictions: Coalescer[str, None] = Coalescer(lambda _key, _value: self._repredict())
         self._then: tuple[str, ...] = ()
         """Stages the current motion asked for (the one-click pipeline), not yet run."""
@@ -250,7 +256,9 @@ class CompensationSession:
     ) -> None:
         result: FeedForward | None = None
         try:
-            result = torque_feedforward(robot, trajectory, progress=self.panel.show_progress)
+            result = torque_feedforward(
+                robot, trajectory, progress=self.panel.show_progress, pool=self._warm_pool()
+            )
             self._accept(robot, trajectory, result)
         except StudioError as error:
             result = None
@@ -570,9 +578,28 @@ class CompensationSession:
             )
         return ReplayLayers(prediction, shown, extra, traces, parameters, verdicts)
 
+    @property
+    def feedforward_pool(self) -> FeedForwardPool | None:
+        """The warm worker pool of the torque feed-forward, None before the first use."""
+        return self._pool
+
+    def _warm_pool(self) -> FeedForwardPool:
+        """The studio's pool of feed-forward workers (one per core), started on first use."""
+        with self._pool_lock:
+            if self._closed:
+                raise StudioError("the studio is shutting down")
+            if self._pool is None:
+                self._pool = FeedForwardPool()
+            return self._pool
+
     def close(self) -> None:
         self._cursor.cancel()
         self.runner.close()
+        with self._pool_lock:
+            self._closed = True
+            pool, self._pool = self._pool, None
+        if pool is not None:
+            pool.close()
 
     # --- files -------------------------------------------------------------------------------
 

@@ -183,3 +183,35 @@ def test_simulate_needs_torques(tmp_path):
         assert studio.compensation.runner.running is None
     finally:
         studio.stop()
+
+
+def test_compute_torques_runs_on_the_studios_pool_and_equals_the_serial_run(studio):
+    """The studio's τ come from its warm worker pool (kept for the next click) and equal the
+    in-process serial feed-forward to 1e-9 of the peak torque (as the CLI's check)."""
+    from app.core.dynamics.wbc import torque_feedforward
+
+    session = studio.compensation
+    pool = session.feedforward_pool
+    assert pool is not None and pool.workers >= 1
+    robot, trajectory = studio.state.robot, studio.state.trajectory
+    serial = torque_feedforward(robot, trajectory)
+    pooled = session.feedforward
+    assert pooled is not None
+    peak = max(1.0, float(np.nanmax(np.abs(serial.tau_Nm))))
+    assert np.nanmax(np.abs(pooled.tau_Nm - serial.tau_Nm)) <= 1e-9 * peak
+    assert pooled.status == serial.status
+    # A second click reuses the same warm pool.
+    again = compute_torques(studio)
+    assert again is not None and session.feedforward_pool is pool
+
+
+def test_the_feedforward_pool_closes_with_the_studio(tmp_path):
+    studio = start_studio(tmp_path / "data")
+    try:
+        studio.motions.panel.motion.value = "one_leg_stand"
+        studio.motions.panel.generate.value = True
+        assert compute_torques(studio) is not None
+        assert studio.compensation.feedforward_pool is not None
+    finally:
+        studio.stop()
+    assert studio.compensation.feedforward_pool is None

@@ -41,6 +41,7 @@ import numpy as np
 
 from app.core.collocation.blame import hardest_constraint
 from app.core.collocation.guess import initial_guess
+from app.core.collocation.mesh_interpolation import interpolate_point
 from app.core.collocation.nlp import CompiledNlp, IterationCallback, SolveOutcome, SxNlp
 from app.core.collocation.planar_model import BASE_DOF, PlanarModel
 from app.core.collocation.readout import read_result
@@ -78,6 +79,12 @@ IPOPT_OPTIONS: dict[str, Any] = {
 WARM_ITERATIONS_BEFORE_FALLBACK = 40
 """Iterations a primal-dual warm start gets before the solve restarts from the primal point
 alone (measured: 5–15 iterations after one slider step on the built-ins and Roban S14)."""
+REFINE_ABOVE_KNOTS = 80
+"""A cold solve of more knots than this starts from a 38-knot solve interpolated onto its mesh
+(app.core.collocation.refine): at 160 knots 6 s of CPU instead of ~280 s from the guess. Up to
+80 knots (the studio's slider) the guess does well enough (60 knots: 59 iterations, 3.9 s) that
+building the coarse problem (~5 s) would not pay."""
+COARSE_KNOTS = 38
 BASE_Z_LOW_RATIO = 0.4
 """Lowest base height, as a fraction of the straight-leg standing height (keeps IPOPT sane)."""
 BASE_PITCH_BOUNDS_RAD = (-0.8, 0.8)
@@ -128,6 +135,8 @@ class GaitProblem:
         """Time to build the NLP and IPOPT's derivative functions [s]."""
         self.last_good: GaitResult | None = None
         """The last converged result: the default warm start, kept through failed solves."""
+        self._coarse: GaitProblem | None = None
+        """The 38-knot problem whose solve starts a fine mesh's first solve, built on use."""
 
     # -- building ------------------------------------------------------------------------------
 
@@ -332,13 +341,15 @@ class GaitProblem:
         iteration_callback: IterationCallback | None = None,
         *,
         cold: bool = False,
+        start_z: np.ndarray | None = None,
     ) -> GaitResult:
         """Solve for `settings`. Starts from `warm_start` if it is a converged result of this
         structure, else from the last converged solution of this problem, else (or with
         cold=True) from the built-in guess. Never raises for bad settings or a failed solve:
         the result says what happened, and `last_good` keeps the last converged gait.
         `iteration_callback(iteration, objective, violation)` runs at every IPOPT iteration and
-        may return True to stop the solve."""
+        may return True to stop the solve. `start_z` (nx,) is a primal starting point given
+        directly (e.g. a coarser mesh's optimum interpolated, app.core.collocation.refine)."""
         try:
             settings.validate()
         except GaitSettingsError as error:
@@ -357,6 +368,17 @@ class GaitProblem:
         ):
             start = warm_start
         x0 = self._guess(settings) if cold or start is None else start.z
+        if (
+            start_z is None
+            and start is None
+            and not cold
+            and self.structure[0] > REFINE_ABOVE_KNOTS
+        ):
+            start_z = self._refined_start(settings)
+        if start_z is not None:
+            if start_z.shape != (self.nlp.nx,):
+                raise ValueError(f"start_z has shape {start_z.shape}, need ({self.nlp.nx},)")
+            x0, start = start_z, None
         lbx, ubx, lbg, ubg = self._bounds(settings)
         run = functools.partial(
             self.compiled.run, np.clip(x0, lbx, ubx), self._parameters(settings),
@@ -375,6 +397,15 @@ class GaitProblem:
             return result
         blame = hardest_constraint(outcome, self.nlp, (lbg, ubg), settings, (lbx, ubx))
         return dataclasses.replace(result, blame=blame)
+
+    def _refined_start(self, settings: GaitSettings) -> np.ndarray | None:
+        """The COARSE_KNOTS optimum for these settings on this mesh, or None if it fails."""
+        if self._coarse is None:
+            self._coarse = GaitProblem(self.model, COARSE_KNOTS, self.baseline)
+        coarse = self._coarse.solve(dataclasses.replace(settings, knots=COARSE_KNOTS))
+        if not coarse.converged:
+            return None
+        return interpolate_point(self._coarse, coarse.z, self)
 
     def _has_multipliers(self, result: GaitResult) -> bool:
         return result.lam_x.shape == (self.nlp.nx,) and result.lam_g.shape == (self.nlp.ng,)

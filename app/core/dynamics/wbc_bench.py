@@ -74,7 +74,9 @@ def bench_feedforward(roban_urdf: Path | None = None) -> dict:
 
 def bench_parallel(workers: int | None = None) -> dict:
     """servo_biped's squats through a warm pool of one worker, then of every core (each run
-    once untimed first, so both pools have built their QPs): wall times and the scaling."""
+    once untimed first, so both pools have built their QPs): wall times and the scaling,
+    beside the scaling of plain busy loops over the same pools (what the machine gives two
+    processes at that moment: on a shared machine the ceiling is below the core count)."""
     import os
 
     from app.core.dynamics.parallel import FeedForwardPool
@@ -82,15 +84,17 @@ def bench_parallel(workers: int | None = None) -> dict:
     robot = load_robot("servo_biped")
     traj = run_motion(robot, "one_leg_squats", dt=0.01).trajectory
     cores = workers or os.cpu_count() or 1
-    seconds = {}
+    seconds, busy = {}, {}
     for n in (1, cores):
         with FeedForwardPool(n) as pool:
             torque_feedforward(robot, traj, pool=pool)
             begin = time.perf_counter()
             torque_feedforward(robot, traj, pool=pool)
             seconds[n] = time.perf_counter() - begin
+            busy[n] = pool.busy_wall_s(2 * cores, 0.05)
     scaling = seconds[1] / seconds[cores]
     return {
+        "busy_loop_scaling": busy[1] / busy[cores],
         "cores": cores,
         "one_worker_per_10s_s": seconds[1] * 10.0 / traj.duration,
         "all_cores_per_10s_s": seconds[cores] * 10.0 / traj.duration,

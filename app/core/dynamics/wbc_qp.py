@@ -40,6 +40,7 @@ import osqp
 import pinocchio as pin
 import scipy.sparse as sp
 from proxsuite import proxqp
+from scipy.linalg.lapack import dposv
 
 from app.core.dynamics.lqr import B_COM
 from app.core.robot.model import RobotModel
@@ -186,7 +187,8 @@ class WholeBodyQp:
         self.m = start
 
         mask = self._fill(*self._structure())
-        self.A = np.zeros((self.m, self.n))
+        # Column-major, so ProxQP's Eigen matrices take A's two row blocks without reordering.
+        self.A = np.zeros((self.m, self.n), order="F")
         self._fill_constant(self.A)
         self._fill_constant(mask)
         cols, rows = np.nonzero(mask.T != 0.0)  # column-major = CSC order
@@ -235,6 +237,39 @@ class WholeBodyQp:
             weights.eta_max,
         )
         self._GH2 = 2.0 * self.G_u.T @ self.H_u
+        # Per contact state (left down, right down): the bounds before this sample's values,
+        # the contact rows that are equalities, and the β mask (0 for a foot in the air).
+        self._state_bounds: dict[tuple[bool, bool], tuple[np.ndarray, np.ndarray]] = {}
+        self._state_rows: dict[tuple[bool, bool], np.ndarray] = {}
+        self._state_mask: dict[tuple[bool, bool], np.ndarray] = {}
+        for state in ((False, False), (True, False), (False, True), (True, True)):
+            lower, upper = self._lower0.copy(), self._upper0.copy()
+            feet = [foot for foot, down in enumerate(state) if down]
+            for foot, down in enumerate(state):
+                if not down:
+                    start = self.rows["beta"].start + foot * N_CORNERS * N_EDGES
+                    upper[start : start + N_CORNERS * N_EDGES] = 0.0
+            self._state_bounds[state] = (lower, upper)
+            self._state_rows[state] = np.array(
+                [6 * foot + i for foot in feet for i in range(6)], dtype=int
+            )
+            self._state_mask[state] = np.repeat(np.array(state, dtype=float), nb // 2)
+        self._qdd_weight = -2.0 * weights.w_qdd
+        self._no_loop, self._no_drift = np.zeros((0, nv)), np.zeros(0)
+        self._W_tiled = np.tile(self.W, N_CORNERS)  # (3, 16): corner-major, edge-minor
+        # r_c × w_i = −[w_i]× r_c: moments (3, 16) of the 16 β from the offsets (4, 3) as a
+        # (12, 48) map, row 3c + j (offset of corner c, axis j), column 16k + 4c + i.
+        self._moment_map = np.zeros((3 * N_CORNERS, 3 * N_CORNERS * N_EDGES))
+        for corner in range(N_CORNERS):
+            for i in range(N_EDGES):
+                w_i = self.W[:, i]
+                minus_skew = -np.array(
+                    [[0.0, -w_i[2], w_i[1]], [w_i[2], 0.0, -w_i[0]], [-w_i[1], w_i[0], 0.0]]
+                )
+                for k in range(3):
+                    self._moment_map[
+                        3 * corner : 3 * corner + 3, N_CORNERS * N_EDGES * k + N_EDGES * corner + i
+                    ] = minus_skew[k]
         self.last_x: np.ndarray | None = None
         self.last_solver_s = 0.0
         self.last_problem: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -295,8 +330,10 @@ class WholeBodyQp:
         A[r["eta"], c["eta"]] = np.eye(12)
 
     def kinematics(self, q: np.ndarray, v: np.ndarray, qdd_des: np.ndarray) -> Terms:
-        """Every configuration-dependent term of one sample."""
-        model, data = self.model, self.data
+        """Every configuration-dependent term of one sample: five pinocchio passes (CoM with
+        the plan's q̈, crba, nle, joint Jacobians, kinematics at q̈ = 0 for the drifts), then
+        a handful of batched numpy products for both feet at once."""
+        model, data, nv = self.model, self.data, self.nv
         pin.centerOfMass(model, data, q, v, qdd_des)
         com_acc = data.acom[0].copy()
         M = pin.crba(model, data, q).copy()  # data.M is overwritten by the next sample
@@ -304,51 +341,66 @@ class WholeBodyQp:
         pin.computeJointJacobians(model, data, q)
         pin.forwardKinematics(model, data, q, v, self.zero_v)
         pin.updateFramePlacements(model, data)
-        # Both feet at once (a few numpy calls instead of a few per foot).
-        J_feet = np.array([pin.getFrameJacobian(model, data, f, pin.LOCAL) for f in self.foot_ids])
-        R = np.array([data.oMf[f].rotation for f in self.foot_ids])  # (2, 3, 3)
-        drift_feet = np.concatenate(
-            [pin.getFrameAcceleration(model, data, f, pin.LOCAL).vector for f in self.foot_ids]
-        )
-        nv = self.nv
+        left, right = self.foot_ids
+        J_feet = np.empty((2, 6, nv))
+        J_feet[0] = pin.getFrameJacobian(model, data, left, pin.LOCAL)
+        J_feet[1] = pin.getFrameJacobian(model, data, right, pin.LOCAL)
+        drift_feet = np.empty(12)
+        drift_feet[:6] = pin.getFrameAcceleration(model, data, left, pin.LOCAL).vector
+        drift_feet[6:] = pin.getFrameAcceleration(model, data, right, pin.LOCAL).vector
+        R = np.empty((2, 3, 3))
+        R[0] = data.oMf[left].rotation
+        R[1] = data.oMf[right].rotation
         J_world = (R[:, None] @ J_feet.reshape(2, 2, 3, nv)).reshape(2, 6, nv)
         offsets = self.corners_array @ R.transpose(0, 2, 1)  # corners from the foot origin, world
-        G = self._wrench_maps(offsets)  # (2, 6, 16)
-        Phi = (J_world.transpose(0, 2, 1) @ G).transpose(1, 0, 2).reshape(nv, 2 * G.shape[2])
-        J_loop, drift_loop = [], []
-        for a, b in self.loop_ids:
-            J_a = pin.getFrameJacobian(model, data, a, pin.LOCAL_WORLD_ALIGNED)[:3]
-            J_b = pin.getFrameJacobian(model, data, b, pin.LOCAL_WORLD_ALIGNED)[:3]
-            J_loop.append(J_a - J_b)
-            drift_loop.append(
-                pin.getFrameClassicalAcceleration(model, data, a, pin.LOCAL_WORLD_ALIGNED).linear
-                - pin.getFrameClassicalAcceleration(model, data, b, pin.LOCAL_WORLD_ALIGNED).linear
-            )
+        Phi = (
+            (J_world.transpose(0, 2, 1) @ self._wrench_maps(offsets))
+            .transpose(1, 0, 2)
+            .reshape(nv, 2 * N_CORNERS * N_EDGES)
+        )
+        if self.loop_ids:
+            J_loop, drift_loop = self._loop_terms()
+        else:
+            J_loop, drift_loop = self._no_loop, self._no_drift
         return Terms(
             M=M,
             h=h,
             Phi=Phi,
             J_feet=J_feet.reshape(12, nv),
             drift_feet=drift_feet,
-            J_loop=np.vstack(J_loop) if J_loop else np.zeros((0, self.nv)),
-            drift_loop=np.concatenate(drift_loop) if drift_loop else np.zeros(0),
+            J_loop=J_loop,
+            drift_loop=drift_loop,
             com_acc=com_acc,
         )
+
+    def _loop_terms(self) -> tuple[np.ndarray, np.ndarray]:
+        """J_loop (3 n_loops, nv) and J̇_loop q̇ (3 n_loops,) from the current pinocchio data."""
+        model, data = self.model, self.data
+        world = pin.LOCAL_WORLD_ALIGNED
+        J_loop, drift_loop = [], []
+        for a, b in self.loop_ids:
+            J_a = pin.getFrameJacobian(model, data, a, world)[:3]
+            J_b = pin.getFrameJacobian(model, data, b, world)[:3]
+            J_loop.append(J_a - J_b)
+            drift_loop.append(
+                pin.getFrameClassicalAcceleration(model, data, a, world).linear
+                - pin.getFrameClassicalAcceleration(model, data, b, world).linear
+            )
+        return np.vstack(J_loop), np.concatenate(drift_loop)
 
     def _wrench_maps(self, offsets: np.ndarray) -> np.ndarray:
         """Wrench at each foot's origin (force; moment, world axes) of its 16 β, (2, 6, 16),
         from the corners' offsets (2, 4, 3).
 
-        Column (c, i) is [w_i; r_c × w_i] with r_c the corner's offset from the foot origin.
+        Column (c, i) is [w_i; r_c × w_i] with r_c the corner's offset from the foot origin;
+        r_c × w_i = −[w_i]× r_c is linear in the offsets, one product with a constant map.
         """
-        W = self.W
-        x, y, z = offsets[..., 0:1], offsets[..., 1:2], offsets[..., 2:3]
-        G = np.empty((len(offsets), 6, N_CORNERS, N_EDGES))
-        G[:, :3] = W[:, None, :]
-        G[:, 3] = y * W[2] - z * W[1]
-        G[:, 4] = z * W[0] - x * W[2]
-        G[:, 5] = x * W[1] - y * W[0]
-        return G.reshape(len(offsets), 6, N_CORNERS * N_EDGES)
+        G = np.empty((2, 6, N_CORNERS * N_EDGES))
+        G[:, :3] = self._W_tiled
+        G[:, 3:] = (offsets.reshape(2, 3 * N_CORNERS) @ self._moment_map).reshape(
+            2, 3, N_CORNERS * N_EDGES
+        )
+        return G
 
     def solve(
         self,
@@ -360,26 +412,29 @@ class WholeBodyQp:
     ) -> SampleSolution:
         w, r, c = self.weights, self.rows, self.cols
         self._fill(terms.M, terms.Phi, terms.J_feet, terms.J_loop, out=self.A)
-        lower, upper = self._lower0.copy(), self._upper0.copy()
-        lower[r["dyn"]] = upper[r["dyn"]] = -terms.h[self._u]
-        loop_rhs = -terms.drift_loop - w.alpha * (terms.J_loop @ v)
-        lower[r["loop"]] = upper[r["loop"]] = loop_rhs
-        slip = -terms.drift_feet - w.alpha * (terms.J_feet @ v)
-        for foot, down in enumerate(contacts):
-            if down:  # else free (±inf), as in _lower0/_upper0
-                rows = slice(r["contact"].start + 6 * foot, r["contact"].start + 6 * foot + 6)
-                lower[rows] = upper[rows] = slip[6 * foot : 6 * foot + 6]
-            else:  # a foot in the air pushes nothing: β = 0
-                start = r["beta"].start + foot * N_CORNERS * N_EDGES
-                upper[start : start + N_CORNERS * N_EDGES] = 0.0
-        h_lim = terms.h[self._limited_v]
+        state = (bool(contacts[0]), bool(contacts[1]))
+        lower0, upper0 = self._state_bounds[state]
+        lower, upper = lower0.copy(), upper0.copy()
+        h = terms.h
+        lower[r["dyn"]] = upper[r["dyn"]] = -h[self._u]
+        if self.loop_ids:
+            loop_rhs = -terms.drift_loop - w.alpha * (terms.J_loop @ v)
+            lower[r["loop"]] = upper[r["loop"]] = loop_rhs
+        else:
+            loop_rhs = self._no_drift
+        down = self._state_rows[state]  # a foot in the air: free rows and β = 0 (state bounds)
+        if len(down):
+            slip = -terms.drift_feet - w.alpha * (terms.J_feet @ v)
+            rows = r["contact"].start + down
+            lower[rows] = upper[rows] = slip[down]
+        h_lim = h[self._limited_v]
         lower[r["tau"]] -= h_lim
         upper[r["tau"]] -= h_lim
 
         # V (eq. 5): ūᵀH_uū + 2 g_uᵀū with ū = G_u β + d, d = g − c̈_des.
         d = self.gravity - terms.com_acc
         p = np.zeros(self.n)
-        p[c["qdd"]] = -2.0 * w.w_qdd * qdd_des
+        p[c["qdd"]] = self._qdd_weight * qdd_des
         if com_error.any():
             g_u = w.a * w.q_lqr * com_error[:3] + B_COM.T @ w.S @ com_error
             p[c["beta"]] = 2.0 * self.G_u.T @ (self.H_u @ d + g_u)
@@ -395,9 +450,7 @@ class WholeBodyQp:
             reason = FAILED_STATUSES.get(status, f"{self.solver_name} returned {raw!r}")
             return SampleSolution(False, reason, *(np.full(0, np.nan),) * 3)
         self.last_x = x
-        beta = np.where(
-            np.repeat(contacts, N_CORNERS * N_EDGES), np.maximum(x[c["beta"]], 0.0), 0.0
-        )
+        beta = np.maximum(x[c["beta"]], 0.0) * self._state_mask[state]
         qdd, f_loop = self._exact(terms, loop_rhs, x[c["qdd"]], beta, x[c["f"]])
         return SampleSolution(True, status, qdd, beta, f_loop)
 
@@ -452,18 +505,17 @@ class WholeBodyQp:
             self.solver.warm_start(x=np.zeros(self.n), y=np.zeros(self.m))
 
     def corner_forces(self, beta: np.ndarray) -> np.ndarray:
-        """λ at each sole corner, world frame [N], shape (2, 4, 3) (eq. 11)."""
-        return beta.reshape(2, N_CORNERS, N_EDGES) @ self.W.T
+        """λ at each sole corner, world frame [N], shape (..., 2, 4, 3) (eq. 11), from β of
+        shape (..., 32)."""
+        return beta.reshape(*beta.shape[:-1], 2, N_CORNERS, N_EDGES) @ self.W.T
 
     def torques(self, terms: Terms, solution: SampleSolution) -> np.ndarray:
         """τ of eq. 10 (B_a = I) [N·m], shape (n_actuated,)."""
         a = self._a
-        return (
-            terms.M[a] @ solution.qdd
-            + terms.h[a]
-            - terms.Phi[a] @ solution.beta
-            - terms.J_loop[:, a].T @ solution.f_loop
-        )
+        tau = terms.M[a] @ solution.qdd + terms.h[a] - terms.Phi[a] @ solution.beta
+        if self.loop_ids:
+            tau -= terms.J_loop[:, a].T @ solution.f_loop
+        return tau
 
     def _exact(self, terms: Terms, loop_rhs, qdd, beta, f_loop):
         """Smallest change of q̈ and f_loop that makes eq. 13 and the loop rows hold exactly
@@ -472,16 +524,16 @@ class WholeBodyQp:
         if not self.loop_ids:  # E = M_u has full row rank: the minimum-norm step
             E = terms.M[u]
             residual = -terms.h[u] + terms.Phi[u] @ beta - E @ qdd
-            return qdd + E.T @ np.linalg.solve(E @ E.T, residual), f_loop
+            _, y, info = dposv(E @ E.T, residual)  # E Eᵀ is positive definite
+            if info != 0:
+                y = np.linalg.lstsq(E @ E.T, residual, rcond=None)[0]
+            return qdd + E.T @ y, f_loop
         E_dyn = np.hstack([terms.M[u], -terms.J_loop[:, u].T])
         E_loop = np.hstack([terms.J_loop, np.zeros((len(terms.J_loop), len(f_loop)))])
         E = np.vstack([E_dyn, E_loop])
         target = np.concatenate([-terms.h[u] + terms.Phi[u] @ beta, loop_rhs])
         residual = target - E @ np.concatenate([qdd, f_loop])
-        if self.loop_ids:  # a planar loop has a redundant row: least squares
-            step = np.linalg.lstsq(E, residual, rcond=None)[0]
-        else:  # E = M_u has full row rank: the minimum-norm step
-            step = E.T @ np.linalg.solve(E @ E.T, residual)
+        step = np.linalg.lstsq(E, residual, rcond=None)[0]  # a planar loop: a redundant row
         return qdd + step[: self.nv], f_loop + step[self.nv :]
 
 
