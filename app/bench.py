@@ -36,9 +36,10 @@ the fixed pinocchio workload of app.bench_report) so that the ratio carries acro
   servo_biped with its scaled defaults, and a 10-step walk of the cycle to torques, ≤ 5 s;
   the first Solve click → result in a studio that built the problem when the robot loaded
   (`serve`), ≤ 3 s, beside the same click in one that builds on the click.
-- plan_fine: the paper's case at the finest mesh the settings allow (MAX_KNOTS) by mesh
-  refinement (38 knots solved, interpolated, the fine mesh warm-started), solve CPU target
-  ≤ 20 s (issue 12), the fine build timed apart; baseline: the 38-knot cold solve.
+- plan_fine: the paper's case at the finest mesh the settings allow (MAX_KNOTS), cold: the fine
+  NLP's build plus its first solve by mesh refinement (38 knots built and solved, interpolated,
+  the fine mesh warm-started), CPU target ≤ 20 s in total (issue 12), build and solve shown
+  apart; baseline: the 38-knot cold solve.
 - projects: servo_biped with a walk of ≥ 10 s, its torques and its gait saved to a .bstudio
   and read back (≤ 1 s each; the same arrays written and read with bare np.save / np.load as
   the same-run baseline, and the ratio), opened in the studio (robot, prediction, panels;
@@ -536,40 +537,43 @@ def _entry_plan_fine(ctx: BenchContext) -> tuple[dict, list[Figure]]:
     row = _bench_plan_fine()
     return row, [
         Figure(
-            f"gait plan at {row['knots']} knots by mesh refinement from 38, solve (CPU)",
-            row["refined_cpu_s"],
+            f"gait plan at {row['knots']} knots cold: build + refined solve (CPU)",
+            row["total_cpu_s"],
             "s",
             f"≤ {PLAN_FINE_TARGET_S:.0f} s",
-            row["converged"] and row["refined_cpu_s"] <= PLAN_FINE_TARGET_S,
+            row["converged"] and row["total_cpu_s"] <= PLAN_FINE_TARGET_S,
             row["coarse_cpu_s"],
             "the 38-knot cold solve alone (CPU)",
-            f"fine build {row['fine_build_cpu_s']:.1f} s CPU apart; "
-            f"{row['fine_iterations']} fine iterations",
+            f"fine build {row['fine_build_cpu_s']:.1f} s + solve {row['refined_cpu_s']:.1f} s "
+            f"(38-knot build and solve, interpolation, {row['fine_iterations']} fine "
+            "iterations)",
         )
     ]
 
 
 def _bench_plan_fine() -> dict:
-    """The paper's case at MAX_KNOTS: coarse solve, interpolation, warm fine solve (CPU)."""
+    """The paper's case at MAX_KNOTS, cold, as a first solve does it (CPU): the fine NLP's
+    build, then its solve, which builds and solves the 38-knot problem, interpolates and
+    warm-starts the fine mesh (GaitProblem.solve above REFINE_ABOVE_KNOTS)."""
     from app.core.collocation.gait_problem import GaitProblem
-    from app.core.collocation.mesh_interpolation import interpolate_point
     from app.core.collocation.settings import MAX_KNOTS, GaitSettings
 
     coarse = GaitProblem()
     cpu = time.process_time()
+    coarse.solve(GaitSettings(), cold=True)
+    coarse_s = time.process_time() - cpu
+    cpu = time.process_time()
     fine = GaitProblem(knots=MAX_KNOTS)
     build_s = time.process_time() - cpu
     cpu = time.process_time()
-    coarse_result = coarse.solve(GaitSettings(), cold=True)
-    coarse_s = time.process_time() - cpu
-    start = interpolate_point(coarse, coarse_result.z, fine)
-    fine_result = fine.solve(GaitSettings(knots=MAX_KNOTS), start_z=start)
+    fine_result = fine.solve(GaitSettings(knots=MAX_KNOTS))
     refined_s = time.process_time() - cpu
     return {
         "knots": MAX_KNOTS,
         "fine_build_cpu_s": build_s,
         "coarse_cpu_s": coarse_s,
         "refined_cpu_s": refined_s,
+        "total_cpu_s": build_s + refined_s,
         "fine_iterations": fine_result.iterations,
         "converged": fine_result.converged,
         "status": fine_result.status,

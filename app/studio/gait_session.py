@@ -22,6 +22,7 @@ import numpy as np
 import viser
 
 from app.core.collocation.defaults import robot_gait_defaults
+from app.core.collocation.gait_problem import COARSE_KNOTS, REFINE_ABOVE_KNOTS
 from app.core.collocation.job_key import GaitProblemKey
 from app.core.collocation.planar_model import PlanarModel
 from app.core.collocation.result import GaitResult
@@ -65,6 +66,9 @@ class Solve:
     """time.monotonic() at the click."""
     kind: str = ""
     """What is solved, as the status line says it ("symmetric gait", …)."""
+    refines: bool = False
+    """The worker solves COARSE_KNOTS first and starts this mesh from it (a first solve of
+    more knots than REFINE_ABOVE_KNOTS): its progress comes in two stages."""
     ended_s: float = 0.0
     result: GaitResult | None = None
     error: str = ""
@@ -117,6 +121,10 @@ class GaitSession:
         """The solve whose end continues the one-click pipeline."""
         self.history: tuple[list[int], list[float], list[float]] = ([], [], [])
         """Iteration, objective, constraint violation of the solve under way (or the last)."""
+        self.stage = 1
+        """Stage of the solve under way: 1, or 2 once a refining solve's fine mesh started."""
+        self._solved_keys: set[GaitProblemKey] = set()
+        """Structures the worker holds a result of (a warm start: no mesh refinement)."""
         self.progressed: Signal[int] = Signal("gait_progressed")
         """Emitted with the iteration after the panel showed a solve's progress (every tab sees
         the panel: a tab opened during a solve sees how far it is)."""
@@ -197,12 +205,16 @@ class GaitSession:
         feet = (robot.feet[0].link, robot.feet[1].link)
         key = GaitProblemKey.for_robot(robot.source, settings, self._package_roots, feet)
         kind = "baseline (original DIRCON)" if baseline else "symmetric gait"
+        refines = settings.knots > REFINE_ABOVE_KNOTS and key not in self._solved_keys
         with self._lock:
             running = self.running
             if running is None:
                 job_id = f"gait-{next(self._ids)}"
-                self.running = Solve(job_id, settings, robot, time.monotonic(), kind=kind)
+                self.running = Solve(
+                    job_id, settings, robot, time.monotonic(), kind=kind, refines=refines
+                )
                 self.history = ([], [], [])
+                self.stage = 1
         if running is not None:  # another tab's (or this one's) solve: never cancelled silently
             waited = time.monotonic() - running.started_s
             self._notifier.error(
@@ -212,12 +224,19 @@ class GaitSession:
                 client,
             )
             return None
+        plan = (
+            f" — mesh refinement: {COARSE_KNOTS} knots solved first, then {settings.knots} "
+            "knots from it"
+            if refines
+            else ""
+        )
         self.panel.status.content = (
             f"Solving the {kind} (job {job_id}): starting the worker and building the NLP "
-            f"({settings.knots} knots) if this structure is new, then IPOPT…"
+            f"({settings.knots} knots) if this structure is new, then IPOPT{plan}…"
         )
         self.panel.show_running(True)
         self._ensure_worker().submit(job_id, settings, key)
+        self._solved_keys.add(key)  # its next solve starts from this one's result
         return job_id
 
     def cancel(self) -> None:
@@ -228,6 +247,7 @@ class GaitSession:
         if self._worker is not None:
             self._worker.close()
             self._worker = None
+        self._solved_keys.clear()
 
     # --- events from the worker (the "solver-events" thread) ------------------------------------
 
@@ -241,6 +261,10 @@ class GaitSession:
             if self.running is None or self.running.job_id != job_id:
                 return
             iterations, objectives, violations = self.history
+            if self.running.refines and iterations and iteration < iterations[-1]:
+                self.stage = 2  # the coarse solve ended: the fine mesh's iterations start
+                for series in (iterations, objectives, violations):
+                    series.clear()
             iterations.append(iteration)
             objectives.append(objective)
             violations.append(violation)
@@ -251,8 +275,9 @@ class GaitSession:
             self.panel.show_convergence(*history)
             waited = time.monotonic() - running.started_s
             self.panel.status.content = (
-                f"Solving the {running.kind} (job {job_id}): IPOPT iteration {iteration}, "
-                f"constraint violation {violation:.1e}, {waited:.1f} s since the click…"
+                f"Solving the {running.kind} (job {job_id}){_stage_words(running, self.stage)}: "
+                f"IPOPT iteration {iteration}, constraint violation {violation:.1e}, "
+                f"{waited:.1f} s since the click…"
             )
             self.progressed.emit(iteration)
 
@@ -287,9 +312,11 @@ class GaitSession:
         self._end(job_id, result=result)
 
     def _on_failed(self, job_id: str, message: str) -> None:
+        self._solved_keys.clear()  # the worker may have crashed and restarted
         self._end(job_id, error=message)
 
     def _on_cancelled(self, job_id: str) -> None:
+        self._solved_keys.clear()  # a cancel restarts the worker: its results are gone
         self._end(job_id, error="cancelled")
 
     # --- results -------------------------------------------------------------------------------
@@ -486,6 +513,15 @@ def _status_line(solve: Solve, results: GaitResults) -> str:
         return f"Solved in {waited:.1f} s ({parts})."
     blame = f" It ran into {result.blame.split(': ', 1)[-1]}." if result.blame else ""
     return f"⚠️ Not solved after {waited:.1f} s: {result.status} ({parts}).{blame}{kept}"
+
+
+def _stage_words(solve: Solve, stage: int) -> str:
+    """Which stage a mesh-refining solve is in ("" for a single-stage solve)."""
+    if not solve.refines:
+        return ""
+    if stage == 1:
+        return f", stage 1 of 2: the coarse {COARSE_KNOTS}-knot solve"
+    return f", stage 2 of 2: {solve.settings.knots} knots from the coarse solve"
 
 
 def _residuals(result: GaitResult | None) -> str:

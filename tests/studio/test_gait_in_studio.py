@@ -69,7 +69,7 @@ def test_a_crafted_knot_count_is_refused_before_the_worker_builds(studio):
     panel.sliders["knots"]._impl.value = 400.0  # what a crafted websocket message sets
     assert studio.gait.solve(baseline=False) is None
     assert studio.gait.running is None
-    assert "knots" in panel.status.content and "80" in panel.status.content
+    assert "knots" in panel.status.content and "160" in panel.status.content
 
 
 def test_cancel_keeps_the_last_good_gait(studio):
@@ -156,3 +156,61 @@ def test_a_running_solve_shows_in_the_shared_panel_and_is_never_replaced(studio)
     assert [solve.job_id for solve in ended] == [running.job_id]
     assert ended[0].result is not None and ended[0].result.converged
     assert not panel.solve.disabled and not panel.progress.visible and panel.cancel.disabled
+
+
+def _eom_residual(robot, planar, result, k: int) -> float:
+    """Largest |Gᵀ (RNEA(q, v, a) − Σ Jᵀ f) − B u| at node k, by pinocchio on the full robot
+    with frames at the sole edges' mid-points built here (not the planner's own functions)."""
+    import pinocchio as pin
+
+    model = robot.model.copy()
+    frame_ids = []
+    for foot in robot.feet:
+        sole = model.frames[robot.link_frame_ids[foot.link]]
+        corners = foot.sole_corners_m
+        rear = corners[np.isclose(corners[:, 0], corners[:, 0].min())].mean(axis=0)
+        front = corners[np.isclose(corners[:, 0], corners[:, 0].max())].mean(axis=0)
+        for name, point in (("heel", rear), ("toe", front)):
+            frame = pin.Frame(
+                f"{foot.side}_{name}_check",
+                sole.parentJoint,
+                sole.placement * pin.SE3(np.eye(3), point),
+                pin.FrameType.OP_FRAME,
+            )
+            frame_ids.append(model.addFrame(frame))
+    data = model.createData()
+    q, v = planar.to_full_q(result.q[k]), planar.to_full_v(result.q[k], result.v[k])
+    a = planar.to_full_a(result.q[k], result.v[k], result.a[k])
+    tau = pin.rnea(model, data, q, v, a).copy()
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    forces = result.contact_forces_N[k]
+    for i, fid in enumerate(frame_ids):
+        J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[:3]
+        tau -= J.T @ np.array([forces[i, 0], 0.0, forces[i, 1]])
+    residual = planar.velocity_map(result.q[k]).T @ tau
+    residual[3:] -= result.u[k]
+    return float(np.abs(residual).max())
+
+
+def test_a_fine_mesh_solves_by_refinement_and_says_its_stage(studio):
+    """Knots set to 120 through the slider (above the coarse default): the worker solves 38
+    knots, then 120 from them; the status names each stage while it runs, and the gait has
+    120 knots whose equations of motion hold (pinocchio, at every node)."""
+    panel = studio.gait.panel
+    knots = 120
+    panel.sliders["knots"].value = knots
+    statuses: list[str] = []
+    disconnect = studio.gait.progressed.connect(lambda _i: statuses.append(panel.status.content))
+    try:
+        ended = solve_gait(studio)
+    finally:
+        disconnect()
+    result = ended.result
+    assert result is not None and result.converged, ended.error or result.status
+    assert result.settings.knots == knots and len(result.t) == knots + 2
+    assert any("stage 1 of 2: the coarse 38-knot solve" in s for s in statuses)
+    assert any(f"stage 2 of 2: {knots} knots from the coarse solve" in s for s in statuses)
+    robot, planar = studio.state.robot, studio.gait.planar
+    worst = max(_eom_residual(robot, planar, result, k) for k in range(len(result.t)))
+    assert worst < 1e-4  # N / N·m: the collocation holds to IPOPT's tolerance at the knots

@@ -52,7 +52,15 @@ CONTROLS: tuple[Control, ...] = (
         "Lowest the swing sole may be at mid-swing (not in the paper: without it the optimum "
         "shuffles the foot along the floor)",
     ),
-    Control("knots", "knots", 5, 80, 1, "Knots of the three modes (+2 virtual); paper 38"),
+    Control(
+        "knots",
+        "knots",
+        5,
+        160,
+        1,
+        "Knots of the three modes (+2 virtual); paper 38. Above 38 a first solve solves 38 "
+        "knots first and starts from it (mesh refinement)",
+    ),
     Control("mu", "μ", 0.1, 1.5, 0.05, "Friction coefficient of the ground"),
     Control(
         "pelvis_height_ratio",

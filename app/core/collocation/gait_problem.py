@@ -42,7 +42,13 @@ import numpy as np
 from app.core.collocation.blame import hardest_constraint
 from app.core.collocation.guess import initial_guess
 from app.core.collocation.mesh_interpolation import interpolate_point
-from app.core.collocation.nlp import CompiledNlp, IterationCallback, SolveOutcome, SxNlp
+from app.core.collocation.nlp import (
+    CompiledNlp,
+    Constrainer,
+    IterationCallback,
+    SolveOutcome,
+    SxNlp,
+)
 from app.core.collocation.planar_model import BASE_DOF, PlanarModel
 from app.core.collocation.readout import read_result
 from app.core.collocation.result import GaitResult
@@ -79,11 +85,12 @@ IPOPT_OPTIONS: dict[str, Any] = {
 WARM_ITERATIONS_BEFORE_FALLBACK = 40
 """Iterations a primal-dual warm start gets before the solve restarts from the primal point
 alone (measured: 5–15 iterations after one slider step on the built-ins and Roban S14)."""
-REFINE_ABOVE_KNOTS = 80
-"""A cold solve of more knots than this starts from a 38-knot solve interpolated onto its mesh
-(app.core.collocation.refine): at 160 knots 6 s of CPU instead of ~280 s from the guess. Up to
-80 knots (the studio's slider) the guess does well enough (60 knots: 59 iterations, 3.9 s) that
-building the coarse problem (~5 s) would not pay."""
+REFINE_ABOVE_KNOTS = 38
+"""A first solve (no warm start) of more knots than this starts from a COARSE_KNOTS solve
+interpolated onto its mesh (app.core.collocation.refine): at 160 knots a few seconds of CPU
+instead of minutes from the guess. Building the coarse problem costs ~1.5 s of CPU now that
+the NLP's derivatives are assembled from per-knot blocks (nlp.py), so refinement pays
+whenever the mesh is finer than the coarse one."""
 COARSE_KNOTS = 38
 BASE_Z_LOW_RATIO = 0.4
 """Lowest base height, as a fraction of the straight-leg standing height (keeps IPOPT sane)."""
@@ -164,34 +171,80 @@ class GaitProblem:
         else:
             durations = L.symmetric_durations(H)
             slack = nlp.variable("slack", 1)
-            x1 = (0.5 + slack) * (0.0 + d)
-        footholds = (0.0, x1, d)
         steps = [durations[j] / (L.sizes[j] - 1) for j in range(3)]
 
-        def friction(force: Any) -> None:
+        def friction(c: Constrainer, force: Any, mu: Any) -> None:
             total = force[1] + force[2]
-            nlp.constrain(ca.vertcat(mu * total - force[0], mu * total + force[0]), 0.0, ca.inf)
+            c.constrain(ca.vertcat(mu * total - force[0], mu * total + force[0]), 0.0, ca.inf)
 
+        if self.baseline:
+            foothold_args: tuple[tuple[Any, ...], ...] = ((), (x1,), (d,))
+            step_args: tuple[Any, ...] = (T,)
+        else:
+            foothold_args = ((), (slack, d), (d,))
+            step_args = (H,)
+
+        def foothold_of(j: int, *args: Any) -> Any:
+            if j == 0:
+                return 0.0
+            if j == 2 or self.baseline:
+                return args[-1] if j == 2 else args[0]
+            slack_, d_ = args
+            return (0.5 + slack_) * (0.0 + d_)
+
+        def step_of(j: int, arg: Any) -> Any:
+            duration = arg[j] if self.baseline else L.symmetric_durations(arg)[j]
+            return duration / (L.sizes[j] - 1)
+
+        def knot(j: int) -> Callable[..., None]:
+            """The constraints at one knot of mode j."""
+            S, swing_rows = _dm(stance_rows(STANCE[j])), _dm(swing_z_rows(other(STANCE[j])))
+
+            def build(c: Constrainer, qk: Any, vk: Any, ak: Any, uk: Any, lamk: Any,
+                      mu_: Any, *extra: Any) -> None:  # fmt: skip
+                p = m.contact_positions(qk)
+                Js = S @ m.contact_jacobian(qk)
+                c.constrain(m.rnea(qk, vk, ak) - Bd @ uk - Js.T @ lamk)
+                c.constrain(S @ p - ca.vertcat(foothold_of(j, *extra), 0.0, 0.0))
+                c.constrain(Js @ vk)
+                c.constrain(Js @ ak + S @ m.contact_jdot_v(qk, vk))
+                friction(c, lamk, mu_)
+                c.constrain(swing_rows @ p, 0.0, 0.0, tag="swing")  # bounds set per solve
+
+            return build
+
+        def interval(j: int) -> Callable[..., None]:
+            """The collocation constraints between two knots of mode j."""
+            S, swing_rows = _dm(stance_rows(STANCE[j])), _dm(swing_z_rows(other(STANCE[j])))
+
+            def build(c: Constrainer, q0: Any, v0: Any, a0: Any, u0: Any, q1: Any, v1: Any,
+                      a1: Any, u1: Any, gamma: Any, lam_mid: Any, mu_: Any, step: Any) -> None:  # fmt: skip
+                q_c, v_c, qd_c, vd_c = hermite_simpson(q0, v0, a0, q1, v1, a1, step_of(j, step))
+                Jc = S @ m.contact_jacobian(q_c)
+                c.constrain(qd_c - v_c - Jc.T @ gamma)
+                c.constrain(m.rnea(q_c, v_c, vd_c) - Bd @ (0.5 * (u0 + u1)) - Jc.T @ lam_mid)
+                friction(c, lam_mid, mu_)
+                # Bounds between the knots, at the collocation point (bounds set per solve).
+                c.constrain(q_c[BASE_DOF:], tag="range_mid")
+                c.constrain(v_c[BASE_DOF:], tag="speed_mid")
+                c.constrain(swing_rows @ m.contact_positions(q_c), tag="swing")
+
+            return build
+
+        knot_builders = [knot(j) for j in range(3)]
+        interval_builders = [interval(j) for j in range(3)]
         energy: Any = 0
         smooth: Any = 0
         for k in range(N):
             j = L.mode_of(k)
-            S = _dm(stance_rows(STANCE[j]))
-            p = m.contact_positions(q[k])
-            Js = S @ m.contact_jacobian(q[k])
-            nlp.constrain(m.rnea(q[k], v[k], a[k]) - Bd @ u[k] - Js.T @ lam[k])
-            nlp.constrain(S @ p - ca.vertcat(footholds[j], 0.0, 0.0))
-            nlp.constrain(Js @ v[k])
-            nlp.constrain(Js @ a[k] + S @ m.contact_jdot_v(q[k], v[k]))
-            friction(lam[k])
-            swing = _dm(swing_z_rows(other(STANCE[j]))) @ p
-            nlp.constrain(swing, 0.0, 0.0, tag="swing")  # bounds set per solve
+            nlp.block(("knot", j), knot_builders[j], q[k], v[k], a[k], u[k], lam[k], mu,
+                      *foothold_args[j])  # fmt: skip
             if k in (0, N - 1):  # the right foot's mid-swing
+                swing = _dm(swing_z_rows(other(STANCE[j]))) @ m.contact_positions(q[k])
                 nlp.constrain(swing, 0.0, 0.0, tag="clearance")
             energy += steps[j] * ca.sumsqr(u[k])
 
         for j in range(3):
-            S = _dm(stance_rows(STANCE[j]))
             nodes = list(L.nodes(j))
             if j == 1 and len(nodes) % 2 == 1:  # the left foot's mid-swing is a node
                 mid_node = nodes[len(nodes) // 2]
@@ -200,21 +253,14 @@ class GaitProblem:
             for k in nodes[:-1]:
                 gamma = nlp.variable("gamma", 3)
                 lam_mid = nlp.variable("lam_mid", 3)
-                q_c, v_c, qd_c, vd_c = hermite_simpson(
-                    q[k], v[k], a[k], q[k + 1], v[k + 1], a[k + 1], steps[j]
-                )
-                Jc = S @ m.contact_jacobian(q_c)
-                nlp.constrain(qd_c - v_c - Jc.T @ gamma)
-                nlp.constrain(
-                    m.rnea(q_c, v_c, vd_c) - Bd @ (0.5 * (u[k] + u[k + 1])) - Jc.T @ lam_mid
-                )
-                friction(lam_mid)
-                # Bounds between the knots, at the collocation point (bounds set per solve).
-                nlp.constrain(q_c[BASE_DOF:], tag="range_mid")
-                nlp.constrain(v_c[BASE_DOF:], tag="speed_mid")
-                swing_c = _dm(swing_z_rows(other(STANCE[j]))) @ m.contact_positions(q_c)
-                nlp.constrain(swing_c, tag="swing")
+                nlp.block(("interval", j), interval_builders[j], q[k], v[k], a[k], u[k],
+                          q[k + 1], v[k + 1], a[k + 1], u[k + 1], gamma, lam_mid, mu,
+                          *step_args)  # fmt: skip
                 if j == 1 and 2 * (k - nodes[0]) == len(nodes) - 2:  # the left foot's mid-swing
+                    q_c = hermite_simpson(q[k], v[k], a[k], q[k + 1], v[k + 1], a[k + 1], steps[j])[
+                        0
+                    ]
+                    swing_c = _dm(swing_z_rows("left")) @ m.contact_positions(q_c)
                     nlp.constrain(swing_c, 0.0, 0.0, tag="clearance")
                 smooth += (
                     ca.sumsqr(q[k + 1] - q[k])
@@ -232,7 +278,7 @@ class GaitProblem:
                 m.mass_matrix(q[pre]) @ (v[post] - v[pre])
                 - (S_land @ m.contact_jacobian(q[pre])).T @ impulse
             )
-            friction(impulse)
+            friction(nlp, impulse, mu)
             landing = _dm(foot_rows(STANCE[j + 1])) @ m.contact_jacobian(q[pre]) @ v[pre]
             nlp.constrain(landing, tag="touchdown")  # |heel, toe velocity| before touch-down
             jump = v[post] - v[pre]
@@ -374,7 +420,10 @@ class GaitProblem:
             and not cold
             and self.structure[0] > REFINE_ABOVE_KNOTS
         ):
-            start_z = self._refined_start(settings)
+            refined = self._refined_start(settings, iteration_callback)
+            if isinstance(refined, GaitResult):  # stopped during the coarse solve
+                return dataclasses.replace(refined, settings=settings)
+            start_z = refined
         if start_z is not None:
             if start_z.shape != (self.nlp.nx,):
                 raise ValueError(f"start_z has shape {start_z.shape}, need ({self.nlp.nx},)")
@@ -398,11 +447,20 @@ class GaitProblem:
         blame = hardest_constraint(outcome, self.nlp, (lbg, ubg), settings, (lbx, ubx))
         return dataclasses.replace(result, blame=blame)
 
-    def _refined_start(self, settings: GaitSettings) -> np.ndarray | None:
-        """The COARSE_KNOTS optimum for these settings on this mesh, or None if it fails."""
+    def _refined_start(
+        self, settings: GaitSettings, iteration_callback: IterationCallback | None = None
+    ) -> np.ndarray | GaitResult | None:
+        """The COARSE_KNOTS optimum for these settings on this mesh, None if it fails, or the
+        coarse result if `iteration_callback` stopped it. The callback sees the coarse
+        solve's iterations first, then (from 0 again) the fine solve's."""
         if self._coarse is None:
             self._coarse = GaitProblem(self.model, COARSE_KNOTS, self.baseline)
-        coarse = self._coarse.solve(dataclasses.replace(settings, knots=COARSE_KNOTS))
+        coarse = self._coarse.solve(
+            dataclasses.replace(settings, knots=COARSE_KNOTS),
+            iteration_callback=iteration_callback,
+        )
+        if coarse.ipopt_status == "User_Requested_Stop":
+            return coarse
         if not coarse.converged:
             return None
         return interpolate_point(self._coarse, coarse.z, self)
