@@ -5,7 +5,7 @@ three modes (LSP part, RSP, LSP part) with virtual knots at the touch-downs, the
 constraint (eq. 5), equal support durations, joint-state exchange and periodicity (eq. 6), and
 the cost of eq. 7. `baseline=True` gives the "original DIRCON" counterpart of section 5.3.
 
-    problem = GaitProblem(knots=38)              # builds the NLP once (about 3 s)
+    problem = GaitProblem(knots=38)              # builds the NLP once (about 1.5 s)
     result = problem.solve(GaitSettings())       # the paper's case
     result = problem.solve(dataclasses.replace(settings, K0=5.0))   # warm re-solve
     trajectory = to_trajectory(robot, result)    # 100 Hz on the full robot

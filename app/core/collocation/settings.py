@@ -19,9 +19,10 @@ MIN_KNOTS = 5
 MAX_ITER = 10_000
 MAX_KNOTS = 160
 """More knots than this grow the NLP past minutes and gigabytes (400 knots: > 600 s, 2 GB).
-At 160 a first solve starts from the 38-knot optimum (mesh refinement, gait_problem.py):
-measured 6.4 s CPU (coarse 1.3 s + 28 fine iterations 4.0 s) against ~280 s cold; building
-the 160-knot NLP (casadi SX, exact Hessian) costs another ~25 s CPU (38: 5 s, 80: 12 s)."""
+Above 38 a first solve starts from the 38-knot optimum (mesh refinement, gait_problem.py).
+Building the NLP grows with the knots only through its size: its derivatives come from
+per-knot blocks differentiated once (nlp.py); `biped-studio bench --only plan_fine` measures
+the 160-knot build and refined solve."""
 
 
 class GaitSettingsError(StudioError):
