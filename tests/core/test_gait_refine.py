@@ -64,3 +64,20 @@ def test_a_first_solve_of_a_fine_mesh_refines_by_itself(solved, monkeypatch):
     assert auto.converged
     np.testing.assert_allclose(auto.z, refined.fine.z, rtol=0, atol=1e-8)
     assert auto.iterations == refined.fine.iterations
+
+
+def test_a_callback_that_stops_the_coarse_stage_stops_the_whole_solve():
+    """A first solve above REFINE_ABOVE_KNOTS reports the coarse solve's iterations to the
+    callback too; stopping there ends the solve (no fine solve from the guess afterwards)."""
+    knots = gait_problem.COARSE_KNOTS + 2
+    seen: list[int] = []
+
+    def stop_at_three(iteration: int, _objective: float, _violation: float) -> bool:
+        seen.append(iteration)
+        return iteration >= 3
+
+    result = GaitProblem(knots=knots).solve(
+        GaitSettings(knots=knots), iteration_callback=stop_at_three
+    )
+    assert not result.converged and "stopped" in result.status
+    assert seen == [0, 1, 2, 3]  # the coarse solve's, and nothing after the stop
