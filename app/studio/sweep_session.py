@@ -81,7 +81,8 @@ def _choices() -> dict[str, tuple[float, float]]:
 
 def _cost_line(steps: int) -> str:
     return (
-        f"Simulating costs ~{simulation_cost_s(steps):.1f} s more per point ({steps} steps; "
+        f"Simulating costs ~{simulation_cost_s(steps):.1f} s more per point ({steps} "
+        f"step{'' if steps == 1 else 's'}; "
         "the progress line shows what it took)."
     )
 

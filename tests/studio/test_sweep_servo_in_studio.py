@@ -74,7 +74,7 @@ def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepare
     panel.workers.value = 2
     panel.walk_steps.value = 1
     panel.metric_x.value, panel.metric_y.value = "sr", "max_torso_error_deg"
-    assert "s more per point (1 steps" in panel.cost_line.content
+    assert "s more per point (1 step;" in panel.cost_line.content
 
     # bad input: a servo parameter without the simulation is refused, saying what to switch on
     panel.simulate.value = False
