@@ -106,6 +106,7 @@ class Studio:
             self.project.restore_autosave()
         if config.autosave:
             self.project.start_autosave(now=config.project is not None)
+        self.sweep.start_preparing()  # started: prepare the sweep workers in the background
 
     def stop(self) -> None:
         self.project.stop()

@@ -11,7 +11,8 @@ compliance, dead band and compensation it was simulated with) to the Compensatio
 the `servos` callback. Bad input (the panel's ranges, an unknown point) goes to the panel's
 status line and the notifier, and the studio keeps its state.
 
-Prepared workers (`prepare=True`, what `serve` does): when a robot loads, a low-priority
+Prepared workers (`prepare=True`, what `serve` does): once the studio has started
+(`start_preparing`, so its start is not slowed) and whenever a robot loads, a low-priority
 thread, "sweep-prepare", starts the local cluster (its worker processes niced) and has every
 worker build the swept robot's gait NLP at the panel's knots and solve its anchor gait, so the
 first point of a sweep pays only its solve; `on_prepared` announces it.
@@ -142,8 +143,10 @@ class SweepSession:
             f"Robot: **{SWEEP_ROBOT}** (the planner's paper robot) and its variants.",
             _cost_line,
         )
-        if prepare:
-            state.on_robot.connect(lambda _loaded: self.prepare_workers())
+        self._armed = False
+        """Set by `start_preparing` once the studio has started: from then on every robot load
+        prepares the workers (the studio's own start is not slowed by it)."""
+        state.on_robot.connect(lambda _loaded: self.prepare_workers() if self._armed else None)
 
     # --- the engine ---------------------------------------------------------------------------
 
@@ -175,6 +178,13 @@ class SweepSession:
 
             self._defaults = default_settings(RobotVariant(SWEEP_ROBOT).load())
         return self._defaults
+
+    def start_preparing(self) -> None:
+        """The studio has started: with `prepare`, prepare the workers for the loaded robot
+        now and for every robot loaded later."""
+        if self._prepare and not self._armed:
+            self._armed = True
+            self.prepare_workers()
 
     def prepare_workers(self) -> None:
         """Start the cluster and build the swept robot's NLP (at the panel's knots) and its
