@@ -216,6 +216,11 @@ class SweepSession:
             if not self._closed:
                 log.exception("preparing the sweep workers failed")
             return
+        if self.outcome is None and not (self._thread is not None and self._thread.is_alive()):
+            self.panel.status.content = (
+                f"No sweep yet; {len(self.prepared_s)} workers ready with {SWEEP_ROBOT}'s "
+                f"{point.settings.knots}-knot gait problem built."
+            )
         self.prepared.set()
         self.on_prepared.emit(self.prepared_s)
 
