@@ -51,7 +51,8 @@ from panels.sweep_panel import SweepPanel
 log = logging.getLogger(__name__)
 
 SWEEP_ROBOT = "dircon_biped"
-"""The robot the panel sweeps (the only one with robot parameters, and the planner's own)."""
+"""The robot the panel sweeps, whatever robot is loaded (the planner's paper robot; the CLI
+sweeps servo_biped too)."""
 WALK_STEPS = 4
 WORKER_NICENESS = 10
 """The studio's sweep workers run below the studio itself, so a sweep (and the preparing of
@@ -104,8 +105,8 @@ class SweepSession:
         self._servos = servos
         self._prepare = prepare
         self._engine_lock = threading.Lock()
-        self._closed = False
         """Held while the engine is made or replaced (the runner, the preparer, the loader)."""
+        self._closed = False
         self._defaults: Any = None
         """The swept robot's planner defaults (GaitSettings), found once."""
         self.prepared_s: dict[str, float] = {}
