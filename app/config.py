@@ -40,6 +40,10 @@ class StudioConfig:
     prepare_gait: bool = False
     """Build the gait planner's default problem for each loaded robot in the background, so
     the first *Solve* pays no build (`serve` turns it on; tests and the bench leave it off)."""
+    prepare_sweep: bool = False
+    """Start the sweep cluster and build the swept robot's NLP on its workers in the background
+    (low priority) when a robot loads, so a sweep's first point pays only its solve (`serve`
+    turns it on; tests and the bench leave it off unless they time it)."""
     no_token: bool = False
     """Serve without the token (`--no-token`): loopback only, refused on other hosts."""
 

@@ -11,21 +11,38 @@ workers actually got; on a shared machine a scaling short of the target with bus
 the other load, not the sweep (`cpu_scaling` is the scaling had each worker had its core). The
 first result's time is split into the cluster start, the NLP
 build with its anchor solve on the worker (`build_s`), and the point's own solve.
+
+Scheduling costs, per run: `late_build_s` is what the workers the warm-up's points missed still
+had to build (done before the timing starts, so that it is not counted; before, it was inside
+it), `timed_build_s` any build inside the timed points (0 expected), `tail_s` the time at the
+end when fewer points than workers were left (stragglers), and `solve_s_per_point` IPOPT's own
+time per point against the wall time per point.
+
+The studio path (`bench_studio_first_result`): Run sweep on the Sweep panel → its first result,
+in a studio whose workers were prepared when the robot loaded and in one that starts them on
+Run, with what preparing costs the studio's start and a robot load made while it runs.
 """
 
 from __future__ import annotations
 
+import tempfile
+import threading
 import time
+from pathlib import Path
+from typing import Any
 
 from app.core.sweeps.sampling import SweepPoint, sweep_points
 from app.core.sweeps.spec import SweepSpec
 from app.sweep_engine import SweepEngine, local_cores
+from panels.quiet import set_value
 
 SCALING_TARGET = 0.8
 """Scaling ≥ this × workers."""
 FIRST_RESULT_TARGET_S = 5.0
 SWEEP_200_TARGET_S = 120.0
 BENCH_KNOTS = 14
+STUDIO_SAMPLES = 4
+"""Points of the studio-path sweep (the panel's default gait sweep otherwise)."""
 
 
 def _spec(samples: int, seed: int) -> SweepSpec:
@@ -52,9 +69,15 @@ def _timed(n_workers: int, warmup: list[SweepPoint], points: list[SweepPoint]) -
         for result in engine.start(warmup[:n_workers]).results():
             if first is None:
                 first, first_result = time.perf_counter() - start, result
+        # the warm-up's points need not have reached every worker: build on any that is cold
+        # now, so no NLP build or first import lands in the timed points
+        late_build_s = sum(engine.prepare(points[0]).values())
         cpu0 = engine.client.run(time.process_time)
         t0 = time.perf_counter()
-        results = list(engine.start(points).results())
+        results, arrivals = [], []
+        for result in engine.start(points).results():
+            results.append(result)
+            arrivals.append(time.perf_counter() - t0)
         seconds = time.perf_counter() - t0
         cpu1 = engine.client.run(time.process_time)
     assert first_result is not None
@@ -72,6 +95,10 @@ def _timed(n_workers: int, warmup: list[SweepPoint], points: list[SweepPoint]) -
         "solved": sum(r.solved for r in results),
         "seconds": seconds,
         "points_per_s": len(results) / seconds,
+        "late_build_s": late_build_s,
+        "timed_build_s": sum(r.build_s for r in results),
+        "tail_s": arrivals[-1] - arrivals[-n_workers] if len(arrivals) >= n_workers else 0.0,
+        "solve_s_per_point": sum(r.solve_s for r in results) / max(len(results), 1),
     }
 
 
@@ -95,4 +122,78 @@ def bench_sweep(points: int = 40) -> dict:
         "cpu_scaling": cpu_scaling,
         "scaling_target": SCALING_TARGET * cores,
         "sweep_200_estimate_s": 200.0 / many["points_per_s"],
+    }
+
+
+def _studio(prepare: bool, data_dir: Path) -> tuple[Any, float]:
+    """A studio on a free port (with or without the sweep workers prepared when its robot
+    loads) and the seconds its start took."""
+    import socket
+
+    from app.config import StudioConfig
+    from app.studio import Studio
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = int(s.getsockname()[1])
+    start = time.perf_counter()
+    studio = Studio(StudioConfig(port=port, data_dir=data_dir, prepare_sweep=prepare))
+    return studio, time.perf_counter() - start
+
+
+def _first_result_s(studio: Any) -> float:
+    """Press Run sweep on the panel's default (gait) sweep of STUDIO_SAMPLES points; seconds to
+    its first result on the panel."""
+    session, panel = studio.sweep, studio.sweep.panel
+    set_value(panel.samples, STUDIO_SAMPLES)
+    first, done = threading.Event(), threading.Event()
+    off = session.on_result.connect(lambda _result: first.set())
+    off_done = session.on_sweep_done.connect(lambda _outcome: done.set())
+    try:
+        begin = time.perf_counter()
+        set_value(panel.run_button, True)
+        first.wait()
+        seconds = time.perf_counter() - begin
+        done.wait()
+    finally:
+        off()
+        off_done()
+    return seconds
+
+
+def bench_studio_first_result() -> dict:
+    """The Sweep panel's first result in a studio that prepared its workers when the robot
+    loaded (what `serve` does) and in one that starts them on Run, in the same run; and what
+    preparing costs the studio's own start and its next robot load (measured while it runs)."""
+    with tempfile.TemporaryDirectory() as folder:
+        warm, _ = _studio(False, Path(folder) / "warm")  # the process's first studio loads more
+        warm.robots.load("dircon_biped")
+        warm.stop()
+        plain, plain_start_s = _studio(False, Path(folder) / "plain")
+        try:
+            begin = time.perf_counter()
+            plain.robots.load("dircon_biped")
+            plain_load_s = time.perf_counter() - begin
+            unprepared_s = _first_result_s(plain)
+        finally:
+            plain.stop()
+        prepared, prepared_start_s = _studio(True, Path(folder) / "prepared")
+        try:
+            begin = time.perf_counter()
+            prepared.robots.load("dircon_biped")  # while the workers start and build
+            prepared_load_s = time.perf_counter() - begin
+            prepared.sweep.prepared.wait()
+            prepare_s = time.perf_counter() - begin
+            prepared_first_s = _first_result_s(prepared)
+        finally:
+            prepared.stop()
+    return {
+        "samples": STUDIO_SAMPLES,
+        "prepared_first_result_s": prepared_first_s,
+        "unprepared_first_result_s": unprepared_s,
+        "prepare_s": prepare_s,
+        "start_s": prepared_start_s,
+        "start_unprepared_s": plain_start_s,
+        "load_while_preparing_s": prepared_load_s,
+        "load_unprepared_s": plain_load_s,
     }

@@ -1,6 +1,8 @@
-"""Sweep panel: two swept parameters with their ranges, the sample count, two metrics to trade
-off, Run / Cancel, progress, a Pareto scatter (uPlot) with the front highlighted, and a point
-number to load that design and its gait into the studio.
+"""Sweep panel: up to three swept parameters (robot, gait or servo) with their ranges, the sample
+count, the simulation switch (with what it costs per point), two metrics to trade off, Run /
+Cancel, progress, a Pareto scatter (uPlot) with the front highlighted and the designs that fell
+in the simulation drawn apart, and a point number to load that design, its gait and its servo
+settings into the studio.
 
 The panel holds no sweep logic: its buttons call a `SweepActions` the session implements, and
 the session reads the values back with `spec_values()`.
@@ -8,7 +10,7 @@ the session reads the values back with `spec_values()`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
 import numpy as np
@@ -19,7 +21,10 @@ from panels.quiet import set_value
 
 NONE = "(none)"
 ALL_COLOUR = "#7f7f7f"
+FELL_COLOUR = "#1f1f1f"
 FRONT_COLOUR = "#d62728"
+ROWS = 3
+"""Parameters one sweep of the panel may vary."""
 
 
 class SweepActions(Protocol):
@@ -38,28 +43,48 @@ class SweepPanel:
         parameters: Sequence[str],
         metrics: Sequence[str],
         defaults: dict[str, tuple[float, float]],
+        robot_line: str,
+        cost: Callable[[int], str],
     ) -> None:
-        """`parameters`: "kind:name" choices; `defaults[choice]` its initial (min, max)."""
+        """`parameters`: "kind:name" choices (robot, gait and servo); `defaults[choice]` its
+        initial (min, max); `robot_line`: which robot is swept; `cost(steps)`: the simulation's
+        cost per point, shown beside its switch."""
         self._gui = gui
         self._defaults = defaults
+        self._cost = cost
         self.folder = gui.add_folder("Sweep", order=7, expand_by_default=False)
         with self.folder:
             gui.add_markdown(
                 "Solve the gait at many designs (on Dask workers) and trade two metrics off."
             )
-            first, second = parameters[0], parameters[1] if len(parameters) > 1 else NONE
-            self.param_a = gui.add_dropdown("Parameter 1", tuple(parameters), initial_value=first)
-            self.min_a = gui.add_number("1: min", defaults[first][0], step=0.001)
-            self.max_a = gui.add_number("1: max", defaults[first][1], step=0.001)
-            self.param_b = gui.add_dropdown(
-                "Parameter 2", (NONE, *parameters), initial_value=second
-            )
-            lo, hi = defaults.get(second, (0.0, 0.0))
-            self.min_b = gui.add_number("2: min", lo, step=0.001)
-            self.max_b = gui.add_number("2: max", hi, step=0.001)
+            self.robot_line = gui.add_markdown(robot_line)
+            rows = []
+            for i in range(ROWS):
+                initial = parameters[i] if i < 2 and i < len(parameters) else NONE
+                options = tuple(parameters) if i == 0 else (NONE, *parameters)
+                lo, hi = defaults.get(initial, (0.0, 0.0))
+                rows.append(
+                    (
+                        gui.add_dropdown(f"Parameter {i + 1}", options, initial_value=initial),
+                        gui.add_number(f"{i + 1}: min", lo, step=0.001),
+                        gui.add_number(f"{i + 1}: max", hi, step=0.001),
+                    )
+                )
+            self.rows = tuple(rows)
+            (self.param_a, self.min_a, self.max_a) = rows[0]
+            (self.param_b, self.min_b, self.max_b) = rows[1]
+            (self.param_c, self.min_c, self.max_c) = rows[2]
             self.samples = gui.add_number("Samples", 8, min=1, step=1, hint="Latin hypercube")
             self.knots = gui.add_number("Knots", 14, min=5, max=80, step=1, hint="Per gait")
             self.workers = gui.add_number("Workers", 2, min=1, max=64, step=1)
+            self.simulate = gui.add_checkbox(
+                "Simulate each point",
+                False,
+                hint="Walk, torques, servo commands and MuJoCo per point: the fall verdict, "
+                "torso and tracking errors; needed by servo parameters and their metrics",
+            )
+            self.walk_steps = gui.add_number("Walk steps", 2, min=1, max=8, step=1)
+            self.cost_line = gui.add_markdown(cost(2))
             self.metric_x = gui.add_dropdown(
                 "Metric x (min)", tuple(metrics), initial_value=metrics[0]
             )
@@ -73,8 +98,9 @@ class SweepPanel:
             self.load_button = gui.add_button("Load point", disabled=True)
         self.plot: viser.GuiUplotHandle | None = None
         self._plot_title = ""
-        self.param_a.on_update(lambda _: self._reset_range(self.param_a, self.min_a, self.max_a))
-        self.param_b.on_update(lambda _: self._reset_range(self.param_b, self.min_b, self.max_b))
+        for row in self.rows:
+            row[0].on_update(self._range_resetter(row))
+        self.walk_steps.on_update(lambda _: self._show_cost())
         self.run_button.on_click(lambda event: actions.run(event.client))
         self.cancel_button.on_click(lambda _: actions.cancel())
         self.load_button.on_click(lambda event: actions.load_point(event.client))
@@ -83,12 +109,9 @@ class SweepPanel:
         """Show a sweep's data (as `spec_values` gives it, checked already): its parameters and
         ranges, samples, knots and metrics. Choices this panel does not offer are left as
         they are."""
-        rows = (
-            (self.param_a, self.min_a, self.max_a),
-            (self.param_b, self.min_b, self.max_b),
-        )
         parameters = list(data.get("parameter", []))
-        for (choice, low, high), parameter in zip(rows, [*parameters, None], strict=False):
+        padded = [*parameters, *[None] * ROWS][:ROWS]
+        for (choice, low, high), parameter in zip(self.rows, padded, strict=True):
             if parameter is None:
                 if NONE in choice.options:
                     set_value(choice, NONE)
@@ -103,47 +126,68 @@ class SweepPanel:
         knots = dict(data.get("gait", {})).get("knots")
         if knots is not None:
             set_value(self.knots, knots)
+        set_value(self.simulate, bool(data.get("simulate", False)))
+        if "walk_steps" in data:
+            set_value(self.walk_steps, data["walk_steps"])
         metrics = list(dict(data.get("pareto", {})))
         for handle, metric in zip((self.metric_x, self.metric_y), metrics, strict=False):
             if metric in handle.options:
                 set_value(handle, metric)
 
+    def _range_resetter(self, row: tuple) -> Callable[[object], None]:
+        return lambda _event: self._reset_range(*row)
+
     def _reset_range(self, choice, low, high) -> None:
         if choice.value in self._defaults:
             low.value, high.value = self._defaults[choice.value]
 
+    def _show_cost(self) -> None:
+        steps = self.walk_steps.value
+        if np.isfinite(steps) and 1 <= steps <= 8:
+            self.cost_line.content = self._cost(round(steps))
+
     def spec_values(self) -> dict[str, object]:
         """The panel's choices as sweep-spec data (checked by SweepSpec.from_mapping)."""
         parameters = []
-        for choice, low, high in (
-            (self.param_a, self.min_a, self.max_a),
-            (self.param_b, self.min_b, self.max_b),
-        ):
+        for choice, low, high in self.rows:
             if choice.value == NONE:
                 continue
             kind, name = str(choice.value).split(":", 1)
             parameters.append(
                 {"kind": kind, "name": name, "min": float(low.value), "max": float(high.value)}
             )
-        samples, knots = self.samples.value, self.knots.value
-        return {
+        samples, knots, steps = self.samples.value, self.knots.value, self.walk_steps.value
+        data: dict[str, object] = {
             "sampling": "latin",
-            "samples": int(samples) if float(samples).is_integer() else samples,
-            "gait": {"knots": int(knots) if float(knots).is_integer() else knots},
+            "samples": _whole_or_as_is(samples),
+            "gait": {"knots": _whole_or_as_is(knots)},
             "pareto": {str(self.metric_x.value): "min", str(self.metric_y.value): "min"},
             "parameter": parameters,
         }
+        if self.simulate.value:
+            data["simulate"] = True
+            data["walk_steps"] = _whole_or_as_is(steps)
+        return data
 
     def running(self, running: bool) -> None:
         self.run_button.disabled = running
         self.cancel_button.disabled = not running
 
-    def show_points(self, labels: tuple[str, str], xy: np.ndarray, front: np.ndarray) -> None:
-        """Scatter of every solved point, xy shape (n, 2), with the front (bool (n,)) joined."""
+    def show_points(
+        self,
+        labels: tuple[str, str],
+        xy: np.ndarray,
+        front: np.ndarray,
+        fell: np.ndarray | None = None,
+    ) -> None:
+        """Scatter of every solved point, xy shape (n, 2), with the front (bool (n,)) joined and
+        the points that fell in the simulation (bool (n,)) drawn in their own series."""
+        fell = np.zeros(len(xy), dtype=bool) if fell is None else fell
         order = np.argsort(xy[:, 0], kind="stable")
         x, y = xy[order, 0], xy[order, 1]
         on = np.where(front[order], y, np.nan)
-        data = (x, y, on)
+        down = fell[order]
+        data = (x, np.where(down, np.nan, y), np.where(down, y, np.nan), on)
         title = f"{labels[1]} vs {labels[0]}"
         if self.plot is not None and self._plot_title == title:
             self.plot.data = data
@@ -157,6 +201,14 @@ class SweepPanel:
                 stroke=ALL_COLOUR,
                 width=0.0,
                 points=uplot.Series_Points(show=True, size=6.0, fill=ALL_COLOUR),
+            ),
+            uplot.Series(
+                label="fell in simulation",
+                stroke=FELL_COLOUR,
+                width=0.0,
+                points=uplot.Series_Points(
+                    show=True, size=7.0, fill="#ffffff", stroke=FELL_COLOUR, width=2.0
+                ),
             ),
             uplot.Series(
                 label="Pareto front",
@@ -175,3 +227,9 @@ class SweepPanel:
                 scales={"x": uplot.Scale(time=False)},
             )
         self._plot_title = title
+
+
+def _whole_or_as_is(value: float) -> float | int:
+    """A whole number as an int (the spec wants whole numbers there); anything else as it is,
+    so the spec's check names it."""
+    return int(value) if np.isfinite(value) and float(value).is_integer() else value

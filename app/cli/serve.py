@@ -76,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
         feet=parse_feet(args.feet),
         no_token=args.no_token,
         prepare_gait=True,
+        prepare_sweep=True,
         allow=tuple(args.allow),
         project=args.project,
         presenter_only=args.presenter_only,

@@ -322,6 +322,22 @@ class CompensationSession:
         self._mark_simulation_stale()
         self._predictions.submit("predict", None)
 
+    def set_servos(self, params: CompensationParams, servo: ServoModel) -> None:
+        """Take coefficients and virtual servos made elsewhere (a sweep point's servo settings)
+        for the loaded robot; ones for other joints are refused, keeping the current ones."""
+        robot = self._robot
+        if robot is None or not robot.joint_names == params.joint_names == servo.joint_names:
+            self._fail("Servo settings refused", "they are for another robot's joints", None)
+            return
+        with self._lock:
+            self.params, self.servo = params, servo
+            if self._selected not in robot.joint_names or not params.enabled.any():
+                self._selected = _first_enabled(params) or self._selected
+        self.panel.show_joints(robot.joint_names, self._selected)
+        self._show_selected()
+        self._mark_simulation_stale()
+        self._predictions.submit("predict", None)
+
     def set_clearance_sign(self, sign: str) -> None:
         if sign not in CLEARANCE_SIGNS:
             return

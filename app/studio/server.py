@@ -77,7 +77,14 @@ class Studio:
             pause_playback=self.playback.player.pause,
         )
         self.demo = DemoSession(server, presenter_only=config.presenter_only)
-        self.sweep = SweepSession(server, state, notifier, config.data_dir / "variants")
+        self.sweep = SweepSession(
+            server,
+            state,
+            notifier,
+            config.data_dir / "variants",
+            servos=self.compensation.set_servos,
+            prepare=config.prepare_sweep,
+        )
         if robot is None:
             robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)
             prepare(robot)
@@ -99,6 +106,7 @@ class Studio:
             self.project.restore_autosave()
         if config.autosave:
             self.project.start_autosave(now=config.project is not None)
+        self.sweep.start_preparing()  # started: prepare the sweep workers in the background
 
     def stop(self) -> None:
         self.project.stop()

@@ -6,17 +6,28 @@ first time (kept for later sweeps, closed with the studio) and consumes results 
 `on_sweep_done` announces the end (finished or cancelled) with the results. Loading a point
 solves its gait on a worker (the NLP is warm there), loads the variant robot with
 `StudioState.set_robot` and plays a walk of the gait with `set_motion`, on "sweep-loader";
-`on_point_loaded` announces it. Bad input (the panel's ranges, an unknown point) goes to the
-panel's status line and the notifier, and the studio keeps its state.
+`on_point_loaded` announces it; a point of a simulated sweep also hands its servo settings (the
+compliance, dead band and compensation it was simulated with) to the Compensation panel through
+the `servos` callback. Bad input (the panel's ranges, an unknown point) goes to the panel's
+status line and the notifier, and the studio keeps its state.
+
+Prepared workers (`prepare=True`, what `serve` does): once the studio has started
+(`start_preparing`, so its start is not slowed) and whenever a robot loads, a low-priority
+thread, "sweep-prepare", starts the local cluster (its worker processes niced) and has every
+worker build the swept robot's gait NLP at the panel's knots and solve its anchor gait, so the
+first point of a sweep pays only its solve; `on_prepared` announces it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import logging
+import os
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -29,8 +40,9 @@ from app.core.projects.project import Project
 from app.core.sweeps.evaluate import PointResult
 from app.core.sweeps.results import SweepRecord, pareto_indices
 from app.core.sweeps.robot_variants import ROBOT_PARAMETERS
-from app.core.sweeps.sampling import SweepPoint, sweep_points
-from app.core.sweeps.spec import METRICS, SIMULATION_METRICS, SweepSpec
+from app.core.sweeps.sampling import SweepPoint, start_point, sweep_points
+from app.core.sweeps.servo_metrics import SERVO_PARAMETERS, servo_settings, simulation_cost_s
+from app.core.sweeps.spec import METRICS, SweepSpec
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.state import StudioState
@@ -39,8 +51,14 @@ from panels.sweep_panel import SweepPanel
 log = logging.getLogger(__name__)
 
 SWEEP_ROBOT = "dircon_biped"
-"""The robot the panel sweeps (the only one with robot parameters, and the planner's own)."""
+"""The robot the panel sweeps, whatever robot is loaded (the planner's paper robot; the CLI
+sweeps servo_biped too)."""
 WALK_STEPS = 4
+WORKER_NICENESS = 10
+"""The studio's sweep workers run below the studio itself, so a sweep (and the preparing of
+one) leaves the studio responsive."""
+ServoSettings = Callable[[Any, Any], None]
+"""Takes (CompensationParams, ServoModel) for the loaded robot: the Compensation panel's."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,7 +76,17 @@ def _choices() -> dict[str, tuple[float, float]]:
     out["gait:H_s"] = (0.6, 0.9)
     for p in ROBOT_PARAMETERS[SWEEP_ROBOT].values():
         out[f"robot:{p.name}"] = (p.minimum, p.maximum)
+    for s in SERVO_PARAMETERS.values():
+        out[f"servo:{s.name}"] = (s.minimum, s.maximum)
     return out
+
+
+def _cost_line(steps: int) -> str:
+    return (
+        f"Simulating costs ~{simulation_cost_s(steps):.1f} s more per point ({steps} "
+        f"step{'' if steps == 1 else 's'}; "
+        "the progress line shows what it took)."
+    )
 
 
 class SweepSession:
@@ -70,8 +98,22 @@ class SweepSession:
         state: StudioState,
         notifier: Notifier,
         variants_dir: Path,
+        servos: ServoSettings | None = None,
+        prepare: bool = False,
     ) -> None:
         self._server = server
+        self._servos = servos
+        self._prepare = prepare
+        self._engine_lock = threading.Lock()
+        """Held while the engine is made or replaced (the runner, the preparer, the loader)."""
+        self._closed = False
+        self._defaults: Any = None
+        """The swept robot's planner defaults (GaitSettings), found once."""
+        self.prepared_s: dict[str, float] = {}
+        """What the last preparing cost each worker [s] (0.0 where it was warm)."""
+        self.on_prepared: Signal[dict[str, float]] = Signal("on_prepared")
+        self.prepared = threading.Event()
+        """Set when the workers have been prepared once (`prepared_s` says what it cost)."""
         self._variants_dir = variants_dir
         """Where the URDFs of loaded sweep designs are kept (the data folder's variants/)."""
         self._state = state
@@ -93,9 +135,95 @@ class SweepSession:
         choices = _choices()
         ordered = ["gait:step_length_m", "gait:H_s"]
         ordered += [c for c in choices if c not in ordered]
-        # the panel runs gait sweeps: the simulation metrics and servo parameters are the CLI's
-        gait_metrics = tuple(m for m in METRICS if m not in SIMULATION_METRICS)
-        self.panel = SweepPanel(server.gui, self, ordered, gait_metrics, choices)
+        self.panel = SweepPanel(
+            server.gui,
+            self,
+            ordered,
+            tuple(METRICS),
+            choices,
+            f"Robot: **{SWEEP_ROBOT}** (the planner's paper robot) and its variants.",
+            _cost_line,
+        )
+        self._armed = False
+        """Set by `start_preparing` once the studio has started: from then on every robot load
+        prepares the workers (the studio's own start is not slowed by it)."""
+        state.on_robot.connect(lambda _loaded: self.prepare_workers() if self._armed else None)
+
+    # --- the engine ---------------------------------------------------------------------------
+
+    def _engine_for(self, workers: int) -> Any:
+        """The engine with `workers` workers: the current one, or a new local cluster (niced
+        workers) replacing it."""
+        from app.sweep_engine import SweepEngine
+
+        with self._engine_lock:
+            if self._closed:
+                raise StudioError("the studio is closing")
+            engine = self._engine
+            if engine is not None and engine.n_workers == workers:
+                return engine
+            if engine is not None:
+                engine.close()
+            self._engine = None
+            engine = SweepEngine(n_workers=workers)
+            with contextlib.suppress(Exception):  # a platform without priorities: run as is
+                for pid in engine.worker_pids().values():
+                    os.setpriority(os.PRIO_PROCESS, pid, WORKER_NICENESS)
+            self._engine = engine
+            return engine
+
+    def _planner_defaults(self) -> Any:
+        if self._defaults is None:
+            from app.core.collocation.defaults import default_settings
+            from app.core.sweeps.robot_variants import RobotVariant
+
+            self._defaults = default_settings(RobotVariant(SWEEP_ROBOT).load())
+        return self._defaults
+
+    def start_preparing(self) -> None:
+        """The studio has started: with `prepare`, prepare the workers for the loaded robot
+        now and for every robot loaded later."""
+        if self._prepare and not self._armed:
+            self._armed = True
+            self.prepare_workers()
+
+    def prepare_workers(self) -> None:
+        """Start the cluster and build the swept robot's NLP (at the panel's knots) and its
+        anchor gait on every worker, on the low-priority thread "sweep-prepare"."""
+        threading.Thread(target=self._prepare_now, name="sweep-prepare", daemon=True).start()
+
+    def _prepare_now(self) -> None:
+        with contextlib.suppress(Exception):  # this thread only: the studio keeps its priority
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), WORKER_NICENESS)
+        try:
+            if self._thread is not None and self._thread.is_alive():
+                return  # a sweep is running: its points build what they need
+            data = {"robot": SWEEP_ROBOT, **self.panel.spec_values()}
+            try:
+                spec = SweepSpec.from_mapping(data, "sweep panel")
+            except StudioError:  # the panel holds a bad sweep: prepare its knots anyway
+                knots = dict(data.get("gait", {})).get("knots", 14)  # type: ignore[call-overload]
+                spec = SweepSpec.from_mapping(
+                    {
+                        "robot": SWEEP_ROBOT,
+                        "gait": {"knots": knots},
+                        "parameter": [{"name": "H_s", "min": 0.7, "max": 0.7}],
+                    }
+                )
+            point = start_point(spec, self._planner_defaults())
+            engine = self._engine_for(_whole(self.panel.workers.value, "workers"))
+            self.prepared_s = engine.prepare(point)
+        except Exception:  # background work: the first sweep will build what it needs
+            if not self._closed:
+                log.exception("preparing the sweep workers failed")
+            return
+        if self.outcome is None and not (self._thread is not None and self._thread.is_alive()):
+            self.panel.status.content = (
+                f"No sweep yet; {len(self.prepared_s)} workers ready with {SWEEP_ROBOT}'s "
+                f"{point.settings.knots}-knot gait problem built."
+            )
+        self.prepared.set()
+        self.on_prepared.emit(self.prepared_s)
 
     # --- running ------------------------------------------------------------------------------
 
@@ -108,7 +236,7 @@ class SweepSession:
                 data = {"robot": SWEEP_ROBOT, **self.panel.spec_values()}
                 spec = SweepSpec.from_mapping(data, "sweep panel")
                 workers = _whole(self.panel.workers.value, "workers")
-                points = sweep_points(spec)
+                points = sweep_points(spec, self._planner_defaults())
             except StudioError as error:
                 self.panel.status.content = f"⚠️ {error}"
                 self._notifier.error("Cannot run this sweep", str(error), client)
@@ -127,18 +255,12 @@ class SweepSession:
             run.cancel()
 
     def _sweep(self, spec: SweepSpec, points: list[SweepPoint], workers: int, client: Any) -> None:
-        from app.sweep_engine import SweepEngine
-
         results: list[PointResult] = []
         error = ""
         cancelled = False
         start = time.perf_counter()
         try:
-            engine = self._engine
-            if engine is None or engine.n_workers != workers:
-                if engine is not None:
-                    engine.close()
-                self._engine = engine = SweepEngine(n_workers=workers)
+            engine = self._engine_for(workers)
             self._run = run = engine.start(points)
             for result in run.results():
                 results.append(result)
@@ -172,18 +294,32 @@ class SweepSession:
     ) -> None:
         solved = [r for r in results if r.solved]
         failed = sum(r.status == "failed" for r in results)
-        self.panel.status.content = (
+        line = (
             f"{len(results)} / {total} done, {len(solved)} solved, {failed} failed, "
             f"{len(results) / seconds:.2f} points/s"
         )
-        if not solved:
-            return
+        if spec.simulate:
+            simulated = [r for r in solved if np.isfinite(r.fell)]
+            fell = sum(r.fell == 1.0 for r in simulated)
+            line += f"; simulated {len(simulated)}: {fell} fell, {len(simulated) - fell} stayed up"
+            if solved:
+                line += f" (simulation {np.mean([r.sim_s for r in solved]):.1f} s/point)"
+        self.panel.status.content = line
+        if solved:
+            with self._server.atomic():
+                self._plot(spec, results)
+
+    def _plot(self, spec: SweepSpec, results: list[PointResult] | tuple[PointResult, ...]) -> None:
+        """The solved points with finite metrics on the plot, the front and the fallen apart."""
         metrics = tuple(m for m, _ in spec.pareto)
         front = set(pareto_indices(spec, results))
-        xy = np.array([[r.metric(m) for m in metrics] for r in solved])
-        on = np.array([r.index in front for r in solved])
-        with self._server.atomic():
-            self.panel.show_points((metrics[0], metrics[1]), xy, on)
+        shown = [r for r in results if r.solved and all(np.isfinite(r.metric(m)) for m in metrics)]
+        if not shown:
+            return
+        xy = np.array([[r.metric(m) for m in metrics] for r in shown])
+        on = np.array([r.index in front for r in shown])
+        fell = np.array([r.fell == 1.0 for r in shown])
+        self.panel.show_points((metrics[0], metrics[1]), xy, on, fell)
 
     # --- loading a point ----------------------------------------------------------------------
 
@@ -215,12 +351,7 @@ class SweepSession:
 
         try:
             if engine is None:  # a sweep restored from a project: start the workers now
-                from app.sweep_engine import SweepEngine
-
-                with self._lock:
-                    if self._engine is None:
-                        self._engine = SweepEngine(n_workers=1)
-                    engine = self._engine
+                engine = self._engine_for(1)
             gait = engine.solve(point)
             if not gait.converged:
                 raise StudioError(f"point {point.index} did not solve again: {gait.status}")
@@ -235,9 +366,19 @@ class SweepSession:
                 f"**sweep point #{point.index}** — {robot.name} ({changed}), SR {gait.sr:.4f}, "
                 f"max |τ| {gait.max_abs_tau_Nm:.2f} N·m; a walk of {WALK_STEPS} steps"
             )
+            servos = None
+            if point.simulation is not None:
+                setup = point.simulation
+                servos = servo_settings(robot, setup)
+                summary += (
+                    f"; servos {setup.compliance_deg_per_Nm:.3g} °/(N·m), dead band "
+                    f"{setup.dead_band_deg:.3g}°, compensation {'on' if setup.compensation else 'off'}"
+                )
             with self._state.lock, self._server.atomic():
                 self._state.set_robot(robot, report)
                 self._state.set_motion(walk.trajectory, summary, robot)
+            if servos is not None and self._servos is not None:
+                self._servos(*servos)  # after the robot: loading it reset the servos
             self._state.on_play.emit(None)
         except Exception as error:  # a thread boundary: bad input, or a worker lost meanwhile
             if not isinstance(error, StudioError):
@@ -273,18 +414,18 @@ class SweepSession:
         )
         self.panel.load_button.disabled = not solved
         if solved:
-            metrics = tuple(m for m, _ in spec.pareto)
-            xy = np.array([[r.metric(m) for m in metrics] for r in solved])
-            on = np.array([r.index in front for r in solved])
-            self.panel.show_points((metrics[0], metrics[1]), xy, on)
+            self._plot(spec, results)
 
     def close(self) -> None:
         self.cancel()
         thread = self._thread
         if thread is not None:
             thread.join(30.0)
-        if self._engine is not None:
-            self._engine.close()
+        with self._engine_lock:  # waits for an engine being made, then no other is made
+            self._closed = True
+            engine, self._engine = self._engine, None
+        if engine is not None:
+            engine.close()
 
 
 def _whole(value: float, what: str) -> int:

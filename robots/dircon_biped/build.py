@@ -18,6 +18,7 @@ the base origin is at BASE_ORIGIN_HEIGHT_M. Regenerate with `python -m robots.bu
 
 from __future__ import annotations
 
+import functools
 import math
 
 from robots.urdf_writer import (
@@ -101,7 +102,9 @@ ALONG_X = (0.0, math.pi / 2, 0.0)
 ALONG_Y = (math.pi / 2, 0.0, 0.0)
 
 
-def _leg_shapes() -> dict[str, list[Shape]]:
+def _leg_shapes(
+    foot_length_m: float = FOOT_LENGTH_M, foot_width_m: float = FOOT_WIDTH_M
+) -> dict[str, list[Shape]]:
     """Shapes of one leg's links in their frames, centred on the leg axis (both legs share them)."""
     seg = LEG_SEGMENT_M
     bracket_h = ANKLE_HEIGHT_M - SOLE_THICKNESS_M
@@ -129,16 +132,18 @@ def _leg_shapes() -> dict[str, list[Shape]]:
         "foot": [
             Shape("box", (0.05, 0.04, bracket_h - 0.03), (0.0, 0.0, -0.5 * (bracket_h + 0.03)),
                   rgba=ALUMINIUM),
-            Shape("box", (FOOT_LENGTH_M, FOOT_WIDTH_M, SOLE_THICKNESS_M),
+            Shape("box", (foot_length_m, foot_width_m, SOLE_THICKNESS_M),
                   (0.0, 0.0, -ANKLE_HEIGHT_M + 0.5 * SOLE_THICKNESS_M), rgba=CARBON),
         ],
     }  # fmt: skip
 
 
-def _leg(side_name: str) -> tuple[list[Link], list[Joint]]:
+def _leg(
+    side_name: str, foot_length_m: float = FOOT_LENGTH_M, foot_width_m: float = FOOT_WIDTH_M
+) -> tuple[list[Link], list[Joint]]:
     """Links and joints of one leg: fixed hip roll link, five revolute joints, sole frame."""
     side = 1.0 if side_name == "left" else -1.0
-    shapes = _leg_shapes()
+    shapes = _leg_shapes(foot_length_m, foot_width_m)
     origins = {
         "hip_roll": (0.0, 0.0, -HIP_ROLL_DROP_M),
         "hip_yaw": (0.0, 0.0, -HIP_YAW_DROP_M),
@@ -184,9 +189,15 @@ def _base() -> Link:
     ])  # fmt: skip
 
 
-def build_urdf() -> str:
-    """URDF text of dircon_biped: 13 massive links, 10 revolute joints, 2 fixed hip mounts."""
-    leg_links, leg_joints = both_legs(_leg)
+def build_urdf(foot_length_m: float = FOOT_LENGTH_M, foot_width_m: float = FOOT_WIDTH_M) -> str:
+    """URDF text of dircon_biped: 13 massive links, 10 revolute joints, 2 fixed hip mounts.
+
+    `foot_length_m` × `foot_width_m`: the sole plates (visual and collision boxes, centred under
+    the ankle), so the support polygon and the planner's heel and toe follow; each foot's mass
+    stays (shared among its shapes by volume) and the hips stay where Figure 2's feet put them.
+    The defaults build Figure 2's robot (the committed URDF)."""
+    leg = functools.partial(_leg, foot_length_m=foot_length_m, foot_width_m=foot_width_m)
+    leg_links, leg_joints = both_legs(leg)
     links = [_base(), *leg_links]
     check_total_mass(links, TOTAL_MASS_KG, "Table 2")
     comment = (

@@ -11,6 +11,7 @@ soles flat. Regenerate with `python -m robots.build`.
 
 from __future__ import annotations
 
+import functools
 import math
 
 from robots.urdf_writer import (
@@ -44,6 +45,8 @@ ANKLE_HEIGHT_M = 0.035
 HIP_YAW_DROP_M = 0.045
 """Hip yaw joint (in the pelvis) above the crossing of the hip roll and pitch axes [m]."""
 SOLE_LENGTH_M, SOLE_WIDTH_M, SOLE_THICKNESS_M = 0.14, 0.08, 0.008
+"""The sole plate (foot size): `build_urdf` takes its length and width (the sweeps' foot size);
+the defaults are these."""
 PELVIS_HEIGHT_M = 0.04
 NECK_LENGTH_M = 0.02
 HEAD_RADIUS_M = 0.069
@@ -81,7 +84,9 @@ BRACKET_GREY = (0.78, 0.79, 0.81, 1.0)
 ACCENT = (0.95, 0.45, 0.10, 1.0)
 
 
-def _leg_shapes() -> dict[str, list[Shape]]:
+def _leg_shapes(
+    sole_length_m: float = SOLE_LENGTH_M, sole_width_m: float = SOLE_WIDTH_M
+) -> dict[str, list[Shape]]:
     """Shapes of one leg's links in their link frames (centred on the leg axis, so both legs share them)."""
     servo = (0.035, 0.045, 0.03)
     return {
@@ -107,16 +112,18 @@ def _leg_shapes() -> dict[str, list[Shape]]:
         "foot": [
             Shape("box", (0.03, 0.04, ANKLE_HEIGHT_M - SOLE_THICKNESS_M - 0.01),
                   (0.0, 0.0, -0.5 * (ANKLE_HEIGHT_M - SOLE_THICKNESS_M + 0.01)), rgba=BRACKET_GREY),
-            Shape("box", (SOLE_LENGTH_M, SOLE_WIDTH_M, SOLE_THICKNESS_M),
+            Shape("box", (sole_length_m, sole_width_m, SOLE_THICKNESS_M),
                   (0.0, 0.0, -ANKLE_HEIGHT_M + 0.5 * SOLE_THICKNESS_M), rgba=ACCENT),
         ],
     }  # fmt: skip
 
 
-def _leg(side_name: str) -> tuple[list[Link], list[Joint]]:
+def _leg(
+    side_name: str, sole_length_m: float = SOLE_LENGTH_M, sole_width_m: float = SOLE_WIDTH_M
+) -> tuple[list[Link], list[Joint]]:
     """Links and joints of one leg, from the pelvis down to the sole frame."""
     side = 1.0 if side_name == "left" else -1.0
-    shapes = _leg_shapes()
+    shapes = _leg_shapes(sole_length_m, sole_width_m)
     origins = {
         "hip_yaw": (0.0, side * HIP_HALF_WIDTH_M, 0.0),
         "hip_roll": (0.0, 0.0, -HIP_YAW_DROP_M),
@@ -186,10 +193,16 @@ def _upper_body() -> tuple[list[Link], list[Joint]]:
     return links, joints
 
 
-def build_urdf() -> str:
-    """URDF text of servo_biped: pelvis, fixed upper body, two 6-DOF legs, sole frames."""
+def build_urdf(sole_length_m: float = SOLE_LENGTH_M, sole_width_m: float = SOLE_WIDTH_M) -> str:
+    """URDF text of servo_biped: pelvis, fixed upper body, two 6-DOF legs, sole frames.
+
+    `sole_length_m` × `sole_width_m`: the sole plates (visual and collision boxes, centred under
+    the ankle), so the support polygon and the planner's heel and toe follow; each foot's mass
+    stays, shared among its shapes by volume as always. The defaults build the robot of the
+    papers' numbers (the committed URDF)."""
     upper_links, upper_joints = _upper_body()
-    leg_links, leg_joints = both_legs(_leg)
+    leg = functools.partial(_leg, sole_length_m=sole_length_m, sole_width_m=sole_width_m)
+    leg_links, leg_joints = both_legs(leg)
     links, joints = upper_links + leg_links, upper_joints + leg_joints
     check_total_mass(links, TOTAL_MASS_KG, "Table 1")
     comment = (

@@ -94,3 +94,67 @@ def test_servo_biped_lengths_masses_and_torque_limit_reach_pinocchio_and_the_pla
                 ],
             }
         )
+
+
+@pytest.mark.parametrize(
+    ("robot_name", "length", "width"),
+    [("servo_biped", 0.2, 0.06), ("dircon_biped", 0.25, 0.12), ("dircon_biped", 0.13, 0.05)],
+)
+def test_foot_size_moves_the_sole_corners_and_keeps_the_mass(robot_name, length, width):
+    import xml.etree.ElementTree as ET
+
+    import robots.dircon_biped.build as dircon
+    import robots.servo_biped.build as servo
+
+    builder = {"servo_biped": servo, "dircon_biped": dircon}[robot_name]
+    thickness = builder.SOLE_THICKNESS_M
+    variant = RobotVariant.of(robot_name, {"sole_length_m": length, "sole_width_m": width})
+    # the URDF: each foot's lowest collision box is the sole, of the asked size
+    root = ET.fromstring(variant.urdf_text())
+    for side in ("left", "right"):
+        (foot,) = [link for link in root.iter("link") if link.get("name") == f"{side}_foot"]
+        boxes = []
+        for collision in foot.findall("collision"):
+            box = collision.find("geometry/box")
+            origin = collision.find("origin")
+            if box is not None and origin is not None:
+                size = [float(x) for x in box.get("size", "").split()]
+                z = float(origin.get("xyz", "").split()[2])
+                boxes.append((z - 0.5 * size[2], size))
+        assert min(boxes)[1] == pytest.approx([length, width, thickness], abs=1e-6)
+    plain, big = RobotVariant.of(robot_name, {}).load(), variant.load()
+    assert _mass(big) == pytest.approx(_mass(plain), abs=1e-9)  # a foot keeps its mass
+    # the studio's sole (read from the collision meshes), placed by pinocchio at the neutral
+    # pose: a rectangle of length × width on the floor, centred under the ankle
+    data = big.model.createData()
+    pin.framesForwardKinematics(big.model, data, big.q_neutral)
+    for side in ("left", "right"):
+        foot = big.foot(side)
+        placement = data.oMf[big.link_frame_ids[foot.link]]
+        corners = np.array([placement.act(c) for c in foot.sole_corners_m])
+        ankle = data.oMi[big.model.getJointId(f"{side}_ankle_pitch")].translation
+        assert np.ptp(corners[:, 0]) == pytest.approx(length, abs=1e-6)
+        assert np.ptp(corners[:, 1]) == pytest.approx(width, abs=1e-6)
+        assert corners[:, :2].mean(axis=0) == pytest.approx(ankle[:2], abs=1e-6)
+        assert corners[:, 2] == pytest.approx(np.zeros(4), abs=1e-6)  # standing on z = 0
+    # the planner's heel and toe are the sole's rear and front edges: length apart
+    from app.core.collocation.planar_model import PlanarModel, evaluate
+
+    planar = PlanarModel(big)
+    heel_toe = evaluate(planar.contact_positions, planar.from_full_q(big.q_neutral)).reshape(4, 2)
+    for heel, toe in (heel_toe[0:2], heel_toe[2:4]):
+        assert toe[0] - heel[0] == pytest.approx(length, abs=1e-6)
+        assert heel[1] == pytest.approx(0.0, abs=1e-6) and toe[1] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_foot_size_defaults_build_the_committed_robot_and_bad_sizes_are_refused():
+    import robots.dircon_biped.build as dircon
+    import robots.servo_biped.build as servo
+    from robots.catalogue import BUILTIN_ROBOTS
+
+    for name, builder in (("servo_biped", servo), ("dircon_biped", dircon)):
+        assert builder.build_urdf() == BUILTIN_ROBOTS[name].urdf_path.read_text(encoding="utf-8")
+    assert servo.build_urdf(sole_length_m=0.14, sole_width_m=0.08) == servo.build_urdf()
+    assert dircon.build_urdf(foot_length_m=0.19, foot_width_m=0.075) == dircon.build_urdf()
+    with pytest.raises(SweepSpecError, match=r"\[0.05, 0.09\]"):
+        RobotVariant.of("servo_biped", {"sole_width_m": 0.12})  # the feet would overlap

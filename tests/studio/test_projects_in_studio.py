@@ -301,7 +301,7 @@ def test_a_sweep_travels_with_the_project(studio, tmp_path):
         assert (panel.samples.value, panel.knots.value) == (4, 16)
         assert (panel.metric_x.value, panel.metric_y.value) == ("energy_J", "max_torque_Nm")
         assert panel.plot is not None
-        x, y, front = panel.plot.data
+        x, y, _fell, front = panel.plot.data
         assert list(x) == [1.0, 2.0, 3.0] and list(y) == [5.0, 2.0, 4.0]
         assert np.count_nonzero(np.isfinite(front)) == 2  # the front: points 0 and 1
         assert not panel.load_button.disabled

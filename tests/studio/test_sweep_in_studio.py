@@ -50,7 +50,8 @@ def test_sweep_panel_runs_plots_and_loads_a_point(studio):
     }
     assert set(outcome.pareto) == expected
     assert panel.plot is not None
-    x, y, front = panel.plot.data
+    x, y, fell, front = panel.plot.data
+    assert not np.isfinite(fell).any()  # no simulation: no point fell
     assert sorted(x) == sorted(xy[:, 0]) and sorted(y) == sorted(xy[:, 1])
     assert np.count_nonzero(np.isfinite(front)) == len(expected)
     assert "3 / 3 done" in panel.status.content

@@ -213,6 +213,11 @@ def prepare_point(point: SweepPoint, cache: ProblemCache | None = None) -> float
     """Build the NLP of the point's structure and solve its anchor gait here, ahead of the
     points (so the first of them pays only its solve); the seconds it took (0.0 when warm)."""
     cache = cache if cache is not None else _process_cache()
+    if point.simulation is not None:  # the simulation's modules, imported once per process
+        import app.core.dynamics.wbc
+        import app.core.servo.commands
+        import app.core.simulation.run
+        import app.core.walking.walk  # noqa: F401
     key = (point.robot, *point.settings.structure)
     problem, build_s = cache.get(key)
     if point.start == "anchor" and point.anchor is not None:

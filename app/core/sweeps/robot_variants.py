@@ -1,25 +1,30 @@
 """Robot parameters of a sweep: a built-in robot's URDF with segment lengths and masses changed.
 
-The built-in builders (robots/<name>/build.py) take no arguments: their numbers are the papers'.
-A sweep changes the generated URDF instead, where the change is well defined:
+The built-in builders (robots/<name>/build.py) build the papers' numbers; apart from the foot
+size (a builder argument, below) a sweep changes the generated URDF, where the change is well
+defined:
 
 - a segment length (`thigh_length_m`, `shank_length_m`) moves the joint at the segment's end
   (knee, ankle) to the new length on both legs, and stretches the segment's own link along its
   axis by the same ratio: inertial and visual origins, the lengths of the axial cylinders, and
   the inertia about the transverse axes (× ratio², a slender rod);
 - a link mass (`base_mass_kg`, `thigh_mass_kg`, ...) sets the mass of that link (both legs' for
-  a leg link) and scales its inertia tensor by the same ratio.
-
+  a leg link) and scales its inertia tensor by the same ratio;
 - a torque limit (`torque_limit_Nm`, servo_biped) sets the effort limit of every leg joint, and
   the planner's torque bound (`GaitSettings.tau_max_Nm`, which defaults to the smallest effort
-  limit) with it.
+  limit) with it;
+- the foot size (`sole_length_m`, `sole_width_m`) is an argument of the robot's builder
+  (`build_urdf(...)`): the sole plates' visual and collision boxes take that length and width
+  (centred under the ankle, the foot's mass shared among its shapes by volume as the builder
+  does), so everything read from the sole follows: its corners (`Foot.sole_corners_m`), the
+  support polygon, the planner's heel and toe points and MuJoCo's sole boxes. A variant with a
+  foot size is built by the builder and then edited for the other parameters; at the defaults
+  the builder gives the committed URDF (`python -m robots.build --check`).
 
 dircon_biped and servo_biped have sweep parameters; the ranges keep the robot buildable and its
 legs able to stand (the planner refuses what it cannot walk). servo_biped's segments are boxes:
 a length moves them along the leg with the joint, their sizes stay. A loaded URDF has none: its
-links have no known segment axis or shape to stretch, so "length" is not defined for it. The
-foot size is not a parameter yet (the sole is one box among a foot's shapes; the contact points
-and the planner's foot model would have to follow it).
+links have no known segment axis or shape to stretch, so "length" is not defined for it.
 """
 
 from __future__ import annotations
@@ -56,6 +61,8 @@ class RobotParameter:
     """For a torque limit: the joints whose URDF effort limit it sets."""
     gait_setting: str = ""
     """A GaitSettings field that follows the value (the planner's torque bound)."""
+    builder_arg: str = ""
+    """For a builder argument (the foot size): its keyword in `robots.<robot>.build.build_urdf`."""
 
     @property
     def is_length(self) -> bool:
@@ -92,6 +99,15 @@ ROBOT_PARAMETERS: dict[str, dict[str, RobotParameter]] = {
             RobotParameter("thigh_mass_kg", 0.3, 4.0, 1.116, _leg("thigh"), (), "Table 2: 1.116"),
             RobotParameter("shank_mass_kg", 0.3, 4.0, 1.597, _leg("shank"), (), "Table 2: 1.597"),
             RobotParameter("foot_mass_kg", 0.1, 2.0, 0.300, _leg("foot"), (), "Table 2: 0.300"),
+            RobotParameter(
+                "sole_length_m", 0.12, 0.28, 0.190, (), (),
+                "sole length, heel to toe [m] (Figure 2: 0.190)", builder_arg="foot_length_m",
+            ),
+            RobotParameter(
+                "sole_width_m", 0.05, 0.15, 0.075, (), (),
+                "sole width [m] (Figure 2: 0.075; the feet touch above 0.2)",
+                builder_arg="foot_width_m",
+            ),
         )
     },
     "servo_biped": {
@@ -110,6 +126,15 @@ ROBOT_PARAMETERS: dict[str, dict[str, RobotParameter]] = {
             RobotParameter("thigh_mass_kg", 0.1, 1.5, 0.4, _leg("thigh"), (), "built: 0.4"),
             RobotParameter("shank_mass_kg", 0.1, 1.5, 0.4, _leg("shank"), (), "built: 0.4"),
             RobotParameter("foot_mass_kg", 0.1, 1.0, 0.3, _leg("foot"), (), "built: 0.3"),
+            RobotParameter(
+                "sole_length_m", 0.09, 0.22, 0.14, (), (), "sole length [m] (built: 0.14)",
+                builder_arg="sole_length_m",
+            ),
+            RobotParameter(
+                "sole_width_m", 0.05, 0.09, 0.08, (), (),
+                "sole width [m] (built: 0.08; the feet touch above 0.093)",
+                builder_arg="sole_width_m",
+            ),
             RobotParameter(
                 "torque_limit_Nm", 2.0, 20.0, 6.0, (), (), "leg servos' torque (built: 6.0)",
                 effort_joints=tuple(
@@ -170,9 +195,17 @@ class RobotVariant:
         text = BUILTIN_ROBOTS[self.robot].urdf_path.read_text(encoding="utf-8")
         if not self.values:
             return text
+        parameters = [(robot_parameter(self.robot, name), value) for name, value in self.values]
+        built = {p.builder_arg: value for p, value in parameters if p.builder_arg}
+        if built:
+            import importlib
+
+            builder = importlib.import_module(f"robots.{self.robot}.build")
+            text = builder.build_urdf(**built)
         root = ET.fromstring(text)
-        for name, value in self.values:
-            _apply(root, robot_parameter(self.robot, name), value)
+        for p, value in parameters:
+            if not p.builder_arg:
+                _apply(root, p, value)
         return ET.tostring(root, encoding="unicode")
 
     def write_urdf(self, folder: Path) -> Path:

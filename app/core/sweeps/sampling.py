@@ -65,6 +65,19 @@ def sample_values(spec: SweepSpec) -> np.ndarray:
     return values
 
 
+def start_point(spec: SweepSpec, defaults: GaitSettings | None = None) -> SweepPoint:
+    """The point every anchored solve of `spec` on its robot as built starts from: the built
+    robot with the sweep's base settings, anchored on themselves. Preparing it on a worker
+    (`evaluate.prepare_point`) builds the NLP and anchor gait those points use."""
+    if defaults is None:
+        from app.core.collocation.defaults import default_settings
+
+        defaults = default_settings(RobotVariant(spec.robot).load())
+    base = spec.base_settings(defaults)
+    simulation = SimulationSetup.of(spec.walk_steps, dict(spec.servo)) if spec.simulate else None
+    return SweepPoint(-1, (), RobotVariant(spec.robot), base, spec.start, base, simulation)
+
+
 def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[SweepPoint]:
     """Every point of the sweep, in order, from `defaults` (the robot's planner defaults).
 

@@ -117,32 +117,52 @@ def not_simulated(reason: str, seconds: float = 0.0) -> SimulationMetrics:
     return SimulationMetrics(nan, nan, nan, nan, nan, reason, seconds)
 
 
+SIMULATION_S_BASE, SIMULATION_S_PER_STEP = 0.2, 0.4
+"""What a point's simulation costs on top of its gait solve, roughly [s]: a fixed part (torques
+set-up, MuJoCo model) and a part per walk step (walk, QP, simulation); about 1 s with 2 steps on
+dircon_biped here (the README's Design sweeps)."""
+
+
+def simulation_cost_s(walk_steps: int) -> float:
+    """The rough extra seconds per point of `simulate = true` with `walk_steps` steps."""
+    return SIMULATION_S_BASE + SIMULATION_S_PER_STEP * walk_steps
+
+
+def servo_settings(robot: Any, setup: SimulationSetup) -> tuple[Any, Any]:
+    """(CompensationParams, ServoModel) of a setup on `robot`: the leg joints (those the
+    uniform preset compensates) get the setup's compliance and dead band, the others are rigid;
+    compensation on is eq 7 with k = that compliance (a calibrated servo), off sends the plan."""
+    from app.core.servo.compensation import disabled_params
+    from app.core.servo.model import ServoModel
+    from app.core.servo.presets import uniform_preset
+
+    legs = uniform_preset(robot).enabled
+    if setup.compensation:
+        params = uniform_preset(robot, setup.compliance_deg_per_Nm)
+    else:
+        params = disabled_params(robot.joint_names)
+    servo = ServoModel(
+        robot.joint_names,
+        np.where(legs, setup.compliance_deg_per_Nm, 0.0),
+        np.where(legs, setup.dead_band_deg, 0.0),
+    )
+    return params, servo
+
+
 def walk_and_simulate(planar: Any, gait: Any, setup: SimulationSetup) -> tuple[Any, ...]:
     """The pipeline on a solved gait: (walk, feed-forward, commands, servos, simulation result).
     Raises StudioError where a stage refuses (a walk it cannot make, commands out of the joint
     limits, a simulation that diverges)."""
     from app.core.dynamics.wbc import torque_feedforward
     from app.core.servo.commands import servo_commands
-    from app.core.servo.compensation import disabled_params
-    from app.core.servo.model import ServoModel
-    from app.core.servo.presets import uniform_preset
     from app.core.simulation.run import simulate
     from app.core.walking.walk import build_walk
 
     robot = planar.robot
     walk = build_walk(planar, gait, steps=setup.walk_steps)
     feedforward = torque_feedforward(robot, walk.trajectory)
-    legs = uniform_preset(robot).enabled
-    if setup.compensation:
-        params = uniform_preset(robot, setup.compliance_deg_per_Nm)
-    else:
-        params = disabled_params(robot.joint_names)
+    params, servo = servo_settings(robot, setup)
     commands = servo_commands(robot, walk.trajectory, feedforward.tau_Nm, params)
-    servo = ServoModel(
-        robot.joint_names,
-        np.where(legs, setup.compliance_deg_per_Nm, 0.0),
-        np.where(legs, setup.dead_band_deg, 0.0),
-    )
     result = simulate(robot, walk.trajectory, commands.q_cmd_rad, servo)
     return walk, feedforward, commands, servo, result
 
