@@ -61,6 +61,7 @@ from multiprocessing.process import BaseProcess
 from typing import Any, Literal, Protocol
 
 from app.core.errors import StudioError
+from app.core.single_thread import single_thread_environment
 
 log = logging.getLogger(__name__)
 
@@ -340,7 +341,8 @@ class SolverWorker:
             name="solver-worker",
             daemon=True,
         )
-        process.start()
+        with single_thread_environment():  # one solve per core: BLAS threads only spin
+            process.start()
         requests_r.close()  # the worker's ends: once it dies, its pipe reads as end-of-file
         events_w.close()
         return _Process(process, requests_w, events_r)

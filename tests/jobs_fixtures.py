@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.core.errors import StudioError
+from app.core.single_thread import SINGLE_THREAD_ENV
 
 CRASH_EXIT_CODE = 3
 
@@ -51,6 +52,8 @@ class SleepyResult:
     """`x` of the result it was warm-started from, None on a cold start."""
     pid: int
     """The worker process."""
+    thread_env: dict[str, str | None]
+    """The worker's BLAS/OpenMP thread-count variables."""
     extra: object = field(default=None, compare=False)
 
 
@@ -82,6 +85,7 @@ class SleepyProblem:
             solves=self.solves,
             warm_start_x=None if warm_start is None else warm_start.x,
             pid=os.getpid(),
+            thread_env={name: os.environ.get(name) for name in SINGLE_THREAD_ENV},
             extra=threading.Lock() if settings.unpicklable else None,
         )
 

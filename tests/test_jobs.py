@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import multiprocessing
+import os
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -12,6 +13,7 @@ import numpy as np
 import pytest
 from jobs_fixtures import CRASH_EXIT_CODE, SleepySettings, build_sleepy
 
+from app.core.single_thread import SINGLE_THREAD_ENV
 from app.jobs import SolverStatus, SolverWorker
 
 FACTORY = "jobs_fixtures:build_sleepy"
@@ -87,6 +89,13 @@ def test_progress_arrives_in_order_then_done_with_the_result(solver):
     assert recorder.events[-1][0] == "done"  # nothing after the end
     assert recorder.threads == {"solver-events"}
     assert solver.status == SolverStatus("idle")
+
+
+def test_the_worker_runs_with_one_blas_thread_and_the_studio_keeps_its_own(solver):
+    before = {name: os.environ.get(name) for name in SINGLE_THREAD_ENV}
+    result = solve(solver, Recorder(solver), "env")[2]
+    assert result.thread_env == dict.fromkeys(SINGLE_THREAD_ENV, "1")
+    assert {name: os.environ.get(name) for name in SINGLE_THREAD_ENV} == before
 
 
 def test_a_structure_is_built_once_and_warm_started_from_its_last_result(solver):

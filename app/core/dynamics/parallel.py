@@ -11,7 +11,6 @@ the same robot pays no set-up. The chunks come back in order and are solved exac
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import multiprocessing
 import os
@@ -19,16 +18,15 @@ import pickle
 import shutil
 import tempfile
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from multiprocessing.pool import Pool
 from pathlib import Path
 
 from app.core.dynamics.wbc import ChunkInput, ChunkResult, WbcParams, make_qp, solve_chunk
 from app.core.dynamics.wbc_qp import QpSolver, WholeBodyQp
 from app.core.robot.model import RobotModel
+from app.core.single_thread import single_thread_environment
 
-SINGLE_THREAD_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-"""Thread counts pinned to 1 in the workers: one process per core already uses them all."""
 MAX_CACHED_QPS = 4
 """QPs a worker keeps (robots × parameters × solver) before it forgets the oldest."""
 
@@ -41,7 +39,7 @@ class FeedForwardPool:
 
     def __init__(self, workers: int | None = None) -> None:
         self.workers = max(1, workers or os.cpu_count() or 1)
-        with _single_thread_environment():  # the processes start here, inheriting it
+        with single_thread_environment():  # the processes start here, inheriting it
             self._pool: Pool = multiprocessing.get_context("spawn").Pool(self.workers)
             self._pool.map(_warm_up, range(self.workers), chunksize=1)
         self._robot: tuple[RobotModel, str, str] | None = None
@@ -96,20 +94,6 @@ class FeedForwardPool:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-@contextlib.contextmanager
-def _single_thread_environment() -> Iterator[None]:
-    saved = {name: os.environ.get(name) for name in SINGLE_THREAD_ENV}
-    os.environ.update(dict.fromkeys(SINGLE_THREAD_ENV, "1"))
-    try:
-        yield
-    finally:
-        for name, value in saved.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
 
 
 def spin(seconds: float) -> float:
