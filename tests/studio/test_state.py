@@ -10,6 +10,7 @@ import pytest
 
 from app.core.errors import StudioError
 from app.core.motions.trajectory import from_configurations
+from app.core.projects.display import CameraView, DisplayError
 from app.core.robot.loading import load_robot
 from app.core.robot.report import robot_report
 from app.studio.admission import Admission, Busy
@@ -148,3 +149,38 @@ def test_admission_limits_jobs_per_tab_and_in_all():
             pass
     with admission.admit(1), admission.admit(1), admission.admit(3):
         pass  # everything was released, also after a refusal
+
+
+def test_display_settings_are_replaced_only_when_something_changes():
+    state = StudioState()
+    emitted = []
+    state.on_display.connect(emitted.append)
+    first = state.display
+    state.set_display("panel", speed=1.0, loop=True)  # the defaults: no change
+    assert state.display is first and emitted == []
+    settings = state.set_display("panel", speed=0.5)
+    assert settings.speed == 0.5 and state.display is not first and len(emitted) == 1
+    with pytest.raises(DisplayError, match="speed is 3.0"):
+        state.set_display("panel", speed=3.0)
+    assert state.display.settings is settings and len(emitted) == 1
+
+
+def test_a_moving_camera_waits_for_the_next_change_or_a_flush():
+    state = StudioState()
+    emitted = []
+    state.on_display.connect(emitted.append)
+    before = state.display
+    views = [CameraView((1.0 + 0.01 * i, 2.0, 1.0), (0.0, 0.0, 0.3)) for i in range(60)]
+    for view in views:
+        state.note_camera(view)
+    assert state.display is before and emitted == []  # sixty moves, no new settings
+    state.set_display("panel", traces=False)  # the next other change takes the newest view
+    assert state.display.settings.camera == views[-1] and not state.display.settings.traces
+    assert len(emitted) == 1
+    state.note_camera(views[-1])  # the same view again (an echo): nothing to keep
+    state.flush_camera()
+    assert len(emitted) == 1
+    state.note_camera(views[0])
+    state.flush_camera()
+    assert state.display.settings.camera == views[0] and state.display.origin == "camera"
+    assert len(emitted) == 2
