@@ -6,40 +6,16 @@ from __future__ import annotations
 import asyncio
 import threading
 
-import msgspec
 import pytest
-import viser
 import websockets
-import zstandard
 from viser import _messages as viser_messages
 
 from app.studio import Studio
 from app.web.access import cookie_name
 from tests.studio.conftest import GUARD_S
+from tests.viser_wire import CAMERA, SUBPROTOCOL, decode_window, encode
 
-SUBPROTOCOL = f"viser-v{viser.__version__}"
-CAMERA = viser_messages.ViewerCameraMessage(
-    wxyz=(1.0, 0.0, 0.0, 0.0),
-    position=(1.0, 1.0, 1.0),
-    fov=1.0,
-    near=0.01,
-    far=100.0,
-    image_height=600,
-    image_width=800,
-    look_at=(0.0, 0.0, 0.0),
-    up_direction=(0.0, 0.0, 1.0),
-)
-
-
-def encode(message: viser_messages.Message) -> bytes:
-    return msgspec.msgpack.encode(message.as_serializable_dict())
-
-
-def decode_window(frame: bytes) -> list[dict]:
-    """The messages of one server frame (viser's wire format: sizes, zstd msgpack, buffers)."""
-    size, compressed = int.from_bytes(frame[:8], "little"), int.from_bytes(frame[8:16], "little")
-    inner = zstandard.ZstdDecompressor().decompress(frame[16 : 16 + compressed], size)
-    return list(msgspec.msgpack.decode(inner)["messages"])
+__all__ = ["CAMERA", "Tab", "loop", "wait"]
 
 
 def wait(what: str, probe) -> None:
