@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import threading
+from collections.abc import Callable
 
 import pytest
 import websockets
@@ -58,10 +59,41 @@ class Tab:
         asyncio.run_coroutine_threadsafe(self._read(), loop)
         self.send(CAMERA)
 
+    render: Callable[[int, int], bytes] | None = None
+    """Set it to answer the server's render requests as a browser would: called with the
+    requested (height, width), returns the image's bytes (JPEG or PNG, as requested)."""
+
     async def _read(self) -> None:
         async for frame in self._ws:
             if isinstance(frame, bytes):
-                self.received.extend(decode_window(frame))
+                messages = decode_window(frame)
+                self.received.extend(messages)
+                for message in messages:
+                    if message.get("type") == "GetRenderRequestMessage" and self.render:
+                        payload = self.render(message["height"], message["width"])
+                        await self._ws.send(
+                            encode(
+                                viser_messages.GetRenderResponseMessage(
+                                    payload, message["render_uuid"]
+                                )
+                            )
+                        )
+
+    def download(self) -> tuple[dict, bytes] | None:
+        """The newest file the server sent this tab to download: (its start message, its
+        content put together from its parts), once every part is in; None before."""
+        starts = [m for m in self.received if m.get("type") == "FileTransferStartDownload"]
+        if not starts:
+            return None
+        start = starts[-1]
+        parts = {
+            m["part_index"]: bytes(m["content"])
+            for m in self.received
+            if m.get("type") == "FileTransferPart" and m["transfer_uuid"] == start["transfer_uuid"]
+        }
+        if len(parts) < start["part_count"]:
+            return None
+        return start, b"".join(parts[i] for i in range(start["part_count"]))
 
     def send(self, message: viser_messages.Message) -> None:
         asyncio.run_coroutine_threadsafe(self._ws.send(encode(message)), self._loop).result(60)
