@@ -2,8 +2,9 @@
 view is put back on every tab.
 
 The presenter here is the last tab that moved its camera (a follower's camera is a copy of the
-presenter's, app.studio.demo_session). A tab's starting view (its camera when it connects) is
-not a move and is not kept, until the tab moves away from it. A camera moves at display rate while orbiting: every move is
+presenter's, app.studio.demo_session). A tab's starting view (its camera when it connects, or
+the server's initial camera, which a page settles on after its first message) is not a move
+and is not kept. A camera moves at display rate while orbiting: every move is
 noted in the state (`StudioState.note_camera`, no new settings), and the settings take the
 newest one at most every SAVE_PERIOD_S, or with the next other display change or save, so
 autosave never sees sixty changes a second.
@@ -84,11 +85,19 @@ class CameraSession:
         with self._lock:
             if client_id not in self._start:
                 return
-            if view.near(self._start[client_id]):
-                return  # still the starting view: not a move
-            self._start[client_id] = None
-        self._state.note_camera(view)
+            starting = view.near(self._start[client_id]) or self._at_initial(view)
+            if not starting:
+                self._start[client_id] = None
+        self._state.note_camera(view, starting)
         self._throttle.submit(None)
+
+    def _at_initial(self, view: CameraView) -> bool:
+        """Whether `view` stands where a new tab starts (a page settling on the initial camera
+        after its first message, or *Reset view*)."""
+        initial = self._server.initial_camera
+        here = np.array((*view.position, *view.look_at))
+        start = np.concatenate([initial.position, initial.look_at])
+        return bool(np.allclose(here, start, rtol=1e-4, atol=1e-4))
 
     def _on_display(self, display: Display) -> None:
         camera = display.settings.camera

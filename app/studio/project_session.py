@@ -43,7 +43,7 @@ from app.core.motions.keyframes import Keyframe
 from app.core.posing.drag import Posing
 from app.core.projects.autosave import AutosaveStore
 from app.core.projects.codec import ProjectError
-from app.core.projects.display import ALL_JOINTS, DisplaySettings, plot_choices
+from app.core.projects.display import ALL_JOINTS, DisplaySettings, plot_choices, same_display
 from app.core.projects.files import SUFFIX, parse_project, project_bytes, read_project
 from app.core.projects.project import Project, RobotSource, check_fits
 from app.core.projects.robot_files import load_project_robot, robot_source
@@ -478,6 +478,8 @@ def _same_value(x: object, y: object) -> bool:
         return True
     if isinstance(x, tuple) and isinstance(y, tuple):
         return len(x) == len(y) and all(_same_value(i, j) for i, j in zip(x, y, strict=True))
+    if isinstance(x, DisplaySettings) and isinstance(y, DisplaySettings):
+        return same_display(x, y)  # a tab's echo of a restored camera is the same view
     if isinstance(x, float | int | str | bool | GaitSettings):
         return type(x) is type(y) and x == y
     return False

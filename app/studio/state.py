@@ -199,12 +199,17 @@ class StudioState:
             self.display = Display(settings, "project")
             self.on_display.emit(self.display)
 
-    def note_camera(self, camera: CameraView) -> None:
+    def note_camera(self, camera: CameraView, starting: bool = False) -> None:
         """A tab's camera moved: kept aside, and put into `display` by the next
         `set_display` (a toggle, `flush_camera`); a camera moving at 60 Hz does not replace
-        the settings 60 times a second."""
+        the settings 60 times a second. `starting`: the tab is at the view a tab starts from,
+        which is not kept while the settings hold no camera (opening a tab is not work)."""
         with self.lock:
-            self._camera = None if camera.near(self.display.settings.camera) else camera
+            kept = self.display.settings.camera
+            if kept is None and starting:
+                self._camera = None
+            else:
+                self._camera = None if camera.near(kept) else camera
 
     def flush_camera(self) -> None:
         """Put the newest reported camera into `display` now (before a save, on a timer)."""

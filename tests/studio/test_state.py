@@ -3,6 +3,7 @@ quiet flag. No server: these are plain objects."""
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 
 from app.core.errors import StudioError
 from app.core.motions.trajectory import from_configurations
-from app.core.projects.display import CameraView, DisplayError
+from app.core.projects.display import CameraView, DisplayError, same_display
 from app.core.robot.loading import load_robot
 from app.core.robot.report import robot_report
 from app.studio.admission import Admission, Busy
@@ -184,3 +185,25 @@ def test_a_moving_camera_waits_for_the_next_change_or_a_flush():
     state.flush_camera()
     assert state.display.settings.camera == views[0] and state.display.origin == "camera"
     assert len(emitted) == 2
+
+
+def test_a_tab_at_its_starting_view_is_not_work_until_a_camera_is_kept():
+    state = StudioState()
+    start = CameraView((0.6, 0.5, 0.5), (0.0, 0.0, 0.3))
+    state.note_camera(start, starting=True)
+    state.flush_camera()
+    assert state.display.settings.camera is None  # opening a tab changed nothing
+    moved = CameraView((1.0, -0.5, 0.4), (0.0, 0.0, 0.3))
+    state.note_camera(moved)
+    state.flush_camera()
+    state.note_camera(start, starting=True)  # back at the starting view: that is a move now
+    state.flush_camera()
+    assert state.display.settings.camera == start
+    # A browser's echo differs in the last bits: the same view, the same settings.
+    echo = CameraView((0.6 + 1e-15, 0.5, 0.5), (1e-17, 0.0, 0.3), (0.0, 1e-16, 2.0))
+    assert same_display(
+        state.display.settings, dataclasses.replace(state.display.settings, camera=echo)
+    )
+    assert not same_display(
+        state.display.settings, dataclasses.replace(state.display.settings, camera=moved)
+    )

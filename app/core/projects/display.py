@@ -65,8 +65,8 @@ class CameraView:
         if other is None:
             return False
         pairs = zip(
-            (*self.position, *self.look_at, *self.up, self.fov_deg),
-            (*other.position, *other.look_at, *other.up, other.fov_deg),
+            (*self.position, *self.look_at, *_unit(self.up), self.fov_deg),
+            (*other.position, *other.look_at, *_unit(other.up), other.fov_deg),
             strict=True,
         )
         return all(abs(a - b) <= tol * max(1.0, abs(a)) for a, b in pairs)
@@ -123,6 +123,19 @@ class DisplaySettings:
             raise DisplayError(
                 f"plot_joints is empty or too long; give a joint, a leg or {ALL_JOINTS!r}"
             )
+
+
+def same_display(a: DisplaySettings, b: DisplaySettings) -> bool:
+    """The same settings, cameras equal up to a browser's rounding (CameraView.near)."""
+    if dataclasses.replace(a, camera=None) != dataclasses.replace(b, camera=None):
+        return False
+    return a.camera == b.camera or (a.camera is not None and a.camera.near(b.camera))
+
+
+def _unit(v: tuple[float, float, float]) -> tuple[float, ...]:
+    """`v` scaled to length 1 (a browser reports its up direction normalised)."""
+    norm = math.hypot(*v)
+    return tuple(x / norm for x in v)
 
 
 def plot_choices(joint_names: tuple[str, ...]) -> tuple[str, ...]:
