@@ -11,7 +11,7 @@ import pytest
 
 from app.core.errors import StudioError
 from app.core.motions.trajectory import from_configurations
-from app.core.projects.display import CameraView, DisplayError, same_display
+from app.core.projects.display import GHOST_NAMES, CameraView, DisplayError, same_display
 from app.core.robot.loading import load_robot
 from app.core.robot.report import robot_report
 from app.studio.admission import Admission, Busy
@@ -207,3 +207,9 @@ def test_a_tab_at_its_starting_view_is_not_work_until_a_camera_is_kept():
     assert not same_display(
         state.display.settings, dataclasses.replace(state.display.settings, camera=moved)
     )
+
+
+def test_the_display_settings_know_every_ghost_the_studio_draws():
+    from app.views.ghosts_view import GHOSTS
+
+    assert tuple(GHOSTS) == GHOST_NAMES
