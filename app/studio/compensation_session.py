@@ -502,11 +502,14 @@ class CompensationSession:
             try:
                 for name, box in self.panel.ghosts.items():
                     set_value(box, name in settings.ghosts)  # the ghosts follow their box
-                if settings.plot_joints in self.plots.joints.options:
+                shown = settings.plot_joints in self.plots.joints.options
+                if shown:
                     set_value(self.plots.joints, settings.plot_joints)
                 set_value(self.plots.wide, settings.wide_plots)
             finally:
                 self._mirroring = False
+            if not shown:  # no torques yet to offer that choice: keep what the panel shows
+                self._note_display()
 
     # --- simulation (physics) ---------------------------------------------------------------
 
