@@ -43,7 +43,9 @@ the fixed pinocchio workload of app.bench_report) so that the ratio carries acro
 - projects: servo_biped with a walk of ≥ 10 s, its torques and its gait saved to a .bstudio
   and read back (≤ 1 s each; the same arrays written and read with bare np.save / np.load as
   the same-run baseline, and the ratio), opened in the studio (robot, prediction, panels;
-  ≤ 1 s); and foot drags at 20 Hz with that project loaded, autosave on vs held: p95 of each.
+  ≤ 1 s); and foot drags at 20 Hz with that project loaded, autosave on vs held, in turns of
+  6 s (longer than autosave's MAX_DELAY_S, so autosaves are written mid-drag): the figure is
+  the ratio of the p95s, target ≤ AUTOSAVE_DRAG_RATIO (autosave never blocks a drag).
 - simulate: servo_biped's one-leg squats on MuJoCo with the default virtual servos (≥ 10× real
   time; the same steps of bare MuJoCo beside it), Roban S14's (≥ 5×), and the studio's
   Simulate click to the verdict, ghosts and plots (≤ 2 s), with the worker already started.
@@ -93,6 +95,8 @@ ROBAN_CANDIDATES = (
 LOAD_TARGET_S = 2.0
 SLIDER_TARGET_MS = 5.0
 DRAG_TARGET_MS = 5.0
+AUTOSAVE_DRAG_RATIO = 1.2
+"""Drag p95 with autosave on ≤ this × the same drags with autosave held (issue 13)."""
 PLAYBACK_TARGET_HZ = 60.0
 INTERPOLATE_TARGET_S = 0.5
 COMPENSATION_TARGET_MS = 50.0
@@ -440,11 +444,11 @@ def _entry_projects(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             "machine reference",
         ),
         Figure(
-            "foot drag at 20 Hz with that project, autosave on",
+            "foot drag at 20 Hz with that project, autosave on (p95)",
             row["drag_autosave_p95_ms"],
             "ms",
-            f"p95 ≤ {DRAG_TARGET_MS:.0f} ms",
-            row["drag_autosave_p95_ms"] <= DRAG_TARGET_MS,
+            f"ratio ≤ {AUTOSAVE_DRAG_RATIO:g}",
+            row["drag_autosave_p95_ms"] <= AUTOSAVE_DRAG_RATIO * row["drag_held_p95_ms"],
             row["drag_held_p95_ms"],
             "the same drags with autosave held",
             f"{row['autosaves']} autosaves written meanwhile",
@@ -803,11 +807,15 @@ def _bench_projects(studio: Studio, data_dir: Path, runs: int = 5) -> dict:
         if not studio.project.open(path, trusted=True):
             raise SystemExit(f"bench: cannot open the project: {studio.project.last_error}")
         studio_s.append(time.perf_counter() - begin)
-    held = _paced_drags(studio, autosave=False)
     count = [0]
     disconnect = studio.project.autosaved.connect(lambda _path: count.__setitem__(0, count[0] + 1))
-    on = _paced_drags(studio, autosave=True)
+    held_ms: list[float] = []
+    on_ms: list[float] = []
+    for _ in range(2):  # in turns, so a change in the machine's load weighs on both alike
+        held_ms += _paced_drags(studio, autosave=False)
+        on_ms += _paced_drags(studio, autosave=True)
     disconnect()
+    held, on = (float(np.percentile(np.array(ms), 95)) for ms in (held_ms, on_ms))
     return {
         "motion_s": walk.trajectory.duration,
         "megabytes": path.stat().st_size / 2**20,
@@ -822,8 +830,9 @@ def _bench_projects(studio: Studio, data_dir: Path, runs: int = 5) -> dict:
     }
 
 
-def _paced_drags(studio: Studio, autosave: bool, events: int = 80) -> float:
-    """p95 [ms] of foot drags sent at 20 Hz (a browser's rate) around a 3 cm circle."""
+def _paced_drags(studio: Studio, autosave: bool, events: int = 125) -> list[float]:
+    """Times [ms] of foot drags sent at 20 Hz (a browser's rate) around a 3 cm circle, for
+    longer than autosave's MAX_DELAY_S (the first 5 left out: warm-up)."""
     studio.project.paused = not autosave
     robot = studio.state.robot
     assert robot is not None
@@ -838,7 +847,7 @@ def _paced_drags(studio: Studio, autosave: bool, events: int = 80) -> float:
         times.append(time.perf_counter() - begin)
         time.sleep(0.05)
     studio.project.paused = False
-    return float(np.percentile(np.array(times[5:]) * 1000.0, 95))
+    return [t * 1000.0 for t in times[5:]]
 
 
 def _bench_plan_robot(name: str) -> dict:

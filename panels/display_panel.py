@@ -1,4 +1,4 @@
-"""Display panel: which layers of the robot are drawn."""
+"""Display panel: which layers of the robot are drawn, and the theme."""
 
 from __future__ import annotations
 
@@ -7,6 +7,8 @@ from collections.abc import Callable
 
 import viser
 
+from panels.quiet import Quiet, set_value
+
 
 @dataclasses.dataclass(frozen=True)
 class DisplayFlags:
@@ -14,6 +16,8 @@ class DisplayFlags:
     collision: bool = False
     frames: bool = False
     com: bool = True
+    dark: bool = False
+    """Dark mode (the theme, not a layer)."""
 
 
 class DisplayPanel:
@@ -25,6 +29,8 @@ class DisplayPanel:
         on_change: Callable[[DisplayFlags], None],
         on_frame: Callable[[viser.ClientHandle | None], None],
     ) -> None:
+        self._gui = gui
+        self._quiet = Quiet()
         defaults = DisplayFlags()
         with gui.add_folder("Display", order=2, expand_by_default=False):
             self.visual = gui.add_checkbox("Visual meshes", defaults.visual)
@@ -36,17 +42,36 @@ class DisplayPanel:
                 icon=viser.Icon.FOCUS_CENTERED,
                 hint="Point this tab's camera at the robot",
             )
-            self.dark = gui.add_checkbox("Dark mode", False)
+            self.dark = gui.add_checkbox("Dark mode", defaults.dark)
         for handle in (self.visual, self.collision, self.frames, self.com):
-            handle.on_update(lambda _event: on_change(self.flags()))
-        self.frame.on_click(lambda event: on_frame(event.client))
-        self.dark.on_update(
-            lambda _event: gui.configure_theme(
-                control_width="large", dark_mode=bool(self.dark.value), show_logo=False
+            handle.on_update(
+                lambda _event: None if self._quiet.is_quiet() else on_change(self.flags())
             )
+        self.frame.on_click(lambda event: on_frame(event.client))
+
+        def on_dark(_event: object) -> None:
+            self._theme()
+            if not self._quiet.is_quiet():
+                on_change(self.flags())
+
+        self.dark.on_update(on_dark)
+
+    def _theme(self) -> None:
+        self._gui.configure_theme(
+            control_width="large", dark_mode=bool(self.dark.value), show_logo=False
         )
 
     def flags(self) -> DisplayFlags:
         return DisplayFlags(
-            self.visual.value, self.collision.value, self.frames.value, self.com.value
+            self.visual.value,
+            self.collision.value,
+            self.frames.value,
+            self.com.value,
+            self.dark.value,
         )
+
+    def show(self, flags: DisplayFlags) -> None:
+        """Set every toggle to `flags` (a project's) without calling `on_change`."""
+        with self._quiet.quietly():
+            for name in ("visual", "collision", "frames", "com", "dark"):
+                set_value(getattr(self, name), getattr(flags, name))

@@ -22,6 +22,8 @@ class PlaybackActions(Protocol):
     def step(self, frames: int) -> None: ...
     def set_traces_visible(self, visible: bool) -> None: ...
     def set_follow(self, follow: bool) -> None: ...
+    def set_speed(self, speed: float) -> None: ...
+    def set_loop(self, loop: bool) -> None: ...
 
 
 SPEEDS = ("0.25", "0.5", "1", "2")
@@ -62,8 +64,20 @@ class PlaybackPanel:
             lambda _: None if self._quiet.is_quiet() else actions.seek(self.time.value)
         )
         self.play.on_click(lambda _: actions.toggle_play())
-        self.traces.on_update(lambda _: actions.set_traces_visible(self.traces.value))
-        self.follow.on_update(lambda _: actions.set_follow(self.follow.value))
+        self.traces.on_update(
+            lambda _: (
+                None if self._quiet.is_quiet() else actions.set_traces_visible(self.traces.value)
+            )
+        )
+        self.follow.on_update(
+            lambda _: None if self._quiet.is_quiet() else actions.set_follow(self.follow.value)
+        )
+        self.speed.on_update(
+            lambda _: None if self._quiet.is_quiet() else actions.set_speed(self.speed_factor)
+        )
+        self.loop.on_update(
+            lambda _: None if self._quiet.is_quiet() else actions.set_loop(bool(self.loop.value))
+        )
 
     def show_none(self) -> None:
         self.time.disabled = True
@@ -83,6 +97,14 @@ class PlaybackPanel:
         """Move the timeline without seeking again."""
         with self._quiet.quietly():
             set_value(self.time, min(round(time_s, 2), self.time.max))
+
+    def show_options(self, traces: bool, follow: bool, loop: bool, speed: float) -> None:
+        """Set the toggles and the speed (a project's) without asking for anything."""
+        with self._quiet.quietly():
+            set_value(self.traces, traces)
+            set_value(self.follow, follow)
+            set_value(self.loop, loop)
+            set_value(self.speed, f"{speed:g}" if f"{speed:g}" in SPEEDS else "1")
 
     def show_playing(self, playing: bool) -> None:
         label = "Pause" if playing else "Play"

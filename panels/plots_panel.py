@@ -17,6 +17,7 @@ import numpy as np
 import viser
 import viser.uplot as uplot
 
+from app.core.projects.display import ALL_JOINTS, plot_choices
 from app.core.time_cursor import with_time_cursor
 
 PALETTE = (
@@ -48,7 +49,7 @@ SIMULATED_SERIES = (
     ("comp. (simulated)", "#14aaaa", ()),
 )
 """Added after ATTITUDE_SERIES when a simulation of the motion exists."""
-ALL = "all joints"
+ALL = ALL_JOINTS
 HINT = "Hover a plot and click its ⤢ button (top right) to see it large."
 WIDE_PX = 600
 """Width of the *Wide plots* window [CSS px]: with the control panel (~400), a 1280-px screen
@@ -133,8 +134,7 @@ class PlotsPanel:
         self._redraw_joints(("offsets",))
 
     def _set_joint_choices(self, joint_names: tuple[str, ...]) -> None:
-        legs = [side for side in ("left", "right") if any(n.startswith(side) for n in joint_names)]
-        options = (ALL, *(f"{side} leg" for side in legs), *joint_names)
+        options = plot_choices(joint_names)
         if tuple(self.joints.options) != options:
             self.joints.options = options
 

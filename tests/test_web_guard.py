@@ -20,7 +20,6 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, TypeVar
 
-import msgspec
 import pytest
 import viser
 import websockets
@@ -38,8 +37,9 @@ from app.web.access import (
 )
 from app.web.guard import GuardedServer, guarded_server
 from app.web.hook import ViserHookError, guard_requests, hooked_viser_server
+from tests.viser_wire import CAMERA as CAMERA_MESSAGE
+from tests.viser_wire import SUBPROTOCOL, encode
 
-SUBPROTOCOL = f"viser-v{viser.__version__}"
 VISER_PAGE = Path(viser.__file__).parent / "client" / "build" / "index.html"
 LIMIT = 1_000_000
 T = TypeVar("T")
@@ -83,24 +83,7 @@ def handshake(port: int, headers: dict[str, str], query: str = "") -> int:
     return asyncio.run(attempt())
 
 
-def encode(message: viser_messages.Message) -> bytes:
-    """A client-to-server message as viser's client sends it (msgpack with a `type`)."""
-    return msgspec.msgpack.encode(message.as_serializable_dict())
-
-
-CAMERA = encode(
-    viser_messages.ViewerCameraMessage(
-        wxyz=(1.0, 0.0, 0.0, 0.0),
-        position=(1.0, 1.0, 1.0),
-        fov=1.0,
-        near=0.01,
-        far=100.0,
-        image_height=600,
-        image_width=800,
-        look_at=(0.0, 0.0, 0.0),
-        up_direction=(0.0, 0.0, 1.0),
-    )
-)
+CAMERA = encode(CAMERA_MESSAGE)
 
 
 def start_frame(button: str, size_bytes: int, part_count: int, transfer: str) -> bytes:

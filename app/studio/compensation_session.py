@@ -53,12 +53,13 @@ from app.studio.coalesce import Coalescer
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.simulation_runner import WITH, WITHOUT, Simulation, SimulationRunner
-from app.studio.state import LoadedRobot, Motion, StudioState
+from app.studio.state import Display, LoadedRobot, Motion, StudioState
 from app.studio.throttle import Throttle
 from app.views.ghosts_view import GHOSTS, GhostsView, legend_markdown
 from app.views.roots import AlternatingRoot
 from panels.compensation_panel import CompensationPanel
 from panels.plots_panel import ATTITUDE_SERIES, SIMULATED_SERIES, PlotsPanel
+from panels.quiet import set_value
 
 log = logging.getLogger(__name__)
 
@@ -129,6 +130,11 @@ class CompensationSession:
         state.on_robot.connect(self._on_robot)
         state.on_motion.connect(self._on_motion)
         state.on_time.connect(self._on_time)
+        state.on_display.connect(self._on_display)
+        self._mirroring = False
+        """A project's display settings are being shown: the widgets' echoes are not edits."""
+        self.plots.joints.on_update(lambda _: self._note_display())
+        self.plots.wide.on_update(lambda _: self._note_display())
 
     # --- projects (HoldsWork) -------------------------------------------------------------------
 
@@ -486,6 +492,40 @@ class CompensationSession:
         with self._lock:
             if self.ghosts is not None and name in GHOSTS:
                 self.ghosts.set_visible(name, bool(visible))
+        self._note_display()
+
+    # --- display settings (kept in projects) ----------------------------------------------------
+
+    def _note_display(self) -> None:
+        """The ghosts shown and the plots' choices into the state's display settings."""
+        with self._state.lock:
+            if self._mirroring:
+                return
+            self._state.set_display(
+                "panel",
+                ghosts=tuple(name for name, box in self.panel.ghosts.items() if box.value),
+                plot_joints=str(self.plots.joints.value),
+                wide_plots=bool(self.plots.wide.value),
+            )
+
+    def _on_display(self, display: Display) -> None:
+        """An opened project's ghosts and plot choices: the checkboxes, ghosts and plots follow."""
+        if display.origin != "project":
+            return
+        settings = display.settings
+        with self._state.lock:
+            self._mirroring = True
+            try:
+                for name, box in self.panel.ghosts.items():
+                    set_value(box, name in settings.ghosts)  # the ghosts follow their box
+                shown = settings.plot_joints in self.plots.joints.options
+                if shown:
+                    set_value(self.plots.joints, settings.plot_joints)
+                set_value(self.plots.wide, settings.wide_plots)
+            finally:
+                self._mirroring = False
+            if not shown:  # no torques yet to offer that choice: keep what the panel shows
+                self._note_display()
 
     # --- simulation (physics) ---------------------------------------------------------------
 

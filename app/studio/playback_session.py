@@ -13,7 +13,7 @@ import viser
 
 from app.core.motions.paths import task_space_paths
 from app.studio.camera_follow import CameraFollower
-from app.studio.state import Motion, StudioState
+from app.studio.state import Display, Motion, StudioState
 from app.views.roots import AlternatingRoot
 from app.views.traces_view import TracesView
 from panels.playback_panel import PlaybackPanel
@@ -35,6 +35,7 @@ class PlaybackSession:
         state.on_motion.connect(self._on_motion)
         state.on_time.connect(self._on_time)
         state.on_play.connect(lambda _none: self.play())
+        state.on_display.connect(self._on_display)
 
     # --- state changes ----------------------------------------------------------------------
 
@@ -71,6 +72,15 @@ class PlaybackSession:
         self.panel.show_time(time_s)
         self.panel.show_playing(self.player.playing)
 
+    def _on_display(self, display: Display) -> None:
+        """An opened project's playback options: the panel, traces and camera follow them."""
+        if display.origin != "project":
+            return
+        settings = display.settings
+        self.panel.show_options(settings.traces, settings.follow, settings.loop, settings.speed)
+        self._apply_traces(settings.traces)
+        self._apply_follow(settings.follow)
+
     # --- actions (PlaybackActions) -------------------------------------------------------------
 
     def seek(self, time_s: float) -> None:
@@ -102,6 +112,16 @@ class PlaybackSession:
 
     def set_follow(self, follow: bool) -> None:
         """Follow the robot with the cameras from now on (from where it stands), or stop."""
+        self._state.set_display("panel", follow=bool(follow))
+        self._apply_follow(follow)
+
+    def set_speed(self, speed: float) -> None:
+        self._state.set_display("panel", speed=float(speed))
+
+    def set_loop(self, loop: bool) -> None:
+        self._state.set_display("panel", loop=bool(loop))
+
+    def _apply_follow(self, follow: bool) -> None:
         if not follow:
             self.camera.stop()
             return
@@ -117,6 +137,10 @@ class PlaybackSession:
             self.panel.show_playing(True)
 
     def set_traces_visible(self, visible: bool) -> None:
+        self._state.set_display("panel", traces=bool(visible))
+        self._apply_traces(visible)
+
+    def _apply_traces(self, visible: bool) -> None:
         with self._state.lock:
             if self.traces is not None:
                 self.traces.set_visible(bool(visible))

@@ -13,13 +13,17 @@ fails (a bug), the work as it was is installed again.
 Autosave: state signals and a one-second poll wake a named thread ("autosave") which, once
 the work has been still for QUIET_S (or MAX_DELAY_S after the first change), compares the
 work with the last autosave (by identity: every edit replaces the value it edits) and writes
-a new one when it changed. Drags only set an event; no file is written on viser's callback
-threads, nor while a drag goes on. A failing write keeps the earlier autosaves and is
+a new one when it changed. Drags only set an event: the snapshot (references, no copies),
+the serialisation and the write all run on the autosave thread, never on viser's callback
+threads (a profile of 160 paced drags finds nothing of autosave on the drag's thread but
+that `Event.set`; `biped-studio bench --only projects` compares drags with autosave on and
+held). A failing write keeps the earlier autosaves and is
 reported once until a write succeeds again.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import threading
 import time
@@ -39,6 +43,7 @@ from app.core.motions.keyframes import Keyframe
 from app.core.posing.drag import Posing
 from app.core.projects.autosave import AutosaveStore
 from app.core.projects.codec import ProjectError
+from app.core.projects.display import ALL_JOINTS, DisplaySettings, plot_choices, same_display
 from app.core.projects.files import SUFFIX, parse_project, project_bytes, read_project
 from app.core.projects.project import Project, RobotSource, check_fits
 from app.core.projects.robot_files import load_project_robot, robot_source
@@ -129,7 +134,13 @@ class ProjectSession:
         self._wake = threading.Event()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        for signal in (state.on_robot, state.on_pose, state.on_motion, state.on_time):
+        for signal in (
+            state.on_robot,
+            state.on_pose,
+            state.on_motion,
+            state.on_time,
+            state.on_display,
+        ):
             signal.connect(lambda _value: self._wake.set())
         server.on_client_connect(self._greet)
 
@@ -143,6 +154,7 @@ class ProjectSession:
                 "pose": self._state.pose,
                 "motion": self._state.motion,
                 "time_s": self._state.time_s,
+                "display": self._state.display.settings,
             }
         for part in self._parts:
             marks.update(part.snapshot())
@@ -155,6 +167,9 @@ class ProjectSession:
         if loaded is None or pose is None:
             raise ProjectError("no robot is loaded: nothing to save")
         fields = {k: v for k, v in marks.items() if k not in ("loaded", "pose", "motion")}
+        display: DisplaySettings = fields["display"]
+        if display.plot_joints not in plot_choices(loaded.robot.joint_names):
+            fields["display"] = dataclasses.replace(display, plot_joints=ALL_JOINTS)
         return Project(
             robot=self._source(loaded.robot),
             q=pose.q,
@@ -205,6 +220,7 @@ class ProjectSession:
         return self.access.check(path)
 
     def _save_to(self, path: Path, client: viser.ClientHandle | None) -> bool:
+        self._state.flush_camera()  # the view as it is now, not as it was a second ago
         marks = self.marks()
         try:
             project = self.project(marks)
@@ -309,6 +325,7 @@ class ProjectSession:
                 state.set_motion(project.motion, project.motion_summary, robot)
             for part in self._parts:
                 part.restore(project)
+            state.restore_display(project.display)
             if project.motion is not None:
                 state.set_time(project.time_s)
             state.set_pose(project.q.copy(), project.stance, "load", robot)
@@ -367,10 +384,15 @@ class ProjectSession:
 
     def autosave_now(self) -> Path | None:
         """Write an autosave if the work changed since the last one; its path, else None."""
+        if self.paused:
+            return None
         marks = self.marks()
+        if not _same(self._autosaved, marks):  # something changed: the camera goes along
+            self._state.flush_camera()
+            marks = self.marks()
         self._show_title(marks)
         self._record(marks)
-        if self.paused or marks["loaded"] is None or _same(self._autosaved, marks):
+        if marks["loaded"] is None or _same(self._autosaved, marks):
             return None
         try:
             data = project_bytes(self.project(marks))
@@ -456,6 +478,8 @@ def _same_value(x: object, y: object) -> bool:
         return True
     if isinstance(x, tuple) and isinstance(y, tuple):
         return len(x) == len(y) and all(_same_value(i, j) for i, j in zip(x, y, strict=True))
+    if isinstance(x, DisplaySettings) and isinstance(y, DisplaySettings):
+        return same_display(x, y)  # a tab's echo of a restored camera is the same view
     if isinstance(x, float | int | str | bool | GaitSettings):
         return type(x) is type(y) and x == y
     return False

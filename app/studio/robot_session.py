@@ -8,6 +8,7 @@ in the Robot panel and as a notification.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from pathlib import Path
@@ -26,7 +27,7 @@ from app.core.robot.uploads import store_upload
 from app.studio.admission import Admission, Busy
 from app.studio.notifier import Notifier, Progress
 from app.studio.signals import Signal
-from app.studio.state import LoadedRobot, Pose, StudioState
+from app.studio.state import Display, LoadedRobot, Pose, StudioState
 from app.views.robot_view import RobotView
 from app.views.roots import AlternatingRoot
 from panels.display_panel import DisplayFlags, DisplayPanel
@@ -62,6 +63,7 @@ class RobotSession:
         )
         state.on_robot.connect(self._on_robot)
         state.on_pose.connect(self._on_pose)
+        state.on_display.connect(self._on_settings)
 
     # --- actions (RobotActions) ----------------------------------------------------------
 
@@ -253,6 +255,21 @@ class RobotSession:
             target.camera.look_at = look_at
 
     def _on_display(self, flags: DisplayFlags) -> None:
+        with self._state.lock:
+            if self.view is not None:
+                self.view.set_visible(**vars_of(flags))
+                self.view.update(self._state.q)
+            self._state.set_display("panel", **dataclasses.asdict(flags))
+
+    def _on_settings(self, display: Display) -> None:
+        """An opened project's toggles: the Display panel and the robot's layers follow."""
+        if display.origin != "project":
+            return
+        settings = display.settings
+        flags = DisplayFlags(
+            settings.visual, settings.collision, settings.frames, settings.com, settings.dark
+        )
+        self.display.show(flags)
         with self._state.lock:
             if self.view is not None:
                 self.view.set_visible(**vars_of(flags))

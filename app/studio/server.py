@@ -15,6 +15,7 @@ from app.core.projects.codec import ProjectError
 from app.core.robot.loading import load_robot
 from app.core.robot.model import RobotModel
 from app.core.robot.report import robot_report
+from app.studio.camera_session import CameraSession
 from app.studio.compensation_session import CompensationSession
 from app.studio.demo_session import DemoSession
 from app.studio.gait_session import GaitSession
@@ -64,6 +65,7 @@ class Studio:
         self.joints = JointsSession(server, state)
         self.motions = MotionSession(server, state, notifier)
         self.playback = PlaybackSession(server, state)
+        self.camera = CameraSession(server, state)
         self.compensation = CompensationSession(server, state, notifier)
         self.gait = GaitSession(
             server, state, notifier, config.package_roots, prepare=config.prepare_gait
@@ -111,6 +113,7 @@ class Studio:
     def stop(self) -> None:
         self.project.stop()
         self.playback.stop()
+        self.camera.stop()
         self.share.close()
         self.gait.close()
         self.sweep.close()

@@ -1,7 +1,8 @@
 """StudioState: what every feature of the studio shares, and the signals that announce it.
 
-The state holds the loaded robot (and its report), the current pose, the current motion and
-the playback time, under one re-entrant lock: viser runs callbacks on a thread pool, so
+The state holds the loaded robot (and its report), the current pose, the current motion, the
+playback time and the display settings (camera, toggles: a frozen value replaced on every
+change, so a change is seen by identity), under one re-entrant lock: viser runs callbacks on a thread pool, so
 changes from several tabs overlap. Each setter changes the state and emits its signal while
 holding the lock, so subscribers see every change in order and never half of one.
 
@@ -19,6 +20,7 @@ import numpy as np
 
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
+from app.core.projects.display import CameraView, DisplaySettings
 from app.core.robot.model import RobotModel
 from app.core.robot.report import RobotReport
 from app.studio.signals import Signal
@@ -64,6 +66,16 @@ class Motion:
     "simulate"): the one-click pipeline plan → walk → torques → compensation → simulation."""
 
 
+@dataclasses.dataclass(frozen=True)
+class Display:
+    """The display settings and who set them last: "panel" (a toggle), "camera" (a tab's
+    camera, kept at most every few seconds) or "project" (an opened project: panels and cameras
+    follow)."""
+
+    settings: DisplaySettings
+    origin: str
+
+
 class StudioState:
     """The shared state; see the module docstring."""
 
@@ -73,10 +85,14 @@ class StudioState:
         self.pose: Pose | None = None
         self.motion: Motion | None = None
         self.time_s = 0.0
+        self.display = Display(DisplaySettings(), "load")
+        self._camera: CameraView | None = None
+        """The newest camera a tab reported, not yet in `display` (see `note_camera`)."""
         self.on_robot: Signal[LoadedRobot] = Signal("on_robot")
         self.on_pose: Signal[Pose] = Signal("on_pose")
         self.on_motion: Signal[Motion | None] = Signal("on_motion")
         self.on_time: Signal[float] = Signal("on_time")
+        self.on_display: Signal[Display] = Signal("on_display")
         self.on_play: Signal[None] = Signal("on_play")
         """A feature asks for the current motion to be played (e.g. a walk just planned)."""
 
@@ -159,3 +175,42 @@ class StudioState:
             self.time_s = float(np.clip(time_s, 0.0, trajectory.duration))
             self.on_time.emit(self.time_s)
             return trajectory.index_at(self.time_s)
+
+    def set_display(self, origin: str, **changes: object) -> DisplaySettings:
+        """Change display settings (DisplaySettings field → value); a newer camera a tab
+        reported goes in too. The value is replaced (and on_display emitted) only when
+        something differs. Raises DisplayError for a value out of range."""
+        with self.lock:
+            settings = self.display.settings
+            camera, self._camera = self._camera, None
+            if camera is not None and "camera" not in changes and not camera.near(settings.camera):
+                changes["camera"] = camera
+            new = dataclasses.replace(settings, **changes)  # type: ignore[arg-type]
+            if new != settings:
+                self.display = Display(new, origin)
+                self.on_display.emit(self.display)
+            return self.display.settings
+
+    def restore_display(self, settings: DisplaySettings) -> None:
+        """Install a project's display settings: every panel and tab follows (origin
+        "project")."""
+        with self.lock:
+            self._camera = None
+            self.display = Display(settings, "project")
+            self.on_display.emit(self.display)
+
+    def note_camera(self, camera: CameraView, starting: bool = False) -> None:
+        """A tab's camera moved: kept aside, and put into `display` by the next
+        `set_display` (a toggle, `flush_camera`); a camera moving at 60 Hz does not replace
+        the settings 60 times a second. `starting`: the tab is at the view a tab starts from,
+        which is not kept while the settings hold no camera (opening a tab is not work)."""
+        with self.lock:
+            kept = self.display.settings.camera
+            if kept is None and starting:
+                self._camera = None
+            else:
+                self._camera = None if camera.near(kept) else camera
+
+    def flush_camera(self) -> None:
+        """Put the newest reported camera into `display` now (before a save, on a timer)."""
+        self.set_display("camera")

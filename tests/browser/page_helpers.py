@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 import math
 import re
+import threading
 import time
 from collections.abc import Callable
 from typing import TypeVar
@@ -82,6 +83,26 @@ def dismiss_software_webgl_warning(page) -> None:
     if close.count():
         close.first.click()
         close.wait_for(state="detached")
+
+
+def open_share_page(context, url: str, inside: str):
+    """A new page of `context` on the studio at `url`, past the software-WebGL warning, its
+    Share folder open at the button `inside`, once its first render holds still."""
+    page = context.new_page()
+    page.set_default_timeout(120_000)
+    page.goto(url)
+    dismiss_software_webgl_warning(page)
+    expand_folder(page, "Share", inside)
+    wait_stable(page, "the studio's first render", not_blank)
+    return page
+
+
+def collect(signal) -> tuple[list, threading.Event]:
+    """(values, done): what `signal` emits is appended to values; done is set at the first."""
+    values: list = []
+    done = threading.Event()
+    signal.connect(lambda value: (values.append(value), done.set()))
+    return values, done
 
 
 def gui_row_input(page, label: str, css: str):

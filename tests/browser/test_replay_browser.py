@@ -8,7 +8,6 @@ import re
 import socket
 import subprocess
 import sys
-import threading
 import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
@@ -133,25 +132,19 @@ def test_screenshot_and_follow_presenter(chromium, tmp_path):
     from tests.browser.conftest import _free_port
     from tests.browser.page_helpers import (
         click_button,
+        collect,
         dismiss_software_webgl_warning,
-        expand_folder,
         folder_title,
+        open_share_page,
         shot,
         wait_stable,
     )
 
     studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path / "data"))
     context = chromium.new_context(viewport=VIEWPORT)
-    page = context.new_page()
-    page.set_default_timeout(120_000)
-    saved: list[Path | None] = []
-    done = threading.Event()
-    studio.share.screenshot_saved.connect(lambda path: (saved.append(path), done.set()))
+    saved, done = collect(studio.share.screenshot_saved)
     try:
-        page.goto(studio.web.url)
-        dismiss_software_webgl_warning(page)
-        expand_folder(page, "Share", "Screenshot")
-        wait_stable(page, "the studio's first render", not_blank)
+        page = open_share_page(context, studio.web.url, "Screenshot")
         click_button(page, "Screenshot")
         wait_for("the screenshot", done.is_set, RENDER_TIMEOUT_S)
         # The page's own picture once it holds still (meshes still arriving when the button

@@ -6,7 +6,6 @@ back where it was."""
 from __future__ import annotations
 
 import math
-import threading
 from pathlib import Path
 
 import numpy as np
@@ -18,12 +17,10 @@ from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
     click_button,
-    dismiss_software_webgl_warning,
-    expand_folder,
-    not_blank,
+    collect,
+    open_share_page,
     type_number,
     wait_for,
-    wait_stable,
 )
 
 FPS = 4
@@ -42,21 +39,14 @@ def _decode(path: Path) -> list[np.ndarray]:
 def test_export_video_films_the_motion_from_the_tab(chromium, tmp_path):
     studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path / "data"))
     context = chromium.new_context(viewport=VIEWPORT)
-    page = context.new_page()
-    page.set_default_timeout(120_000)
-    saved: list[Path | None] = []
-    done = threading.Event()
-    studio.share.video_saved.connect(lambda path: (saved.append(path), done.set()))
+    saved, done = collect(studio.share.video_saved)
     try:
         assert studio.motions.generate("com_shift", {})
         trajectory = studio.state.trajectory
         assert trajectory is not None
         shown_before = trajectory.duration / 3
         studio.playback.seek(shown_before)
-        page.goto(studio.web.url)
-        dismiss_software_webgl_warning(page)
-        expand_folder(page, "Share", "Export video")
-        wait_stable(page, "the studio's first render", not_blank)
+        page = open_share_page(context, studio.web.url, "Export video")
         type_number(page, "Video fps", FPS)
         type_number(page, "Video width (px)", WIDTH)
         wait_for(

@@ -1,11 +1,14 @@
-"""Projects in a real studio: save → open in a fresh studio gives back every panel's values
-and every result; a refused file leaves the work exactly as it was; autosave follows edits
-and a restarted studio restores it."""
+"""Projects in a real studio: save → open in a fresh studio gives back every panel's values,
+every result and the display settings (camera, toggles, ghosts, plots, playback speed); a
+refused file leaves the work exactly as it was; autosave follows edits and a restarted studio
+restores it."""
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
+import math
 import zipfile
 from pathlib import Path
 
@@ -13,13 +16,45 @@ import numpy as np
 import pytest
 
 from app.config import StudioConfig
+from app.core.projects.display import CameraView, DisplaySettings
 from app.core.projects.files import read_project
 from app.studio import Studio
 from tests.same_values import assert_same
 from tests.studio.conftest import free_port, start_studio, wait_for_signal
+from tests.studio.ws_tab import CAMERA, Tab, loop, wait
+
+__all__ = ["loop"]  # the fixture, used by name
+
+MOVED = dataclasses.replace(
+    CAMERA,
+    position=(1.6, -0.9, 0.8),
+    look_at=(0.05, 0.02, 0.3),
+    up_direction=(0.0, 0.1, 1.0),
+    fov=0.7,
+)
+"""A tab's camera after the user orbits and zooms (the tab connected with CAMERA)."""
 
 
-def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path):
+def _set_display(a: Studio, tab: Tab) -> None:
+    """Every display setting away from its default, as a user would: toggles, the camera."""
+    for name, value in (("collision", True), ("frames", True), ("com", False), ("dark", True)):
+        getattr(a.robots.display, name).value = value
+    a.compensation.panel.ghosts["planned"].value = True
+    a.compensation.panel.ghosts["with"].value = False
+    a.compensation.plots.joints.value = "left leg"
+    a.compensation.plots.wide.value = True
+    a.playback.panel.speed.value = "0.5"
+    a.playback.panel.loop.value = False
+    a.playback.panel.traces.value = False
+    wait("the tab's starting view", lambda: len(a.camera.tabs) == 1)
+    wait_for_signal(
+        a.state.on_display,
+        lambda: tab.send(MOVED),
+        accept=lambda display: display.settings.camera is not None,
+    )
+
+
+def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path, loop):
     a = studio
     # One click: plan a gait on servo_biped, walk it, compute torques, simulate.
     simulated = wait_for_signal(
@@ -34,6 +69,7 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path):
     a.compensation.edit_joint(joint, "k", 0.9)
     a.compensation.edit_joint(joint, "backlash", 1.5)  # the simulation is now stale
     a.gait.panel.steps.value = 5
+    _set_display(a, Tab(a, loop))
     a.playback.seek(1.3)
     moved = a.state.robot.joints[2].name
     a.joints.panel.sliders[moved].value = 8.5  # a pose off the motion's sample
@@ -45,8 +81,11 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path):
 
     b = start_studio(tmp_path / "elsewhere")
     try:
+        tab = Tab(b, loop)
+        wait("b's tab", lambda: len(b.camera.tabs) == 1)
         assert b.project.open(str(path)), b.project.last_error
         sa, sb = a.state, b.state
+        _assert_display_restored(a, b, tab)
         assert sb.robot.name == sa.robot.name and sb.robot is not sa.robot
         assert_same(sb.pose.q, sa.pose.q, "q")
         assert sb.pose.stance == sa.pose.stance
@@ -93,6 +132,44 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path):
         b.stop()
 
 
+def _assert_display_restored(a: Studio, b: Studio, tab: Tab) -> None:
+    """b shows a's display settings: the values, every widget, the ghosts, the tab's camera."""
+    assert b.state.display.settings == a.state.display.settings
+    camera = b.state.display.settings.camera
+    assert camera == CameraView(
+        MOVED.position, MOVED.look_at, MOVED.up_direction, math.degrees(0.7)
+    )
+    for name in ("visual", "collision", "frames", "com", "dark"):
+        assert getattr(b.robots.display, name).value == getattr(a.robots.display, name).value
+    assert b.robots.display.flags() == a.robots.display.flags() != type(a.robots.display.flags())()
+    for name, box in a.compensation.panel.ghosts.items():
+        assert b.compensation.panel.ghosts[name].value == box.value, name
+    assert b.compensation.ghosts is not None
+    shown = {name: b.compensation.ghosts.shown(name) for name in b.compensation.ghosts.names}
+    assert shown == {name: box.value for name, box in a.compensation.panel.ghosts.items()}
+    assert b.compensation.plots.joints.value == "left leg"
+    assert b.compensation.plots.wide.value and b.compensation.plots.window is not None
+    panel = b.playback.panel
+    assert (panel.speed.value, panel.speed_factor, panel.loop.value) == ("0.5", 0.5, False)
+    assert not panel.traces.value and b.playback.traces is not None
+    assert not any(node.visible for node in b.playback.traces._nodes)
+    # The tab's camera was put where a's was, and new tabs start there.
+    (client,) = b.server.get_clients().values()
+    assert np.allclose(client.camera.position, MOVED.position)
+    assert np.allclose(client.camera.look_at, MOVED.look_at)
+    assert client.camera.fov == pytest.approx(0.7)
+    assert np.allclose(b.server.initial_camera.look_at, MOVED.look_at)
+    wait(
+        "the tab to be sent the camera",
+        lambda: any(
+            m.get("type") == "SetCameraLookAtMessage"
+            and np.allclose(m["look_at"], MOVED.look_at)
+            and not m["initial"]
+            for m in tab.received
+        ),
+    )
+
+
 def _crafted(data: bytes, edit) -> bytes:
     source = zipfile.ZipFile(io.BytesIO(data))
     out = io.BytesIO()
@@ -126,6 +203,31 @@ BAD = {
         lambda d: _crafted(d, lambda m: m["project"].update(keyframes="many")),
         "project.keyframes is 'many'",
     ),
+    "display speed": (
+        lambda d: _crafted(d, lambda m: m["project"]["display"].update(speed=3)),
+        "project.display: speed is 3.0; give one of 0.25, 0.5, 1, 2",
+    ),
+    "display ghost": (
+        lambda d: _crafted(d, lambda m: m["project"]["display"].update(ghosts=["ghoul"])),
+        "project.display: ghosts is ('ghoul',)",
+    ),
+    "display camera": (
+        lambda d: _crafted(
+            d,
+            lambda m: m["project"]["display"].update(
+                camera={"position": [1, 2, 3], "look_at": [1, 2, 3]}
+            ),
+        ),
+        "project.display.camera: camera.look_at equals camera.position",
+    ),
+    "display newer": (
+        lambda d: _crafted(d, lambda m: m["project"]["display"].update(version=9)),
+        "project.display: version is 9",
+    ),
+    "display plot joints": (
+        lambda d: _crafted(d, lambda m: m["project"]["display"].update(plot_joints="tail")),
+        "project.display.plot_joints is 'tail'",
+    ),
     "missing robot": (
         lambda d: _crafted(d, lambda m: m["project"]["robot"].update(builtin="gone_bot")),
         "'gone_bot' is not a built-in robot",
@@ -144,8 +246,10 @@ def test_a_refused_project_leaves_the_work_untouched(studio, tmp_path):
     assert studio.project.save_as(str(tmp_path / "good.bstudio"))
     good = (tmp_path / "good.bstudio").read_bytes()
     studio.joints.set_joint_angle(0, 0.1)  # unsaved work on top
+    studio.playback.panel.speed.value = "2"  # unsaved display settings on top too
     state, motions, compensation = studio.state, studio.motions, studio.compensation
     before = (state.loaded, state.pose, state.motion, state.time_s, compensation.params)
+    display = state.display
     keyframes = list(motions.keyframes)
     for case, (make, message) in BAD.items():
         assert not studio.project.open_upload(f"{case}.bstudio", make(good)), case
@@ -153,8 +257,41 @@ def test_a_refused_project_leaves_the_work_untouched(studio, tmp_path):
         assert "unchanged" in studio.project.panel.status.content
         after = (state.loaded, state.pose, state.motion, state.time_s, compensation.params)
         assert all(x is y for x, y in zip(before, after, strict=True)), case
+        assert state.display is display and studio.playback.panel.speed.value == "2", case
         assert motions.keyframes == keyframes, case
     assert studio.project.dirty  # still the user's unsaved work
+
+
+def test_display_settings_travel_and_an_older_file_opens_with_the_defaults(studio, tmp_path):
+    studio.motions.generate("com_shift", {})
+    studio.playback.panel.follow.value = True
+    studio.playback.panel.speed.value = "0.25"
+    studio.robots.display.visual.value = False
+    studio.playback.seek(0.6)
+    settings = studio.state.display.settings
+    assert (settings.follow, settings.speed, settings.visual) == (True, 0.25, False)
+    assert studio.project.save_as(str(tmp_path / "shown.bstudio"))
+    saved = (tmp_path / "shown.bstudio").read_bytes()
+    fresh = start_studio(tmp_path / "fresh")
+    try:
+        assert fresh.project.open(str(tmp_path / "shown.bstudio")), fresh.project.last_error
+        assert fresh.state.display.settings == settings
+        assert fresh.playback.panel.follow.value and fresh.playback.panel.speed.value == "0.25"
+        assert not fresh.robots.display.visual.value
+        assert fresh.state.time_s == studio.state.time_s == pytest.approx(0.6, abs=0.02)
+        assert "unsaved" not in fresh.project.panel.title.content
+        # The same file as the studio wrote it before display settings were kept.
+        older = tmp_path / "older.bstudio"
+        older.write_bytes(_crafted(saved, lambda m: m["project"].pop("display")))
+        assert fresh.project.open(str(older)), fresh.project.last_error
+        assert fresh.state.display.settings == DisplaySettings()
+        assert not fresh.playback.panel.follow.value and fresh.playback.panel.speed.value == "1"
+        assert fresh.robots.display.visual.value
+        assert fresh.state.time_s == studio.state.time_s  # the rest of the work as saved
+        assert "⚠️" not in fresh.project.panel.status.content
+        assert "Opened **older**" in fresh.project.panel.status.content
+    finally:
+        fresh.stop()
 
 
 def test_paths_outside_the_allowed_folders_are_refused(studio):

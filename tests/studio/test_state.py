@@ -3,6 +3,7 @@ quiet flag. No server: these are plain objects."""
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 
 from app.core.errors import StudioError
 from app.core.motions.trajectory import from_configurations
+from app.core.projects.display import GHOST_NAMES, CameraView, DisplayError, same_display
 from app.core.robot.loading import load_robot
 from app.core.robot.report import robot_report
 from app.studio.admission import Admission, Busy
@@ -148,3 +150,66 @@ def test_admission_limits_jobs_per_tab_and_in_all():
             pass
     with admission.admit(1), admission.admit(1), admission.admit(3):
         pass  # everything was released, also after a refusal
+
+
+def test_display_settings_are_replaced_only_when_something_changes():
+    state = StudioState()
+    emitted = []
+    state.on_display.connect(emitted.append)
+    first = state.display
+    state.set_display("panel", speed=1.0, loop=True)  # the defaults: no change
+    assert state.display is first and emitted == []
+    settings = state.set_display("panel", speed=0.5)
+    assert settings.speed == 0.5 and state.display is not first and len(emitted) == 1
+    with pytest.raises(DisplayError, match="speed is 3.0"):
+        state.set_display("panel", speed=3.0)
+    assert state.display.settings is settings and len(emitted) == 1
+
+
+def test_a_moving_camera_waits_for_the_next_change_or_a_flush():
+    state = StudioState()
+    emitted = []
+    state.on_display.connect(emitted.append)
+    before = state.display
+    views = [CameraView((1.0 + 0.01 * i, 2.0, 1.0), (0.0, 0.0, 0.3)) for i in range(60)]
+    for view in views:
+        state.note_camera(view)
+    assert state.display is before and emitted == []  # sixty moves, no new settings
+    state.set_display("panel", traces=False)  # the next other change takes the newest view
+    assert state.display.settings.camera == views[-1] and not state.display.settings.traces
+    assert len(emitted) == 1
+    state.note_camera(views[-1])  # the same view again (an echo): nothing to keep
+    state.flush_camera()
+    assert len(emitted) == 1
+    state.note_camera(views[0])
+    state.flush_camera()
+    assert state.display.settings.camera == views[0] and state.display.origin == "camera"
+    assert len(emitted) == 2
+
+
+def test_a_tab_at_its_starting_view_is_not_work_until_a_camera_is_kept():
+    state = StudioState()
+    start = CameraView((0.6, 0.5, 0.5), (0.0, 0.0, 0.3))
+    state.note_camera(start, starting=True)
+    state.flush_camera()
+    assert state.display.settings.camera is None  # opening a tab changed nothing
+    moved = CameraView((1.0, -0.5, 0.4), (0.0, 0.0, 0.3))
+    state.note_camera(moved)
+    state.flush_camera()
+    state.note_camera(start, starting=True)  # back at the starting view: that is a move now
+    state.flush_camera()
+    assert state.display.settings.camera == start
+    # A browser's echo differs in the last bits: the same view, the same settings.
+    echo = CameraView((0.6 + 1e-15, 0.5, 0.5), (1e-17, 0.0, 0.3), (0.0, 1e-16, 2.0))
+    assert same_display(
+        state.display.settings, dataclasses.replace(state.display.settings, camera=echo)
+    )
+    assert not same_display(
+        state.display.settings, dataclasses.replace(state.display.settings, camera=moved)
+    )
+
+
+def test_the_display_settings_know_every_ghost_the_studio_draws():
+    from app.views.ghosts_view import GHOSTS
+
+    assert tuple(GHOSTS) == GHOST_NAMES

@@ -1,10 +1,15 @@
 """*Export video* against a real studio with a websocket tab that never renders: a tab that
 closes mid-film and settings past the bounds end with a message, no file, and the timeline
-where it was. (The browser test films a real video: tests/browser/test_video_browser.py.)"""
+where it was; a tab that answers renders is sent the video as a download. (The browser test
+films a real video: tests/browser/test_video_browser.py.)"""
 
 from __future__ import annotations
 
+import io
+import math
 import threading
+
+import numpy as np
 
 from tests.studio.conftest import GUARD_S
 from tests.studio.test_presenter_only import _studio
@@ -67,6 +72,62 @@ def test_bad_video_settings_are_refused_with_the_bound(tmp_path, loop):
         assert saved[-1] is None and "from a browser tab" in studio.share.panel.status.content
         assert studio.state.time_s == time_before
         assert not (tmp_path / "data" / "exports").exists()
+        tab.close()
+    finally:
+        studio.stop()
+
+
+COLOURS = ((200, 40, 40), (40, 190, 60), (50, 60, 210), (220, 200, 40), (30, 30, 30))
+"""What the tab 'renders', frame after frame (solid colours survive the video's compression)."""
+
+
+def test_a_filmed_video_is_sent_to_the_tab_and_decodes_to_its_frames(tmp_path, loop):
+    """The tab answers each render request with the next solid colour; the MP4 the studio
+    sends it (put together from the file-transfer parts the tab received) is the saved file,
+    and imageio-ffmpeg's reader decodes it to one frame per render, each of the colour the
+    tab sent for it."""
+    import imageio_ffmpeg
+    from PIL import Image
+
+    studio = _studio(tmp_path, presenter_only=False)
+    try:
+        assert studio.motions.generate("com_shift", {})
+        tab = Tab(studio, loop)
+        sent: list[tuple[int, int, int]] = []
+
+        def render(height: int, width: int) -> bytes:
+            colour = COLOURS[len(sent) % len(COLOURS)]
+            sent.append(colour)
+            out = io.BytesIO()
+            Image.new("RGB", (width, height), colour).save(out, "JPEG", quality=95)
+            return out.getvalue()
+
+        tab.render = render
+        wait("the tab", lambda: len(studio.server.get_clients()) == 1)
+        (client,) = studio.server.get_clients().values()
+        wait("the tab's camera", lambda: client.camera.image_width > 0)
+        studio.share.panel.video_fps.value = 4
+        saved: list = []
+        done = threading.Event()
+        studio.share.video_saved.connect(lambda path: (saved.append(path), done.set()))
+        studio.share.export_video(client)
+        assert done.wait(GUARD_S) and saved[0] is not None, studio.share.panel.status.content
+        path = saved[0]
+        wait("the download", lambda: tab.download() is not None)
+        start, content = tab.download()
+        assert start["filename"] == path.name and start["mime_type"] == "video/mp4"
+        assert start["size_bytes"] == len(content) and content == path.read_bytes()
+
+        received = tmp_path / "received.mp4"
+        received.write_bytes(content)
+        reader = imageio_ffmpeg.read_frames(str(received))
+        width, height = next(reader)["size"]
+        frames = [np.frombuffer(raw, np.uint8).reshape(height, width, 3) for raw in reader]
+        duration = studio.state.trajectory.duration
+        assert len(frames) == len(sent) == math.floor(duration * 4 + 1e-9) + 1
+        for k, (frame, colour) in enumerate(zip(frames, sent, strict=True)):
+            mean = frame.reshape(-1, 3).mean(axis=0)
+            assert np.all(np.abs(mean - colour) < 12), (k, mean, colour)
         tab.close()
     finally:
         studio.stop()

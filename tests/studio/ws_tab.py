@@ -5,41 +5,18 @@ from __future__ import annotations
 
 import asyncio
 import threading
+from collections.abc import Callable
 
-import msgspec
 import pytest
-import viser
 import websockets
-import zstandard
 from viser import _messages as viser_messages
 
 from app.studio import Studio
 from app.web.access import cookie_name
 from tests.studio.conftest import GUARD_S
+from tests.viser_wire import CAMERA, SUBPROTOCOL, decode_window, encode
 
-SUBPROTOCOL = f"viser-v{viser.__version__}"
-CAMERA = viser_messages.ViewerCameraMessage(
-    wxyz=(1.0, 0.0, 0.0, 0.0),
-    position=(1.0, 1.0, 1.0),
-    fov=1.0,
-    near=0.01,
-    far=100.0,
-    image_height=600,
-    image_width=800,
-    look_at=(0.0, 0.0, 0.0),
-    up_direction=(0.0, 0.0, 1.0),
-)
-
-
-def encode(message: viser_messages.Message) -> bytes:
-    return msgspec.msgpack.encode(message.as_serializable_dict())
-
-
-def decode_window(frame: bytes) -> list[dict]:
-    """The messages of one server frame (viser's wire format: sizes, zstd msgpack, buffers)."""
-    size, compressed = int.from_bytes(frame[:8], "little"), int.from_bytes(frame[8:16], "little")
-    inner = zstandard.ZstdDecompressor().decompress(frame[16 : 16 + compressed], size)
-    return list(msgspec.msgpack.decode(inner)["messages"])
+__all__ = ["CAMERA", "Tab", "loop", "wait"]
 
 
 def wait(what: str, probe) -> None:
@@ -82,10 +59,41 @@ class Tab:
         asyncio.run_coroutine_threadsafe(self._read(), loop)
         self.send(CAMERA)
 
+    render: Callable[[int, int], bytes] | None = None
+    """Set it to answer the server's render requests as a browser would: called with the
+    requested (height, width), returns the image's bytes (JPEG or PNG, as requested)."""
+
     async def _read(self) -> None:
         async for frame in self._ws:
             if isinstance(frame, bytes):
-                self.received.extend(decode_window(frame))
+                messages = decode_window(frame)
+                self.received.extend(messages)
+                for message in messages:
+                    if message.get("type") == "GetRenderRequestMessage" and self.render:
+                        payload = self.render(message["height"], message["width"])
+                        await self._ws.send(
+                            encode(
+                                viser_messages.GetRenderResponseMessage(
+                                    payload, message["render_uuid"]
+                                )
+                            )
+                        )
+
+    def download(self) -> tuple[dict, bytes] | None:
+        """The newest file the server sent this tab to download: (its start message, its
+        content put together from its parts), once every part is in; None before."""
+        starts = [m for m in self.received if m.get("type") == "FileTransferStartDownload"]
+        if not starts:
+            return None
+        start = starts[-1]
+        parts = {
+            m["part_index"]: bytes(m["content"])
+            for m in self.received
+            if m.get("type") == "FileTransferPart" and m["transfer_uuid"] == start["transfer_uuid"]
+        }
+        if len(parts) < start["part_count"]:
+            return None
+        return start, b"".join(parts[i] for i in range(start["part_count"]))
 
     def send(self, message: viser_messages.Message) -> None:
         asyncio.run_coroutine_threadsafe(self._ws.send(encode(message)), self._loop).result(60)

@@ -19,6 +19,7 @@ from app.core.motions.keyframes import Keyframe
 from app.core.motions.trajectory import Trajectory
 from app.core.posing.ik import Stance
 from app.core.projects.codec import ProjectError
+from app.core.projects.display import DisplaySettings, plot_choices
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
@@ -82,6 +83,9 @@ class Project:
     """The Sweep panel's last sweep (its spec and every point's metrics)."""
     saved_at: str = ""
     """UTC time of the save, ISO 8601."""
+    display: DisplaySettings = dataclasses.field(default_factory=DisplaySettings)
+    """How the studio showed the work (camera, toggles, ghosts, plots, playback speed); the
+    defaults in files saved before it was kept."""
 
 
 def check_fits(project: Project, robot: RobotModel) -> None:
@@ -153,3 +157,8 @@ def check_fits(project: Project, robot: RobotModel) -> None:
             "a simulation needs the torques, compensation and servos it was run with",
         )
     need(np.isfinite(project.time_s) and project.time_s >= 0.0, "the playback time is not a time")
+    need(
+        project.display.plot_joints in plot_choices(names),
+        f"project.display.plot_joints is {project.display.plot_joints!r}, not one of its joints "
+        "or legs",
+    )
