@@ -165,7 +165,7 @@ def torque_feedforward(
     com_state_error: np.ndarray | None = None,
     *,
     pool: ChunkRunner | None = None,
-    solver: QpSolver = "proxqp",
+    solver: QpSolver = "reduced",
 ) -> FeedForward:
     """Solve the whole-body QP at every sample of a trajectory; never fails on a sample.
 
@@ -253,7 +253,7 @@ def chunk_bounds(n: int, size: int | None = None) -> list[tuple[int, int]]:
     return [(start, min(start + size, n)) for start in range(0, n, size)]
 
 
-def make_qp(robot: RobotModel, params: WbcParams, solver: QpSolver = "proxqp") -> WholeBodyQp:
+def make_qp(robot: RobotModel, params: WbcParams, solver: QpSolver = "reduced") -> WholeBodyQp:
     """The whole-body QP of a robot with these parameters (sparsity, cost, solver set up)."""
     bound, _ = torque_limits(robot, params)
     return WholeBodyQp(

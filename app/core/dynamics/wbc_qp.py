@@ -43,6 +43,7 @@ from proxsuite import proxqp
 from scipy.linalg.lapack import dposv
 
 from app.core.dynamics.lqr import B_COM
+from app.core.dynamics.wbc_reduced import ReducedProblem, ReducedQp, ReducedSolution, reducible
 from app.core.robot.model import RobotModel
 
 N_EDGES = 4
@@ -57,11 +58,15 @@ then: after `_exact` its dynamics hold and its forces lie in the pyramids whatev
 status, and the caller certifies each sample itself (q̈ against the plan, torque limits)."""
 PROXQP_INFINITY = 1e20
 """ProxQP's stand-in for an infinite bound."""
-QpSolver = Literal["proxqp", "osqp"]
-SOLVERS: tuple[QpSolver, ...] = ("proxqp", "osqp")
-"""ProxQP (dense) is the default: ~0.65× OSQP's time on these QPs (62 variables, 74 rows:
-OSQP refactorises its sparse KKT matrix whenever A's values change, every sample), same
-answers within the tolerance (tests/core/test_wbc_solvers.py)."""
+QpSolver = Literal["reduced", "proxqp", "osqp"]
+SOLVERS: tuple[QpSolver, ...] = ("reduced", "proxqp", "osqp")
+""""reduced" is the default: the same QP with η, the β of a foot in the air and the base
+accelerations substituted out, solved by DAQP (app.core.dynamics.wbc_reduced), with one
+pinocchio pass per sample; robots with passive joints or closed loops, and a sample DAQP
+cannot solve, take the full QP with ProxQP. "proxqp" and "osqp" solve the full QP (62
+variables, 74 rows on servo_biped) as before: ProxQP (dense) at ~0.65× OSQP's time (OSQP
+refactorises its sparse KKT matrix whenever A's values change, every sample). Same answers
+within the solvers' tolerances (tests/core/test_wbc_solvers.py, test_wbc_reduced.py)."""
 PROXQP_STATUSES = {
     proxqp.PROXQP_SOLVED: "solved",
     proxqp.PROXQP_MAX_ITER_REACHED: "maximum iterations reached",
@@ -141,10 +146,11 @@ def pyramid_edges(mu: float) -> np.ndarray:
 class WholeBodyQp:
     """The QP's sparsity fixed at construction; `solve` fills values and runs the solver warm."""
 
-    def __init__(self, robot: RobotModel, weights: QpWeights, solver: QpSolver = "proxqp") -> None:
+    def __init__(self, robot: RobotModel, weights: QpWeights, solver: QpSolver = "reduced") -> None:
         if solver not in SOLVERS:
             raise ValueError(f"unknown QP solver {solver!r}; known: {', '.join(SOLVERS)}")
-        self.solver_name = solver
+        # The full QP's solver: "reduced" falls back on ProxQP where it cannot reduce.
+        self.solver_name: QpSolver = "proxqp" if solver == "reduced" else solver
         model = robot.model
         self.robot, self.model, self.data, self.weights = robot, model, model.createData(), weights
         self.nv = nv = model.nv
@@ -211,6 +217,26 @@ class WholeBodyQp:
         self.n_eq = self.rows["contact"].start
         """Rows dyn and loop are equalities (ProxQP's A z = b); the rest are l ≤ C z ≤ u."""
         self._prox: proxqp.dense.QP | None = None
+        self.reduced: ReducedQp | None = None
+        """The reduced QP (solver "reduced" on a robot it applies to), else None."""
+        if solver == "reduced" and reducible(nv, self.unactuated, len(self.loop_ids)):
+            self.reduced = ReducedQp(
+                nv,
+                w_qdd=weights.w_qdd,
+                alpha=weights.alpha,
+                eta_max=weights.eta_max,
+                a=weights.a,
+                q_lqr=weights.q_lqr,
+                S=weights.S,
+                tau_max=weights.tau_max,
+                P_beta=P[self.cols["beta"], self.cols["beta"]],
+                G_u=self.G_u,
+                H_u=self.H_u,
+                gravity=self.gravity,
+                b_com=B_COM,
+            )
+        self.last_reduced: tuple[ReducedProblem, ReducedSolution] | None = None
+        """The reduced QP of the last sample and DAQP's answer (solver "reduced")."""
         self.solver = osqp.OSQP()
         if solver == "osqp":
             self.solver.setup(
@@ -330,16 +356,25 @@ class WholeBodyQp:
         A[r["eta"], c["eta"]] = np.eye(12)
 
     def kinematics(self, q: np.ndarray, v: np.ndarray, qdd_des: np.ndarray) -> Terms:
-        """Every configuration-dependent term of one sample: five pinocchio passes (CoM with
-        the plan's q̈, crba, nle, joint Jacobians, kinematics at q̈ = 0 for the drifts), then
-        a handful of batched numpy products for both feet at once."""
+        """Every configuration-dependent term of one sample. With the reduced QP one pinocchio
+        pass (computeAllTerms: M, h, joint Jacobians and the drift accelerations at q̈ = 0);
+        for the full QP five, as before (CoM with the plan's q̈, crba, nle, joint Jacobians,
+        kinematics at q̈ = 0). Then a handful of batched numpy products for both feet."""
         model, data, nv = self.model, self.data, self.nv
-        pin.centerOfMass(model, data, q, v, qdd_des)
-        com_acc = data.acom[0].copy()
-        M = pin.crba(model, data, q).copy()  # data.M is overwritten by the next sample
-        h = pin.nonLinearEffects(model, data, q, v).copy()
-        pin.computeJointJacobians(model, data, q)
-        pin.forwardKinematics(model, data, q, v, self.zero_v)
+        if self.reduced is not None:
+            pin.computeAllTerms(model, data, q, v)
+            M, h = data.M.copy(), data.nle.copy()  # overwritten by the next sample
+            # Newton on the whole robot: the base's linear rows of M q̈ + h are the net
+            # external force m (c̈ − g) in the base frame (free-flyer velocity is LOCAL).
+            force_base = M[:3] @ qdd_des + h[:3]
+            com_acc = data.oMi[1].rotation @ force_base / self.mass + self.gravity
+        else:
+            pin.centerOfMass(model, data, q, v, qdd_des)
+            com_acc = data.acom[0].copy()
+            M = pin.crba(model, data, q).copy()  # data.M is overwritten by the next sample
+            h = pin.nonLinearEffects(model, data, q, v).copy()
+            pin.computeJointJacobians(model, data, q)
+            pin.forwardKinematics(model, data, q, v, self.zero_v)
         pin.updateFramePlacements(model, data)
         left, right = self.foot_ids
         J_feet = np.empty((2, 6, nv))
@@ -410,6 +445,37 @@ class WholeBodyQp:
         contacts: np.ndarray,
         com_error: np.ndarray,
     ) -> SampleSolution:
+        """The QP of one sample: the reduced one when it applies and DAQP solves it, else the
+        full one (ProxQP or OSQP, warm from the last sample)."""
+        if self.reduced is not None:
+            begin = time.perf_counter()
+            closed = self.reduced.unconstrained(terms, v, qdd_des, contacts, com_error)
+            if closed is not None:
+                self.last_solver_s = time.perf_counter() - begin
+                self.last_reduced = None
+                return SampleSolution(True, closed.status, closed.qdd, closed.beta, self._no_drift)
+            problem = self.reduced.problem(terms, v, qdd_des, contacts, com_error)
+            begin = time.perf_counter()
+            answer = self.reduced.solve(problem)
+            self.last_solver_s = time.perf_counter() - begin
+            self.last_reduced = (problem, answer)
+            if answer.ok:
+                return SampleSolution(True, answer.status, answer.qdd, answer.beta, self._no_drift)
+            spent = self.last_solver_s
+            solution = self.solve_full(terms, v, qdd_des, contacts, com_error)
+            self.last_solver_s += spent
+            return solution
+        return self.solve_full(terms, v, qdd_des, contacts, com_error)
+
+    def solve_full(
+        self,
+        terms: Terms,
+        v: np.ndarray,
+        qdd_des: np.ndarray,
+        contacts: np.ndarray,
+        com_error: np.ndarray,
+    ) -> SampleSolution:
+        """The full QP of eqs. 12–18 (the module docstring) with ProxQP or OSQP."""
         w, r, c = self.weights, self.rows, self.cols
         self._fill(terms.M, terms.Phi, terms.J_feet, terms.J_loop, out=self.A)
         state = (bool(contacts[0]), bool(contacts[1]))
