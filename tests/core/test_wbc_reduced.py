@@ -195,3 +195,21 @@ def test_corner_count_matches_the_reduced_layout():
     from app.core.dynamics import wbc_reduced
 
     assert wbc_reduced.PER_FOOT == N_CORNERS * N_EDGES
+
+
+@pytest.mark.parametrize(
+    "name, motion", [("servo_biped", "one_leg_squats"), ("roban", "com_shift")]
+)
+def test_batched_chunk_equals_sample_by_sample(robots, trajectories, name, motion):
+    """The feed-forward's batched closed form (all samples of a contact state at once) gives
+    the per-sample `solve` answers, to round-off times the conditioning above."""
+    robot, traj = robots[name], trajectories[(name, motion)]
+    ff = torque_feedforward(robot, traj)
+    qp = make_qp(robot, WbcParams(), "reduced")
+    for k in range(0, traj.n_samples, 2):
+        q, v, a, contacts = traj.q[k], traj.v[k], traj.a[k], traj.contacts[k]
+        terms = qp.kinematics(q, v, a)
+        solution = qp.solve(terms, v, a, contacts, np.zeros(6))
+        np.testing.assert_allclose(ff.qdd[k], solution.qdd, atol=1e-8, rtol=0)
+        tau = qp.torques(terms, solution)
+        np.testing.assert_allclose(ff.tau_Nm[k], tau, atol=1e-6 * max(1.0, np.abs(tau).max()))

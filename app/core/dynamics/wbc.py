@@ -35,6 +35,7 @@ import numpy as np
 
 from app.core.dynamics.lqr import lqr_com
 from app.core.dynamics.wbc_qp import N_CORNERS, N_EDGES, QpSolver, QpWeights, WholeBodyQp
+from app.core.dynamics.wbc_reduced import TermsBatch
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
@@ -289,7 +290,9 @@ def solve_chunk(qp: WholeBodyQp, chunk: ChunkInput, params: WbcParams) -> ChunkR
     status: list[str | None] = [None] * n
     beta = np.zeros((n, 2 * N_CORNERS * N_EDGES))
     qp.reset()
-    for k in range(n):
+    if qp.reduced is not None:
+        _solve_reduced_chunk(qp, chunk, qdd, tau, beta, solved, status, times, solver_times)
+    for k in range(n if qp.reduced is None else 0):
         q, v, a = chunk.q[k], chunk.v[k], chunk.a[k]
         begin = time.perf_counter()
         terms = qp.kinematics(q, v, a)
@@ -317,6 +320,60 @@ def solve_chunk(qp: WholeBodyQp, chunk: ChunkInput, params: WbcParams) -> ChunkR
         )
     return ChunkResult(
         tau, forces, qdd, loop_forces, times, solver_times, solved, tuple(map(str, status))
+    )
+
+
+def _solve_reduced_chunk(
+    qp: WholeBodyQp,
+    chunk: ChunkInput,
+    qdd: np.ndarray,
+    tau: np.ndarray,
+    beta: np.ndarray,
+    solved: np.ndarray,
+    status: list[str | None],
+    times: np.ndarray,
+    solver_times: np.ndarray,
+) -> None:
+    """The reduced QP at every sample of a chunk, written into the arrays: the closed form
+    for all samples of a contact state at once, the QP (DAQP) sample by sample where an
+    inequality is active. A sample's time is its own pinocchio pass and constrained solve
+    plus an equal share of the batched work."""
+    assert qp.reduced is not None
+    n = len(chunk.q)
+    begin = time.perf_counter()
+    batch, pin_s = qp.kinematics_batch(chunk.q, chunk.v, chunk.a)
+    closed = time.perf_counter()
+    ok = np.zeros(n, dtype=bool)
+    states = chunk.contacts.astype(bool)
+    for state in {(bool(left), bool(right)) for left, right in states}:
+        idx = np.flatnonzero((states[:, 0] == state[0]) & (states[:, 1] == state[1]))
+        part = TermsBatch(*(getattr(batch, f.name)[idx] for f in dataclasses.fields(batch)))
+        qdd[idx], beta[idx], ok[idx] = qp.reduced.unconstrained_batch(
+            part, chunk.v[idx], chunk.a[idx], state, chunk.x_bar[idx]
+        )
+    end = time.perf_counter()
+    times[:] = pin_s + (end - begin - pin_s.sum()) / n
+    solver_times[:] = (end - closed) / n
+    for k in np.flatnonzero(~ok):
+        begin = time.perf_counter()
+        terms = qp.terms_at(batch, k)
+        solution = qp.solve(
+            terms, chunk.v[k], chunk.a[k], chunk.contacts[k], chunk.x_bar[k], closed_form=False
+        )
+        times[k] += time.perf_counter() - begin
+        solver_times[k] += qp.last_solver_s
+        if solution.ok:
+            qdd[k], beta[k] = solution.qdd, solution.beta
+            ok[k] = True
+        else:
+            qdd[k], beta[k] = np.nan, 0.0
+            status[k] = f"no solution: {solution.status}"
+    solved[:] = ok
+    a = qp.actuated
+    tau[ok] = (
+        (batch.M[ok][:, a] @ qdd[ok][:, :, None])[:, :, 0]
+        + batch.h[ok][:, a]
+        - (batch.Phi[ok][:, a] @ beta[ok][:, :, None])[:, :, 0]
     )
 
 

@@ -43,7 +43,13 @@ from proxsuite import proxqp
 from scipy.linalg.lapack import dposv
 
 from app.core.dynamics.lqr import B_COM
-from app.core.dynamics.wbc_reduced import ReducedProblem, ReducedQp, ReducedSolution, reducible
+from app.core.dynamics.wbc_reduced import (
+    ReducedProblem,
+    ReducedQp,
+    ReducedSolution,
+    TermsBatch,
+    reducible,
+)
 from app.core.robot.model import RobotModel
 
 N_EDGES = 4
@@ -408,6 +414,60 @@ class WholeBodyQp:
             com_acc=com_acc,
         )
 
+    def kinematics_batch(
+        self, q: np.ndarray, v: np.ndarray, qdd_des: np.ndarray
+    ) -> tuple[TermsBatch, np.ndarray]:
+        """`kinematics` of n samples (reduced QP only): one pinocchio pass per sample, then
+        the numpy products for all of them at once. Also the wall time of each sample's
+        pinocchio calls [s], shape (n,)."""
+        model, data, nv, n = self.model, self.data, self.nv, len(q)
+        left, right = self.foot_ids
+        M, h = np.empty((n, nv, nv)), np.empty((n, nv))
+        J_feet, drift = np.empty((n, 2, 6, nv)), np.empty((n, 12))
+        R, R_base = np.empty((n, 2, 3, 3)), np.empty((n, 3, 3))
+        seconds = np.empty(n)
+        local = pin.LOCAL
+        for k in range(n):
+            begin = time.perf_counter()
+            pin.computeAllTerms(model, data, q[k], v[k])
+            pin.updateFramePlacements(model, data)
+            M[k], h[k], R_base[k] = data.M, data.nle, data.oMi[1].rotation
+            J_feet[k, 0] = pin.getFrameJacobian(model, data, left, local)
+            J_feet[k, 1] = pin.getFrameJacobian(model, data, right, local)
+            drift[k, :6] = pin.getFrameAcceleration(model, data, left, local).vector
+            drift[k, 6:] = pin.getFrameAcceleration(model, data, right, local).vector
+            R[k, 0], R[k, 1] = data.oMf[left].rotation, data.oMf[right].rotation
+            seconds[k] = time.perf_counter() - begin
+        force_base = (M[:, :3] @ qdd_des[:, :, None])[:, :, 0] + h[:, :3]
+        com_acc = (R_base @ force_base[:, :, None])[:, :, 0] / self.mass + self.gravity
+        J_world = (R[:, :, None] @ J_feet.reshape(n, 2, 2, 3, nv)).reshape(n, 2, 6, nv)
+        offsets = self.corners_array @ R.transpose(0, 1, 3, 2)  # (n, 2, 4, 3), world
+        G = np.empty((n, 2, 6, N_CORNERS * N_EDGES))
+        G[:, :, :3] = self._W_tiled
+        G[:, :, 3:] = (offsets.reshape(n, 2, 3 * N_CORNERS) @ self._moment_map).reshape(
+            n, 2, 3, N_CORNERS * N_EDGES
+        )
+        Phi = (
+            (J_world.transpose(0, 1, 3, 2) @ G)
+            .transpose(0, 2, 1, 3)
+            .reshape(n, nv, 2 * N_CORNERS * N_EDGES)
+        )
+        batch = TermsBatch(M, h, Phi, J_feet.reshape(n, 12, nv), drift, com_acc)
+        return batch, seconds
+
+    def terms_at(self, batch: TermsBatch, k: int) -> Terms:
+        """Sample k of a batch as the Terms `solve` takes."""
+        return Terms(
+            M=batch.M[k],
+            h=batch.h[k],
+            Phi=batch.Phi[k],
+            J_feet=batch.J_feet[k],
+            drift_feet=batch.drift_feet[k],
+            J_loop=self._no_loop,
+            drift_loop=self._no_drift,
+            com_acc=batch.com_acc[k],
+        )
+
     def _loop_terms(self) -> tuple[np.ndarray, np.ndarray]:
         """J_loop (3 n_loops, nv) and J̇_loop q̇ (3 n_loops,) from the current pinocchio data."""
         model, data = self.model, self.data
@@ -444,12 +504,19 @@ class WholeBodyQp:
         qdd_des: np.ndarray,
         contacts: np.ndarray,
         com_error: np.ndarray,
+        *,
+        closed_form: bool = True,
     ) -> SampleSolution:
-        """The QP of one sample: the reduced one when it applies and DAQP solves it, else the
+        """The QP of one sample: the reduced one when it applies (in closed form when no
+        inequality is active, unless `closed_form` is False, else by DAQP), otherwise the
         full one (ProxQP or OSQP, warm from the last sample)."""
         if self.reduced is not None:
             begin = time.perf_counter()
-            closed = self.reduced.unconstrained(terms, v, qdd_des, contacts, com_error)
+            closed = (
+                self.reduced.unconstrained(terms, v, qdd_des, contacts, com_error)
+                if closed_form
+                else None
+            )
             if closed is not None:
                 self.last_solver_s = time.perf_counter() - begin
                 self.last_reduced = None

@@ -79,6 +79,19 @@ class ReducedProblem:
 
 
 @dataclasses.dataclass(frozen=True)
+class TermsBatch:
+    """wbc_qp.Terms of n samples stacked (robots without loops): M (n, nv, nv), h (n, nv),
+    Phi (n, nv, 32), J_feet (n, 12, nv), drift_feet (n, 12), com_acc (n, 3)."""
+
+    M: np.ndarray
+    h: np.ndarray
+    Phi: np.ndarray
+    J_feet: np.ndarray
+    drift_feet: np.ndarray
+    com_acc: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
 class ReducedSolution:
     ok: bool
     status: str
@@ -276,6 +289,60 @@ class ReducedQp:
         beta = np.zeros(2 * PER_FOOT)
         beta[columns] = beta_down
         return ReducedSolution(True, "solved", qdd, beta, np.concatenate([beta_down, qdd[6:]]))
+
+    def unconstrained_batch(
+        self,
+        batch: TermsBatch,
+        v: np.ndarray,
+        qdd_des: np.ndarray,
+        state: tuple[bool, bool],
+        com_error: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`unconstrained` for n samples of one contact state at once (stacked numpy
+        products, so the per-call overhead is paid once): q̈ (n, nv), β (n, 32) and whether
+        the closed form is the answer (n,) (else the sample needs DAQP). Inputs are stacked
+        per sample: v, qdd_des (n, nv), com_error (n, 6)."""
+        columns, rows, _ = self._states[state]
+        P_inverse = self._P_inverse[state]
+        M, h, w, n = batch.M, batch.h, self.w_qdd, len(batch.M)
+        Phi_down = batch.Phi[:, :, columns]
+        J = batch.J_feet[:, rows]
+        JT = J.transpose(0, 2, 1)
+        slip = -batch.drift_feet[:, rows] - self.alpha * (J @ v[:, :, None])[:, :, 0]
+        B = np.empty((n, self.nv, 7))
+        B[:, :, :6] = M[:, :6].transpose(0, 2, 1)
+        B[:, :, 6] = (-2.0 * w) * qdd_des - 2.0 * (JT @ slip[:, :, None])[:, :, 0]
+        if len(rows):
+            inner = np.linalg.solve(J @ JT + self._w_eye[len(rows)], J @ B)
+            QB = (B - JT @ inner) * (0.5 / w)
+        else:
+            QB = B * (0.5 / w)
+        d = self.gravity - batch.com_acc
+        g_u = self.a * self.q_lqr * com_error[:, :3] + com_error @ (self.b_com.T @ self.S).T
+        c_beta = (2.0 * (d @ self.H_u.T + g_u) @ self.G_u)[:, columns]
+        Phi_b = Phi_down[:, :6]
+        W = Phi_b @ P_inverse
+        schur = M[:, :6] @ QB[:, :, :6] + W @ Phi_b.transpose(0, 2, 1)
+        rhs = h[:, :6, None] - M[:, :6] @ QB[:, :, 6:] + W @ c_beta[:, :, None]
+        lam = np.linalg.solve(schur, rhs)
+        beta_down = (W.transpose(0, 2, 1) @ lam)[:, :, 0] - c_beta @ P_inverse.T
+        qdd = -QB[:, :, 6] - (QB[:, :, :6] @ lam)[:, :, 0]
+        ok = beta_down.min(axis=1, initial=0.0) >= 0.0
+        lim = self.limited_v
+        if len(lim):
+            tau = (
+                (M[:, lim] @ qdd[:, :, None])[:, :, 0]
+                + h[:, lim]
+                - (Phi_down[:, lim] @ beta_down[:, :, None])[:, :, 0]
+            )
+            ok &= np.all(np.abs(tau) <= self.tau_max, axis=1)
+        if len(rows):
+            eta = (J @ qdd[:, :, None])[:, :, 0] - slip
+            ok &= np.abs(eta).max(axis=1) <= self.eta_max
+        ok &= np.all(np.isfinite(qdd), axis=1) & np.all(np.isfinite(beta_down), axis=1)
+        beta = np.zeros((n, 2 * PER_FOOT))
+        beta[:, columns] = beta_down
+        return qdd, beta, ok
 
     def _beta_cost(self, terms: Terms, com_error: np.ndarray) -> np.ndarray:
         """β's linear cost from V (eq. 5): 2 G_uᵀ(H_u d + g_u), d = g − c̈_des, shape (32,)."""
