@@ -213,3 +213,19 @@ def test_batched_chunk_equals_sample_by_sample(robots, trajectories, name, motio
         np.testing.assert_allclose(ff.qdd[k], solution.qdd, atol=1e-8, rtol=0)
         tau = qp.torques(terms, solution)
         np.testing.assert_allclose(ff.tau_Nm[k], tau, atol=1e-6 * max(1.0, np.abs(tau).max()))
+
+
+@pytest.mark.parametrize(
+    "name, motion", [("servo_biped", "one_leg_squats"), ("roban", "com_shift")]
+)
+def test_batched_kinematics_equal_the_five_pass_terms(robots, trajectories, name, motion):
+    robot, traj = robots[name], trajectories[(name, motion)]
+    one, five = make_qp(robot, WbcParams(), "reduced"), make_qp(robot, WbcParams(), "proxqp")
+    picks = np.arange(0, traj.n_samples, 7)
+    batch, seconds = one.kinematics_batch(traj.q[picks], traj.v[picks], traj.a[picks])
+    assert seconds.shape == picks.shape and np.all(seconds > 0.0)
+    for i, k in enumerate(picks):
+        fast, slow = one.terms_at(batch, i), five.kinematics(traj.q[k], traj.v[k], traj.a[k])
+        for field in ("M", "h", "Phi", "J_feet", "drift_feet", "com_acc"):
+            x, y = getattr(fast, field), getattr(slow, field)
+            np.testing.assert_allclose(x, y, atol=1e-9 * max(1.0, np.abs(y).max()), err_msg=field)

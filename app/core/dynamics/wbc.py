@@ -4,8 +4,10 @@ The spring-compensation paper (Wang et al. 2023, Secs. 3–4) gets the joint tor
 compensation q_des = q + k·τ (eq. 7) needs from a whole-body QP (eqs. 12–18) over the joint
 accelerations q̈ and the contact forces at the four corners of each rectangular sole, whose
 cost contains the value function V of a CoM LQR (eqs. 1–5). τ then follows from eq. 10. The
-QP itself is in app.core.dynamics.wbc_qp; this module checks inputs, runs it sample after sample and
-returns a FeedForward.
+QP itself is in app.core.dynamics.wbc_qp (made small in wbc_reduced); this module checks
+inputs, runs it over chunks of samples and returns a FeedForward. With the reduced QP a chunk
+is solved in bulk: one pinocchio pass per sample, the closed form (no inequality active) for
+all samples of a contact state at once, DAQP for the others.
 
 Feed-forward means the state is the plan's own: x̄ = x − x^d = 0 unless a CoM state error is
 given, so V reduces to ūᵀ(R + a²Q_p)ū, a cost on leaving the plan's CoM acceleration.
@@ -276,7 +278,8 @@ def make_qp(robot: RobotModel, params: WbcParams, solver: QpSolver = "reduced") 
 
 
 def solve_chunk(qp: WholeBodyQp, chunk: ChunkInput, params: WbcParams) -> ChunkResult:
-    """The QP at each sample of a chunk, cold at its first sample, warm along it."""
+    """The QP at each sample of a chunk: the reduced QP in bulk (each sample on its own), or
+    the full QP cold at the chunk's first sample and warm along it."""
     robot = qp.robot
     bound = qp.weights.tau_max
     n, nv = len(chunk.q), robot.model.nv

@@ -1,9 +1,11 @@
 """The whole-body QP of the spring-compensation paper (eqs. 12–18), one sample at a time.
 
 Decision variables z = [q̈ (nv), β (2 feet × 4 corners × 4 edges), η (2 × 6), f_loop (3 per
-declared loop)]; the QP is min ½zᵀPz + pᵀz subject to l ≤ A z ≤ u (OSQP's form; ProxQP, the
-default solver, takes the dynamics and loop rows as A_eq z = b and the others as
-l ≤ C z ≤ u, a foot's contact rows with l = u while it is down).
+declared loop)]; the QP is min ½zᵀPz + pᵀz subject to l ≤ A z ≤ u (OSQP's form; ProxQP
+takes the dynamics and loop rows as A_eq z = b and the others as l ≤ C z ≤ u, a foot's
+contact rows with l = u while it is down). The default solver, "reduced", substitutes η, the
+β of a foot in the air and the base accelerations out of this same QP
+(app.core.dynamics.wbc_reduced) and solves what is left in closed form or with DAQP.
 
 - eq. 13, floating base (and passive joints of closed loops, τ = 0):
   M_u q̈ + h_u = (Φᵀλ)_u + (J_loopᵀ f_loop)_u, u = unactuated rows.
