@@ -37,7 +37,7 @@ import numpy as np
 
 from app.core.dynamics.lqr import lqr_com
 from app.core.dynamics.wbc_qp import N_CORNERS, N_EDGES, QpSolver, QpWeights, WholeBodyQp
-from app.core.dynamics.wbc_reduced import TermsBatch
+from app.core.dynamics.wbc_terms import TermsBatch
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel

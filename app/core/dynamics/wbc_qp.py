@@ -45,13 +45,8 @@ from proxsuite import proxqp
 from scipy.linalg.lapack import dposv
 
 from app.core.dynamics.lqr import B_COM
-from app.core.dynamics.wbc_reduced import (
-    ReducedProblem,
-    ReducedQp,
-    ReducedSolution,
-    TermsBatch,
-    reducible,
-)
+from app.core.dynamics.wbc_reduced import ReducedProblem, ReducedQp, ReducedSolution, reducible
+from app.core.dynamics.wbc_terms import Terms, TermsBatch
 from app.core.robot.model import RobotModel
 
 N_EDGES = 4
@@ -120,28 +115,6 @@ class SampleSolution:
     f_loop: np.ndarray
     """Internal force of each loop on its link_a side (link_b gets the opposite), world
     frame [N], shape (3 * n_loops,)."""
-
-
-@dataclasses.dataclass(frozen=True)
-class Terms:
-    """The configuration-dependent quantities of one sample."""
-
-    M: np.ndarray
-    """Mass matrix, shape (nv, nv)."""
-    h: np.ndarray
-    """Coriolis, centrifugal and gravity terms, shape (nv,)."""
-    Phi: np.ndarray
-    """Generalised force of the pyramid coefficients, Φᵀλ = Phi β, shape (nv, 32)."""
-    J_feet: np.ndarray
-    """Both feet's 6-D Jacobians (LOCAL), shape (12, nv)."""
-    drift_feet: np.ndarray
-    """J̇ q̇ of the feet (LOCAL spatial acceleration at q̈ = 0), shape (12,)."""
-    J_loop: np.ndarray
-    """Jacobian of p_a − p_b of every loop (world), shape (3 * n_loops, nv)."""
-    drift_loop: np.ndarray
-    """J̇_loop q̇, shape (3 * n_loops,)."""
-    com_acc: np.ndarray
-    """The plan's CoM acceleration [m/s²], shape (3,)."""
 
 
 def pyramid_edges(mu: float) -> np.ndarray:

@@ -30,14 +30,12 @@ take this path (`reducible`); the others (passive joints, loop forces) keep the 
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
 
 import daqp
 import numpy as np
 from scipy.linalg.lapack import dposv
 
-if TYPE_CHECKING:
-    from app.core.dynamics.wbc_qp import Terms
+from app.core.dynamics.wbc_terms import Terms, TermsBatch
 
 DAQP_INFINITY = 1e30
 """DAQP's stand-in for an infinite bound."""
@@ -76,19 +74,6 @@ class ReducedProblem:
     JT: np.ndarray
     """η of the feet down = JT y + eta0, shape (6 n_down, ny)."""
     eta0: np.ndarray
-
-
-@dataclasses.dataclass(frozen=True)
-class TermsBatch:
-    """wbc_qp.Terms of n samples stacked (robots without loops): M (n, nv, nv), h (n, nv),
-    Phi (n, nv, 32), J_feet (n, 12, nv), drift_feet (n, 12), com_acc (n, 3)."""
-
-    M: np.ndarray
-    h: np.ndarray
-    Phi: np.ndarray
-    J_feet: np.ndarray
-    drift_feet: np.ndarray
-    com_acc: np.ndarray
 
 
 @dataclasses.dataclass(frozen=True)
