@@ -130,7 +130,9 @@ class FeedForward:
     status: tuple[str, ...]
     """Per sample: "solved", or what went wrong in words."""
     qp_time_s: np.ndarray
-    """Wall time of building and solving each sample's QP [s], shape (T,)."""
+    """Wall time of building and solving each sample's QP [s], shape (T,). With the reduced
+    QP, whose samples are solved in bulk: the sample's own pinocchio pass and DAQP solve plus
+    an equal share of the batched work."""
     tau_units: tuple[str, ...]
     """Unit of each column of tau_Nm: "N·m", or "N" for a prismatic joint."""
     notes: tuple[str, ...] = ()
