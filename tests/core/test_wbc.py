@@ -14,6 +14,7 @@ import pytest
 import scipy.linalg
 
 import app.core.dynamics.wbc_qp as wbc_qp
+import app.core.dynamics.wbc_reduced as wbc_reduced
 from app.core.dynamics.lqr import A_COM, B_COM, lqr_com
 from app.core.dynamics.wbc import FeedForward, WbcError, WbcParams, torque_feedforward
 from app.core.errors import StudioError
@@ -319,20 +320,29 @@ def test_absurdly_low_torque_limits_are_reported_per_sample(robots):
     assert all(not s.startswith("solved") for s in ff.status)
 
 
-def test_samples_without_a_solution_hold_the_nearest_solved_values(robots, monkeypatch):
+@pytest.mark.parametrize("solver", ["reduced", "proxqp"])
+def test_samples_without_a_solution_hold_the_nearest_solved_values(robots, monkeypatch, solver):
     robot = robots["servo_biped"]
     traj = run_motion(robot, "com_shift", dt=0.1).trajectory
     original = wbc_qp.WholeBodyQp.solve
     calls = []
 
-    def solve(self, terms, v, qdd_des, contacts, com_error):
+    def solve(self, terms, v, qdd_des, contacts, com_error, **options):
         calls.append(None)
         if len(calls) in (1, 4):  # samples 0 and 3 fail
             return wbc_qp.SampleSolution(False, "made to fail", *(np.zeros(0),) * 3)
-        return original(self, terms, v, qdd_des, contacts, com_error)
+        return original(self, terms, v, qdd_des, contacts, com_error, **options)
 
     monkeypatch.setattr(wbc_qp.WholeBodyQp, "solve", solve)
-    ff = torque_feedforward(robot, traj)
+    if solver == "reduced":  # no closed form anywhere: every sample goes through `solve`
+        closed_form = wbc_reduced.ReducedQp.unconstrained_batch
+
+        def no_closed_form(self, *args):
+            qdd, beta, ok = closed_form(self, *args)
+            return qdd, beta, np.zeros_like(ok)
+
+        monkeypatch.setattr(wbc_reduced.ReducedQp, "unconstrained_batch", no_closed_form)
+    ff = torque_feedforward(robot, traj, solver=solver)
     assert list(ff.infeasible_samples) == [0, 3]
     assert ff.status[0] == "no solution: made to fail; values held from sample 1 (t = 0.100 s)"
     assert ff.status[3].endswith("held from sample 2 (t = 0.200 s)")

@@ -86,7 +86,7 @@ def plain_problem(qp, q, v, qdd_des, contacts, com_error):
 @pytest.mark.parametrize("name", ["servo_biped", "roban"])
 def test_vectorised_assembly_equals_the_plain_one(name):
     robot = load_robot(ROBAN_URDF if name == "roban" else "servo_biped")
-    qp = make_qp(robot, WbcParams())
+    qp = make_qp(robot, WbcParams(), "proxqp")  # the full QP, whose A, p, l, u these are
     rng = np.random.default_rng(12)
     for trial in range(12):
         q, v, qdd_des = random_state(robot, rng)

@@ -4,8 +4,10 @@ The spring-compensation paper (Wang et al. 2023, Secs. 3–4) gets the joint tor
 compensation q_des = q + k·τ (eq. 7) needs from a whole-body QP (eqs. 12–18) over the joint
 accelerations q̈ and the contact forces at the four corners of each rectangular sole, whose
 cost contains the value function V of a CoM LQR (eqs. 1–5). τ then follows from eq. 10. The
-QP itself is in app.core.dynamics.wbc_qp; this module checks inputs, runs it sample after sample and
-returns a FeedForward.
+QP itself is in app.core.dynamics.wbc_qp (made small in wbc_reduced); this module checks
+inputs, runs it over chunks of samples and returns a FeedForward. With the reduced QP a chunk
+is solved in bulk: one pinocchio pass per sample, the closed form (no inequality active) for
+all samples of a contact state at once, DAQP for the others.
 
 Feed-forward means the state is the plan's own: x̄ = x − x^d = 0 unless a CoM state error is
 given, so V reduces to ūᵀ(R + a²Q_p)ū, a cost on leaving the plan's CoM acceleration.
@@ -35,6 +37,7 @@ import numpy as np
 
 from app.core.dynamics.lqr import lqr_com
 from app.core.dynamics.wbc_qp import N_CORNERS, N_EDGES, QpSolver, QpWeights, WholeBodyQp
+from app.core.dynamics.wbc_terms import TermsBatch
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
@@ -127,7 +130,9 @@ class FeedForward:
     status: tuple[str, ...]
     """Per sample: "solved", or what went wrong in words."""
     qp_time_s: np.ndarray
-    """Wall time of building and solving each sample's QP [s], shape (T,)."""
+    """Wall time of building and solving each sample's QP [s], shape (T,). With the reduced
+    QP, whose samples are solved in bulk: the sample's own pinocchio pass and DAQP solve plus
+    an equal share of the batched work."""
     tau_units: tuple[str, ...]
     """Unit of each column of tau_Nm: "N·m", or "N" for a prismatic joint."""
     notes: tuple[str, ...] = ()
@@ -165,7 +170,7 @@ def torque_feedforward(
     com_state_error: np.ndarray | None = None,
     *,
     pool: ChunkRunner | None = None,
-    solver: QpSolver = "proxqp",
+    solver: QpSolver = "reduced",
 ) -> FeedForward:
     """Solve the whole-body QP at every sample of a trajectory; never fails on a sample.
 
@@ -253,7 +258,7 @@ def chunk_bounds(n: int, size: int | None = None) -> list[tuple[int, int]]:
     return [(start, min(start + size, n)) for start in range(0, n, size)]
 
 
-def make_qp(robot: RobotModel, params: WbcParams, solver: QpSolver = "proxqp") -> WholeBodyQp:
+def make_qp(robot: RobotModel, params: WbcParams, solver: QpSolver = "reduced") -> WholeBodyQp:
     """The whole-body QP of a robot with these parameters (sparsity, cost, solver set up)."""
     bound, _ = torque_limits(robot, params)
     return WholeBodyQp(
@@ -275,7 +280,8 @@ def make_qp(robot: RobotModel, params: WbcParams, solver: QpSolver = "proxqp") -
 
 
 def solve_chunk(qp: WholeBodyQp, chunk: ChunkInput, params: WbcParams) -> ChunkResult:
-    """The QP at each sample of a chunk, cold at its first sample, warm along it."""
+    """The QP at each sample of a chunk: the reduced QP in bulk (each sample on its own), or
+    the full QP cold at the chunk's first sample and warm along it."""
     robot = qp.robot
     bound = qp.weights.tau_max
     n, nv = len(chunk.q), robot.model.nv
@@ -289,7 +295,9 @@ def solve_chunk(qp: WholeBodyQp, chunk: ChunkInput, params: WbcParams) -> ChunkR
     status: list[str | None] = [None] * n
     beta = np.zeros((n, 2 * N_CORNERS * N_EDGES))
     qp.reset()
-    for k in range(n):
+    if qp.reduced is not None:
+        _solve_reduced_chunk(qp, chunk, qdd, tau, beta, solved, status, times, solver_times)
+    for k in range(n if qp.reduced is None else 0):
         q, v, a = chunk.q[k], chunk.v[k], chunk.a[k]
         begin = time.perf_counter()
         terms = qp.kinematics(q, v, a)
@@ -317,6 +325,60 @@ def solve_chunk(qp: WholeBodyQp, chunk: ChunkInput, params: WbcParams) -> ChunkR
         )
     return ChunkResult(
         tau, forces, qdd, loop_forces, times, solver_times, solved, tuple(map(str, status))
+    )
+
+
+def _solve_reduced_chunk(
+    qp: WholeBodyQp,
+    chunk: ChunkInput,
+    qdd: np.ndarray,
+    tau: np.ndarray,
+    beta: np.ndarray,
+    solved: np.ndarray,
+    status: list[str | None],
+    times: np.ndarray,
+    solver_times: np.ndarray,
+) -> None:
+    """The reduced QP at every sample of a chunk, written into the arrays: the closed form
+    for all samples of a contact state at once, the QP (DAQP) sample by sample where an
+    inequality is active. A sample's time is its own pinocchio pass and constrained solve
+    plus an equal share of the batched work."""
+    assert qp.reduced is not None
+    n = len(chunk.q)
+    begin = time.perf_counter()
+    batch, pin_s = qp.kinematics_batch(chunk.q, chunk.v, chunk.a)
+    closed = time.perf_counter()
+    ok = np.zeros(n, dtype=bool)
+    states = chunk.contacts.astype(bool)
+    for state in {(bool(left), bool(right)) for left, right in states}:
+        idx = np.flatnonzero((states[:, 0] == state[0]) & (states[:, 1] == state[1]))
+        part = TermsBatch(*(getattr(batch, f.name)[idx] for f in dataclasses.fields(batch)))
+        qdd[idx], beta[idx], ok[idx] = qp.reduced.unconstrained_batch(
+            part, chunk.v[idx], chunk.a[idx], state, chunk.x_bar[idx]
+        )
+    end = time.perf_counter()
+    times[:] = pin_s + (end - begin - pin_s.sum()) / n
+    solver_times[:] = (end - closed) / n
+    for k in np.flatnonzero(~ok):
+        begin = time.perf_counter()
+        terms = qp.terms_at(batch, k)
+        solution = qp.solve(
+            terms, chunk.v[k], chunk.a[k], chunk.contacts[k], chunk.x_bar[k], closed_form=False
+        )
+        times[k] += time.perf_counter() - begin
+        solver_times[k] += qp.last_solver_s
+        if solution.ok:
+            qdd[k], beta[k] = solution.qdd, solution.beta
+            ok[k] = True
+        else:
+            qdd[k], beta[k] = np.nan, 0.0
+            status[k] = f"no solution: {solution.status}"
+    solved[:] = ok
+    a = qp.actuated
+    tau[ok] = (
+        (batch.M[ok][:, a] @ qdd[ok][:, :, None])[:, :, 0]
+        + batch.h[ok][:, a]
+        - (batch.Phi[ok][:, a] @ beta[ok][:, :, None])[:, :, 0]
     )
 
 

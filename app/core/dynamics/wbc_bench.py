@@ -1,11 +1,12 @@
 """Speed of the torque feed-forward, for `biped-studio bench`.
 
-- per sample: wall time of one sample's QP (kinematics, matrix values, ProxQP update and
-  solve), median and p95 over a motion, beside the solver's own call; target median
-  ≤ 0.25 ms, on servo_biped (one-leg squats) and Roban S14 (CoM shift, when found);
+- per sample: wall time of one sample's QP (kinematics, the reduced QP in closed form or by
+  DAQP), median and p95 over a motion, beside the same for the previous formulation (the full
+  QP by ProxQP, warm-started) in the same run; target median ≤ 0.25 ms, on servo_biped
+  (one-leg squats) and Roban S14 (CoM shift, when found);
 - 10 s of motion: torque_feedforward on the servo_biped squats sampled at 100 Hz, everything
-  included (QP set-up, certification), scaled to 10 s of motion, beside the same with OSQP;
-  target ≤ 0.25 s on one core;
+  included (QP set-up, certification), scaled to 10 s of motion, beside the same with the
+  full QP by ProxQP and by OSQP; target ≤ 0.25 s on one core;
 - over a pool of worker processes, every core against one (`bench_parallel`): speed-up
   ≥ 0.7 × cores.
 """
@@ -34,9 +35,12 @@ def _run(robot_source: str | Path, motion: str) -> dict:
     ff = torque_feedforward(robot, traj)
     seconds, cpu_s = time.perf_counter() - begin, time.process_time() - cpu
     begin = time.perf_counter()
+    full = torque_feedforward(robot, traj, solver="proxqp")
+    full_s = time.perf_counter() - begin
+    begin = time.perf_counter()
     torque_feedforward(robot, traj, solver="osqp")
     osqp_s = time.perf_counter() - begin
-    ms = ff.qp_time_s * 1e3
+    ms, full_ms = ff.qp_time_s * 1e3, full.qp_time_s * 1e3
     return {
         "robot": robot.name,
         "motion": motion,
@@ -44,12 +48,15 @@ def _run(robot_source: str | Path, motion: str) -> dict:
         "duration_s": traj.duration,
         "qp_median_ms": float(np.median(ms)),
         "qp_p95_ms": float(np.percentile(ms, 95)),
+        "full_qp_median_ms": float(np.median(full_ms)),
+        "full_qp_p95_ms": float(np.percentile(full_ms, 95)),
         "solver_median_ms": float(np.median(ff.solver_time_s * 1e3))
         if ff.solver_time_s is not None
         else float("nan"),
         "seconds": seconds,
         "cpu_s": cpu_s,
         "per_10s_s": seconds * 10.0 / traj.duration,
+        "full_qp_per_10s_s": full_s * 10.0 / traj.duration,
         "osqp_per_10s_s": osqp_s * 10.0 / traj.duration,
         "not_solved": len(ff.infeasible_samples),
     }

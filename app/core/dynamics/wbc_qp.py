@@ -1,9 +1,11 @@
 """The whole-body QP of the spring-compensation paper (eqs. 12–18), one sample at a time.
 
 Decision variables z = [q̈ (nv), β (2 feet × 4 corners × 4 edges), η (2 × 6), f_loop (3 per
-declared loop)]; the QP is min ½zᵀPz + pᵀz subject to l ≤ A z ≤ u (OSQP's form; ProxQP, the
-default solver, takes the dynamics and loop rows as A_eq z = b and the others as
-l ≤ C z ≤ u, a foot's contact rows with l = u while it is down).
+declared loop)]; the QP is min ½zᵀPz + pᵀz subject to l ≤ A z ≤ u (OSQP's form; ProxQP
+takes the dynamics and loop rows as A_eq z = b and the others as l ≤ C z ≤ u, a foot's
+contact rows with l = u while it is down). The default solver, "reduced", substitutes η, the
+β of a foot in the air and the base accelerations out of this same QP
+(app.core.dynamics.wbc_reduced) and solves what is left in closed form or with DAQP.
 
 - eq. 13, floating base (and passive joints of closed loops, τ = 0):
   M_u q̈ + h_u = (Φᵀλ)_u + (J_loopᵀ f_loop)_u, u = unactuated rows.
@@ -43,6 +45,8 @@ from proxsuite import proxqp
 from scipy.linalg.lapack import dposv
 
 from app.core.dynamics.lqr import B_COM
+from app.core.dynamics.wbc_reduced import ReducedProblem, ReducedQp, ReducedSolution, reducible
+from app.core.dynamics.wbc_terms import Terms, TermsBatch
 from app.core.robot.model import RobotModel
 
 N_EDGES = 4
@@ -57,11 +61,15 @@ then: after `_exact` its dynamics hold and its forces lie in the pyramids whatev
 status, and the caller certifies each sample itself (q̈ against the plan, torque limits)."""
 PROXQP_INFINITY = 1e20
 """ProxQP's stand-in for an infinite bound."""
-QpSolver = Literal["proxqp", "osqp"]
-SOLVERS: tuple[QpSolver, ...] = ("proxqp", "osqp")
-"""ProxQP (dense) is the default: ~0.65× OSQP's time on these QPs (62 variables, 74 rows:
-OSQP refactorises its sparse KKT matrix whenever A's values change, every sample), same
-answers within the tolerance (tests/core/test_wbc_solvers.py)."""
+QpSolver = Literal["reduced", "proxqp", "osqp"]
+SOLVERS: tuple[QpSolver, ...] = ("reduced", "proxqp", "osqp")
+""""reduced" is the default: the same QP with η, the β of a foot in the air and the base
+accelerations substituted out, solved by DAQP (app.core.dynamics.wbc_reduced), with one
+pinocchio pass per sample; robots with passive joints or closed loops, and a sample DAQP
+cannot solve, take the full QP with ProxQP. "proxqp" and "osqp" solve the full QP (62
+variables, 74 rows on servo_biped) as before: ProxQP (dense) at ~0.65× OSQP's time (OSQP
+refactorises its sparse KKT matrix whenever A's values change, every sample). Same answers
+within the solvers' tolerances (tests/core/test_wbc_solvers.py, test_wbc_reduced.py)."""
 PROXQP_STATUSES = {
     proxqp.PROXQP_SOLVED: "solved",
     proxqp.PROXQP_MAX_ITER_REACHED: "maximum iterations reached",
@@ -109,28 +117,6 @@ class SampleSolution:
     frame [N], shape (3 * n_loops,)."""
 
 
-@dataclasses.dataclass(frozen=True)
-class Terms:
-    """The configuration-dependent quantities of one sample."""
-
-    M: np.ndarray
-    """Mass matrix, shape (nv, nv)."""
-    h: np.ndarray
-    """Coriolis, centrifugal and gravity terms, shape (nv,)."""
-    Phi: np.ndarray
-    """Generalised force of the pyramid coefficients, Φᵀλ = Phi β, shape (nv, 32)."""
-    J_feet: np.ndarray
-    """Both feet's 6-D Jacobians (LOCAL), shape (12, nv)."""
-    drift_feet: np.ndarray
-    """J̇ q̇ of the feet (LOCAL spatial acceleration at q̈ = 0), shape (12,)."""
-    J_loop: np.ndarray
-    """Jacobian of p_a − p_b of every loop (world), shape (3 * n_loops, nv)."""
-    drift_loop: np.ndarray
-    """J̇_loop q̇, shape (3 * n_loops,)."""
-    com_acc: np.ndarray
-    """The plan's CoM acceleration [m/s²], shape (3,)."""
-
-
 def pyramid_edges(mu: float) -> np.ndarray:
     """w_i = n + μ d_i as columns, shape (3, 4): n = world z, d = +x, −x, +y, −y (eq. 11)."""
     return np.array(
@@ -141,10 +127,11 @@ def pyramid_edges(mu: float) -> np.ndarray:
 class WholeBodyQp:
     """The QP's sparsity fixed at construction; `solve` fills values and runs the solver warm."""
 
-    def __init__(self, robot: RobotModel, weights: QpWeights, solver: QpSolver = "proxqp") -> None:
+    def __init__(self, robot: RobotModel, weights: QpWeights, solver: QpSolver = "reduced") -> None:
         if solver not in SOLVERS:
             raise ValueError(f"unknown QP solver {solver!r}; known: {', '.join(SOLVERS)}")
-        self.solver_name = solver
+        # The full QP's solver: "reduced" falls back on ProxQP where it cannot reduce.
+        self.solver_name: QpSolver = "proxqp" if solver == "reduced" else solver
         model = robot.model
         self.robot, self.model, self.data, self.weights = robot, model, model.createData(), weights
         self.nv = nv = model.nv
@@ -211,6 +198,26 @@ class WholeBodyQp:
         self.n_eq = self.rows["contact"].start
         """Rows dyn and loop are equalities (ProxQP's A z = b); the rest are l ≤ C z ≤ u."""
         self._prox: proxqp.dense.QP | None = None
+        self.reduced: ReducedQp | None = None
+        """The reduced QP (solver "reduced" on a robot it applies to), else None."""
+        if solver == "reduced" and reducible(nv, self.unactuated, len(self.loop_ids)):
+            self.reduced = ReducedQp(
+                nv,
+                w_qdd=weights.w_qdd,
+                alpha=weights.alpha,
+                eta_max=weights.eta_max,
+                a=weights.a,
+                q_lqr=weights.q_lqr,
+                S=weights.S,
+                tau_max=weights.tau_max,
+                P_beta=P[self.cols["beta"], self.cols["beta"]],
+                G_u=self.G_u,
+                H_u=self.H_u,
+                gravity=self.gravity,
+                b_com=B_COM,
+            )
+        self.last_reduced: tuple[ReducedProblem, ReducedSolution] | None = None
+        """The reduced QP of the last sample and DAQP's answer (solver "reduced")."""
         self.solver = osqp.OSQP()
         if solver == "osqp":
             self.solver.setup(
@@ -330,16 +337,25 @@ class WholeBodyQp:
         A[r["eta"], c["eta"]] = np.eye(12)
 
     def kinematics(self, q: np.ndarray, v: np.ndarray, qdd_des: np.ndarray) -> Terms:
-        """Every configuration-dependent term of one sample: five pinocchio passes (CoM with
-        the plan's q̈, crba, nle, joint Jacobians, kinematics at q̈ = 0 for the drifts), then
-        a handful of batched numpy products for both feet at once."""
+        """Every configuration-dependent term of one sample. With the reduced QP one pinocchio
+        pass (computeAllTerms: M, h, joint Jacobians and the drift accelerations at q̈ = 0);
+        for the full QP five, as before (CoM with the plan's q̈, crba, nle, joint Jacobians,
+        kinematics at q̈ = 0). Then a handful of batched numpy products for both feet."""
         model, data, nv = self.model, self.data, self.nv
-        pin.centerOfMass(model, data, q, v, qdd_des)
-        com_acc = data.acom[0].copy()
-        M = pin.crba(model, data, q).copy()  # data.M is overwritten by the next sample
-        h = pin.nonLinearEffects(model, data, q, v).copy()
-        pin.computeJointJacobians(model, data, q)
-        pin.forwardKinematics(model, data, q, v, self.zero_v)
+        if self.reduced is not None:
+            pin.computeAllTerms(model, data, q, v)
+            M, h = data.M.copy(), data.nle.copy()  # overwritten by the next sample
+            # Newton on the whole robot: the base's linear rows of M q̈ + h are the net
+            # external force m (c̈ − g) in the base frame (free-flyer velocity is LOCAL).
+            force_base = M[:3] @ qdd_des + h[:3]
+            com_acc = data.oMi[1].rotation @ force_base / self.mass + self.gravity
+        else:
+            pin.centerOfMass(model, data, q, v, qdd_des)
+            com_acc = data.acom[0].copy()
+            M = pin.crba(model, data, q).copy()  # data.M is overwritten by the next sample
+            h = pin.nonLinearEffects(model, data, q, v).copy()
+            pin.computeJointJacobians(model, data, q)
+            pin.forwardKinematics(model, data, q, v, self.zero_v)
         pin.updateFramePlacements(model, data)
         left, right = self.foot_ids
         J_feet = np.empty((2, 6, nv))
@@ -371,6 +387,60 @@ class WholeBodyQp:
             J_loop=J_loop,
             drift_loop=drift_loop,
             com_acc=com_acc,
+        )
+
+    def kinematics_batch(
+        self, q: np.ndarray, v: np.ndarray, qdd_des: np.ndarray
+    ) -> tuple[TermsBatch, np.ndarray]:
+        """`kinematics` of n samples (reduced QP only): one pinocchio pass per sample, then
+        the numpy products for all of them at once. Also the wall time of each sample's
+        pinocchio calls [s], shape (n,)."""
+        model, data, nv, n = self.model, self.data, self.nv, len(q)
+        left, right = self.foot_ids
+        M, h = np.empty((n, nv, nv)), np.empty((n, nv))
+        J_feet, drift = np.empty((n, 2, 6, nv)), np.empty((n, 12))
+        R, R_base = np.empty((n, 2, 3, 3)), np.empty((n, 3, 3))
+        seconds = np.empty(n)
+        local = pin.LOCAL
+        for k in range(n):
+            begin = time.perf_counter()
+            pin.computeAllTerms(model, data, q[k], v[k])
+            pin.updateFramePlacements(model, data)
+            M[k], h[k], R_base[k] = data.M, data.nle, data.oMi[1].rotation
+            J_feet[k, 0] = pin.getFrameJacobian(model, data, left, local)
+            J_feet[k, 1] = pin.getFrameJacobian(model, data, right, local)
+            drift[k, :6] = pin.getFrameAcceleration(model, data, left, local).vector
+            drift[k, 6:] = pin.getFrameAcceleration(model, data, right, local).vector
+            R[k, 0], R[k, 1] = data.oMf[left].rotation, data.oMf[right].rotation
+            seconds[k] = time.perf_counter() - begin
+        force_base = (M[:, :3] @ qdd_des[:, :, None])[:, :, 0] + h[:, :3]
+        com_acc = (R_base @ force_base[:, :, None])[:, :, 0] / self.mass + self.gravity
+        J_world = (R[:, :, None] @ J_feet.reshape(n, 2, 2, 3, nv)).reshape(n, 2, 6, nv)
+        offsets = self.corners_array @ R.transpose(0, 1, 3, 2)  # (n, 2, 4, 3), world
+        G = np.empty((n, 2, 6, N_CORNERS * N_EDGES))
+        G[:, :, :3] = self._W_tiled
+        G[:, :, 3:] = (offsets.reshape(n, 2, 3 * N_CORNERS) @ self._moment_map).reshape(
+            n, 2, 3, N_CORNERS * N_EDGES
+        )
+        Phi = (
+            (J_world.transpose(0, 1, 3, 2) @ G)
+            .transpose(0, 2, 1, 3)
+            .reshape(n, nv, 2 * N_CORNERS * N_EDGES)
+        )
+        batch = TermsBatch(M, h, Phi, J_feet.reshape(n, 12, nv), drift, com_acc)
+        return batch, seconds
+
+    def terms_at(self, batch: TermsBatch, k: int) -> Terms:
+        """Sample k of a batch as the Terms `solve` takes."""
+        return Terms(
+            M=batch.M[k],
+            h=batch.h[k],
+            Phi=batch.Phi[k],
+            J_feet=batch.J_feet[k],
+            drift_feet=batch.drift_feet[k],
+            J_loop=self._no_loop,
+            drift_loop=self._no_drift,
+            com_acc=batch.com_acc[k],
         )
 
     def _loop_terms(self) -> tuple[np.ndarray, np.ndarray]:
@@ -409,7 +479,45 @@ class WholeBodyQp:
         qdd_des: np.ndarray,
         contacts: np.ndarray,
         com_error: np.ndarray,
+        *,
+        closed_form: bool = True,
     ) -> SampleSolution:
+        """The QP of one sample: the reduced one when it applies (in closed form when no
+        inequality is active, unless `closed_form` is False, else by DAQP), otherwise the
+        full one (ProxQP or OSQP, warm from the last sample)."""
+        if self.reduced is not None:
+            begin = time.perf_counter()
+            closed = (
+                self.reduced.unconstrained(terms, v, qdd_des, contacts, com_error)
+                if closed_form
+                else None
+            )
+            if closed is not None:
+                self.last_solver_s = time.perf_counter() - begin
+                self.last_reduced = None
+                return SampleSolution(True, closed.status, closed.qdd, closed.beta, self._no_drift)
+            problem = self.reduced.problem(terms, v, qdd_des, contacts, com_error)
+            begin = time.perf_counter()
+            answer = self.reduced.solve(problem)
+            self.last_solver_s = time.perf_counter() - begin
+            self.last_reduced = (problem, answer)
+            if answer.ok:
+                return SampleSolution(True, answer.status, answer.qdd, answer.beta, self._no_drift)
+            spent = self.last_solver_s
+            solution = self.solve_full(terms, v, qdd_des, contacts, com_error)
+            self.last_solver_s += spent
+            return solution
+        return self.solve_full(terms, v, qdd_des, contacts, com_error)
+
+    def solve_full(
+        self,
+        terms: Terms,
+        v: np.ndarray,
+        qdd_des: np.ndarray,
+        contacts: np.ndarray,
+        com_error: np.ndarray,
+    ) -> SampleSolution:
+        """The full QP of eqs. 12–18 (the module docstring) with ProxQP or OSQP."""
         w, r, c = self.weights, self.rows, self.cols
         self._fill(terms.M, terms.Phi, terms.J_feet, terms.J_loop, out=self.A)
         state = (bool(contacts[0]), bool(contacts[1]))

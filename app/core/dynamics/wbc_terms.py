@@ -1,0 +1,43 @@
+"""The configuration-dependent terms of the whole-body QP, one sample or a batch of them
+(shared by the full QP, app.core.dynamics.wbc_qp, and the reduced one, wbc_reduced)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+
+@dataclasses.dataclass(frozen=True)
+class Terms:
+    """The configuration-dependent quantities of one sample."""
+
+    M: np.ndarray
+    """Mass matrix, shape (nv, nv)."""
+    h: np.ndarray
+    """Coriolis, centrifugal and gravity terms, shape (nv,)."""
+    Phi: np.ndarray
+    """Generalised force of the pyramid coefficients, Φᵀλ = Phi β, shape (nv, 32)."""
+    J_feet: np.ndarray
+    """Both feet's 6-D Jacobians (LOCAL), shape (12, nv)."""
+    drift_feet: np.ndarray
+    """J̇ q̇ of the feet (LOCAL spatial acceleration at q̈ = 0), shape (12,)."""
+    J_loop: np.ndarray
+    """Jacobian of p_a − p_b of every loop (world), shape (3 * n_loops, nv)."""
+    drift_loop: np.ndarray
+    """J̇_loop q̇, shape (3 * n_loops,)."""
+    com_acc: np.ndarray
+    """The plan's CoM acceleration [m/s²], shape (3,)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class TermsBatch:
+    """Terms of n samples stacked (robots without loops): M (n, nv, nv), h (n, nv),
+    Phi (n, nv, 32), J_feet (n, 12, nv), drift_feet (n, 12), com_acc (n, 3)."""
+
+    M: np.ndarray
+    h: np.ndarray
+    Phi: np.ndarray
+    J_feet: np.ndarray
+    drift_feet: np.ndarray
+    com_acc: np.ndarray
