@@ -176,6 +176,8 @@ class WholeBodyIK:
         """(task, frame, target) of soft frame targets, approached at most MAX_STEP per step."""
         self._aimed: list[np.ndarray] = []
         """The target each soft goal's task holds now (its goal, or a clamped one)."""
+        self._goal_parts: list[tuple[str, np.ndarray, np.ndarray]] = []
+        """(frame, position, rotation) of each soft goal, contiguous."""
 
     def _set_posture(self, q: np.ndarray) -> None:
         angles = q[self._bounded_q]  # the posture task leaves continuous joints free
@@ -229,7 +231,7 @@ class WholeBodyIK:
             )
             self._halfplanes = (polygon, normals, np.einsum("ij,ij->i", polygon, normals))
         _, normals, offsets = self._halfplanes
-        return float(np.min(offsets - normals @ com_xy))
+        return float((offsets - normals.dot(com_xy)).min())
 
     def _guard_com(self, polygon: np.ndarray) -> None:
         """Hard CoM-in-polygon constraint once the CoM is inside (the QP stays feasible from
@@ -342,11 +344,12 @@ class WholeBodyIK:
         """Weighted distance of the soft goals: Σ |Δp|² [m²] + ROTATION_WEIGHT·|Δθ|² [rad²]."""
         cost = 0.0
         here = []
-        for _, frame, goal in self._soft_goals:
-            current = self._wrapper.get_T_world_frame(frame)
-            delta = goal[:3, 3] - current[:3, 3]
-            turn = pin.log3(current[:3, :3].T @ goal[:3, :3])
-            squared, turned = float(delta @ delta), float(turn @ turn)
+        get = self._wrapper.get_T_world_frame
+        for frame, position, rotation in self._goal_parts:
+            current = get(frame)
+            delta = position - current[:3, 3]
+            turn = pin.log3(current[:3, :3].T.dot(rotation))
+            squared, turned = float(delta.dot(delta)), float(turn.dot(turn))
             cost += squared + ROTATION_WEIGHT * turned
             far = math.sqrt(squared) > MAX_STEP_M or math.sqrt(turned) > MAX_STEP_RAD
             here.append((current, turn, far))
@@ -432,6 +435,9 @@ class WholeBodyIK:
         else:
             self._pelvis.configure("pelvis", "soft", 0.0, 0.0)
         self._aimed = [goal for _, _, goal in self._soft_goals]
+        self._goal_parts = [
+            (frame, goal[:3, 3].copy(), goal[:3, :3].copy()) for _, frame, goal in self._soft_goals
+        ]
         if targets.com_xy is not None:
             self._com_target.target_world = np.array(
                 [*np.asarray(targets.com_xy, dtype=float)[:2], 0.0]
