@@ -516,11 +516,13 @@ class WholeBodyIK:
         margin = self._margin_of(com_xy, polygon)
         angles = q[self._bounded_q]
         room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
-        near = tuple(
-            name
-            for name, close in zip(self._bounded_names, room < NEAR_LIMIT_RAD, strict=True)
-            if close
-        )
+        near: tuple[str, ...] = ()
+        if room.size and room.min() < NEAR_LIMIT_RAD:
+            near = tuple(
+                name
+                for name, close in zip(self._bounded_names, room < NEAR_LIMIT_RAD, strict=True)
+                if close
+            )
         return IkResult(
             q, reached, iterations, position_error, orientation_error, margin, near, tuple(warnings)
         )
