@@ -220,6 +220,11 @@ class WholeBodyIK:
         """Signed distance [m] of the CoM's ground projection inside a convex polygon."""
         return self._margin_of(self.robot.com(q, self._data)[:2], polygon)
 
+    def margin_at(self, com_xy: np.ndarray, polygon: np.ndarray) -> float:
+        """Signed distance [m] of a ground point (a CoM's projection, already computed)
+        inside a convex polygon."""
+        return self._margin_of(np.asarray(com_xy, dtype=float)[:2], polygon)
+
     def _margin_of(self, com_xy: np.ndarray, polygon: np.ndarray) -> float:
         """Signed distance [m] of a point inside a convex polygon (its edges' inward normals
         kept for the last polygon asked about)."""
