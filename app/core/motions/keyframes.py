@@ -213,7 +213,7 @@ def interpolate(
                 after.stance,
             )
         else:
-            tau = float(np.clip((t - ends[segment]) / after.duration_s, 0.0, 1.0))
+            tau = min(max((t - float(ends[segment])) / after.duration_s, 0.0), 1.0)
             targets = _targets(before, after, tau, after.stance, start, blends)
         targets = _on_floor(robot, targets)
         iterations = SOLVE_ITERATIONS if k > 0 or first.q is not None else FIRST_ITERATIONS
@@ -231,7 +231,7 @@ def interpolate(
             q = result.q
         pin.framesForwardKinematics(robot.model, data, q)
         contacts[k] = _contacts(robot, data, after.stance)
-        messages += _shortfalls(robot, data, targets, result.warnings)
+        messages += _shortfalls(robot, data, targets, result, q)
         if com_in_support and result.com_margin_m < 0.0:
             messages.append(f"CoM {-result.com_margin_m * 1000:.1f} mm outside the support polygon")
         warnings += [SampleWarning(k, t, after.name if k else first.name, m) for m in messages]
@@ -328,12 +328,15 @@ def _contacts(robot: RobotModel, data: pin.Data, stance: Stance) -> np.ndarray:
 
 
 def _shortfalls(
-    robot: RobotModel, data: pin.Data, targets: IkTargets, ik_warnings: tuple[str, ...]
+    robot: RobotModel, data: pin.Data, targets: IkTargets, result: IkResult, q: np.ndarray
 ) -> list[str]:
     """The IK's warnings, with its reach check redone (REPORT_M, REPORT_RAD) for the moving
     feet and the pelvis, whose horizontal position yields to a CoM target (not reported then).
-    The IK's own reach message is recognised by its wording."""
-    messages = [m for m in ik_warnings if " target out of reach: closest pose" not in m]
+    The IK's own reach message is recognised by its wording. `data` holds the frame
+    placements at q, the sample kept; when that is the IK's own answer, its measures of the
+    feet and of a pelvis without a CoM target are the same numbers and are reused."""
+    messages = [m for m in result.warnings if " target out of reach: closest pose" not in m]
+    measured = q is result.q
     stance = ("left", "right") if targets.stance == "both" else (targets.stance,)
     for label, link, T_target in (
         ("left", robot.foot("left").link, targets.T_world_left),
@@ -342,13 +345,17 @@ def _shortfalls(
     ):
         if T_target is None or label in stance:
             continue
-        T = data.oMf[robot.link_frame_ids[link]]
-        miss = T.translation - T_target[:3, 3]
-        if label == "pelvis" and targets.com_xy is not None:
-            miss[:2] = 0.0
-        turn = pin.log3(T_target[:3, :3].T @ T.rotation)
-        angle = math.sqrt(float(turn.dot(turn)))
-        distance = math.sqrt(float(miss.dot(miss)))
+        if measured and (label != "pelvis" or targets.com_xy is None):
+            distance = result.position_error_m[label]
+            angle = result.orientation_error_rad[label]
+        else:
+            T = data.oMf[robot.link_frame_ids[link]]
+            miss = T.translation - T_target[:3, 3]
+            if label == "pelvis" and targets.com_xy is not None:
+                miss[:2] = 0.0
+            turn = pin.log3(T_target[:3, :3].T @ T.rotation)
+            angle = math.sqrt(float(turn.dot(turn)))
+            distance = math.sqrt(float(miss.dot(miss)))
         if distance >= REPORT_M or angle >= REPORT_RAD:
             messages.append(
                 f"{label} target out of reach: closest pose is {distance * 1000:.1f} mm, "
