@@ -128,9 +128,12 @@ class PoseSession:
 
     def _apply(self, robot: RobotModel, result: IkResult, stance: Stance, origin: str) -> None:
         with self._server.atomic():
-            self._state.set_pose(result.q, stance, origin, robot)
+            # Known before the pose is shown, so that _on_pose writes the status once.
             self.last_result = result
-            self.panel.show_status(self._status(stance))
+            self._state.set_pose(result.q, stance, origin, robot)
+            if self.last_result is not result:  # not a drag: _on_pose cleared it
+                self.last_result = result
+                self.panel.show_status(self._status(stance))
 
     # --- buttons (PoseActions) ----------------------------------------------------------------
 
