@@ -141,6 +141,10 @@ class WholeBodyIK:
         self._bounded_lower = np.array([joint.lower for joint in bounded], dtype=float)
         self._bounded_upper = np.array([joint.upper for joint in bounded], dtype=float)
         self._foot_ids = {foot.side: robot.link_frame_ids[foot.link] for foot in robot.feet}
+        self._stance_feet = {
+            stance: tuple(foot for foot in robot.feet if stance in (foot.side, "both"))
+            for stance in ("left", "right", "both")
+        }
         self._posture = self._solver.add_joints_task()
         self._posture.configure("posture", "soft", posture_weight)
         self._posture_angles: np.ndarray | None = None
@@ -162,7 +166,7 @@ class WholeBodyIK:
         self._com_target.mask.set_axises("xy")
         self._com_target.configure("com target", "soft", 0.0)
         self._data = robot.model.createData()
-        self._polygon_cache: tuple[str, np.ndarray, np.ndarray] | None = None
+        self._polygon_cache: tuple[str, list[np.ndarray], np.ndarray] | None = None
         """(stance, stance-feet placements, polygon) of the last support polygon computed."""
         self._halfplanes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         """(polygon, inward edge normals, offsets) of the last polygon a margin was taken in."""
@@ -197,15 +201,17 @@ class WholeBodyIK:
 
     def _polygon_here(self, stance: Stance) -> np.ndarray:
         """support_polygon at the configuration self._data's frames were last placed at."""
-        sides = ("left", "right") if stance == "both" else (stance,)
-        feet = [foot for foot in self.robot.feet if foot.side in sides]
+        feet = self._stance_feet[stance]
         oMf, ids = self._data.oMf, self._foot_ids
-        placements = np.array([oMf[ids[foot.side]].homogeneous for foot in feet])
+        placements = [oMf[ids[foot.side]].homogeneous for foot in feet]
         cache = self._polygon_cache
         if (
             cache is not None
             and cache[0] == stance
-            and float(np.abs(placements - cache[1]).max()) < POLYGON_CACHE_M
+            and all(
+                float(np.abs(T - T_then).max()) < POLYGON_CACHE_M
+                for T, T_then in zip(placements, cache[1], strict=True)
+            )
         ):
             return cache[2]
         points = [
