@@ -39,6 +39,8 @@ class PoseSession:
         self.last_result: IkResult | None = None
         self._data: pin.Data | None = None
         """Pinocchio data of the loaded robot, for the handles' placements."""
+        self._handle_links: tuple[str, ...] = ()
+        """The links the drag handles sit on."""
         self._hidden_for_playback = False
         self._roots = AlternatingRoot("/pose")
         self._drags: Coalescer[str, np.ndarray] = Coalescer(self._solve_drag)
@@ -60,6 +62,7 @@ class PoseSession:
             "right": robot.feet[1].link,
             "pelvis": robot.tree.root,
         }
+        self._handle_links = tuple(frames.values())
         root = self._roots.next()
         self.handles = DragHandles(
             self._server,
@@ -81,7 +84,11 @@ class PoseSession:
             self.last_result = None
         posing.stance = pose.stance
         robot = posing.robot
-        handles.place(robot.link_placements(pose.q, data), skip=pose.dragged)
+        pin.framesForwardKinematics(robot.model, data, pose.q)  # only the handles' links
+        handles.place(
+            {link: data.oMf[robot.link_frame_ids[link]].homogeneous for link in self._handle_links},
+            skip=pose.dragged,
+        )
         state = posing.balance(pose.q)
         balance.update(
             state.polygon_xy,
@@ -121,9 +128,12 @@ class PoseSession:
 
     def _apply(self, robot: RobotModel, result: IkResult, stance: Stance, origin: str) -> None:
         with self._server.atomic():
-            self._state.set_pose(result.q, stance, origin, robot)
+            # Known before the pose is shown, so that _on_pose writes the status once.
             self.last_result = result
-            self.panel.show_status(self._status(stance))
+            self._state.set_pose(result.q, stance, origin, robot)
+            if self.last_result is not result:  # not a drag: _on_pose cleared it
+                self.last_result = result
+                self.panel.show_status(self._status(stance))
 
     # --- buttons (PoseActions) ----------------------------------------------------------------
 

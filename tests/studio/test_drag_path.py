@@ -95,3 +95,23 @@ def test_the_joint_sliders_end_on_the_drags_last_pose(studio):
         # The slider shows degrees to one decimal (clamped to its range).
         expected = float(np.clip(np.rad2deg(angle), slider.min, slider.max))
         assert slider.value == pytest.approx(expected, abs=0.05 + 1e-9), joint.name
+
+
+def test_the_pose_status_after_a_drag_and_a_snap_describes_that_solve(studio):
+    """A drag writes the Pose panel's status once, from the drag's own result (reached, as
+    pinocchio confirms); the Snap button's solve still replaces it."""
+    studio.robots.load("servo_biped")
+    robot = studio.state.robot
+    data = robot.model.createData()
+    target = robot.link_placements(studio.state.q, data)[robot.feet[0].link].copy()
+    target[2, 3] += 0.02
+    studio.pose.request_drag("left", target)
+    reached = robot.link_placements(studio.state.q, data)[robot.feet[0].link]
+    assert np.linalg.norm(reached[:3, 3] - target[:3, 3]) < 1e-3  # pinocchio: reached
+    status = studio.pose.panel.status.content
+    assert "Stance: **right**" in status and "Target reached ✓" in status
+    assert studio.pose.last_result is not None and studio.pose.last_result.q is studio.state.q
+    studio.pose.snap_feet()
+    status = studio.pose.panel.status.content
+    assert "Stance: **both**" in status and "Target" in status
+    assert studio.pose.last_result is not None and studio.pose.last_result.q is studio.state.q

@@ -19,6 +19,8 @@ are excluded from peaks.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 import pinocchio as pin
 
@@ -37,6 +39,23 @@ def speed_limits(robot: RobotModel) -> np.ndarray:
     )
 
 
+_SPEEDS: dict[int, tuple[weakref.ref[RobotModel], np.ndarray, np.ndarray]] = {}
+"""(the robot, velocity indices, v_max) by id(robot): RobotModel is not hashable."""
+
+
+def _joint_speeds(robot: RobotModel) -> tuple[np.ndarray, np.ndarray]:
+    """(velocity index, v_max) of every actuated joint, computed once per robot (a motion
+    asks at every sample)."""
+    cached = _SPEEDS.get(id(robot))
+    if cached is None or cached[0]() is not robot:
+        if len(_SPEEDS) > 32:  # robots come and go in a long-lived studio
+            _SPEEDS.clear()
+        idx_v = np.array([j.idx_v for j in robot.joints], dtype=int)
+        cached = (weakref.ref(robot), idx_v, speed_limits(robot))
+        _SPEEDS[id(robot)] = cached
+    return cached[1], cached[2]
+
+
 def limit_joint_steps(
     robot: RobotModel, q_prev: np.ndarray, q_new: np.ndarray, dt: float
 ) -> tuple[np.ndarray, str | None]:
@@ -44,8 +63,8 @@ def limit_joint_steps(
     than v_max·dt (module docstring); message is None when the step was within the limits,
     else names the joint that set the scale."""
     delta = pin.difference(robot.model, q_prev, q_new)
-    idx_v = np.array([j.idx_v for j in robot.joints], dtype=int)
-    limits = speed_limits(robot) * dt
+    idx_v, v_max = _joint_speeds(robot)
+    limits = v_max * dt
     steps = delta[idx_v]
     over = np.abs(steps) > limits * (1.0 + 1e-9)
     if not over.any():

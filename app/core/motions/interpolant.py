@@ -3,10 +3,13 @@
 - min_jerk: s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, zero velocity and acceleration at both ends;
 - trapezoid: a trapezoidal speed profile (constant acceleration for a ramp fraction of the
   segment, cruise, symmetric braking), the hybrid-leg paper's "T-shaped" curve (Sec. 4.1);
-- blend: position lerp and rotation slerp, R0·exp(s·log(R0ᵀR1)).
+- blend: position lerp and rotation slerp, R0·exp(s·log(R0ᵀR1)); Blend does the same with
+  what does not depend on s computed once (a segment's samples all blend the same two ends).
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pinocchio as pin
@@ -37,3 +40,29 @@ def blend(T0: np.ndarray, T1: np.ndarray, s: float) -> np.ndarray:
     T[:3, 3] = T0[:3, 3] + s * (T1[:3, 3] - T0[:3, 3])
     T[:3, :3] = T0[:3, :3] @ pin.exp3(s * pin.log3(T0[:3, :3].T @ T1[:3, :3]))
     return T
+
+
+@dataclasses.dataclass(frozen=True)
+class Blend:
+    """`blend(T0, T1, s)` for one pair of placements, the same numbers for every s, with
+    the rotation's log and the position's span taken once."""
+
+    position: np.ndarray
+    span: np.ndarray
+    rotation: np.ndarray
+    turn: np.ndarray
+
+    @classmethod
+    def of(cls, T0: np.ndarray, T1: np.ndarray) -> Blend:
+        return cls(
+            T0[:3, 3].copy(),
+            T1[:3, 3] - T0[:3, 3],
+            T0[:3, :3].copy(),
+            pin.log3(T0[:3, :3].T @ T1[:3, :3]),
+        )
+
+    def at(self, s: float) -> np.ndarray:
+        T = np.eye(4)
+        T[:3, 3] = self.position + s * self.span
+        T[:3, :3] = self.rotation @ pin.exp3(s * self.turn)
+        return T

@@ -44,7 +44,7 @@ import pinocchio as pin
 from app.core.budgets import check_dt, check_samples
 from app.core.errors import StudioError
 from app.core.motions.continuity import limit_joint_steps
-from app.core.motions.interpolant import blend, min_jerk, trapezoid
+from app.core.motions.interpolant import Blend, min_jerk, trapezoid
 from app.core.motions.result import MotionResult, SampleWarning
 from app.core.motions.trajectory import from_configurations
 from app.core.posing.ik import IkResult, IkTargets, Stance, WholeBodyIK
@@ -194,6 +194,7 @@ def interpolate(
     contacts = np.zeros((n, 2), dtype=bool)
     segment, started = 0, -1
     start: dict[str, np.ndarray] = {}
+    blends: dict[str, Blend] = {}
     for k in range(n):
         t = k * dt
         while segment + 2 < len(keyframes) and t > ends[segment + 1] + 1e-9:
@@ -202,6 +203,7 @@ def interpolate(
         if segment != started:  # where this segment starts: the previous sample
             started = segment
             start = _where(robot, q, data)
+            blends = _blends(before, after, start)
         if k == 0:  # every foot to the first keyframe, so that each sample is an IK solution
             targets = IkTargets(
                 first.T_world_left,
@@ -211,16 +213,14 @@ def interpolate(
                 after.stance,
             )
         else:
-            tau = float(np.clip((t - ends[segment]) / after.duration_s, 0.0, 1.0))
-            targets = _targets(before, after, tau, after.stance, start)
+            tau = min(max((t - float(ends[segment])) / after.duration_s, 0.0), 1.0)
+            targets = _targets(before, after, tau, after.stance, start, blends)
         targets = _on_floor(robot, targets)
         iterations = SOLVE_ITERATIONS if k > 0 or first.q is not None else FIRST_ITERATIONS
         result = ik.solve(q, targets, com_in_support=com_in_support, max_iterations=iterations)
         messages: list[str] = []
         if k > 0:
-            result, messages = _keep_stance(
-                robot, ik, q, start, targets, result, com_in_support, scratch
-            )
+            result, messages = _keep_stance(ik, q, targets, result, com_in_support)
             q_next, jump = _continuous(
                 robot, ik, q, result.q, start, targets, dt, com_in_support, scratch
             )
@@ -231,7 +231,7 @@ def interpolate(
             q = result.q
         pin.framesForwardKinematics(robot.model, data, q)
         contacts[k] = _contacts(robot, data, after.stance)
-        messages += _shortfalls(robot, data, targets, result.warnings)
+        messages += _shortfalls(robot, data, targets, result, q)
         if com_in_support and result.com_margin_m < 0.0:
             messages.append(f"CoM {-result.com_margin_m * 1000:.1f} mm outside the support polygon")
         warnings += [SampleWarning(k, t, after.name if k else first.name, m) for m in messages]
@@ -244,32 +244,45 @@ def _foot(kf: Keyframe, side: str) -> np.ndarray:
     return np.asarray(kf.T_world_left if side == "left" else kf.T_world_right, dtype=float)
 
 
+def _blends(before: Keyframe, after: Keyframe, start: dict[str, np.ndarray]) -> dict[str, Blend]:
+    """The segment's interpolants, by what they move ("left", "right", "pelvis"): its
+    moving feet and, when `after` places it, the pelvis (from `before`'s, or from where it
+    was when the segment started)."""
+    blends = {
+        side: Blend.of(_foot(before, side), _foot(after, side))
+        for side in ("left", "right")
+        if after.stance not in (side, "both")
+    }
+    if after.T_world_pelvis is not None:
+        T0 = before.T_world_pelvis if before.T_world_pelvis is not None else start["pelvis"]
+        blends["pelvis"] = Blend.of(np.asarray(T0), np.asarray(after.T_world_pelvis))
+    return blends
+
+
 def _targets(
     before: Keyframe,
     after: Keyframe,
     tau: float,
     stance: Stance,
     start: dict[str, np.ndarray],
+    blends: dict[str, Blend],
 ) -> IkTargets:
     """IK targets at phase τ of the segment from `before` to `after` (module docstring);
-    `start`: where the feet, pelvis and CoM were when the segment started (_where)."""
+    `start`: where the feet, pelvis and CoM were when the segment started (_where);
+    `blends`: the segment's interpolants (_blends)."""
     s = trapezoid(tau) if after.profile == "trapezoid" else min_jerk(tau)
     feet: dict[str, np.ndarray | None] = {}
     for side in ("left", "right"):
-        T0, T1 = _foot(before, side), _foot(after, side)
         if stance in (side, "both"):
             feet[side] = start[side]  # held where it stood when the segment started
         elif after.swing_height_m > 0.0:
             phase = np.pi * s
-            T = blend(T0, T1, 0.5 * (1.0 - np.cos(phase)))
+            T = blends[side].at(0.5 * (1.0 - np.cos(phase)))
             T[2, 3] += after.swing_height_m * np.sin(phase)
             feet[side] = T
         else:
-            feet[side] = blend(T0, T1, s)
-    pelvis = None
-    if after.T_world_pelvis is not None:
-        T0 = before.T_world_pelvis if before.T_world_pelvis is not None else start["pelvis"]
-        pelvis = blend(np.asarray(T0), np.asarray(after.T_world_pelvis), s)
+            feet[side] = blends[side].at(s)
+    pelvis = blends["pelvis"].at(s) if "pelvis" in blends else None
     com = None
     if after.com_xy is not None:
         c0 = before.com_xy if before.com_xy is not None else start["com"]
@@ -305,19 +318,25 @@ def _contacts(robot: RobotModel, data: pin.Data, stance: Stance) -> np.ndarray:
     (data holds the frame placements of the sample)."""
     flags = np.zeros(2, dtype=bool)
     for i, foot in enumerate(robot.feet):
+        if stance in (foot.side, "both"):
+            flags[i] = True
+            continue
         T = data.oMf[robot.link_frame_ids[foot.link]]
         lowest = float((T.rotation @ foot.sole_corners_m.T)[2].min() + T.translation[2])
-        flags[i] = stance in (foot.side, "both") or lowest <= CONTACT_BAND_M
+        flags[i] = lowest <= CONTACT_BAND_M
     return flags
 
 
 def _shortfalls(
-    robot: RobotModel, data: pin.Data, targets: IkTargets, ik_warnings: tuple[str, ...]
+    robot: RobotModel, data: pin.Data, targets: IkTargets, result: IkResult, q: np.ndarray
 ) -> list[str]:
     """The IK's warnings, with its reach check redone (REPORT_M, REPORT_RAD) for the moving
     feet and the pelvis, whose horizontal position yields to a CoM target (not reported then).
-    The IK's own reach message is recognised by its wording."""
-    messages = [m for m in ik_warnings if " target out of reach: closest pose" not in m]
+    The IK's own reach message is recognised by its wording. `data` holds the frame
+    placements at q, the sample kept; when that is the IK's own answer, its measures of the
+    feet and of a pelvis without a CoM target are the same numbers and are reused."""
+    messages = [m for m in result.warnings if " target out of reach: closest pose" not in m]
+    measured = q is result.q
     stance = ("left", "right") if targets.stance == "both" else (targets.stance,)
     for label, link, T_target in (
         ("left", robot.foot("left").link, targets.T_world_left),
@@ -326,12 +345,17 @@ def _shortfalls(
     ):
         if T_target is None or label in stance:
             continue
-        T = data.oMf[robot.link_frame_ids[link]]
-        miss = T.translation - T_target[:3, 3]
-        if label == "pelvis" and targets.com_xy is not None:
-            miss[:2] = 0.0
-        angle = float(np.linalg.norm(pin.log3(T_target[:3, :3].T @ T.rotation)))
-        distance = float(np.linalg.norm(miss))
+        if measured and (label != "pelvis" or targets.com_xy is None):
+            distance = result.position_error_m[label]
+            angle = result.orientation_error_rad[label]
+        else:
+            T = data.oMf[robot.link_frame_ids[link]]
+            miss = T.translation - T_target[:3, 3]
+            if label == "pelvis" and targets.com_xy is not None:
+                miss[:2] = 0.0
+            turn = pin.log3(T_target[:3, :3].T @ T.rotation)
+            angle = math.sqrt(float(turn.dot(turn)))
+            distance = math.sqrt(float(miss.dot(miss)))
         if distance >= REPORT_M or angle >= REPORT_RAD:
             messages.append(
                 f"{label} target out of reach: closest pose is {distance * 1000:.1f} mm, "
@@ -341,20 +365,17 @@ def _shortfalls(
 
 
 def _keep_stance(
-    robot: RobotModel,
     ik: WholeBodyIK,
     q: np.ndarray,
-    start: dict[str, np.ndarray],
     targets: IkTargets,
     result: IkResult,
     com_in_support: bool,
-    scratch: pin.Data,
 ) -> tuple[IkResult, list[str]]:
     """Make sure a sample does not slide a stance foot from where it stood at the start of
     the segment. When the IK's compromise with an unreachable CoM target moves a held foot
     (its hold is a heavy soft task), the sample is solved again without the CoM target; if a
     foot still slides, the previous pose is kept."""
-    slid = _slide_m(robot, scratch, start, result.q, targets.stance)
+    slid = _held_miss_m(result, targets.stance)
     if slid <= STANCE_SLIDE_M:
         return result, []
     message = f"the CoM target would slide a standing foot {slid * 1000:.1f} mm"
@@ -365,7 +386,7 @@ def _keep_stance(
             com_in_support=com_in_support,
             max_iterations=SOLVE_ITERATIONS,
         )
-        if _slide_m(robot, scratch, start, retry.q, targets.stance) <= STANCE_SLIDE_M:
+        if _held_miss_m(retry, targets.stance) <= STANCE_SLIDE_M:
             return retry, [f"{message}: solved without it"]
     return dataclasses.replace(result, q=q), [f"{message}: the previous pose is kept"]
 
@@ -403,6 +424,14 @@ def _continuous(
     if _slide_m(robot, scratch, start, q, targets.stance) <= STANCE_SLIDE_M:
         return q, jump
     return q_prev.copy(), f"{jump}; it would slide a standing foot: the previous pose is kept"
+
+
+def _held_miss_m(result: IkResult, stance: Stance) -> float:
+    """How far the stance feet are from their targets in an IK result [m]: during a
+    segment their targets are where they stood at its start, so this is _slide_m at result.q,
+    measured by the IK's own final forward kinematics."""
+    sides = ("left", "right") if stance == "both" else (stance,)
+    return max(result.position_error_m[side] for side in sides)
 
 
 def _slide_m(

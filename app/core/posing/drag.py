@@ -130,10 +130,13 @@ class Posing:
         return self.stance
 
     def balance(self, q: np.ndarray) -> Balance:
-        robot = self.robot
+        """The balance overlay at q, from one forward-kinematics pass (placements of only the
+        stance feet and of the joints near a limit; the CoM once)."""
+        robot, data = self.robot, self._data
         polygon = self.ik.support_polygon(q, self.stance)
-        placements = robot.link_placements(q, self._data)
-        com = robot.com(q, self._data)
+        pin.framesForwardKinematics(robot.model, data, q)
+        oMf, ids = data.oMf, robot.link_frame_ids
+        com = np.array(pin.centerOfMass(robot.model, data, q))
         angles = robot.joint_angles(q)
         near, positions = [], []
         for joint, angle in zip(robot.joints, angles, strict=True):
@@ -141,16 +144,16 @@ class Posing:
                 angle - joint.lower, joint.upper - angle
             ) < np.deg2rad(3.0):
                 near.append(joint.name)
-                positions.append(placements[robot.tree.joints[joint.name].child][:3, 3].copy())
+                positions.append(oMf[ids[robot.tree.joints[joint.name].child]].translation.copy())
         sides = ("left", "right") if self.stance == "both" else (self.stance,)
         contacts = []
         for foot in robot.feet:
             if foot.side in sides:
-                T = placements[foot.link]
+                T = oMf[ids[foot.link]].homogeneous
                 centre = foot.sole_corners_m.mean(axis=0)
                 frame = T.copy()
                 frame[:3, 3] = T[:3, :3] @ centre + T[:3, 3]
                 contacts.append(frame)
         return Balance(
-            polygon, com, self.ik.com_margin(q, polygon), tuple(near), positions, contacts
+            polygon, com, self.ik.margin_at(com[:2], polygon), tuple(near), positions, contacts
         )

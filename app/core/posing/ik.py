@@ -134,6 +134,17 @@ class WholeBodyIK:
             # Soft but dominant: a planar loop's out-of-plane rows are rank-deficient as hard
             # equalities. close_loops() polishes the result to numerical precision.
             task.configure(f"loop {loop.name}", "soft", LOOP_WEIGHT)
+        bounded = [joint for joint in robot.joints if joint.kind != "continuous"]
+        self._bounded_names = tuple(joint.name for joint in bounded)
+        self._bounded_q = np.array([joint.idx_q for joint in bounded], dtype=int)
+        """Configuration index of each joint with limits (not continuous), in joint order."""
+        self._bounded_lower = np.array([joint.lower for joint in bounded], dtype=float)
+        self._bounded_upper = np.array([joint.upper for joint in bounded], dtype=float)
+        self._foot_ids = {foot.side: robot.link_frame_ids[foot.link] for foot in robot.feet}
+        self._stance_feet = {
+            stance: tuple(foot for foot in robot.feet if stance in (foot.side, "both"))
+            for stance in ("left", "right", "both")
+        }
         self._posture = self._solver.add_joints_task()
         self._posture.configure("posture", "soft", posture_weight)
         self._posture_angles: np.ndarray | None = None
@@ -142,36 +153,42 @@ class WholeBodyIK:
         self._polygon = self._solver.add_com_polygon_constraint([np.zeros(2)] * 3, com_margin_m)
         self._polygon.configure("com polygon", "hard", 1.0)
         self._polygon_on = False
+        self._polygon_wanted: np.ndarray = OFF_POLYGON
+        """The polygon the constraint should hold (OFF_POLYGON when off), clockwise..."""
+        self._polygon_pushed: np.ndarray | None = None
+        """...and the one placo holds: it is handed over only when they differ, before a QP."""
         self._set_polygon(False)
         self._com_pull = self._solver.add_com_task(np.zeros(3))
         self._com_pull.mask.set_axises("xy")
         self._com_pull.configure("com pull", "soft", 0.0)
+        self._com_pull_weight = 0.0
         self._com_target = self._solver.add_com_task(np.zeros(3))
         self._com_target.mask.set_axises("xy")
         self._com_target.configure("com target", "soft", 0.0)
         self._data = robot.model.createData()
-        self._polygon_cache: tuple[str, np.ndarray, np.ndarray] | None = None
+        self._polygon_cache: tuple[str, list[np.ndarray], np.ndarray] | None = None
         """(stance, stance-feet placements, polygon) of the last support polygon computed."""
         self._halfplanes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         """(polygon, inward edge normals, offsets) of the last polygon a margin was taken in."""
-        self._cost_here: float | None = None
-        """The goal cost at the wrapper's configuration, when the last step computed it."""
-        self._goals_here: list[tuple[np.ndarray, np.ndarray]] = []
-        """(frame placement, rotation to the goal) of each soft goal where the goal cost was
-        last computed: the clamped targets of the next step start from them."""
+        self._goals_here: list[tuple[np.ndarray, np.ndarray, bool]] = []
+        """(frame placement, rotation to the goal, whether the goal is further than a step) of
+        each soft goal where the goal cost was last computed: the clamped targets of the next
+        step start from them."""
         self._hard_stance = True
+        """Stance feet are hard equalities unless that proved rank-deficient for this robot."""
         self._soft_goals: list[tuple[placo.FrameTask, str, np.ndarray]] = []
         """(task, frame, target) of soft frame targets, approached at most MAX_STEP per step."""
-        """Stance feet are hard equalities unless that proved rank-deficient for this robot."""
+        self._aimed: list[np.ndarray] = []
+        """The target each soft goal's task holds now (its goal, or a clamped one)."""
+        self._goal_parts: list[tuple[str, np.ndarray, np.ndarray]] = []
+        """(frame, position, rotation) of each soft goal, contiguous."""
 
     def _set_posture(self, q: np.ndarray) -> None:
-        angles = self.robot.joint_angles(q)
+        angles = q[self._bounded_q]  # the posture task leaves continuous joints free
         if self._posture_angles is not None and np.array_equal(angles, self._posture_angles):
             return  # already the posture task's target (a motion's samples: the standing pose)
         self._posture_angles = angles
-        for joint, angle in zip(self.robot.joints, angles, strict=True):
-            if joint.kind != "continuous":
-                self._posture.set_joint(joint.name, float(angle))
+        self._posture.set_joints(dict(zip(self._bounded_names, angles.tolist(), strict=True)))
 
     def support_polygon(self, q: np.ndarray, stance: Stance) -> np.ndarray:
         """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q.
@@ -179,16 +196,22 @@ class WholeBodyIK:
         Cached per stance: while the stance soles stay within POLYGON_CACHE_M of where the
         polygon was computed (a drag of the other foot, solver residue along a motion), the
         same polygon is returned without a new hull."""
-        sides = ("left", "right") if stance == "both" else (stance,)
-        feet = [foot for foot in self.robot.feet if foot.side in sides]
         pin.framesForwardKinematics(self.robot.model, self._data, q)
-        oMf, ids = self._data.oMf, self.robot.link_frame_ids
-        placements = np.array([oMf[ids[foot.link]].homogeneous for foot in feet])
+        return self._polygon_here(stance)
+
+    def _polygon_here(self, stance: Stance) -> np.ndarray:
+        """support_polygon at the configuration self._data's frames were last placed at."""
+        feet = self._stance_feet[stance]
+        oMf, ids = self._data.oMf, self._foot_ids
+        placements = [oMf[ids[foot.side]].homogeneous for foot in feet]
         cache = self._polygon_cache
         if (
             cache is not None
             and cache[0] == stance
-            and float(np.abs(placements - cache[1]).max()) < POLYGON_CACHE_M
+            and all(
+                float(np.abs(T - T_then).max()) < POLYGON_CACHE_M
+                for T, T_then in zip(placements, cache[1], strict=True)
+            )
         ):
             return cache[2]
         points = [
@@ -203,6 +226,11 @@ class WholeBodyIK:
         """Signed distance [m] of the CoM's ground projection inside a convex polygon."""
         return self._margin_of(self.robot.com(q, self._data)[:2], polygon)
 
+    def margin_at(self, com_xy: np.ndarray, polygon: np.ndarray) -> float:
+        """Signed distance [m] of a ground point (a CoM's projection, already computed)
+        inside a convex polygon."""
+        return self._margin_of(np.asarray(com_xy, dtype=float)[:2], polygon)
+
     def _margin_of(self, com_xy: np.ndarray, polygon: np.ndarray) -> float:
         """Signed distance [m] of a point inside a convex polygon (its edges' inward normals
         kept for the last polygon asked about)."""
@@ -214,37 +242,51 @@ class WholeBodyIK:
             )
             self._halfplanes = (polygon, normals, np.einsum("ij,ij->i", polygon, normals))
         _, normals, offsets = self._halfplanes
-        return float(np.min(offsets - normals @ com_xy))
+        return float((offsets - normals.dot(com_xy)).min())
 
-    def _placements(self, q: np.ndarray, links: list[str]) -> dict[str, np.ndarray]:
-        """T_world_link (4x4) of some links at q (RobotModel.link_placements does them all)."""
-        pin.framesForwardKinematics(self.robot.model, self._data, q)
-        oMf, ids = self._data.oMf, self.robot.link_frame_ids
-        return {link: oMf[ids[link]].homogeneous for link in links}
-
-    def _guard_com(self, q: np.ndarray, polygon: np.ndarray) -> None:
+    def _guard_com(self, polygon: np.ndarray) -> None:
         """Hard CoM-in-polygon constraint once the CoM is inside (the QP stays feasible from
         there, and it stays on for the rest of the solve: switching back and forth chatters);
-        while the CoM is outside, a CoM task pulls it towards the polygon's centroid."""
+        while the CoM is outside, a CoM task pulls it towards the polygon's centroid. The
+        wrapper's kinematics are at the configuration asked about."""
         if self._polygon_on:
             return
-        del q  # the wrapper's kinematics are at q: its CoM is the one asked about
         inside = self._margin_of(np.asarray(self._wrapper.com_world())[:2], polygon) >= 0.0
         self._set_polygon(inside, polygon)
         if inside:
-            self._com_pull.configure("com pull", "soft", 0.0)
+            self._set_com_pull(None)
         else:
-            self._com_pull.target_world = np.array([*polygon.mean(axis=0), 0.0])
-            self._com_pull.configure("com pull", "soft", COM_PULL_WEIGHT)
+            self._set_com_pull(polygon.mean(axis=0))
+
+    def _set_com_pull(self, target_xy: np.ndarray | None) -> None:
+        """Pull the CoM towards target_xy with COM_PULL_WEIGHT, or (None) not at all."""
+        if target_xy is None:
+            if self._com_pull_weight != 0.0:
+                self._com_pull.configure("com pull", "soft", 0.0)
+                self._com_pull_weight = 0.0
+            return
+        self._com_pull.target_world = np.array([*target_xy, 0.0])
+        self._com_pull.configure("com pull", "soft", COM_PULL_WEIGHT)
+        self._com_pull_weight = COM_PULL_WEIGHT
 
     def _set_polygon(self, on: bool, polygon: np.ndarray | None = None) -> None:
         """Make the hard polygon constraint bite (the support polygon) or not (a huge square:
-        placo has no cheap on/off for a hard constraint, and removing one is unsafe)."""
+        placo has no cheap on/off for a hard constraint, and removing one is unsafe). Handed
+        to placo by _push_polygon, right before a QP, and only when it changed: a solve turns
+        it off at its start and on again at its first step, most often to the same polygon."""
         if on and polygon is not None:
-            self._polygon.polygon = [np.array(p) for p in polygon[::-1]]  # placo wants clockwise
+            self._polygon_wanted = polygon
         elif not on:
-            self._polygon.polygon = [np.array(p) for p in OFF_POLYGON]
+            self._polygon_wanted = OFF_POLYGON
         self._polygon_on = on
+
+    def _push_polygon(self) -> None:
+        wanted = self._polygon_wanted
+        if wanted is self._polygon_pushed:
+            return
+        corners = wanted if wanted is OFF_POLYGON else wanted[::-1]  # placo wants clockwise
+        self._polygon.polygon = [np.array(p) for p in corners]
+        self._polygon_pushed = wanted
 
     def _iterate(
         self,
@@ -253,68 +295,77 @@ class WholeBodyIK:
         max_iterations: int,
         step_tolerance: float,
     ) -> tuple[np.ndarray, int]:
-        """QP steps from start until they vanish; the CoM is guarded when a polygon is given."""
-        wrapper = self._wrapper
-        wrapper.state.q = start.copy()
+        """QP steps from start until they vanish; the CoM is guarded when a polygon is given.
+
+        Each step is the longest of dq, dq/2, … dq/16 that lowers the goal cost (any step
+        while the CoM is being pulled into the polygon, or when there is no soft goal); when
+        none does, the iterations stop where they are: iterating further would only wander.
+        The goals do not change during the iterations, so the cost an accepted step was
+        judged by is the cost the next step starts from."""
+        wrapper, model, solver = self._wrapper, self.robot.model, self._solver
+        q = start.copy()
+        wrapper.state.q = q
         wrapper.update_kinematics()
         self._set_polygon(False)
-        self._com_pull.configure("com pull", "soft", 0.0)
+        self._set_com_pull(None)
+        goals, aimed = self._soft_goals, self._aimed
+        cost: float | None = None
         iterations = 0
-        self._cost_here = None
         for iterations in range(1, max_iterations + 1):  # noqa: B007 - returned
-            before = wrapper.state.q.copy()
-            if polygon is not None:
-                self._guard_com(before, polygon)
-            # The goals do not change during the iterations: the cost the last accepted step
-            # was judged by is the cost here.
-            cost = self._goal_cost() if self._cost_here is None else self._cost_here
-            for (task, _, goal), (current, turn) in zip(
-                self._soft_goals, self._goals_here, strict=True
+            if polygon is not None and not self._polygon_on:
+                self._guard_com(polygon)
+            if cost is None:
+                cost = self._goal_cost()
+            for i, ((task, _, goal), (current, turn, far)) in enumerate(
+                zip(goals, self._goals_here, strict=True)
             ):
-                task.T_world_frame = _clamped_towards(current, goal, turn)
-            dq = np.asarray(self._solver.solve(False))
-            if not np.all(np.isfinite(dq)):
+                aim = _clamped_towards(current, goal, turn) if far else goal
+                if aim is not aimed[i]:
+                    task.T_world_frame = aim
+                    aimed[i] = aim
+            self._push_polygon()
+            dq = solver.solve(False)
+            squared = float(dq @ dq)
+            if not math.isfinite(squared) and not np.all(np.isfinite(dq)):
                 raise FloatingPointError("non-finite step")
-            if not self._take_step(
-                before, dq, cost, pulling=polygon is not None and not self._polygon_on
-            ):
-                break  # no step along dq lowers the goal cost: the closest pose is reached
-            if math.sqrt(float(dq @ dq)) < step_tolerance:
+            pulling = polygon is not None and not self._polygon_on
+            if pulling or not goals or cost < 1e-12:
+                q = pin.integrate(model, q, dq)
+                wrapper.state.q = q
+                wrapper.update_kinematics()
+                cost = None
+            else:
+                for gain in (1.0, 0.5, 0.25, 0.125, 0.0625):
+                    tried = pin.integrate(model, q, dq if gain == 1.0 else gain * dq)
+                    wrapper.state.q = tried
+                    wrapper.update_kinematics()
+                    after = self._goal_cost()
+                    if after < cost * (1.0 - 1e-9):
+                        q, cost = tried, after
+                        break
+                else:  # no step along dq lowers the goal cost: the closest pose is reached
+                    wrapper.state.q = q
+                    wrapper.update_kinematics()
+                    break
+            if math.sqrt(squared) < step_tolerance:
                 break
-        return wrapper.state.q.copy(), iterations
+        return q, iterations
 
     def _goal_cost(self) -> float:
         """Weighted distance of the soft goals: Σ |Δp|² [m²] + ROTATION_WEIGHT·|Δθ|² [rad²]."""
         cost = 0.0
-        self._goals_here = []
-        for _, frame, goal in self._soft_goals:
-            current = self._wrapper.get_T_world_frame(frame)
-            delta = goal[:3, 3] - current[:3, 3]
-            turn = pin.log3(current[:3, :3].T @ goal[:3, :3])
-            cost += float(delta @ delta) + ROTATION_WEIGHT * float(turn @ turn)
-            self._goals_here.append((current, turn))
+        here = []
+        get = self._wrapper.get_T_world_frame
+        for frame, position, rotation in self._goal_parts:
+            current = get(frame)
+            delta = position - current[:3, 3]
+            turn = pin.log3(current[:3, :3].T.dot(rotation))
+            squared, turned = float(delta.dot(delta)), float(turn.dot(turn))
+            cost += squared + ROTATION_WEIGHT * turned
+            far = math.sqrt(squared) > MAX_STEP_M or math.sqrt(turned) > MAX_STEP_RAD
+            here.append((current, turn, far))
+        self._goals_here = here
         return cost
-
-    def _take_step(self, before: np.ndarray, dq: np.ndarray, cost: float, pulling: bool) -> bool:
-        """Apply the longest of dq, dq/2, … dq/16 that lowers the goal cost (any step while
-        the CoM is being pulled into the polygon, or when there is no soft goal). False, with
-        the configuration unchanged, when none does: iterating further would only wander."""
-        model, wrapper = self.robot.model, self._wrapper
-        self._cost_here = None
-        if pulling or not self._soft_goals or cost < 1e-12:
-            wrapper.state.q = pin.integrate(model, before, dq)
-            wrapper.update_kinematics()
-            return True
-        for gain in (1.0, 0.5, 0.25, 0.125, 0.0625):
-            wrapper.state.q = pin.integrate(model, before, gain * dq)
-            wrapper.update_kinematics()
-            after = self._goal_cost()
-            if after < cost * (1.0 - 1e-9):
-                self._cost_here = after
-                return True
-        wrapper.state.q = before
-        wrapper.update_kinematics()
-        return False
 
     def _anchor(self, q: np.ndarray, stance_targets: dict[str, np.ndarray]) -> np.ndarray:
         """Move the floating base rigidly so the first stance foot is exactly on its target.
@@ -364,32 +415,40 @@ class WholeBodyIK:
         robot = self.robot
         start = np.array(q_start, dtype=float)
         self._set_posture(robot.q_neutral if targets.posture_q is None else targets.posture_q)
-        placements = self._placements(start, [foot.link for foot in robot.feet])
+        pin.framesForwardKinematics(robot.model, self._data, start)
+        oMf = self._data.oMf
         stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
         wanted = {}
         self._soft_goals = []
         warnings: list[str] = []
         for foot in robot.feet:
             given = targets.T_world_left if foot.side == "left" else targets.T_world_right
-            wanted[foot.side] = placements[foot.link] if given is None else np.asarray(given)
+            wanted[foot.side] = (
+                oMf[self._foot_ids[foot.side]].homogeneous if given is None else np.asarray(given)
+            )
             task = self._feet[foot.side]
-            task.T_world_frame = wanted[foot.side]
             if foot.side not in stance_sides:
                 aim = _above_floor(wanted[foot.side], foot.sole_corners_m, foot.side, warnings)
                 task.T_world_frame = aim
                 task.configure(foot.side, "soft", 1.0, 1.0)
                 self._soft_goals.append((task, foot.link, aim))
-            elif self._hard_stance:
+                continue
+            task.T_world_frame = wanted[foot.side]
+            if self._hard_stance:
                 task.configure(foot.side, "hard", 1.0, 1.0)
             else:
                 task.configure(foot.side, "soft", STANCE_WEIGHT, STANCE_WEIGHT)
         if targets.T_world_pelvis is not None:
-            self._pelvis.T_world_frame = targets.T_world_pelvis
-            self._pelvis.configure("pelvis", "soft", 1.0, 1.0)
             wanted["pelvis"] = np.asarray(targets.T_world_pelvis)
+            self._pelvis.T_world_frame = wanted["pelvis"]
+            self._pelvis.configure("pelvis", "soft", 1.0, 1.0)
             self._soft_goals.append((self._pelvis, self._pelvis_frame, wanted["pelvis"]))
         else:
             self._pelvis.configure("pelvis", "soft", 0.0, 0.0)
+        self._aimed = [goal for _, _, goal in self._soft_goals]
+        self._goal_parts = [
+            (frame, goal[:3, 3].copy(), goal[:3, :3].copy()) for _, frame, goal in self._soft_goals
+        ]
         if targets.com_xy is not None:
             self._com_target.target_world = np.array(
                 [*np.asarray(targets.com_xy, dtype=float)[:2], 0.0]
@@ -398,7 +457,7 @@ class WholeBodyIK:
         else:
             self._com_target.configure("com target", "soft", 0.0)
         use_polygon = self.com_in_support if com_in_support is None else com_in_support
-        polygon = self.support_polygon(start, targets.stance)
+        polygon = self._polygon_here(targets.stance)
 
         def steps() -> tuple[np.ndarray, int]:
             chosen = polygon if use_polygon else None
@@ -421,16 +480,31 @@ class WholeBodyIK:
         except (RuntimeError, FloatingPointError) as error:
             warnings.append(f"IK step failed ({error}); the pose was kept")
             q, iterations = start, 0
+        return self._result(q, iterations, targets, wanted, warnings)
 
-        placements = self._placements(q, [self._pelvis_frame, *(foot.link for foot in robot.feet)])
+    def _result(
+        self,
+        q: np.ndarray,
+        iterations: int,
+        targets: IkTargets,
+        wanted: dict[str, np.ndarray],
+        warnings: list[str],
+    ) -> IkResult:
+        """How close q came to the wanted placements (and CoM), its CoM margin, the joints
+        near a limit: from one forward kinematics pass."""
+        robot, data = self.robot, self._data
+        pin.framesForwardKinematics(robot.model, data, q)
+        oMf = data.oMf
         position_error, orientation_error = {}, {}
         for label, T_target in wanted.items():
-            frame = self._pelvis_frame if label == "pelvis" else robot.foot(label).link
-            T = placements[frame]
-            position_error[label] = float(np.linalg.norm(T[:3, 3] - T_target[:3, 3]))
-            orientation_error[label] = float(
-                np.linalg.norm(pin.log3(T_target[:3, :3].T @ T[:3, :3]))
-            )
+            if label == "pelvis":
+                T = oMf[robot.link_frame_ids[self._pelvis_frame]]
+            else:
+                T = oMf[self._foot_ids[label]]
+            delta = T.translation - T_target[:3, 3]
+            position_error[label] = math.sqrt(float(delta @ delta))
+            turn = pin.log3(T_target[:3, :3].T @ T.rotation)
+            orientation_error[label] = math.sqrt(float(turn @ turn))
         reached = all(
             position_error[k] < REACHED_M and orientation_error[k] < REACHED_RAD for k in wanted
         )
@@ -440,22 +514,26 @@ class WholeBodyIK:
                 f"{worst} target out of reach: closest pose is {position_error[worst] * 1000:.1f} mm, "
                 f"{np.rad2deg(orientation_error[worst]):.1f}° away"
             )
-        com_xy = robot.com(q, self._data)[:2]
+        polygon = self._polygon_here(targets.stance)
+        com_xy = np.array(pin.centerOfMass(robot.model, data, q))[:2]
         if targets.com_xy is not None:
-            position_error["com"] = float(np.linalg.norm(com_xy - np.asarray(targets.com_xy)[:2]))
+            miss = com_xy - np.asarray(targets.com_xy)[:2]
+            position_error["com"] = math.sqrt(float(miss @ miss))
             if position_error["com"] >= REACHED_M:
                 reached = False
                 warnings.append(
                     f"CoM target out of reach: {position_error['com'] * 1000:.1f} mm away"
                 )
-        margin = self.com_margin(q, self.support_polygon(q, targets.stance))
-        angles = robot.joint_angles(q)
-        near = tuple(
-            joint.name
-            for joint, angle in zip(robot.joints, angles, strict=True)
-            if joint.kind != "continuous"
-            and min(angle - joint.lower, joint.upper - angle) < NEAR_LIMIT_RAD
-        )
+        margin = self._margin_of(com_xy, polygon)
+        angles = q[self._bounded_q]
+        room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
+        near: tuple[str, ...] = ()
+        if room.size and room.min() < NEAR_LIMIT_RAD:
+            near = tuple(
+                name
+                for name, close in zip(self._bounded_names, room < NEAR_LIMIT_RAD, strict=True)
+                if close
+            )
         return IkResult(
             q, reached, iterations, position_error, orientation_error, margin, near, tuple(warnings)
         )
