@@ -98,7 +98,7 @@ class PoseSession:
             state.contact_frames,
         )
         self.panel.show_stance(pose.stance)
-        self.panel.show_status(self._status(pose.stance))
+        self._show_status(self._status(pose.stance))
         playing = pose.origin == "playback"
         if playing != self._hidden_for_playback:  # no gizmos over a motion being played
             self._hidden_for_playback = playing
@@ -189,6 +189,12 @@ class PoseSession:
                 self.handles.set_visible(bool(visible))
 
     # --- status -----------------------------------------------------------------------------
+
+    def _show_status(self, text: str) -> None:
+        """Write the Pose panel's status only when its text changes (drag events mostly
+        repeat it, and viser re-parses the markdown on every assignment)."""
+        if text != self.panel.status.content:
+            self.panel.show_status(text)
 
     def _status(self, stance: str) -> str:
         result = self.last_result
