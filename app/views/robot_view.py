@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 import viser
 
-from app.core.quaternions import matrix_to_wxyz, wxyz_to_matrix
+from app.core.quaternions import matrices_to_xyzquat, matrix_to_wxyz, wxyz_to_matrix
 from app.core.robot.model import RobotModel
 from app.views.pose_push import push_pose
 
@@ -138,12 +138,13 @@ class RobotView:
             )
             self._shown = self._shown.copy()
         shown = relative.copy() if self._shown is None else self._shown
-        for i in np.flatnonzero(moved | turned):
+        changed = np.flatnonzero(moved | turned)
+        quats = _wxyz_of(relative[changed])  # all at once: per matrix, most of an update
+        for i, wxyz in zip(changed, quats, strict=True):
             frame = self._link_frames[self._links[i]]
             # A revolute joint turns its link without moving it: send only what changed.
             position = relative[i, :3, 3] if moved[i] else None
-            wxyz = matrix_to_wxyz(relative[i, :3, :3]) if turned[i] else None
-            push_pose(frame, position, wxyz)
+            push_pose(frame, position, wxyz if turned[i] else None)
             if moved[i]:
                 shown[i, :3, 3] = relative[i, :3, 3]
             if turned[i]:
@@ -212,6 +213,16 @@ class RobotView:
         self._link_frames[self._links[0]].remove()
         self._com.remove()
         self._com_ground.remove()
+
+
+def _wxyz_of(T: np.ndarray) -> np.ndarray:
+    """Unit quaternions (n, 4) (w, x, y, z), w >= 0, of transforms (n, 4, 4): what
+    matrix_to_wxyz gives for each, in one vectorised pass."""
+    xyzw = matrices_to_xyzquat(T)[:, 3:7]
+    wxyz = np.concatenate([xyzw[:, 3:], xyzw[:, :3]], axis=1)
+    wxyz /= np.linalg.norm(wxyz, axis=1, keepdims=True)
+    wxyz[wxyz[:, 0] < 0.0] *= -1.0
+    return wxyz
 
 
 def _tree_order(robot: RobotModel) -> list[str]:

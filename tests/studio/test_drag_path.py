@@ -16,7 +16,7 @@ from app.core.posing.drag import Posing
 from app.core.quaternions import wxyz_to_matrix
 from app.core.robot.loading import load_robot
 from app.views.balance_view import OUTSIDE_RGB, BalanceView
-from app.views.robot_view import RobotView
+from app.views.robot_view import RobotView, _wxyz_of
 from tests.studio.conftest import free_port, wait_for_signal
 
 ROBAN = Path(__file__).resolve().parents[1] / "third_party/roban_s14/urdf/robanS14.urdf"
@@ -239,3 +239,20 @@ def test_the_balance_overlay_sends_only_changes_and_shows_the_per_node_scene(nam
         assert sum(o for o, _, _ in per_event) <= sum(t for _, t, _ in per_event)
     finally:
         server.stop()
+
+
+def test_the_link_quaternions_computed_at_once_are_pinocchios_rotations():
+    """The vectorised quaternions of the drag path: each the rotation pinocchio's own
+    quaternion gives (up to sign), w >= 0, unit; through half turns and near-identity."""
+    rng = np.random.default_rng(7)
+    rotations = [pin.exp3(rng.normal(size=3)) for _ in range(200)]
+    rotations += [pin.exp3(np.pi * axis) for axis in np.eye(3)]  # half turns: trace -1
+    rotations += [np.eye(3), pin.exp3(np.array([1e-9, 0.0, 0.0]))]
+    T = np.tile(np.eye(4), (len(rotations), 1, 1))
+    T[:, :3, :3] = rotations
+    for wxyz, R in zip(_wxyz_of(T), rotations, strict=True):
+        xyzw = pin.Quaternion(R).coeffs()
+        expected = np.array([xyzw[3], *xyzw[:3]])
+        assert abs(abs(wxyz @ expected) - 1.0) < 1e-12  # the same rotation
+        assert np.abs(wxyz_to_matrix(wxyz) - R).max() < 1e-12
+        assert wxyz[0] >= 0.0 and abs(np.linalg.norm(wxyz) - 1.0) < 1e-12
