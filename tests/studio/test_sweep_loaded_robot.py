@@ -104,3 +104,22 @@ def test_loading_another_robot_offers_its_choices_and_cancels_the_sweep(studio, 
     assert not any(o.startswith("robot:") for o in panel.param_a.options)
     assert "no robot parameters" in panel.robot_line.content
     assert {o.split(":")[0] for o in panel.param_a.options} == {"gait", "servo"}
+
+    # its sweep runs on the file, and Load point keeps that robot and plays the point's gait
+    robot = studio.state.robot
+    panel.param_a.value, panel.param_b.value = "gait:H_s", "(none)"
+    panel.min_a.value, panel.max_a.value = 0.53, 0.57  # converges on servo_biped's legs
+    panel.samples.value, panel.knots.value = 1, 14
+    outcome = wait_for_signal(
+        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
+    )
+    assert outcome.spec.robot == str(copy) and not outcome.error
+    (result,) = outcome.results
+    assert result.solved, result.reason
+    panel.point.value = result.index
+    assert (
+        wait_for_signal(session.on_point_loaded, lambda: setattr(panel.load_button, "value", True))
+        == 0
+    )
+    assert studio.state.robot is robot
+    assert f"sweep point #{result.index}" in studio.state.motion.summary
