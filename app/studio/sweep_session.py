@@ -305,7 +305,7 @@ class SweepSession:
                 self.panel.status.content = f"⚠️ {error}"
                 self._notifier.error("Cannot run this sweep", str(error), client)
                 return
-            self._cancelling = False
+            self._cancelling, self._changed_to = False, ""
             self.panel.running(True)
             self.panel.status.content = f"Starting {len(points)} points on {workers} workers…"
             self._data = data
@@ -438,9 +438,9 @@ class SweepSession:
                 raise StudioError(f"point {point.index} did not solve again: {gait.status}")
             if point.robot.values:  # a file that stays: the gait worker and saves read it
                 robot = load_robot(point.robot.write_urdf(self._variants_dir))
-            elif point.robot.robot not in BUILTIN_ROBOTS:
+            elif same:
                 assert loaded is not None
-                robot = loaded  # the loaded URDF itself: it stays, with the point's gait
+                robot = loaded  # the robot swept is on screen: it stays (and the panel's choices)
             else:
                 robot = point.robot.load()
             walk = build_walk(PlanarModel(robot), gait, steps=WALK_STEPS)

@@ -63,6 +63,20 @@ def test_a_gait_sweep_of_servo_biped_matches_core_point_by_point(studio):
         for metric in METRICS:
             assert _same(result.metric(metric), here.metric(metric)), metric
 
+    # Load point of a gait sweep: the robot on screen stays, and so do the panel's choices
+    robot = studio.state.robot
+    best = next(r for r in by_panel if r.solved)
+    panel.point.value = best.index
+    loaded = wait_for_signal(
+        session.on_point_loaded, lambda: setattr(panel.load_button, "value", True)
+    )
+    assert loaded == best.index and studio.state.robot is robot
+    assert f"sweep point #{best.index}" in studio.state.motion.summary
+    assert (panel.param_a.value, panel.min_a.value, panel.max_a.value) == (
+        "gait:step_length_m",
+        *STEP,
+    )
+
 
 def test_loading_another_robot_offers_its_choices_and_cancels_the_sweep(studio, tmp_path):
     session, panel = studio.sweep, studio.sweep.panel
