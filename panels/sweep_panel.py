@@ -47,8 +47,8 @@ class SweepPanel:
         cost: Callable[[int], str],
     ) -> None:
         """`parameters`: "kind:name" choices (robot, gait and servo); `defaults[choice]` its
-        initial (min, max); `robot_line`: which robot is swept; `cost(steps)`: the simulation's
-        cost per point, shown beside its switch."""
+        initial (min, max); `robot_line`: which robot is swept (`offer` changes these three);
+        `cost(steps)`: the simulation's cost per point, shown beside its switch."""
         self._gui = gui
         self._defaults = defaults
         self._cost = cost
@@ -60,8 +60,7 @@ class SweepPanel:
             self.robot_line = gui.add_markdown(robot_line)
             rows = []
             for i in range(ROWS):
-                initial = parameters[i] if i < 2 and i < len(parameters) else NONE
-                options = tuple(parameters) if i == 0 else (NONE, *parameters)
+                options, initial = _offered(i, parameters)
                 lo, hi = defaults.get(initial, (0.0, 0.0))
                 rows.append(
                     (
@@ -104,6 +103,23 @@ class SweepPanel:
         self.run_button.on_click(lambda event: actions.run(event.client))
         self.cancel_button.on_click(lambda _: actions.cancel())
         self.load_button.on_click(lambda event: actions.load_point(event.client))
+
+    def offer(
+        self,
+        parameters: Sequence[str],
+        defaults: dict[str, tuple[float, float]],
+        robot_line: str,
+    ) -> None:
+        """Offer another robot's choices (as the constructor's arguments): the parameters start
+        again as at the start, with their ranges."""
+        self._defaults = defaults
+        self.robot_line.content = robot_line
+        for i, (choice, low, high) in enumerate(self.rows):
+            options, initial = _offered(i, parameters)
+            choice.options = options
+            set_value(choice, initial)
+            set_value(low, defaults.get(initial, (0.0, 0.0))[0])
+            set_value(high, defaults.get(initial, (0.0, 0.0))[1])
 
     def show_spec(self, data: dict) -> None:
         """Show a sweep's data (as `spec_values` gives it, checked already): its parameters and
@@ -227,6 +243,13 @@ class SweepPanel:
                 scales={"x": uplot.Scale(time=False)},
             )
         self._plot_title = title
+
+
+def _offered(row: int, parameters: Sequence[str]) -> tuple[tuple[str, ...], str]:
+    """A parameter row's options and first choice: the first two rows a parameter each, the
+    rest none."""
+    initial = parameters[row] if row < 2 and row < len(parameters) else NONE
+    return (tuple(parameters) if row == 0 else (NONE, *parameters)), initial
 
 
 def _whole_or_as_is(value: float) -> float | int:

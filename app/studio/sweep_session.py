@@ -11,10 +11,16 @@ compliance, dead band and compensation it was simulated with) to the Compensatio
 the `servos` callback. Bad input (the panel's ranges, an unknown point) goes to the panel's
 status line and the notifier, and the studio keeps its state.
 
+The panel sweeps the loaded robot: a built-in robot with sweep parameters (servo_biped,
+dircon_biped) with its robot, gait and servo parameters; any other robot (an uploaded URDF, a
+loaded sweep design) as its .urdf file, with gait and servo parameters only. When the robot
+changes, the panel's choices and ranges start again for the new robot and a running sweep is
+cancelled (its points so far stay shown, as the old robot's); `on_choices` announces it.
+
 Prepared workers (`prepare=True`, what `serve` does): once the studio has started
 (`start_preparing`, so its start is not slowed) and whenever a robot loads, a low-priority
 thread, "sweep-prepare", starts the local cluster (its worker processes niced) and has every
-worker build the swept robot's gait NLP at the panel's knots and solve its anchor gait, so the
+worker build the loaded robot's gait NLP at the panel's knots and solve its anchor gait, so the
 first point of a sweep pays only its solve; `on_prepared` announces it.
 """
 
@@ -39,7 +45,7 @@ from app.core.errors import StudioError
 from app.core.projects.project import Project
 from app.core.sweeps.evaluate import PointResult
 from app.core.sweeps.results import SweepRecord, pareto_indices
-from app.core.sweeps.robot_variants import ROBOT_PARAMETERS
+from app.core.sweeps.robot_variants import ROBOT_PARAMETERS, sweep_robot_of
 from app.core.sweeps.sampling import SweepPoint, start_point, sweep_points
 from app.core.sweeps.servo_metrics import SERVO_PARAMETERS, servo_settings, simulation_cost_s
 from app.core.sweeps.spec import METRICS, SweepSpec
@@ -47,12 +53,16 @@ from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.state import StudioState
 from panels.sweep_panel import SweepPanel
+from robots.catalogue import BUILTIN_ROBOTS
 
 log = logging.getLogger(__name__)
 
-SWEEP_ROBOT = "dircon_biped"
-"""The robot the panel sweeps, whatever robot is loaded (the planner's paper robot; the CLI
-sweeps servo_biped too)."""
+STEP_RANGE = (0.6, 1.4)
+"""The panel's first step-length range, × the robot's default step (the planner's defaults
+scale with the legs): dircon_biped's 0.2 m gives 0.12–0.28 m."""
+H_RANGE = (0.6 / 0.72, 0.9 / 0.72)
+"""The panel's first gait-time range, × the robot's default H: dircon_biped's 0.72 s gives
+0.6–0.9 s."""
 WALK_STEPS = 4
 WORKER_NICENESS = 10
 """The studio's sweep workers run below the studio itself, so a sweep (and the preparing of
@@ -70,15 +80,37 @@ class SweepOutcome:
     error: str = ""
 
 
-def _choices() -> dict[str, tuple[float, float]]:
+def _choices(robot: str, defaults: Any) -> dict[str, tuple[float, float]]:
+    """The panel's parameters for sweep robot `robot` (sweep_robot_of) with their first ranges:
+    step length and gait time around the robot's planner `defaults`, the other gait settings
+    over their sliders' ranges, a built-in's robot parameters over what its builder accepts."""
     out = {f"gait:{c.field}": (float(c.minimum), float(c.maximum)) for c in CONTROLS}
-    out["gait:step_length_m"] = (0.12, 0.28)
-    out["gait:H_s"] = (0.6, 0.9)
-    for p in ROBOT_PARAMETERS[SWEEP_ROBOT].values():
+    step, h = defaults.step_length_m, defaults.H_s
+    out["gait:step_length_m"] = (round(step * STEP_RANGE[0], 4), round(step * STEP_RANGE[1], 4))
+    out["gait:H_s"] = (round(h * H_RANGE[0], 3), round(h * H_RANGE[1], 3))
+    for p in ROBOT_PARAMETERS.get(robot, {}).values():
         out[f"robot:{p.name}"] = (p.minimum, p.maximum)
     for s in SERVO_PARAMETERS.values():
         out[f"servo:{s.name}"] = (s.minimum, s.maximum)
     return out
+
+
+def _ordered(choices: dict[str, tuple[float, float]]) -> list[str]:
+    first = ["gait:step_length_m", "gait:H_s"]
+    return first + [c for c in choices if c not in first]
+
+
+def _robot_line(robot: str, name: str) -> str:
+    """Which robot the panel sweeps, and why robot parameters are missing where they are."""
+    if robot in ROBOT_PARAMETERS:
+        return f"Robot: **{robot}** (the loaded robot) and its variants."
+    if robot.lower().endswith(".urdf"):
+        why = (
+            "its links have no known segment axis or shape to stretch, so no robot "
+            "parameters (gait and servo only)"
+        )
+        return f"Robot: **{name}** (`{Path(robot).name}`, the loaded robot): {why}."
+    return f"Robot: **{robot}** (the loaded robot): its builder has no sweep parameters."
 
 
 def _cost_line(steps: int) -> str:
@@ -107,8 +139,11 @@ class SweepSession:
         self._engine_lock = threading.Lock()
         """Held while the engine is made or replaced (the runner, the preparer, the loader)."""
         self._closed = False
+        self._robot = ""
+        """The robot the panel sweeps (sweep_robot_of the loaded robot; "" before one)."""
         self._defaults: Any = None
-        """The swept robot's planner defaults (GaitSettings), found once."""
+        """The loaded robot's planner defaults (GaitSettings), or the StudioError why the
+        planner cannot walk it."""
         self.prepared_s: dict[str, float] = {}
         """What the last preparing cost each worker [s] (0.0 where it was warm)."""
         self.on_prepared: Signal[dict[str, float]] = Signal("on_prepared")
@@ -132,22 +167,28 @@ class SweepSession:
         self.on_point_loaded: Signal[int] = Signal("on_point_loaded")
         self.on_result: Signal[PointResult] = Signal("on_result")
         """Each point's result as it arrives (after the panel shows it)."""
-        choices = _choices()
-        ordered = ["gait:step_length_m", "gait:H_s"]
-        ordered += [c for c in choices if c not in ordered]
+        self.on_choices: Signal[str] = Signal("on_choices")
+        """The panel offers the choices of a newly loaded robot (its sweep robot)."""
+        from app.core.collocation.settings import GaitSettings
+
+        choices = _choices("", GaitSettings())
         self.panel = SweepPanel(
             server.gui,
             self,
-            ordered,
+            _ordered(choices),
             tuple(METRICS),
             choices,
-            f"Robot: **{SWEEP_ROBOT}** (the planner's paper robot) and its variants.",
+            "Robot: none loaded yet.",
             _cost_line,
         )
+        self._cancelling = False
+        """Cancel was asked for the sweep under way (which may not have started its run yet)."""
+        self._changed_to = ""
+        """The robot loaded while the running sweep ran (which cancelled it), or ""."""
         self._armed = False
         """Set by `start_preparing` once the studio has started: from then on every robot load
         prepares the workers (the studio's own start is not slowed by it)."""
-        state.on_robot.connect(lambda _loaded: self.prepare_workers() if self._armed else None)
+        state.on_robot.connect(self._on_robot)
 
     # --- the engine ---------------------------------------------------------------------------
 
@@ -172,12 +213,34 @@ class SweepSession:
             self._engine = engine
             return engine
 
-    def _planner_defaults(self) -> Any:
-        if self._defaults is None:
-            from app.core.collocation.defaults import default_settings
-            from app.core.sweeps.robot_variants import RobotVariant
+    def _on_robot(self, loaded: Any) -> None:
+        """A robot loaded: sweep it. The panel's choices start again for it; a running sweep
+        (of the robot before) is cancelled."""
+        from app.core.collocation.defaults import default_settings
+        from app.core.collocation.settings import GaitSettings
 
-            self._defaults = default_settings(RobotVariant(SWEEP_ROBOT).load())
+        robot = loaded.robot
+        self._robot = sweep_robot_of(robot.source)
+        try:
+            self._defaults = default_settings(robot)
+            shown = self._defaults
+        except StudioError as error:  # the planner cannot walk it: said again by Run
+            self._defaults, shown = error, GaitSettings()
+        if self._thread is not None and self._thread.is_alive():
+            self._changed_to = robot.name
+            self.cancel()
+        choices = _choices(self._robot, shown)
+        self.panel.offer(_ordered(choices), choices, _robot_line(self._robot, robot.name))
+        self.on_choices.emit(self._robot)
+        if self._armed:
+            self.prepare_workers()
+
+    def _planner_defaults(self) -> Any:
+        """The loaded robot's planner defaults, or StudioError why the planner cannot walk it."""
+        if isinstance(self._defaults, StudioError):
+            raise StudioError(f"{self._robot}: the planner cannot walk it: {self._defaults}")
+        if self._defaults is None:
+            raise StudioError("no robot loaded yet")
         return self._defaults
 
     def start_preparing(self) -> None:
@@ -198,19 +261,20 @@ class SweepSession:
         try:
             if self._thread is not None and self._thread.is_alive():
                 return  # a sweep is running: its points build what they need
-            data = {"robot": SWEEP_ROBOT, **self.panel.spec_values()}
+            robot, defaults = self._robot, self._planner_defaults()
+            data = {"robot": robot, **self.panel.spec_values()}
             try:
                 spec = SweepSpec.from_mapping(data, "sweep panel")
             except StudioError:  # the panel holds a bad sweep: prepare its knots anyway
                 knots = dict(data.get("gait", {})).get("knots", 14)  # type: ignore[call-overload]
                 spec = SweepSpec.from_mapping(
                     {
-                        "robot": SWEEP_ROBOT,
+                        "robot": robot,
                         "gait": {"knots": knots},
                         "parameter": [{"name": "H_s", "min": 0.7, "max": 0.7}],
                     }
                 )
-            point = start_point(spec, self._planner_defaults())
+            point = start_point(spec, defaults)
             engine = self._engine_for(_whole(self.panel.workers.value, "workers"))
             self.prepared_s = engine.prepare(point)
         except Exception:  # background work: the first sweep will build what it needs
@@ -219,7 +283,7 @@ class SweepSession:
             return
         if self.outcome is None and not (self._thread is not None and self._thread.is_alive()):
             self.panel.status.content = (
-                f"No sweep yet; {len(self.prepared_s)} workers ready with {SWEEP_ROBOT}'s "
+                f"No sweep yet; {len(self.prepared_s)} workers ready with {Path(robot).name}'s "
                 f"{point.settings.knots}-knot gait problem built."
             )
         self.prepared.set()
@@ -233,7 +297,7 @@ class SweepSession:
             if self._thread is not None and self._thread.is_alive():
                 return
             try:
-                data = {"robot": SWEEP_ROBOT, **self.panel.spec_values()}
+                data = {"robot": self._robot, **self.panel.spec_values()}
                 spec = SweepSpec.from_mapping(data, "sweep panel")
                 workers = _whole(self.panel.workers.value, "workers")
                 points = sweep_points(spec, self._planner_defaults())
@@ -241,6 +305,7 @@ class SweepSession:
                 self.panel.status.content = f"⚠️ {error}"
                 self._notifier.error("Cannot run this sweep", str(error), client)
                 return
+            self._cancelling, self._changed_to = False, ""
             self.panel.running(True)
             self.panel.status.content = f"Starting {len(points)} points on {workers} workers…"
             self._data = data
@@ -250,6 +315,7 @@ class SweepSession:
             self._thread.start()
 
     def cancel(self) -> None:
+        self._cancelling = True  # before reading the run: a run starting now sees it
         run = self._run
         if run is not None:
             run.cancel()
@@ -262,6 +328,8 @@ class SweepSession:
         try:
             engine = self._engine_for(workers)
             self._run = run = engine.start(points)
+            if self._cancelling:  # cancelled while the engine started
+                run.cancel()
             for result in run.results():
                 results.append(result)
                 self._progress(spec, results, len(points), time.perf_counter() - start)
@@ -281,6 +349,9 @@ class SweepSession:
         self.outcome = SweepOutcome(spec, tuple(results), front, cancelled, error)
         self.record = SweepRecord.of(self._data, results, cancelled) if results else None
         done = "cancelled" if cancelled else "done"
+        if cancelled and self._changed_to:
+            done += f" (the robot changed to {self._changed_to}; these points are {spec.robot}'s)"
+        self._changed_to = ""
         if error:
             self.panel.status.content = f"⚠️ {error}"
         else:
@@ -334,6 +405,9 @@ class SweepSession:
             if result is None or not result.solved:
                 solved = [r.index for r in outcome.results if r.solved]
                 raise StudioError(f"point {index} has no gait; solved points: {solved}")
+            if index not in self.points:
+                robot = Path(outcome.spec.robot).name
+                raise StudioError(f"point {index} is of {robot}: load that robot first")
         except StudioError as error:
             self.panel.status.content = f"⚠️ {error}"
             self._notifier.error("Cannot load this point", str(error), client)
@@ -352,11 +426,21 @@ class SweepSession:
         try:
             if engine is None:  # a sweep restored from a project: start the workers now
                 engine = self._engine_for(1)
+            loaded = self._state.robot
+            same = loaded is not None and sweep_robot_of(loaded.source) == point.robot.robot
+            if point.robot.robot not in BUILTIN_ROBOTS and not same:  # a file: not read again
+                raise StudioError(
+                    f"point {point.index} is of {Path(point.robot.robot).name}: load that robot "
+                    "first (Robot panel), then its points"
+                )
             gait = engine.solve(point)
             if not gait.converged:
                 raise StudioError(f"point {point.index} did not solve again: {gait.status}")
             if point.robot.values:  # a file that stays: the gait worker and saves read it
                 robot = load_robot(point.robot.write_urdf(self._variants_dir))
+            elif same:
+                assert loaded is not None
+                robot = loaded  # the robot swept is on screen: it stays (and the panel's choices)
             else:
                 robot = point.robot.load()
             walk = build_walk(PlanarModel(robot), gait, steps=WALK_STEPS)
@@ -375,7 +459,8 @@ class SweepSession:
                     f"{setup.dead_band_deg:.3g}°, compensation {'on' if setup.compensation else 'off'}"
                 )
             with self._state.lock, self._server.atomic():
-                self._state.set_robot(robot, report)
+                if robot is not loaded:
+                    self._state.set_robot(robot, report)
                 self._state.set_motion(walk.trajectory, summary, robot)
             if servos is not None and self._servos is not None:
                 self._servos(*servos)  # after the robot: loading it reset the servos
@@ -404,7 +489,12 @@ class SweepSession:
         spec = record.spec()  # checked when the project was read
         results = record.results
         front = tuple(pareto_indices(spec, results))
-        self.points = {p.index: p for p in sweep_points(spec)}
+        if spec.robot in BUILTIN_ROBOTS:
+            self.points = {p.index: p for p in sweep_points(spec)}
+        elif spec.robot == self._robot:  # a URDF's sweep: the file is read only as loaded
+            self.points = {p.index: p for p in sweep_points(spec, self._planner_defaults())}
+        else:
+            self.points = {}
         self.outcome = SweepOutcome(spec, results, front, record.cancelled)
         self.panel.show_spec(json.loads(record.spec_json))
         solved = [r for r in results if r.solved]
@@ -412,7 +502,11 @@ class SweepSession:
             f"From the project: {len(results)} points, {len(solved)} solved; Pareto points: "
             f"{list(front)}."
         )
-        self.panel.load_button.disabled = not solved
+        self.panel.load_button.disabled = not (solved and self.points)
+        if solved and not self.points:
+            self.panel.status.content += (
+                f"  \nLoad its points after loading {Path(spec.robot).name} (Robot panel)."
+            )
         if solved:
             self._plot(spec, results)
 

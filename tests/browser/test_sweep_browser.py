@@ -25,6 +25,12 @@ SWEEP_TIMEOUT_S = 600.0
 
 
 @pytest.fixture(scope="module")
+def studio_robot() -> str:
+    """The panel sweeps the loaded robot: the planner's paper robot here."""
+    return "dircon_biped"
+
+
+@pytest.fixture(scope="module")
 def page(browser_page, studio_url: str):
     browser_page.goto(studio_url)
     folder_title(browser_page, "Playback").wait_for(

@@ -176,3 +176,25 @@ def test_random_points_lie_in_their_ranges_and_carry_the_fixed_settings():
         ((name, value),) = p.robot.values
         assert name == "thigh_length_m" and 0.35 <= value <= 0.45
         assert p.values == (p.settings.step_length_m, value)
+
+
+def test_a_urdf_file_is_swept_on_gait_and_servo_only(tmp_path):
+    """A sweep of a URDF file (a robot loaded from a file, not a built-in's own) takes gait
+    parameters, refuses robot ones naming why, and its points carry the file as it is."""
+    import shutil
+
+    from app.core.sweeps.robot_variants import sweep_robot_of
+    from robots.catalogue import BUILTIN_ROBOTS
+
+    builtin = BUILTIN_ROBOTS["servo_biped"].urdf_path
+    copy = tmp_path / "mine.urdf"
+    shutil.copy(builtin, copy)
+    assert sweep_robot_of(builtin) == "servo_biped" and sweep_robot_of("dircon_biped") == (
+        "dircon_biped"
+    )
+    assert sweep_robot_of(copy) == str(copy)
+    checked = SweepSpec.from_mapping(spec(robot=str(copy)))
+    points = sweep_points(checked)
+    assert {p.robot.robot for p in points} == {str(copy)} and not points[0].robot.values
+    with pytest.raises(SweepSpecError, match="no sweepable robot parameters"):
+        SweepSpec.from_mapping(spec(robot=str(copy), parameter=[param("thigh_length_m", "robot")]))

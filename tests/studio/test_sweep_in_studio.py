@@ -18,6 +18,7 @@ from tests.studio.conftest import GUARD_S, wait_for_signal
 
 def test_sweep_panel_runs_plots_and_loads_a_point(studio):
     session, panel = studio.sweep, studio.sweep.panel
+    assert studio.robots.load("dircon_biped")  # the panel sweeps the loaded robot
     robot_before = studio.state.robot
 
     # bad input: a range the planner refuses; nothing starts, the robot stays

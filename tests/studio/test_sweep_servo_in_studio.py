@@ -49,7 +49,13 @@ METRICS = (
 @pytest.fixture
 def prepared_studio(tmp_path):
     data = tmp_path / "data"
-    config = StudioConfig(port=free_port(), data_dir=data, allow=(data.parent,), prepare_sweep=True)
+    config = StudioConfig(
+        robot="dircon_biped",
+        port=free_port(),
+        data_dir=data,
+        allow=(data.parent,),
+        prepare_sweep=True,
+    )
     studio = Studio(config)
     yield studio
     studio.stop()

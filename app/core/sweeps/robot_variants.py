@@ -167,12 +167,28 @@ def robot_parameter(robot: str, name: str) -> RobotParameter:
     return known[name]
 
 
+def sweep_robot_of(source: str | Path) -> str:
+    """The `robot` a sweep of the robot loaded from `source` names: the built-in's name when
+    `source` is a built-in robot's URDF (or name), else the .urdf file itself (a sweep of its
+    gait and servo parameters; the workers read the file, so they must see it)."""
+    from robots.catalogue import BUILTIN_ROBOTS
+
+    if str(source) in BUILTIN_ROBOTS:
+        return str(source)
+    path = Path(source)
+    for name, builtin in BUILTIN_ROBOTS.items():
+        if path.resolve() == builtin.urdf_path.resolve():
+            return name
+    return str(path)
+
+
 @dataclasses.dataclass(frozen=True)
 class RobotVariant:
-    """A built-in robot with some parameters changed: hashable and picklable, so a Dask worker
-    can rebuild it (and key its cache of built NLPs on it)."""
+    """A built-in robot with some parameters changed (or a .urdf file as it is): hashable and
+    picklable, so a Dask worker can rebuild it (and key its cache of built NLPs on it)."""
 
     robot: str = "dircon_biped"
+    """A built-in robot's name, or the path of a .urdf file (which has no parameters)."""
     values: tuple[tuple[str, float], ...] = ()
     """(parameter, value) pairs, sorted by name."""
 

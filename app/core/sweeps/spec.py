@@ -2,7 +2,7 @@
 
 A sweep file (TOML) looks like:
 
-    robot = "dircon_biped"
+    robot = "dircon_biped"      # a built-in robot, or a .urdf file (gait and servo only)
     sampling = "latin"          # grid | random | latin (Latin hypercube)
     samples = 40                # random and latin; a grid multiplies the parameters' levels
     seed = 1
@@ -155,12 +155,12 @@ class SweepSpec:
                 f"{source}: unknown key(s) {', '.join(unknown)}; known: {', '.join(TOP_KEYS)}"
             )
         robot = _typed(data.get("robot", "dircon_biped"), str, f"{source}: robot")
-        if robot not in BUILTIN_ROBOTS:
+        if robot not in BUILTIN_ROBOTS and not robot.lower().endswith(".urdf"):
             raise SweepSpecError(
                 f"{source}: robot = {robot!r}; a sweep runs on a built-in robot: "
-                f"{', '.join(BUILTIN_ROBOTS)} (a loaded URDF has no robot parameters: its "
-                "links have no known segment axis or shape to stretch, so a length is not "
-                "defined for it)"
+                f"{', '.join(BUILTIN_ROBOTS)}, or on a .urdf file (gait and servo parameters "
+                "only: its links have no known segment axis or shape to stretch, so a length "
+                "is not defined for it)"
             )
         sampling = _typed(data.get("sampling", "latin"), str, f"{source}: sampling")
         if sampling not in SAMPLINGS:

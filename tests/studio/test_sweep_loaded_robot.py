@@ -1,0 +1,139 @@
+"""The Sweep panel sweeps the robot the studio has loaded, on a real studio and Dask cluster: a
+gait sweep on servo_biped equals the same points evaluated one by one through app.core, and
+loading another robot offers that robot's choices (a URDF file: no robot parameters) and
+cancels the sweep under way."""
+
+from __future__ import annotations
+
+import math
+import shutil
+import threading
+
+import pytest
+
+from app.core.sweeps.evaluate import ProblemCache, evaluate_point
+from app.core.sweeps.robot_variants import ROBOT_PARAMETERS
+from app.core.sweeps.sampling import sweep_points
+from app.core.sweeps.spec import SweepSpec
+from robots.catalogue import BUILTIN_ROBOTS
+from tests.studio.conftest import GUARD_S, wait_for_signal
+
+STEP = (0.05, 0.07)
+"""Step lengths [m] around servo_biped's 0.7 m legs' natural advance (not the panel's)."""
+SAME = {
+    "robot": "servo_biped",
+    "sampling": "latin",
+    "samples": 2,
+    "seed": 0,
+    "gait": {"knots": 14},
+    "pareto": {"sr": "min", "max_torque_Nm": "min"},
+    "parameter": [{"kind": "gait", "name": "step_length_m", "min": STEP[0], "max": STEP[1]}],
+}
+"""The sweep the panel is set to below, written out for app.core."""
+METRICS = ("sr", "sr_incl_impacts", "max_torque_Nm", "max_joint_speed_radps", "energy_J")
+
+
+def _same(a: float, b: float) -> bool:
+    return (math.isnan(a) and math.isnan(b)) or a == pytest.approx(b, rel=1e-6, abs=1e-9)
+
+
+def test_a_gait_sweep_of_servo_biped_matches_core_point_by_point(studio):
+    session, panel = studio.sweep, studio.sweep.panel
+    assert studio.state.robot.name == "servo_biped"
+    assert "**servo_biped**" in panel.robot_line.content
+    panel.param_a.value = "gait:step_length_m"
+    panel.min_a.value, panel.max_a.value = STEP
+    panel.param_b.value = "(none)"
+    panel.samples.value, panel.knots.value, panel.workers.value = 2, 14, 1
+    panel.metric_x.value, panel.metric_y.value = "sr", "max_torque_Nm"
+    outcome = wait_for_signal(
+        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
+    )
+    assert not outcome.error and outcome.spec.robot == "servo_biped"
+    by_panel = sorted(outcome.results, key=lambda r: r.index)
+    assert any(r.solved for r in by_panel), [r.reason for r in by_panel]
+
+    points = sweep_points(SweepSpec.from_mapping(SAME))  # servo_biped's own planner defaults
+    cache = ProblemCache()
+    for point, result in zip(points, by_panel, strict=True):
+        assert point.robot.robot == "servo_biped" and not point.robot.values
+        assert result.values == point.values and STEP[0] <= point.values[0] <= STEP[1]
+        here = evaluate_point(point, cache)
+        assert result.solved == here.solved and result.status == here.status
+        for metric in METRICS:
+            assert _same(result.metric(metric), here.metric(metric)), metric
+
+    # Load point of a gait sweep: the robot on screen stays, and so do the panel's choices
+    robot = studio.state.robot
+    best = next(r for r in by_panel if r.solved)
+    panel.point.value = best.index
+    loaded = wait_for_signal(
+        session.on_point_loaded, lambda: setattr(panel.load_button, "value", True)
+    )
+    assert loaded == best.index and studio.state.robot is robot
+    assert f"sweep point #{best.index}" in studio.state.motion.summary
+    assert (panel.param_a.value, panel.min_a.value, panel.max_a.value) == (
+        "gait:step_length_m",
+        *STEP,
+    )
+
+
+def test_loading_another_robot_offers_its_choices_and_cancels_the_sweep(studio, tmp_path):
+    session, panel = studio.sweep, studio.sweep.panel
+    servo_only = "robot:torque_limit_Nm"  # servo_biped has it, dircon_biped does not
+    assert servo_only in panel.param_c.options
+    panel.param_c.value = servo_only
+    panel.param_a.value = "gait:K0"
+    panel.samples.value, panel.workers.value = 12, 1
+
+    # a sweep under way on servo_biped is cancelled by loading dircon_biped
+    done = threading.Event()
+    ends: list = []
+    disconnect = session.on_sweep_done.connect(lambda o: (ends.append(o), done.set()))
+    try:
+        panel.run_button.value = True
+        offered = wait_for_signal(session.on_choices, lambda: studio.robots.load("dircon_biped"))
+        assert done.wait(GUARD_S)
+    finally:
+        disconnect()
+    assert offered == "dircon_biped" and ends[0].cancelled and ends[0].spec.robot == "servo_biped"
+    assert len(ends[0].results) < 12
+    assert "the robot changed to dircon_biped" in panel.status.content
+
+    dircon = ROBOT_PARAMETERS["dircon_biped"]
+    assert "**dircon_biped**" in panel.robot_line.content
+    assert servo_only not in panel.param_c.options and panel.param_c.value == "(none)"
+    assert panel.param_a.value == "gait:step_length_m"  # the first choices again
+    robot_options = {o for o in panel.param_a.options if o.startswith("robot:")}
+    assert robot_options == {f"robot:{name}" for name in dircon}
+    panel.param_b.value = "robot:thigh_length_m"
+    thigh = dircon["thigh_length_m"]
+    assert (panel.min_b.value, panel.max_b.value) == (thigh.minimum, thigh.maximum)
+
+    # a URDF file (not a built-in's): gait and servo parameters only, and the reason said
+    copy = tmp_path / "my_biped.urdf"
+    shutil.copy(BUILTIN_ROBOTS["servo_biped"].urdf_path, copy)
+    offered = wait_for_signal(session.on_choices, lambda: studio.robots.load(copy))
+    assert offered == str(copy)
+    assert not any(o.startswith("robot:") for o in panel.param_a.options)
+    assert "no robot parameters" in panel.robot_line.content
+    assert {o.split(":")[0] for o in panel.param_a.options} == {"gait", "servo"}
+
+    # its sweep runs on the file, and Load point keeps that robot and plays the point's gait
+    robot = studio.state.robot
+    panel.param_a.value, panel.param_b.value = "gait:H_s", "(none)"
+    panel.min_a.value, panel.max_a.value = 0.53, 0.57  # converges on servo_biped's legs
+    panel.samples.value, panel.knots.value = 1, 14
+    outcome = wait_for_signal(
+        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
+    )
+    assert outcome.spec.robot == str(copy) and not outcome.error
+    (result,) = outcome.results
+    assert result.solved, result.reason
+    panel.point.value = result.index
+    assert (
+        wait_for_signal(session.on_point_loaded, lambda: setattr(panel.load_button, "value", True))
+        == 0
+    )
+    assert studio.state.robot is robot
+    assert f"sweep point #{result.index}" in studio.state.motion.summary
