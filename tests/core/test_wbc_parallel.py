@@ -104,15 +104,17 @@ def _first(trajectory: Trajectory, n: int) -> Trajectory:
 
 
 def test_uneven_runs_equal_serial(pool):
-    """5 chunks (the last one short) over 2 workers: runs of 2, 1, 1, 1 chunks; the in-process
-    serial run gives the same torques, statuses and a progress that ends at 1."""
+    """9 chunks (the last one short) over 2 workers: runs of one and of two chunks; the
+    in-process serial run gives the same torques, statuses and a progress that ends at 1."""
     robot = load_robot("servo_biped")
-    trajectory = _first(run_motion(robot, "one_leg_squats", dt=0.01).trajectory, 431)
-    assert len(chunk_bounds(trajectory.n_samples)) % pool.workers != 0
+    trajectory = _first(run_motion(robot, "one_leg_squats", dt=0.01).trajectory, 831)
+    n_chunks = len(chunk_bounds(trajectory.n_samples))
+    assert n_chunks % pool.workers != 0
+    assert {stop - start for start, stop in chunk_runs(n_chunks, pool.workers)} == {1, 2}
     seen: list[float] = []
     parallel = torque_feedforward(robot, trajectory, pool=pool, progress=seen.append)
     _same(torque_feedforward(robot, trajectory), parallel)
-    assert seen == sorted(seen) and seen[-1] == 1.0 and len(parallel.status) == 431
+    assert seen == sorted(seen) and seen[-1] == 1.0 and len(parallel.status) == 831
 
 
 def test_a_long_motion_over_the_pool_equals_serial(pool):

@@ -38,13 +38,17 @@ from app.core.dynamics.wbc_qp import QpSolver, WholeBodyQp
 from app.core.robot.model import RobotModel
 from app.core.single_thread import single_thread_environment
 
-RUNS_PER_WORKER = 2
-"""Tasks per worker in a run: more than one, so that a worker that drew the slow chunks (the
-contact switches, solved by DAQP) is balanced by the others taking the rest."""
-MIN_POOL_SAMPLES = 2000
-"""Samples below which the studio and the CLI solve in-process: measured on the 2-core
-machine (`python -m app bench`, feed-forward entry), a pool only beats the serial run on
-motions of a few thousand samples (20 s at 100 Hz); below that the split's cost eats the gain."""
+RUNS_PER_WORKER = 4
+"""Tasks per worker in a run. Measured (2 workers, servo_biped squats, CPU time per worker):
+one run each leaves a worker with the slow chunks (contact switches, solved by DAQP) and the
+other idle (busiest worker 0.5–0.8 of the ideal share); four runs each balance to 0.98 while
+the main process spends half the CPU of a task per chunk (29 vs 82 ms on 60 s of motion)."""
+MIN_POOL_SAMPLES = 1000
+"""Samples below which the studio and the CLI (--workers 0) solve in-process. Measured on the
+shared 2-core machine: serial ≈ 0.09 ms of CPU per sample (servo_biped squats); two warm
+workers took 70 ms on the 951-sample squats (90 ms serial), i.e. ≈ 25 ms on top of half the
+work. The pool thus pays from ~500 samples with two free cores, from ~1100 when the machine
+gives the pair 1.3× one core (typical here), never when it gives 1×; 1000 (10 s at 100 Hz)."""
 MAX_CACHED_QPS = 4
 """QPs a worker keeps (robots × parameters × solver) before it forgets the oldest."""
 
