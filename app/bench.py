@@ -374,8 +374,9 @@ def _entry_feedforward(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             par["scaling_ok"],
             par["one_worker_per_10s_s"],
             "the same pool code with one worker",
-            f"speed-up {par['scaling']:.2f}× (busy loops on the same pools: "
-            f"{par['busy_loop_scaling']:.2f}×)",
+            f"speed-up {par['scaling']:.2f}×; on {par['long_motion_s']:.0f} s of motion "
+            f"{par['long_scaling']:.2f}× ({par['long_all_cores_per_10s_s']:.2f} s per 10 s) "
+            f"(busy loops on the same pools: {par['busy_loop_scaling']:.2f}×)",
         )
     )
     return ff, figures

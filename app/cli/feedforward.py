@@ -32,7 +32,8 @@ def add_parser(sub) -> None:
         "--workers",
         type=int,
         default=1,
-        help="worker processes solving chunks of samples in parallel (0: one per core)",
+        help="worker processes solving chunks of samples in parallel (0: one per core, "
+        "or in-process for a motion too short to gain from them)",
     )
     feedforward.add_argument("--json", action="store_true")
     add_robot_options(feedforward)
@@ -51,8 +52,10 @@ def run(args: argparse.Namespace) -> int:
     robot, traj = inputs.robot, inputs.trajectory
     if args.workers < 0:
         raise StudioError(f"--workers must be 0 (one per core) or more, got {args.workers}")
+    from app.core.dynamics.parallel import worth_a_pool
+
     begin = time.perf_counter()
-    if args.workers == 1:
+    if args.workers == 1 or (args.workers == 0 and not worth_a_pool(traj.n_samples)):
         ff = torque_feedforward(robot, traj)
     else:
         from app.core.dynamics.parallel import FeedForwardPool

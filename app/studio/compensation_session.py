@@ -1,6 +1,7 @@
 """Torque feed-forward and compensation in the studio: compute τ for the current motion (in a
 named worker thread, with progress, over a warm pool of worker processes on every core: started
-by the first computation, kept for the next ones, closed with the studio), keep the coefficients and the virtual servos, predict the
+by the first computation long enough to pay for it (MIN_POOL_SAMPLES; a shorter motion is solved
+in the thread, same torques), kept for the next ones, closed with the studio), keep the coefficients and the virtual servos, predict the
 motion with and without compensation on every edit, and drive the ghosts and plots.
 
 Editing a coefficient never recomputes the torques: τ depends on the plan only. Edits from
@@ -19,7 +20,7 @@ import threading
 import numpy as np
 import viser
 
-from app.core.dynamics.parallel import FeedForwardPool
+from app.core.dynamics.parallel import MIN_POOL_SAMPLES, FeedForwardPool
 from app.core.dynamics.peaks import TorquePeaks, torque_peaks
 from app.core.dynamics.wbc import FeedForward, torque_feedforward
 from app.core.errors import StudioError
@@ -105,6 +106,8 @@ class CompensationSession:
         """Guards coefficients, servos, torques and prediction (edits come from viser's pool)."""
         self._worker: threading.Thread | None = None
         self._pool: FeedForwardPool | None = None
+        self.pool_min_samples = MIN_POOL_SAMPLES
+        """Motions with fewer samples are solved in the thread, without the pool."""
         """The feed-forward's worker processes, started by the first computation."""
         self._pool_lock = threading.Lock()
         self._closed = False
@@ -262,8 +265,9 @@ class CompensationSession:
     ) -> None:
         result: FeedForward | None = None
         try:
+            pool = self._warm_pool() if trajectory.n_samples >= self.pool_min_samples else None
             result = torque_feedforward(
-                robot, trajectory, progress=self.panel.show_progress, pool=self._warm_pool()
+                robot, trajectory, progress=self.panel.show_progress, pool=pool
             )
             self._accept(robot, trajectory, result)
         except StudioError as error:

@@ -191,6 +191,11 @@ def test_compute_torques_runs_on_the_studios_pool_and_equals_the_serial_run(stud
     from app.core.dynamics.wbc import torque_feedforward
 
     session = studio.compensation
+    assert studio.state.trajectory.n_samples < session.pool_min_samples
+    assert session.feedforward_pool is None  # too short to pay: solved in the thread
+    in_thread = session.feedforward
+    session.pool_min_samples = 0  # this motion now goes to the pool
+    assert compute_torques(studio) is not None
     pool = session.feedforward_pool
     assert pool is not None and pool.workers >= 1
     robot, trajectory = studio.state.robot, studio.state.trajectory
@@ -200,6 +205,9 @@ def test_compute_torques_runs_on_the_studios_pool_and_equals_the_serial_run(stud
     peak = max(1.0, float(np.nanmax(np.abs(serial.tau_Nm))))
     assert np.nanmax(np.abs(pooled.tau_Nm - serial.tau_Nm)) <= 1e-9 * peak
     assert pooled.status == serial.status
+    # The threshold picks the path, not the torques: the thread's run is the serial one.
+    assert np.nanmax(np.abs(in_thread.tau_Nm - serial.tau_Nm)) <= 1e-9 * peak
+    assert in_thread.status == serial.status
     # A second click reuses the same warm pool.
     again = compute_torques(studio)
     assert again is not None and session.feedforward_pool is pool
@@ -210,6 +218,7 @@ def test_the_feedforward_pool_closes_with_the_studio(tmp_path):
     try:
         studio.motions.panel.motion.value = "one_leg_stand"
         studio.motions.panel.generate.value = True
+        studio.compensation.pool_min_samples = 0
         assert compute_torques(studio) is not None
         assert studio.compensation.feedforward_pool is not None
     finally:

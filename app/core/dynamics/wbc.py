@@ -383,7 +383,8 @@ def _solve_reduced_chunk(
 
 
 class ChunkRunner(Protocol):
-    """Solves chunks elsewhere (worker processes), in order, exactly as `solve_chunk` here."""
+    """Solves chunks elsewhere (worker processes), in order, exactly as `solve_chunk` here;
+    returns their results in order, consecutive chunks possibly stacked into one result."""
 
     def map_chunks(
         self,
@@ -418,6 +419,18 @@ class ChunkResult:
     solver_times: np.ndarray
     solved: np.ndarray
     status: tuple[str, ...]
+
+
+def stack_results(results: list[ChunkResult]) -> ChunkResult:
+    """Consecutive chunks' results as one, sample rows in order (a pool task's compact answer)."""
+    if len(results) == 1:
+        return results[0]
+    arrays = {
+        field.name: np.concatenate([getattr(r, field.name) for r in results])
+        for field in dataclasses.fields(ChunkResult)
+        if field.name != "status"
+    }
+    return ChunkResult(**arrays, status=tuple(text for r in results for text in r.status))
 
 
 def _nearest(solved: np.ndarray, k: int) -> int:
