@@ -7,6 +7,7 @@ import threading
 import numpy as np
 
 from app.core.papers import TABLE4
+from tests.sole_frames import model_with_sole_edge_frames
 from tests.studio.conftest import GUARD_S, solve_gait, wait_for_signal
 
 
@@ -163,22 +164,7 @@ def _eom_residual(robot, planar, result, k: int) -> float:
     with frames at the sole edges' mid-points built here (not the planner's own functions)."""
     import pinocchio as pin
 
-    model = robot.model.copy()
-    frame_ids = []
-    for foot in robot.feet:
-        sole = model.frames[robot.link_frame_ids[foot.link]]
-        corners = foot.sole_corners_m
-        rear = corners[np.isclose(corners[:, 0], corners[:, 0].min())].mean(axis=0)
-        front = corners[np.isclose(corners[:, 0], corners[:, 0].max())].mean(axis=0)
-        for name, point in (("heel", rear), ("toe", front)):
-            frame = pin.Frame(
-                f"{foot.side}_{name}_check",
-                sole.parentJoint,
-                sole.placement * pin.SE3(np.eye(3), point),
-                pin.FrameType.OP_FRAME,
-            )
-            frame_ids.append(model.addFrame(frame))
-    data = model.createData()
+    model, data, frame_ids = model_with_sole_edge_frames(robot)
     q, v = planar.to_full_q(result.q[k]), planar.to_full_v(result.q[k], result.v[k])
     a = planar.to_full_a(result.q[k], result.v[k], result.a[k])
     tau = pin.rnea(model, data, q, v, a).copy()
