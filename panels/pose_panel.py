@@ -51,12 +51,20 @@ class PosePanel:
             self.status = gui.add_markdown("")
         self._quiet = Quiet()
         self.com_in_support.on_update(
-            lambda _: actions.set_com_in_support(self.com_in_support.value)
+            lambda _: (
+                None
+                if self._quiet.is_quiet()
+                else actions.set_com_in_support(self.com_in_support.value)
+            )
         )
         self.stance.on_update(
             lambda _: None if self._quiet.is_quiet() else actions.set_stance(self.stance.value)
         )
-        self.handles.on_update(lambda _: actions.set_handles_visible(self.handles.value))
+        self.handles.on_update(
+            lambda _: (
+                None if self._quiet.is_quiet() else actions.set_handles_visible(self.handles.value)
+            )
+        )
         self.reset.on_click(lambda _: actions.reset_pose())
         self.ready.on_click(lambda _: actions.ready_pose())
         self.snap.on_click(lambda _: actions.snap_feet())
@@ -66,6 +74,12 @@ class PosePanel:
         """Reflect a stance changed by the studio (e.g. by a foot drag) without calling back."""
         with self._quiet.quietly():
             set_value(self.stance, stance)
+
+    def show_toggles(self, handles: bool, keep_com: bool) -> None:
+        """Reflect an opened project's Pose toggles without calling back."""
+        with self._quiet.quietly():
+            set_value(self.handles, handles)
+            set_value(self.com_in_support, keep_com)
 
     def show_status(self, text: str) -> None:
         self.status.content = text

@@ -20,7 +20,7 @@ from app.core.posing.ready_pose import ready_pose
 from app.core.robot.model import RobotModel
 from app.studio.coalesce import Coalescer
 from app.studio.notifier import Notifier
-from app.studio.state import STANCES, LoadedRobot, Pose, Stance, StudioState
+from app.studio.state import STANCES, Display, LoadedRobot, Pose, Stance, StudioState
 from app.views.balance_view import BalanceView
 from app.views.drag_handles import DragHandles
 from app.views.roots import AlternatingRoot
@@ -46,6 +46,7 @@ class PoseSession:
         self._drags: Coalescer[str, np.ndarray] = Coalescer(self._solve_drag)
         state.on_robot.connect(self._on_robot)
         state.on_pose.connect(self._on_pose)
+        state.on_display.connect(self._on_display)
 
     # --- state changes ----------------------------------------------------------------------
 
@@ -75,6 +76,15 @@ class PoseSession:
         self._hidden_for_playback = False
         self.balance = BalanceView(self._server, robot.n_actuated, root=f"{root}/balance")
         self.last_result = None
+
+    def _on_display(self, display: Display) -> None:
+        """An opened project's Pose toggles: the panel, the handles and the IK follow them."""
+        if display.origin != "project":
+            return
+        settings = display.settings
+        self.panel.show_toggles(settings.handles, settings.keep_com)
+        self._apply_com_in_support(settings.keep_com)
+        self._apply_handles_visible(settings.handles)
 
     def _on_pose(self, pose: Pose) -> None:
         posing, handles, balance, data = self.posing, self.handles, self.balance, self._data
@@ -179,11 +189,19 @@ class PoseSession:
             self._state.set_stance(stance)
 
     def set_com_in_support(self, on: bool) -> None:
+        self._state.set_display("panel", keep_com=bool(on))
+        self._apply_com_in_support(on)
+
+    def set_handles_visible(self, visible: bool) -> None:
+        self._state.set_display("panel", handles=bool(visible))
+        self._apply_handles_visible(visible)
+
+    def _apply_com_in_support(self, on: bool) -> None:
         with self._state.lock:
             if self.posing is not None:
                 self.posing.com_in_support = bool(on)
 
-    def set_handles_visible(self, visible: bool) -> None:
+    def _apply_handles_visible(self, visible: bool) -> None:
         with self._state.lock:
             if self.handles is not None:
                 self.handles.set_visible(bool(visible))

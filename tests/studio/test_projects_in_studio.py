@@ -46,6 +46,8 @@ def _set_display(a: Studio, tab: Tab) -> None:
     a.playback.panel.speed.value = "0.5"
     a.playback.panel.loop.value = False
     a.playback.panel.traces.value = False
+    a.pose.panel.handles.value = False
+    a.pose.panel.com_in_support.value = False
     wait("the tab's starting view", lambda: len(a.camera.tabs) == 1)
     wait_for_signal(
         a.state.on_display,
@@ -153,6 +155,12 @@ def _assert_display_restored(a: Studio, b: Studio, tab: Tab) -> None:
     assert (panel.speed.value, panel.speed_factor, panel.loop.value) == ("0.5", 0.5, False)
     assert not panel.traces.value and b.playback.traces is not None
     assert not any(node.visible for node in b.playback.traces._nodes)
+    settings = b.state.display.settings
+    assert (settings.handles, settings.keep_com) == (False, False)
+    assert not b.pose.panel.handles.value and not b.pose.panel.com_in_support.value
+    assert b.pose.posing is not None and not b.pose.posing.com_in_support
+    assert b.pose.handles is not None
+    assert not any(control.visible for control in b.pose.handles._controls.values())
     # The tab's camera was put where a's was, and new tabs start there.
     (client,) = b.server.get_clients().values()
     assert np.allclose(client.camera.position, MOVED.position)

@@ -1,5 +1,5 @@
-"""How the studio was shown: the camera, the Display and Playback toggles, the ghosts and the
-plots' choice of joints, as one typed, versioned value (the `display` section of a project).
+"""How the studio was shown: the camera, the Display, Playback and Pose toggles, the ghosts and
+the plots' choice of joints, as one typed, versioned value (the `display` section of a project).
 
 A project saved before this section existed opens with `DisplaySettings()` (the studio's
 defaults). Every value is checked on construction, so a manifest with a bad one is refused by
@@ -104,6 +104,10 @@ class DisplaySettings:
     """Plots: which joints the torque and offset plots draw."""
     wide_plots: bool = False
     """Plots: in the wide window docked at the left."""
+    handles: bool = True
+    """Pose: the drag handles shown."""
+    keep_com: bool = True
+    """Pose: the CoM kept over the support polygon while dragging."""
 
     def __post_init__(self) -> None:
         if not 1 <= self.version <= DISPLAY_VERSION:
