@@ -47,6 +47,7 @@ from app.core.servo.model import (
 )
 from app.core.servo.preset_safety import implausible_prediction, scaled_to_limits
 from app.core.servo.presets import PRESETS, preset_params
+from app.core.simulation.files import DEFAULT_BACKLASH_DEG
 from app.core.simulation.result import SimulationResult
 from app.core.simulation.worker import SimulationJob
 from app.core.thinning import thin_minmax
@@ -69,8 +70,6 @@ CURSOR_PERIOD_S = 0.25
 plots' data)."""
 
 DEFAULT_PRESET = next(iter(PRESETS))
-DEFAULT_BACKLASH_DEG = 0.5
-"""Dead band of the default virtual servos [°] (a typical hobby servo's gear play)."""
 MAX_BACKLASH_DEG = 20.0
 FIELD_RANGES = {
     "k": (-MAX_ABS_K_DEG_PER_NM, MAX_ABS_K_DEG_PER_NM),

@@ -31,7 +31,8 @@ from app.core.simulation.errors import SimulationInputError
 from app.core.simulation.result import SimulationResult
 
 DEFAULT_BACKLASH_DEG = 0.5
-"""Dead band of the studio's default virtual servos [°] (the Compensation panel's default)."""
+"""Dead band of the studio's default virtual servos [°] (a typical hobby servo's gear play):
+the Compensation panel's default and a sweep's when it does not vary it."""
 _SERVO_KEYS = {"compliance_deg_per_Nm", "backlash_deg"}
 
 

@@ -28,10 +28,8 @@ from typing import Any
 import numpy as np
 
 from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
+from app.core.simulation.files import DEFAULT_BACKLASH_DEG
 
-DEFAULT_DEAD_BAND_DEG = 0.5
-"""The Compensation panel's default virtual servos' dead band [°]
-(app.core.simulation.files.DEFAULT_BACKLASH_DEG)."""
 DEFAULT_WALK_STEPS = 2
 MAX_WALK_STEPS = 8
 """Most steps a sweep's walk may have: each costs about 0.3 s of simulation per point."""
@@ -59,7 +57,7 @@ SERVO_PARAMETERS: dict[str, ServoParameter] = {
             "the leg servos' true compliance k [°/(N·m)] (default: Table 2's identifiable servos)",
         ),
         ServoParameter(
-            "dead_band_deg", 0.0, 10.0, DEFAULT_DEAD_BAND_DEG, "full width of the dead band [°]"
+            "dead_band_deg", 0.0, 10.0, DEFAULT_BACKLASH_DEG, "full width of the dead band [°]"
         ),
         ServoParameter(
             "compensation",
@@ -80,7 +78,7 @@ class SimulationSetup:
 
     walk_steps: int = DEFAULT_WALK_STEPS
     compliance_deg_per_Nm: float = TYPICAL_COMPLIANCE_DEG_PER_NM
-    dead_band_deg: float = DEFAULT_DEAD_BAND_DEG
+    dead_band_deg: float = DEFAULT_BACKLASH_DEG
     compensation: bool = True
 
     @classmethod
