@@ -1,18 +1,36 @@
-"""The trimmed whole-body IK (cached support polygon per stance, CoM from placo's own
-kinematics, only the needed frame placements) gives the configurations of the solver as it was
-before (tests/oracles/previous_ik.py, unchanged) on fixed drag sequences."""
+"""The trimmed whole-body IK (cached support polygon, continuation from the last solve, steps
+taken without a line search once the iterations settle, stopping when the remaining steps are
+predicted below the tolerance) against two references on fixed drag events, each solved from
+the same start:
+
+- placo's own plain iteration of the same problem (the same tasks, posture, damping and CoM
+  polygon; no Python of ours) run until |dq| < 1e-11: the configuration the iterations converge
+  to. The IK must land within SAME_FIXED_POINT of it (the previous solver's line search
+  sometimes stopped up to 1e-4 short of it).
+- the previous solver (tests/oracles/previous_ik.py, unchanged): the same reached flags,
+  warnings and joints near a limit, the same configuration where the plain loop crawls.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+import placo
 import pytest
 
-from app.core.posing.ik import IkTargets, WholeBodyIK
+from app.core.posing.ik import DAMPING_MIN, IkTargets, WholeBodyIK
 from app.core.robot.loading import load_robot
+from app.core.robot.urdf_xml import canonical_urdf
 from tests.conftest import ROBAN_URDF
 from tests.oracles import previous_ik
 
-SAME_Q = 1e-9
+SAME_FIXED_POINT = 5e-6
+"""[rad, m] per configuration entry: the IK stops once the steps left are predicted below
+1e-6 in norm; the plain iteration's own residue at 1e-11 is negligible."""
+CONVERGED_WITHIN = 20
+"""Plain iterations: events where placo's plain loop needs more are not compared. There it
+crawls (the CoM on the polygon's edge, a leg at a joint limit: the active constraint leaves a
+weak direction along which each step moves little) or oscillates at a stretched leg, and both
+the IK and the previous solver stop before it does; from the same start they agree there."""
 
 
 def _circle(robot, q, events=40):
@@ -25,21 +43,80 @@ def _circle(robot, q, events=40):
         yield target
 
 
+def _plain_fixed_point(robot, ik, q, target) -> tuple[np.ndarray, int]:
+    """placo alone on the drag problem from q: the left foot soft to target, the right held
+    hard, the posture task towards q, damping, the CoM in the right sole's polygon; QP steps
+    applied until |dq| < 1e-11 (or 500)."""
+    wrapper = placo.RobotWrapper("", 0, canonical_urdf(robot.tree))
+    solver = placo.KinematicsSolver(wrapper)
+    solver.enable_joint_limits(True)
+    solver.enable_velocity_limits(False)
+    solver.mask_fbase(not robot.floating_base)
+    left, right = (foot.link for foot in robot.feet)
+    left_task = solver.add_frame_task(left, np.eye(4))
+    left_task.configure("left", "soft", 1.0, 1.0)
+    right_task = solver.add_frame_task(right, np.eye(4))
+    right_task.configure("right", "hard", 1.0, 1.0)
+    posture = solver.add_joints_task()
+    posture.configure("posture", "soft", ik.posture_weight)
+    posture.set_joints(
+        {joint.name: float(q[joint.idx_q]) for joint in robot.joints if joint.kind != "continuous"}
+    )
+    solver.add_regularization_task(DAMPING_MIN)
+    polygon = ik.support_polygon(q, "right")[::-1]  # placo wants it clockwise
+    constraint = solver.add_com_polygon_constraint([np.array(p) for p in polygon], ik.com_margin_m)
+    constraint.configure("com polygon", "hard", 1.0)
+    wrapper.state.q = q.copy()
+    wrapper.update_kinematics()
+    right_task.T_world_frame = wrapper.get_T_world_frame(right)
+    left_task.T_world_frame = target
+    for iterations in range(1, 501):  # noqa: B007 - returned
+        dq = solver.solve(True)
+        wrapper.update_kinematics()
+        if np.linalg.norm(dq) < 1e-11:
+            break
+    return wrapper.state.q.copy(), iterations
+
+
 @pytest.mark.parametrize("name", ["servo_biped", "roban"])
-def test_a_drag_sequence_gives_the_previous_solvers_configurations(name):
+def test_drag_events_land_on_placos_own_fixed_point(name):
     robot = load_robot(str(ROBAN_URDF) if name == "roban" else name)
     new, old = WholeBodyIK(robot), previous_ik.WholeBodyIK(robot)
-    q_new = q_old = robot.q_neutral.copy()
-    for target in _circle(robot, robot.q_neutral):
-        a = new.solve(q_new, IkTargets(T_world_left=target, stance="right", posture_q=q_new))
-        b = old.solve(
-            q_old, previous_ik.IkTargets(T_world_left=target, stance="right", posture_q=q_old)
-        )
-        assert np.abs(a.q - b.q).max() < SAME_Q
-        assert a.reached == b.reached and a.iterations == b.iterations
-        assert a.warnings == b.warnings and a.joints_near_limit == b.joints_near_limit
-        assert a.com_margin_m == pytest.approx(b.com_margin_m, abs=1e-9)
-        q_new, q_old = a.q, b.q
+    q = robot.q_neutral.copy()
+    compared = 0
+    for k, target in enumerate(_circle(robot, robot.q_neutral)):
+        a = new.solve(q, IkTargets(T_world_left=target, stance="right", posture_q=q))
+        b = old.solve(q, previous_ik.IkTargets(T_world_left=target, stance="right", posture_q=q))
+        assert a.reached == b.reached and a.warnings == b.warnings
+        assert a.joints_near_limit == b.joints_near_limit
+        assert a.com_margin_m == pytest.approx(b.com_margin_m, abs=1e-4)  # 0.1 mm
+        fixed, iterations = _plain_fixed_point(robot, new, q, target)
+        # Event 0 lifts the foot 3.6 cm (beyond one step: the IK approaches through
+        # intermediate targets, the plain loop does not), so the two may settle apart along
+        # the posture's weak directions; from there on each event is a few mm.
+        if k > 0 and iterations < CONVERGED_WITHIN:
+            assert np.abs(a.q - fixed).max() < SAME_FIXED_POINT, k
+            compared += 1
+        else:
+            assert np.abs(a.q - b.q).max() < 1e-4, k
+        q = a.q
+    assert compared >= 30  # the comparison covers the drag, not a few events
+
+
+def test_a_solve_from_where_the_last_one_ended_equals_a_fresh_solve():
+    """The continuation (placements, polygon, CoM side taken from the last solve) changes
+    nothing: a solver that never saw the previous event gives the same configuration."""
+    robot = load_robot("servo_biped")
+    chained = WholeBodyIK(robot)
+    q = robot.q_neutral.copy()
+    for target in _circle(robot, robot.q_neutral, events=12):
+        a = chained.solve(q, IkTargets(T_world_left=target, stance="right", posture_q=q))
+        fresh = WholeBodyIK(robot)
+        fresh.support_polygon(q, "right")  # the same support polygon cache state
+        b = fresh.solve(q, IkTargets(T_world_left=target, stance="right", posture_q=q))
+        assert np.abs(a.q - b.q).max() < 1e-12
+        assert a.com_margin_m == pytest.approx(b.com_margin_m, abs=1e-12)
+        q = a.q
 
 
 def test_the_polygon_is_kept_while_the_stance_foot_moves_by_residue_and_redone_after():

@@ -1,5 +1,9 @@
 """A keyframed motion sampled with the trimmed IK equals the same motion sampled with the IK
-as it was before (tests/oracles/previous_ik.py, unchanged): same samples, same warnings."""
+as it was before (tests/oracles/previous_ik.py, unchanged): same contacts, same warnings, and
+samples within SAME_Q. They are not bit-identical: the previous IK's line search sometimes
+stopped up to 1e-4 short of the configuration its iterations converge to, where the trimmed
+one goes on (tests/core/test_ik_trimmed.py compares both with placo's own converged loop), and
+each sample starts from the one before."""
 
 from __future__ import annotations
 
@@ -12,8 +16,9 @@ from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT
 from app.core.robot.loading import load_robot
 from tests.oracles import previous_ik
 
-SAME_Q = 1e-8
-"""[rad, m] per configuration entry, over ~950 samples each started from the one before."""
+SAME_Q = 1e-3
+"""[rad, m] per configuration entry (0.06°), over ~950 samples each started from the one
+before."""
 
 
 def test_the_one_leg_squats_sample_as_with_the_previous_ik():

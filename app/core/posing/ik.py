@@ -57,6 +57,17 @@ POLYGON_CACHE_M = 1e-6
 """Stance soles that moved less than this [m, and rotation-matrix entries] since the support
 polygon was computed keep it: solver residue on a held foot (~1e-9 m) never misses the cache,
 and the polygon is then at most about this far from the exact one."""
+GOAL_MET_COST = 1e-8
+"""[m²] A goal cost below this (the soft goals within 0.1 mm, 10× inside REACHED_M) needs no
+line search for a small step (< SMALL_STEP): the steps from there are the corrections of a
+converging solve."""
+CONTRACTING = 0.5
+SMALL_STEP = 1e-3
+"""[rad or m] Steps are judged converging from their ratio only once both are this small: the
+first steps of a solve are large, nonlinear moves whose ratio says nothing of the tail."""
+ANCHORED_M = 1e-10
+"""[m, and rotation-matrix entries] A stance foot this close to its target needs no rigid
+correction of the base (most solves end with the held foot within ~1e-12 of it)."""
 STANCE_WEIGHT = 1e4
 """Stance feet are soft tasks of overwhelming weight rather than hard equalities: with both
 feet of a 5-DOF-leg robot (dircon_biped) held, hard 6-D equalities are rank-deficient and
@@ -98,6 +109,18 @@ class IkResult:
     warnings: tuple[str, ...]
 
 
+@dataclasses.dataclass(frozen=True)
+class _Ended:
+    """Where a solve ended: its configuration (exact bytes), stance, the feet's placements
+    there, the support polygon its result was measured in and whether the CoM is inside it."""
+
+    q: bytes
+    stance: Stance
+    placements: dict[str, np.ndarray]
+    polygon: np.ndarray
+    com_inside: bool
+
+
 class WholeBodyIK:
     """An IK solver bound to one robot. Not thread-safe: one per user of the robot."""
 
@@ -112,6 +135,7 @@ class WholeBodyIK:
         self.robot = robot
         self.com_in_support = com_in_support
         self.com_margin_m = com_margin_m
+        self.posture_weight = posture_weight
         self._wrapper = placo.RobotWrapper("", 0, canonical_urdf(robot.tree))
         if list(self._wrapper.model.names) != list(robot.model.names):
             raise RuntimeError(
@@ -126,9 +150,12 @@ class WholeBodyIK:
             "left": self._solver.add_frame_task(left, np.eye(4)),
             "right": self._solver.add_frame_task(right, np.eye(4)),
         }
+        self._foot_settings: dict[str, tuple[str, float]] = {}
+        """(priority, weight) each foot task was last configured with."""
         self._pelvis_frame = robot.tree.root
-        self._pelvis = self._solver.add_frame_task(self._pelvis_frame, np.eye(4))
-        self._pelvis.configure("pelvis", "soft", 0.0, 0.0)
+        self._pelvis: placo.FrameTask | None = None
+        """The pelvis task while a solve has a pelvis target (added then, removed after: see
+        _com_target)."""
         for loop in robot.tree.loops:
             task = self._solver.add_relative_position_task(loop.link_a, loop.link_b, np.zeros(3))
             # Soft but dominant: a planar loop's out-of-plane rows are rank-deficient as hard
@@ -147,7 +174,8 @@ class WholeBodyIK:
         }
         self._posture = self._solver.add_joints_task()
         self._posture.configure("posture", "soft", posture_weight)
-        self._posture_angles: np.ndarray | None = None
+        self._posture_angles = b""
+        """The posture task's target angles, as bytes (a cheap exact comparison)."""
         self._set_posture(robot.q_neutral)
         self._damping = self._solver.add_regularization_task(DAMPING_MIN)
         self._polygon = self._solver.add_com_polygon_constraint([np.zeros(2)] * 3, com_margin_m)
@@ -158,14 +186,21 @@ class WholeBodyIK:
         self._polygon_pushed: np.ndarray | None = None
         """...and the one placo holds: it is handed over only when they differ, before a QP."""
         self._set_polygon(False)
-        self._com_pull = self._solver.add_com_task(np.zeros(3))
-        self._com_pull.mask.set_axises("xy")
-        self._com_pull.configure("com pull", "soft", 0.0)
-        self._com_pull_weight = 0.0
-        self._com_target = self._solver.add_com_task(np.zeros(3))
-        self._com_target.mask.set_axises("xy")
-        self._com_target.configure("com target", "soft", 0.0)
+        self._com_pull: placo.CoMTask | None = None
+        """The CoM pull while the CoM is being brought into the polygon..."""
+        self._com_target: placo.CoMTask | None = None
+        """...and the CoM target while a solve has one: tasks a solve does not use are not in
+        its QPs at all (a zero-weight task still costs its rows in every QP; placo deletes a
+        removed task, so its handle is dropped with it)."""
         self._data = robot.model.createData()
+        self._placed_q: np.ndarray | None = None
+        """The configuration self._data's frames were last placed at by _anchor."""
+        self._ended: _Ended | None = None
+        """Where the last solve ended: a solve starting there (the next drag event, the next
+        sample of a motion) takes the feet's placements, the support polygon and the CoM's side
+        of it from there instead of computing them again."""
+        self._inside_at_start: bool | None = None
+        """Whether the CoM is inside the polygon at the start of this solve, when known."""
         self._polygon_cache: tuple[str, list[np.ndarray], np.ndarray] | None = None
         """(stance, stance-feet placements, polygon) of the last support polygon computed."""
         self._halfplanes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -183,11 +218,23 @@ class WholeBodyIK:
         self._goal_parts: list[tuple[str, np.ndarray, np.ndarray]] = []
         """(frame, position, rotation) of each soft goal, contiguous."""
 
+    def _configure_foot(self, side: str, role: Literal["moving", "held"]) -> None:
+        """A moving foot is a soft task; a held one hard (or of STANCE_WEIGHT once hard stance
+        equalities proved rank-deficient). placo is told only of changes."""
+        if role == "moving":
+            setting = ("soft", 1.0)
+        else:
+            setting = ("hard", 1.0) if self._hard_stance else ("soft", STANCE_WEIGHT)
+        if self._foot_settings.get(side) != setting:
+            self._feet[side].configure(side, setting[0], setting[1], setting[1])
+            self._foot_settings[side] = setting
+
     def _set_posture(self, q: np.ndarray) -> None:
         angles = q[self._bounded_q]  # the posture task leaves continuous joints free
-        if self._posture_angles is not None and np.array_equal(angles, self._posture_angles):
+        exact = angles.tobytes()
+        if exact == self._posture_angles:
             return  # already the posture task's target (a motion's samples: the standing pose)
-        self._posture_angles = angles
+        self._posture_angles = exact
         self._posture.set_joints(dict(zip(self._bounded_names, angles.tolist(), strict=True)))
 
     def support_polygon(self, q: np.ndarray, stance: Stance) -> np.ndarray:
@@ -197,6 +244,7 @@ class WholeBodyIK:
         polygon was computed (a drag of the other foot, solver residue along a motion), the
         same polygon is returned without a new hull."""
         pin.framesForwardKinematics(self.robot.model, self._data, q)
+        self._placed_q = None
         return self._polygon_here(stance)
 
     def _polygon_here(self, stance: Stance) -> np.ndarray:
@@ -224,6 +272,7 @@ class WholeBodyIK:
 
     def com_margin(self, q: np.ndarray, polygon: np.ndarray) -> float:
         """Signed distance [m] of the CoM's ground projection inside a convex polygon."""
+        self._placed_q = None
         return self._margin_of(self.robot.com(q, self._data)[:2], polygon)
 
     def margin_at(self, com_xy: np.ndarray, polygon: np.ndarray) -> float:
@@ -251,7 +300,10 @@ class WholeBodyIK:
         wrapper's kinematics are at the configuration asked about."""
         if self._polygon_on:
             return
-        inside = self._margin_of(np.asarray(self._wrapper.com_world())[:2], polygon) >= 0.0
+        inside = self._inside_at_start
+        self._inside_at_start = None
+        if inside is None:
+            inside = self._margin_of(np.asarray(self._wrapper.com_world())[:2], polygon) >= 0.0
         self._set_polygon(inside, polygon)
         if inside:
             self._set_com_pull(None)
@@ -260,14 +312,25 @@ class WholeBodyIK:
 
     def _set_com_pull(self, target_xy: np.ndarray | None) -> None:
         """Pull the CoM towards target_xy with COM_PULL_WEIGHT, or (None) not at all."""
+        self._com_pull = self._ground_com_task(
+            self._com_pull, target_xy, "com pull", COM_PULL_WEIGHT
+        )
+
+    def _ground_com_task(
+        self, task: placo.CoMTask | None, target_xy: np.ndarray | None, name: str, weight: float
+    ) -> placo.CoMTask | None:
+        """A soft task pulling the CoM's ground projection to target_xy, added to the solver
+        if it was not there; None (the task removed) when target_xy is None."""
         if target_xy is None:
-            if self._com_pull_weight != 0.0:
-                self._com_pull.configure("com pull", "soft", 0.0)
-                self._com_pull_weight = 0.0
-            return
-        self._com_pull.target_world = np.array([*target_xy, 0.0])
-        self._com_pull.configure("com pull", "soft", COM_PULL_WEIGHT)
-        self._com_pull_weight = COM_PULL_WEIGHT
+            if task is not None:
+                self._solver.remove_task(task)
+            return None
+        if task is None:
+            task = self._solver.add_com_task(np.zeros(3))
+            task.mask.set_axises("xy")
+            task.configure(name, "soft", weight)
+        task.target_world = np.array([*np.asarray(target_xy, dtype=float)[:2], 0.0])
+        return task
 
     def _set_polygon(self, on: bool, polygon: np.ndarray | None = None) -> None:
         """Make the hard polygon constraint bite (the support polygon) or not (a huge square:
@@ -298,10 +361,22 @@ class WholeBodyIK:
         """QP steps from start until they vanish; the CoM is guarded when a polygon is given.
 
         Each step is the longest of dq, dq/2, … dq/16 that lowers the goal cost (any step
-        while the CoM is being pulled into the polygon, or when there is no soft goal); when
+        while the CoM is being pulled into the polygon, when there is no soft goal or, for a
+        small step, when the goals are met to GOAL_MET_COST); when
         none does, the iterations stop where they are: iterating further would only wander.
         The goals do not change during the iterations, so the cost an accepted step was
-        judged by is the cost the next step starts from."""
+        judged by is the cost the next step starts from.
+
+        The steps vanish when one is shorter than step_tolerance, or when, contracting by a
+        ratio ρ = |dq_k| / |dq_k-1| ≤ CONTRACTING from one small step to the next, all that
+        remains of them (at most |dq_k|·ρ / (1 − ρ)) is: near the solution the iterations
+        converge linearly (the light posture and damping tasks pull against the goals), and the
+        last two or three QPs would each move the pose by less than a micrometre. A vanishing
+        step is taken as it is, without a line search (at that size the goal cost's change is
+        rounding). Once settled — the steps contracting so, or small (< SMALL_STEP) after the
+        goals were met to GOAL_MET_COST — the steps are taken without a line search and without
+        computing the goal cost again (the iterations are converging: there is nothing for it
+        to guard), the targets aimed where they were."""
         wrapper, model, solver = self._wrapper, self.robot.model, self._solver
         q = start.copy()
         wrapper.state.q = q
@@ -310,46 +385,68 @@ class WholeBodyIK:
         self._set_com_pull(None)
         goals, aimed = self._soft_goals, self._aimed
         cost: float | None = None
+        previous_step = math.inf
+        settled = False
         iterations = 0
         for iterations in range(1, max_iterations + 1):  # noqa: B007 - returned
             if polygon is not None and not self._polygon_on:
                 self._guard_com(polygon)
-            if cost is None:
-                cost = self._goal_cost()
-            for i, ((task, _, goal), (current, turn, far)) in enumerate(
-                zip(goals, self._goals_here, strict=True)
-            ):
-                aim = _clamped_towards(current, goal, turn) if far else goal
-                if aim is not aimed[i]:
-                    task.T_world_frame = aim
-                    aimed[i] = aim
+            if not settled:
+                if cost is None:
+                    cost = self._goal_cost()
+                self._aim(goals, aimed)
             self._push_polygon()
-            dq = solver.solve(False)
-            squared = float(dq @ dq)
+            dq = solver.solve(True)  # placo applies the full step: wrapper.state.q = q ⊕ dq
+            squared = float(dq.dot(dq))
             if not math.isfinite(squared) and not np.all(np.isfinite(dq)):
                 raise FloatingPointError("non-finite step")
+            step = math.sqrt(squared)
+            ratio = step / previous_step if previous_step < SMALL_STEP else 1.0
+            previous_step = step
+            converging = ratio <= CONTRACTING
+            if step < step_tolerance or (
+                converging and step * ratio < step_tolerance * (1.0 - ratio)
+            ):
+                q = wrapper.state.q.copy()  # a view of placo's state otherwise
+                break
+            met = step < SMALL_STEP and cost is not None and cost < GOAL_MET_COST
+            settled = converging or (step < SMALL_STEP and settled) or met
             pulling = polygon is not None and not self._polygon_on
-            if pulling or not goals or cost < 1e-12:
-                q = pin.integrate(model, q, dq)
+            wrapper.update_kinematics()
+            if pulling or not goals or settled or met:
+                q = wrapper.state.q.copy()  # a view of placo's state otherwise
+                cost = None
+                continue
+            if cost is None:  # after steps taken without a line search: the cost at q
                 wrapper.state.q = q
                 wrapper.update_kinematics()
-                cost = None
-            else:
-                for gain in (1.0, 0.5, 0.25, 0.125, 0.0625):
-                    tried = pin.integrate(model, q, dq if gain == 1.0 else gain * dq)
-                    wrapper.state.q = tried
+                cost = self._goal_cost()
+                wrapper.state.q = pin.integrate(model, q, dq)
+                wrapper.update_kinematics()
+            for gain in (1.0, 0.5, 0.25, 0.125, 0.0625):
+                if gain != 1.0:  # the full step is in the wrapper already
+                    wrapper.state.q = pin.integrate(model, q, gain * dq)
                     wrapper.update_kinematics()
-                    after = self._goal_cost()
-                    if after < cost * (1.0 - 1e-9):
-                        q, cost = tried, after
-                        break
-                else:  # no step along dq lowers the goal cost: the closest pose is reached
-                    wrapper.state.q = q
-                    wrapper.update_kinematics()
+                after = self._goal_cost()
+                if after < cost * (1.0 - 1e-9):
+                    q, cost = wrapper.state.q.copy(), after
                     break
-            if math.sqrt(squared) < step_tolerance:
+            else:  # no step along dq lowers the goal cost: the closest pose is reached
+                wrapper.state.q = q
+                wrapper.update_kinematics()
                 break
         return q, iterations
+
+    def _aim(self, goals: list, aimed: list[np.ndarray]) -> None:
+        """Each soft goal's task aimed at its goal, or MAX_STEP towards it when it is further
+        (from where the goal cost was last computed)."""
+        for i, ((task, _, goal), (current, turn, far)) in enumerate(
+            zip(goals, self._goals_here, strict=True)
+        ):
+            aim = _clamped_towards(current, goal, turn) if far else goal
+            if aim is not aimed[i]:
+                task.T_world_frame = aim
+                aimed[i] = aim
 
     def _goal_cost(self) -> float:
         """Weighted distance of the soft goals: Σ |Δp|² [m²] + ROTATION_WEIGHT·|Δθ|² [rad²]."""
@@ -362,8 +459,7 @@ class WholeBodyIK:
             turn = pin.log3(current[:3, :3].T.dot(rotation))
             squared, turned = float(delta.dot(delta)), float(turn.dot(turn))
             cost += squared + ROTATION_WEIGHT * turned
-            far = math.sqrt(squared) > MAX_STEP_M or math.sqrt(turned) > MAX_STEP_RAD
-            here.append((current, turn, far))
+            here.append((current, turn, squared > MAX_STEP_M**2 or turned > MAX_STEP_RAD**2))
         self._goals_here = here
         return cost
 
@@ -372,12 +468,21 @@ class WholeBodyIK:
 
         The QP's linearised steps can leave a held foot a fraction of a millimetre off after
         a compromise with an unreachable target; a rigid correction of the base removes that
-        exactly without changing a joint (the whole robot shifts by the same amount).
+        exactly without changing a joint (the whole robot shifts by the same amount). A foot
+        within ANCHORED_M of its target is left as it is. Leaves self._data's frames placed at
+        the returned configuration.
         """
-        if not self.robot.floating_base or not stance_targets:
-            return q
-        side, T_target = next(iter(stance_targets.items()))
-        return anchor_on_foot(self.robot, q, self.robot.foot(side).link, T_target, self._data)
+        model, data = self.robot.model, self._data
+        pin.framesForwardKinematics(model, data, q)
+        if self.robot.floating_base and stance_targets:
+            side, T_target = next(iter(stance_targets.items()))
+            link = self.robot.foot(side).link
+            off = data.oMf[self.robot.link_frame_ids[link]].homogeneous - T_target
+            if float(np.abs(off).max()) > ANCHORED_M:
+                q = anchor_on_foot(self.robot, q, link, T_target, data)
+                pin.framesForwardKinematics(model, data, q)
+        self._placed_q = q
+        return q
 
     def _solve_steps(
         self,
@@ -414,50 +519,57 @@ class WholeBodyIK:
         """Iterate the QP from q_start towards the targets; never returns NaN."""
         robot = self.robot
         start = np.array(q_start, dtype=float)
+        self._placed_q = None
         self._set_posture(robot.q_neutral if targets.posture_q is None else targets.posture_q)
-        pin.framesForwardKinematics(robot.model, self._data, start)
-        oMf = self._data.oMf
+        ended = self._ended
+        if ended is not None and ended.stance == targets.stance and ended.q == start.tobytes():
+            placements, polygon = ended.placements, ended.polygon
+            self._inside_at_start = ended.com_inside
+        else:
+            pin.framesForwardKinematics(robot.model, self._data, start)
+            placements = {
+                side: self._data.oMf[frame].homogeneous for side, frame in self._foot_ids.items()
+            }
+            polygon = self._polygon_here(targets.stance)
+            self._inside_at_start = None
         stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
         wanted = {}
         self._soft_goals = []
         warnings: list[str] = []
+        held_in_place = True
+        """No stance foot has a target: the stance feet stay where they are, and so does the
+        support polygon."""
         for foot in robot.feet:
             given = targets.T_world_left if foot.side == "left" else targets.T_world_right
-            wanted[foot.side] = (
-                oMf[self._foot_ids[foot.side]].homogeneous if given is None else np.asarray(given)
-            )
+            held_in_place = held_in_place and (given is None or foot.side not in stance_sides)
+            wanted[foot.side] = placements[foot.side] if given is None else np.asarray(given)
             task = self._feet[foot.side]
             if foot.side not in stance_sides:
                 aim = _above_floor(wanted[foot.side], foot.sole_corners_m, foot.side, warnings)
                 task.T_world_frame = aim
-                task.configure(foot.side, "soft", 1.0, 1.0)
+                self._configure_foot(foot.side, "moving")
                 self._soft_goals.append((task, foot.link, aim))
                 continue
             task.T_world_frame = wanted[foot.side]
-            if self._hard_stance:
-                task.configure(foot.side, "hard", 1.0, 1.0)
-            else:
-                task.configure(foot.side, "soft", STANCE_WEIGHT, STANCE_WEIGHT)
+            self._configure_foot(foot.side, "held")
         if targets.T_world_pelvis is not None:
             wanted["pelvis"] = np.asarray(targets.T_world_pelvis)
+            if self._pelvis is None:
+                self._pelvis = self._solver.add_frame_task(self._pelvis_frame, np.eye(4))
+                self._pelvis.configure("pelvis", "soft", 1.0, 1.0)
             self._pelvis.T_world_frame = wanted["pelvis"]
-            self._pelvis.configure("pelvis", "soft", 1.0, 1.0)
             self._soft_goals.append((self._pelvis, self._pelvis_frame, wanted["pelvis"]))
-        else:
-            self._pelvis.configure("pelvis", "soft", 0.0, 0.0)
+        elif self._pelvis is not None:
+            self._solver.remove_task(self._pelvis)
+            self._pelvis = None
         self._aimed = [goal for _, _, goal in self._soft_goals]
         self._goal_parts = [
             (frame, goal[:3, 3].copy(), goal[:3, :3].copy()) for _, frame, goal in self._soft_goals
         ]
-        if targets.com_xy is not None:
-            self._com_target.target_world = np.array(
-                [*np.asarray(targets.com_xy, dtype=float)[:2], 0.0]
-            )
-            self._com_target.configure("com target", "soft", COM_TARGET_WEIGHT)
-        else:
-            self._com_target.configure("com target", "soft", 0.0)
+        self._com_target = self._ground_com_task(
+            self._com_target, targets.com_xy, "com target", COM_TARGET_WEIGHT
+        )
         use_polygon = self.com_in_support if com_in_support is None else com_in_support
-        polygon = self._polygon_here(targets.stance)
 
         def steps() -> tuple[np.ndarray, int]:
             chosen = polygon if use_polygon else None
@@ -475,12 +587,13 @@ class WholeBodyIK:
                 # joints (dircon_biped with both feet down): hold the feet by weight instead.
                 self._hard_stance = False
                 for side in stance_sides:
-                    self._feet[side].configure(side, "soft", STANCE_WEIGHT, STANCE_WEIGHT)
+                    self._configure_foot(side, "held")
                 q, iterations = steps()
         except (RuntimeError, FloatingPointError) as error:
             warnings.append(f"IK step failed ({error}); the pose was kept")
             q, iterations = start, 0
-        return self._result(q, iterations, targets, wanted, warnings)
+        kept = polygon if held_in_place else None
+        return self._result(q, iterations, targets, wanted, warnings, kept)
 
     def _result(
         self,
@@ -489,22 +602,26 @@ class WholeBodyIK:
         targets: IkTargets,
         wanted: dict[str, np.ndarray],
         warnings: list[str],
+        polygon: np.ndarray | None,
     ) -> IkResult:
-        """How close q came to the wanted placements (and CoM), its CoM margin, the joints
-        near a limit: from one forward kinematics pass."""
+        """How close q came to the wanted placements (and CoM), its CoM margin (in `polygon`,
+        when the stance feet were held where the solve found them; else the polygon at q), the
+        joints near a limit: from one forward kinematics pass."""
         robot, data = self.robot, self._data
-        pin.framesForwardKinematics(robot.model, data, q)
+        if self._placed_q is not q:  # the solve failed: not placed by _anchor
+            pin.framesForwardKinematics(robot.model, data, q)
         oMf = data.oMf
+        feet = {side: oMf[frame].homogeneous for side, frame in self._foot_ids.items()}
         position_error, orientation_error = {}, {}
         for label, T_target in wanted.items():
             if label == "pelvis":
-                T = oMf[robot.link_frame_ids[self._pelvis_frame]]
+                T = oMf[robot.link_frame_ids[self._pelvis_frame]].homogeneous
             else:
-                T = oMf[self._foot_ids[label]]
-            delta = T.translation - T_target[:3, 3]
-            position_error[label] = math.sqrt(float(delta @ delta))
-            turn = pin.log3(T_target[:3, :3].T @ T.rotation)
-            orientation_error[label] = math.sqrt(float(turn @ turn))
+                T = feet[label]
+            delta = T[:3, 3] - T_target[:3, 3]
+            position_error[label] = math.sqrt(float(delta.dot(delta)))
+            turn = pin.log3(T_target[:3, :3].T.dot(T[:3, :3]))
+            orientation_error[label] = math.sqrt(float(turn.dot(turn)))
         reached = all(
             position_error[k] < REACHED_M and orientation_error[k] < REACHED_RAD for k in wanted
         )
@@ -514,8 +631,9 @@ class WholeBodyIK:
                 f"{worst} target out of reach: closest pose is {position_error[worst] * 1000:.1f} mm, "
                 f"{np.rad2deg(orientation_error[worst]):.1f}° away"
             )
-        polygon = self._polygon_here(targets.stance)
-        com_xy = np.array(pin.centerOfMass(robot.model, data, q))[:2]
+        if polygon is None:
+            polygon = self._polygon_here(targets.stance)
+        com_xy = np.array(pin.centerOfMass(robot.model, data, False))[:2]  # data placed at q
         if targets.com_xy is not None:
             miss = com_xy - np.asarray(targets.com_xy)[:2]
             position_error["com"] = math.sqrt(float(miss @ miss))
@@ -525,6 +643,13 @@ class WholeBodyIK:
                     f"CoM target out of reach: {position_error['com'] * 1000:.1f} mm away"
                 )
         margin = self._margin_of(com_xy, polygon)
+        self._ended = _Ended(
+            q.tobytes(),
+            targets.stance,
+            feet,
+            polygon,
+            margin >= 0.0,
+        )
         angles = q[self._bounded_q]
         room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
         near: tuple[str, ...] = ()
@@ -578,7 +703,7 @@ def _above_floor(
     T_goal: np.ndarray, sole_corners_m: np.ndarray, side: str, warnings: list[str]
 ) -> np.ndarray:
     """The goal raised so that no sole corner is below the floor (z = 0), with a warning."""
-    lowest = float((T_goal[:3, :3] @ sole_corners_m.T)[2].min() + T_goal[2, 3])
+    lowest = float((sole_corners_m @ T_goal[2, :3]).min()) + float(T_goal[2, 3])
     if lowest >= -FLOOR_TOLERANCE_M:
         return T_goal
     raised = np.array(T_goal, dtype=float)
