@@ -247,27 +247,29 @@ class WholeBodyIK:
         self._placed_q = None
         return self._polygon_here(stance)
 
-    def _polygon_here(self, stance: Stance) -> np.ndarray:
-        """support_polygon at the configuration self._data's frames were last placed at."""
+    def _polygon_here(
+        self, stance: Stance, placements: dict[str, np.ndarray] | None = None
+    ) -> np.ndarray:
+        """support_polygon at the configuration self._data's frames were last placed at (or of
+        the feet at `placements`, by side, when given)."""
         feet = self._stance_feet[stance]
-        oMf, ids = self._data.oMf, self._foot_ids
-        placements = [oMf[ids[foot.side]].homogeneous for foot in feet]
+        if placements is None:
+            oMf, ids = self._data.oMf, self._foot_ids
+            placements = {foot.side: oMf[ids[foot.side]].homogeneous for foot in feet}
         cache = self._polygon_cache
-        if (
-            cache is not None
-            and cache[0] == stance
-            and all(
-                float(np.abs(T - T_then).max()) < POLYGON_CACHE_M
-                for T, T_then in zip(placements, cache[1], strict=True)
-            )
-        ):
-            return cache[2]
+        if cache is not None and cache[0] == stance:
+            for foot, T_then in zip(feet, cache[1], strict=True):
+                if float(np.abs(placements[foot.side] - T_then).max()) >= POLYGON_CACHE_M:
+                    break
+            else:
+                return cache[2]
+        chosen = [placements[foot.side] for foot in feet]
         points = [
             (T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T[:, :2]
-            for foot, T in zip(feet, placements, strict=True)
+            for foot, T in zip(feet, chosen, strict=True)
         ]
         polygon = convex_polygon(np.concatenate(points))
-        self._polygon_cache = (stance, placements, polygon)
+        self._polygon_cache = (stance, chosen, polygon)
         return polygon
 
     def com_margin(self, q: np.ndarray, polygon: np.ndarray) -> float:
@@ -530,7 +532,7 @@ class WholeBodyIK:
             placements = {
                 side: self._data.oMf[frame].homogeneous for side, frame in self._foot_ids.items()
             }
-            polygon = self._polygon_here(targets.stance)
+            polygon = self._polygon_here(targets.stance, placements)
             self._inside_at_start = None
         stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
         wanted = {}
@@ -632,7 +634,7 @@ class WholeBodyIK:
                 f"{np.rad2deg(orientation_error[worst]):.1f}° away"
             )
         if polygon is None:
-            polygon = self._polygon_here(targets.stance)
+            polygon = self._polygon_here(targets.stance, feet)
         com_xy = np.array(pin.centerOfMass(robot.model, data, False))[:2]  # data placed at q
         if targets.com_xy is not None:
             miss = com_xy - np.asarray(targets.com_xy)[:2]
