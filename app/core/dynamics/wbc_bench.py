@@ -81,7 +81,7 @@ def bench_feedforward(roban_urdf: Path | None = None) -> dict:
     }
 
 
-def bench_parallel(workers: int | None = None, repeats: int = 3) -> dict:
+def bench_parallel(workers: int | None = None, repeats: int = 7) -> dict:
     """servo_biped's squats (10 s) and the same repeated six times (60 s: 10 s is ~0.1 s of
     CPU since the reduced QP, too short to split usefully) through a warm pool of one worker,
     then of every core (each run once untimed first, so both pools have built their QPs; then
