@@ -134,11 +134,15 @@ def markdown_table(figures: list[Figure], where: dict) -> str:
     for f in figures:
         mark = "" if f.ok is None else (" ✓" if f.ok else " ✗")
         note = f" ({f.note})" if f.note else ""
-        rows.append(
-            f"| {f.what} | {f.target or '—'} | {_number(f.value)} {f.unit}{mark}{note} | "
-            f"{_number(f.baseline)} {f.unit if f.baseline is not None else ''} {f.baseline_what} | "
-            f"{_number(f.ratio)} |"
+        cells = (
+            f.what,
+            f.target or "—",
+            f"{_number(f.value)} {f.unit}{mark}{note}",
+            f"{_number(f.baseline)} {f.unit if f.baseline is not None else ''} {f.baseline_what}",
+            _number(f.ratio),
         )
+        # A "|" in a cell's text (|dq|) would end the cell: escaped as markdown wants it.
+        rows.append("| " + " | ".join(cell.replace("|", "\\|") for cell in cells) + " |")
     rows.append("")
     rows.append(
         f"Machine: {where['cpu']}, {where['cores']} cores, load {where['load_1min']:.1f} at the "

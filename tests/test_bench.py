@@ -7,6 +7,7 @@ report's shape and arithmetic, and that an entry's baseline is what it says it i
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 
@@ -43,6 +44,15 @@ def test_markdown_table_has_a_row_per_figure_and_names_the_machine():
     assert table[2].split("|")[5].strip() == "2"  # 4 / 2
     assert table[3].split("|")[5].strip() == "—"
     assert "Test CPU, 3 cores" in table[-1] and "D UTC" in table[-1]
+
+
+def test_a_pipe_in_a_figures_text_stays_inside_its_cell():
+    figure = Figure("IK", 3.0, "ms", "≤ 2×", True, 1.5, "placo's loop to |dq| < 1e-6")
+    where = {"cpu": "C", "cores": 1, "load_1min": 0.0, "python": "3", "date_utc": "D"}
+    row = markdown_table([figure], where).splitlines()[2]
+    cells = re.split(r"(?<!\\)\|", row)[1:-1]  # markdown splits on unescaped pipes only
+    assert len(cells) == 5
+    assert cells[3].strip().endswith("to \\|dq\\| < 1e-6") and cells[4].strip() == "2"
 
 
 def test_registry_holds_every_entry_in_run_order():
