@@ -29,6 +29,7 @@ import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import CancelledError
 from typing import Any
 
 from app.core.errors import StudioError
@@ -195,7 +196,13 @@ class SweepRun:
                 return
             index = self._index[future.key]
             if future.status == "finished":
-                yield future.result()
+                try:
+                    result = future.result()
+                except CancelledError:  # cancel() ran between the status and the result
+                    if self._cancelled.is_set():
+                        return
+                    continue
+                yield result
             elif future.status == "cancelled":
                 continue
             else:
