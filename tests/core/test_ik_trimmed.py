@@ -14,7 +14,6 @@ the same start:
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 import placo
 import pytest
 
@@ -102,33 +101,6 @@ def test_drag_events_land_on_placos_own_fixed_point(name):
             assert np.abs(a.q - b.q).max() < 1e-4, k
         q = a.q
     assert compared >= 30  # the comparison covers the drag, not a few events
-
-
-def test_a_guess_moves_where_the_iterations_begin_not_where_they_land():
-    """Each drag event solved from the last one's result, its iterations begun at the last step
-    repeated (q ⊕ (q ⊖ q_before), as the keyframed motions do): it lands on placo's own fixed
-    point of the problem posed at q (stance foot, polygon, posture), with the stance foot where
-    it stood at q; a non-finite guess is ignored."""
-    robot = load_robot("servo_biped")
-    ik, plain = WholeBodyIK(robot), WholeBodyIK(robot)
-    model, right = robot.model, robot.feet[1].link
-    before = q = robot.q_neutral.copy()
-    compared = 0
-    for k, target in enumerate(_circle(robot, robot.q_neutral, events=24)):
-        targets = IkTargets(T_world_left=target, stance="right", posture_q=q)
-        guess = pin.integrate(model, q, pin.difference(model, before, q))
-        a = ik.solve(q, targets, guess=guess)
-        fixed, iterations = _plain_fixed_point(robot, ik, q, target)
-        if k > 0 and iterations < CONVERGED_WITHIN:
-            assert np.abs(a.q - fixed).max() < SAME_FIXED_POINT, k
-            compared += 1
-        stood = robot.link_placements(q, model.createData())[right]
-        now = robot.link_placements(a.q, model.createData())[right]
-        assert np.abs(now - stood).max() < 1e-9, k
-        nan = plain.solve(q, targets, guess=np.full_like(q, np.nan))
-        assert np.abs(nan.q - WholeBodyIK(robot).solve(q, targets).q).max() < 1e-12
-        before, q = q, a.q
-    assert compared >= 18
 
 
 def test_a_solve_from_where_the_last_one_ended_equals_a_fresh_solve():

@@ -11,8 +11,7 @@ previous keyframe. `interpolate` samples the motion every dt seconds:
 - a keyframe with `swing_height_m` > 0 moves its non-stance foot along a semi-ellipse over the
   chord from its previous placement: p = p0 + ½(1 − cos φ)·(p1 − p0) + h·sin φ·ẑ with the
   phase φ = π·s(τ) (the stepping path of the hybrid-leg paper, Sec. 4.1);
-- each sample is solved by WholeBodyIK warm-started from the previous sample (its iterations
-  begun at the last step repeated while the last two samples were clean), with the stance
+- each sample is solved by WholeBodyIK warm-started from the previous sample, with the stance
   feet of the segment held where they stood when it started; a sample that would still slide
   one (the IK's hold is a heavy soft task, and an unreachable CoM target can pull it) is
   solved again without the CoM target, or keeps the previous pose, and says so;
@@ -194,8 +193,6 @@ def interpolate(
     qs = np.empty((n, robot.model.nq))
     contacts = np.zeros((n, 2), dtype=bool)
     segment, started = 0, -1
-    clean = 0  # how many samples in a row, up to this one, are of this segment and reached
-    guessing = not robot.tree.loops  # (_extrapolated)
     start: dict[str, np.ndarray] = {}
     blends: dict[str, Blend] = {}
     for k in range(n):
@@ -207,7 +204,6 @@ def interpolate(
             started = segment
             start = _where(robot, q, data)
             blends = _blends(before, after, start)
-            clean = 0
         if k == 0:  # every foot to the first keyframe, so that each sample is an IK solution
             targets = IkTargets(
                 first.T_world_left,
@@ -221,13 +217,7 @@ def interpolate(
             targets = _targets(before, after, tau, after.stance, start, blends)
         targets = _on_floor(robot, targets)
         iterations = SOLVE_ITERATIONS if k > 0 or first.q is not None else FIRST_ITERATIONS
-        result = ik.solve(
-            q,
-            targets,
-            com_in_support=com_in_support,
-            max_iterations=iterations,
-            guess=_extrapolated(robot, qs, k) if clean >= 2 and guessing else None,
-        )
+        result = ik.solve(q, targets, com_in_support=com_in_support, max_iterations=iterations)
         messages: list[str] = []
         if k > 0:
             result, messages = _keep_stance(ik, q, targets, result, com_in_support)
@@ -245,20 +235,9 @@ def interpolate(
         if com_in_support and result.com_margin_m < 0.0:
             messages.append(f"CoM {-result.com_margin_m * 1000:.1f} mm outside the support polygon")
         warnings += [SampleWarning(k, t, after.name if k else first.name, m) for m in messages]
-        clean = clean + 1 if result.reached and not messages and q is result.q else 0
         qs[k] = q
     trajectory = from_configurations(robot.model, name, robot.joint_names, dt, qs, contacts)
     return MotionResult(trajectory, tuple(warnings))
-
-
-def _extrapolated(robot: RobotModel, qs: np.ndarray, k: int) -> np.ndarray:
-    """Sample k's IK guess: the last step repeated, q_k-1 ⊕ (q_k-1 ⊖ q_k-2). The targets
-    move smoothly, so it is second-order close to the solution where q_k-1 is first-order:
-    one QP fewer per sample, the same solution (the IK's fixed point does not depend on
-    where its iterations begin). Not for robots with closed loops: the IK projects its answer
-    onto the loops after iterating, and where that lands depends on where it began."""
-    model = robot.model
-    return pin.integrate(model, qs[k - 1], pin.difference(model, qs[k - 2], qs[k - 1]))
 
 
 def _foot(kf: Keyframe, side: str) -> np.ndarray:

@@ -517,15 +517,8 @@ class WholeBodyIK:
         com_in_support: bool | None = None,
         max_iterations: int = 60,
         step_tolerance: float = 1e-6,
-        guess: np.ndarray | None = None,
     ) -> IkResult:
-        """Iterate the QP from q_start towards the targets; never returns NaN.
-
-        q_start is where the robot is: its stance feet, when not given a target, stay where
-        they are there, and the support polygon is theirs. `guess`, when given, is where the
-        iterations begin instead (e.g. a motion's next sample extrapolated from its last two:
-        the QP steps then start a sample's motion closer to the solution); the CoM's side of
-        the polygon is then measured there. A failed solve keeps q_start."""
+        """Iterate the QP from q_start towards the targets; never returns NaN."""
         robot = self.robot
         start = np.array(q_start, dtype=float)
         self._placed_q = None
@@ -540,10 +533,6 @@ class WholeBodyIK:
                 side: self._data.oMf[frame].homogeneous for side, frame in self._foot_ids.items()
             }
             polygon = self._polygon_here(targets.stance, placements)
-            self._inside_at_start = None
-        begin = start
-        if guess is not None and guess.shape == start.shape and np.all(np.isfinite(guess)):
-            begin = np.array(guess, dtype=float)
             self._inside_at_start = None
         stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
         wanted = {}
@@ -587,7 +576,7 @@ class WholeBodyIK:
         def steps() -> tuple[np.ndarray, int]:
             chosen = polygon if use_polygon else None
             return self._solve_steps(
-                begin, chosen, stance_sides, warnings, max_iterations, step_tolerance
+                start, chosen, stance_sides, warnings, max_iterations, step_tolerance
             )
 
         try:
