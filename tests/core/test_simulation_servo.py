@@ -215,9 +215,11 @@ def test_bad_inputs_say_what_is_wrong(servo_biped, com_shift):
     bad[5, 2] = np.nan
     with pytest.raises(SimulationInputError, match="finite"):
         simulate(robot, traj, bad, servo)
-    bad[5, 2] = robot.joints[2].upper + 0.1
-    with pytest.raises(SimulationInputError, match="outside the joint limits"):
+    bad[5, 2] = robot.joints[2].upper + 0.1  # 5.73°
+    with pytest.raises(SimulationInputError, match="outside the joint limits") as refused:
         simulate(robot, traj, bad, servo)
+    assert f"{robot.joints[2].name} at t = {traj.t[5]:.2f} s" in str(refused.value)
+    assert "5.7° beyond its upper limit" in str(refused.value)
     with pytest.raises(SimulationInputError, match="shape"):
         simulate(robot, traj, q_plan[:, :5], servo)
     negative = ServoModel(robot.joint_names, np.full(12, -1.0), np.zeros(12))

@@ -73,12 +73,14 @@ def prepare(
     outside = (q_cmd < lower) | (q_cmd > upper)
     if np.any(outside):
         k, j = np.argwhere(outside)[0]
-        joint = robot.joints[j]
+        joint, command = robot.joints[j], float(q_cmd[k, j])
+        side, limit = ("upper", joint.upper) if command > joint.upper else ("lower", joint.lower)
         raise SimulationInputError(
             f"{int(outside.sum())} command(s) outside the joint limits, first {joint.name} at "
-            f"t = {trajectory.t[k]:.2f} s: {math.degrees(q_cmd[k, j]):.1f}° not in "
-            f"[{math.degrees(joint.lower):.1f}°, {math.degrees(joint.upper):.1f}°] (a large k can "
-            "push a command out)"
+            f"t = {trajectory.t[k]:.2f} s: {math.degrees(command):.4g}°, "
+            f"{math.degrees(abs(command - limit)):.2g}° beyond its {side} limit of "
+            f"{math.degrees(limit):.1f}° (range [{math.degrees(joint.lower):.1f}°, "
+            f"{math.degrees(joint.upper):.1f}°]; a large k can push a command out)"
         )
     if not (math.isfinite(settle_s) and 0.0 <= settle_s <= 10.0):
         raise SimulationInputError(f"settling time {settle_s} s; give 0 … 10 s")
