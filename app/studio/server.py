@@ -86,6 +86,7 @@ class Studio:
             config.data_dir / "variants",
             servos=self.compensation.set_servos,
             prepare=config.prepare_sweep,
+            package_roots=config.package_roots,
         )
         if robot is None:
             robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)

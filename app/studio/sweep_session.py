@@ -132,8 +132,13 @@ class SweepSession:
         variants_dir: Path,
         servos: ServoSettings | None = None,
         prepare: bool = False,
+        package_roots: tuple[Path, ...] = (),
     ) -> None:
         self._server = server
+        self._package_roots = tuple(str(root) for root in package_roots)
+        """The studio's --package-root folders: a swept .urdf robot's workers load with them."""
+        self._feet: tuple[str, str] | None = None
+        """The loaded robot's (left, right) foot links: a swept .urdf robot's workers use them."""
         self._servos = servos
         self._prepare = prepare
         self._engine_lock = threading.Lock()
@@ -221,6 +226,7 @@ class SweepSession:
 
         robot = loaded.robot
         self._robot = sweep_robot_of(robot.source)
+        self._feet = (robot.foot("left").link, robot.foot("right").link)
         try:
             self._defaults = default_settings(robot)
             shown = self._defaults
@@ -234,6 +240,14 @@ class SweepSession:
         self.on_choices.emit(self._robot)
         if self._armed:
             self.prepare_workers()
+
+    def _spec_data(self, values: dict[str, Any]) -> dict[str, Any]:
+        """The sweep data of the loaded robot with the panel's `values`: a .urdf robot's
+        workers load it as the studio did (its package folders, its feet)."""
+        data: dict[str, Any] = {"robot": self._robot}
+        if self._robot not in BUILTIN_ROBOTS and self._feet is not None:
+            data |= {"package_roots": list(self._package_roots), "feet": list(self._feet)}
+        return {**data, **values}
 
     def _planner_defaults(self) -> Any:
         """The loaded robot's planner defaults, or StudioError why the planner cannot walk it."""
@@ -262,17 +276,18 @@ class SweepSession:
             if self._thread is not None and self._thread.is_alive():
                 return  # a sweep is running: its points build what they need
             robot, defaults = self._robot, self._planner_defaults()
-            data = {"robot": robot, **self.panel.spec_values()}
+            data = self._spec_data(self.panel.spec_values())
             try:
                 spec = SweepSpec.from_mapping(data, "sweep panel")
             except StudioError:  # the panel holds a bad sweep: prepare its knots anyway
-                knots = dict(data.get("gait", {})).get("knots", 14)  # type: ignore[call-overload]
+                knots = dict(data.get("gait", {})).get("knots", 14)
                 spec = SweepSpec.from_mapping(
-                    {
-                        "robot": robot,
-                        "gait": {"knots": knots},
-                        "parameter": [{"name": "H_s", "min": 0.7, "max": 0.7}],
-                    }
+                    self._spec_data(
+                        {
+                            "gait": {"knots": knots},
+                            "parameter": [{"name": "H_s", "min": 0.7, "max": 0.7}],
+                        }
+                    )
                 )
             point = start_point(spec, defaults)
             engine = self._engine_for(_whole(self.panel.workers.value, "workers"))
@@ -297,7 +312,7 @@ class SweepSession:
             if self._thread is not None and self._thread.is_alive():
                 return
             try:
-                data = {"robot": self._robot, **self.panel.spec_values()}
+                data = self._spec_data(self.panel.spec_values())
                 spec = SweepSpec.from_mapping(data, "sweep panel")
                 workers = _whole(self.panel.workers.value, "workers")
                 points = sweep_points(spec, self._planner_defaults())

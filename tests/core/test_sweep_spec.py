@@ -84,6 +84,14 @@ def param(name="step_length_m", kind="gait", lo=0.1, hi=0.3, **more) -> dict:
         (spec(extra=1), "unknown key(s) extra"),
         (spec(parameter=[param(levels=0)]), "levels = 0"),
         (spec(start="warm"), "start = 'warm'"),
+        (spec(package_roots=["/ws/src"]), "for a robot loaded from a .urdf file"),
+        (spec(feet=["l", "r"]), "for a robot loaded from a .urdf file"),
+        (spec(robot="mine.urdf", package_roots="/ws/src"), "is not a list"),
+        (spec(robot="mine.urdf", package_roots=[3]), "is not a text"),
+        (spec(robot="mine.urdf", package_roots=["/r"] * 17), "at most 16"),
+        (spec(robot="mine.urdf", feet="l_sole"), "is not a list"),
+        (spec(robot="mine.urdf", feet=["l_sole"]), "the left and the right foot link"),
+        (spec(robot="mine.urdf", feet=["l_sole", ""]), "the left and the right foot link"),
     ],
 )
 def test_hostile_specs_are_refused_with_the_reason(data, words):
@@ -198,3 +206,41 @@ def test_a_urdf_file_is_swept_on_gait_and_servo_only(tmp_path):
     assert {p.robot.robot for p in points} == {str(copy)} and not points[0].robot.values
     with pytest.raises(SweepSpecError, match="no sweepable robot parameters"):
         SweepSpec.from_mapping(spec(robot=str(copy), parameter=[param("thigh_length_m", "robot")]))
+
+
+def test_a_urdf_sweep_loads_its_robot_as_the_studio_did(tmp_path):
+    """package_roots and feet (the studio's --package-root and --feet) travel with every point
+    to where a worker loads the robot: a mesh found only in the package folder is found, and
+    the feet are the named links, not the ones detection would pick."""
+    import trimesh
+
+    from robots.catalogue import BUILTIN_ROBOTS
+
+    packages = tmp_path / "packages"
+    (packages / "mypkg" / "meshes").mkdir(parents=True)
+    trimesh.creation.icosphere(1, 0.03).export(packages / "mypkg" / "meshes" / "head.stl")
+    urdf = BUILTIN_ROBOTS["servo_biped"].urdf_path.read_text(encoding="utf-8")
+    urdf = urdf.replace('"left_foot"', '"pad_a"').replace('"right_foot"', '"pad_b"')
+    head = (
+        '<visual><geometry><mesh filename="package://mypkg/meshes/head.stl"/></geometry></visual>'
+    )
+    last = urdf.rindex("<visual>")
+    (tmp_path / "desc").mkdir()
+    path = tmp_path / "desc" / "renamed.urdf"
+    path.write_text(urdf[:last] + head + urdf[last:], encoding="utf-8")
+
+    plain = sweep_points(SweepSpec.from_mapping(spec(robot=str(path))))[0].robot.load()
+    assert plain.missing_meshes  # no package root: the package is not found
+    assert [foot.link for foot in plain.feet] != ["pad_a", "pad_b"]  # detection's choice
+
+    told = SweepSpec.from_mapping(
+        spec(robot=str(path), package_roots=[str(packages)], feet=["pad_a", "pad_b"])
+    )
+    assert told.package_roots == (str(packages),) and told.feet == ("pad_a", "pad_b")
+    points = sweep_points(told)
+    for point in points:
+        assert point.robot.package_roots == told.package_roots
+        assert point.robot.feet == told.feet
+    robot = points[0].robot.load()
+    assert not robot.missing_meshes
+    assert [foot.link for foot in robot.feet] == ["pad_a", "pad_b"]

@@ -128,6 +128,9 @@ def test_loading_another_robot_offers_its_choices_and_cancels_the_sweep(studio, 
         session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
     )
     assert outcome.spec.robot == str(copy) and not outcome.error
+    # the workers load the file as the studio did: its feet, the studio's package folders
+    assert outcome.spec.feet == (robot.foot("left").link, robot.foot("right").link)
+    assert outcome.spec.package_roots == tuple(str(p) for p in studio.config.package_roots)
     (result,) = outcome.results
     assert result.solved, result.reason
     panel.point.value = result.index

@@ -191,16 +191,28 @@ class RobotVariant:
     """A built-in robot's name, or the path of a .urdf file (which has no parameters)."""
     values: tuple[tuple[str, float], ...] = ()
     """(parameter, value) pairs, sorted by name."""
+    package_roots: tuple[str, ...] = ()
+    """A .urdf file's folders to find its `package://` meshes in (the studio's --package-root),
+    beside the look-up next to the file that needs none."""
+    feet: tuple[str, str] | None = None
+    """A .urdf file's (left, right) foot links, when they were named rather than detected."""
 
     @classmethod
-    def of(cls, robot: str, values: dict[str, float]) -> RobotVariant:
+    def of(
+        cls,
+        robot: str,
+        values: dict[str, float],
+        package_roots: tuple[str, ...] = (),
+        feet: tuple[str, str] | None = None,
+    ) -> RobotVariant:
         for name, value in values.items():
             p = robot_parameter(robot, name)
             if not (math.isfinite(value) and p.minimum <= value <= p.maximum):
                 raise SweepSpecError(
                     f"{name} = {value}: give a value in [{p.minimum:g}, {p.maximum:g}]"
                 )
-        return cls(robot, tuple(sorted((k, float(v)) for k, v in values.items())))
+        ordered = tuple(sorted((k, float(v)) for k, v in values.items()))
+        return cls(robot, ordered, package_roots, feet)
 
     def urdf_text(self) -> str:
         """The built-in robot's URDF with this variant's values."""
@@ -244,7 +256,8 @@ class RobotVariant:
         from app.core.robot.loading import load_robot
 
         if not self.values:
-            return load_robot(self.robot)
+            roots = tuple(Path(root) for root in self.package_roots)
+            return load_robot(self.robot, package_roots=roots, feet=self.feet)
         handle, name = tempfile.mkstemp(suffix=".urdf", prefix=f"{self.robot}_variant_")
         try:
             with os.fdopen(handle, "w", encoding="utf-8") as file:

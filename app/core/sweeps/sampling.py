@@ -72,10 +72,10 @@ def start_point(spec: SweepSpec, defaults: GaitSettings | None = None) -> SweepP
     if defaults is None:
         from app.core.collocation.defaults import default_settings
 
-        defaults = default_settings(RobotVariant(spec.robot).load())
+        defaults = default_settings(spec.variant().load())
     base = spec.base_settings(defaults)
     simulation = SimulationSetup.of(spec.walk_steps, dict(spec.servo)) if spec.simulate else None
-    return SweepPoint(-1, (), RobotVariant(spec.robot), base, spec.start, base, simulation)
+    return SweepPoint(-1, (), spec.variant(), base, spec.start, base, simulation)
 
 
 def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[SweepPoint]:
@@ -87,7 +87,7 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
     if defaults is None:
         from app.core.collocation.defaults import default_settings
 
-        defaults = default_settings(RobotVariant(spec.robot).load())
+        defaults = default_settings(spec.variant().load())
     base = spec.base_settings(defaults)
     points = []
     for i, row in enumerate(sample_values(spec)):
@@ -105,7 +105,7 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
                 if setting:  # the planner's bound follows the robot's (torque limit)
                     gait[setting] = float(value)
         settings = dataclasses.replace(base, **gait)  # type: ignore[arg-type]
-        variant = RobotVariant.of(spec.robot, robot)
+        variant = spec.variant(robot)
         points.append(
             SweepPoint(
                 i,

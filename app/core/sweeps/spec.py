@@ -3,6 +3,8 @@
 A sweep file (TOML) looks like:
 
     robot = "dircon_biped"      # a built-in robot, or a .urdf file (gait and servo only)
+    package_roots = ["/ws/src"] # a .urdf file's: folders holding its package:// meshes
+    feet = ["l_sole", "r_sole"] # a .urdf file's: (left, right) foot links, if not detected
     sampling = "latin"          # grid | random | latin (Latin hypercube)
     samples = 40                # random and latin; a grid multiplies the parameters' levels
     seed = 1
@@ -42,7 +44,7 @@ from typing import Any, Literal
 
 from app.core import input_gate
 from app.core.collocation.settings import GaitSettings, GaitSettingsError
-from app.core.sweeps.robot_variants import SweepSpecError, robot_parameter
+from app.core.sweeps.robot_variants import RobotVariant, SweepSpecError, robot_parameter
 from app.core.sweeps.servo_metrics import (
     DEFAULT_WALK_STEPS,
     MAX_WALK_STEPS,
@@ -53,6 +55,7 @@ from robots.catalogue import BUILTIN_ROBOTS
 MAX_POINTS = 20_000
 """Most points one sweep may have: 20 000 gait solves are hours on a laptop."""
 MAX_PARAMETERS = 12
+MAX_PACKAGE_ROOTS = 16
 DEFAULT_LEVELS = 3
 METRICS = {
     "sr": "specific resistance E / (M g d) (eq. 9)",
@@ -75,7 +78,7 @@ SAMPLINGS = ("grid", "random", "latin")
 KINDS = ("gait", "robot", "servo")
 TOP_KEYS = (
     "robot", "sampling", "samples", "seed", "pareto", "start", "gait", "parameter",
-    "simulate", "walk_steps", "servo",
+    "simulate", "walk_steps", "servo", "package_roots", "feet",
 )  # fmt: skip
 START = {
     "anchor": "from the gait of the [gait] settings on the same NLP (solved once per worker): "
@@ -132,6 +135,14 @@ class SweepSpec:
     walk_steps: int = DEFAULT_WALK_STEPS
     servo: tuple[tuple[str, float], ...] = ()
     """Fixed servo parameters (names of SERVO_PARAMETERS) for every point."""
+    package_roots: tuple[str, ...] = ()
+    """A .urdf robot's package folders (RobotVariant.package_roots)."""
+    feet: tuple[str, str] | None = None
+    """A .urdf robot's (left, right) foot links, when named rather than detected."""
+
+    def variant(self, values: dict[str, float] | None = None) -> RobotVariant:
+        """The swept robot with robot parameters `values` (none: as built)."""
+        return RobotVariant.of(self.robot, values or {}, self.package_roots, self.feet)
 
     @property
     def n_points(self) -> int:
@@ -162,6 +173,7 @@ class SweepSpec:
                 "only: its links have no known segment axis or shape to stretch, so a length "
                 "is not defined for it)"
             )
+        package_roots, feet = _urdf_options(data, robot, source)
         sampling = _typed(data.get("sampling", "latin"), str, f"{source}: sampling")
         if sampling not in SAMPLINGS:
             raise SweepSpecError(
@@ -219,6 +231,7 @@ class SweepSpec:
         spec = cls(
             robot, parameters, sampling, samples, seed, pareto,
             tuple(sorted(gait.items())), start, simulate, walk_steps, servo,
+            package_roots, feet,
         )  # fmt: skip
         if sampling != "grid" and samples < 1:
             raise SweepSpecError(f"{source}: samples = {samples}; give at least 1 point")
@@ -233,6 +246,33 @@ class SweepSpec:
 def read_sweep_toml(path: Path) -> SweepSpec:
     """A sweep file (TOML, ≤ 1 MiB) checked into a SweepSpec."""
     return SweepSpec.from_mapping(input_gate.read_toml(path, SweepSpecError), str(path))
+
+
+def _urdf_options(
+    data: dict[str, Any], robot: str, source: str
+) -> tuple[tuple[str, ...], tuple[str, str] | None]:
+    """`package_roots` and `feet`: how a .urdf robot loads (the studio's --package-root and
+    --feet); a built-in robot has no use for them."""
+    given = [key for key in ("package_roots", "feet") if key in data]
+    if given and robot in BUILTIN_ROBOTS:
+        raise SweepSpecError(
+            f"{source}: {' and '.join(given)} are for a robot loaded from a .urdf file; "
+            f"{robot} is built in"
+        )
+    roots = _typed(data.get("package_roots", []), list, f"{source}: package_roots")
+    for root in roots:
+        _typed(root, str, f"{source}: package_roots entry")
+    if len(roots) > MAX_PACKAGE_ROOTS:
+        raise SweepSpecError(f"{source}: {len(roots)} package_roots; at most {MAX_PACKAGE_ROOTS}")
+    feet = None
+    if "feet" in data:
+        links = _typed(data["feet"], list, f"{source}: feet")
+        if len(links) != 2 or not all(isinstance(link, str) and link for link in links):
+            raise SweepSpecError(
+                f"{source}: feet = {links!r}; give the left and the right foot link's names"
+            )
+        feet = (links[0], links[1])
+    return tuple(roots), feet
 
 
 def _typed(value: Any, kind: type, what: str) -> Any:
