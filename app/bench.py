@@ -23,7 +23,7 @@ the fixed pinocchio workload of app.bench_report) so that the ratio carries acro
   and the traces, CPU per push, beside the same pushes with the ghosts drawn one scene node per
   link (a RobotView each, as before the batched ghosts); target ≥ 60 Hz.
 - interpolate: a keyframed motion (the three one-leg squats) sampled at 100 Hz with IK at
-  every sample, scaled to 10 s of motion; target ≤ 0.5 s.
+  every sample, scaled to 10 s of motion, CPU, best of 3 runs (median beside); target ≤ 0.5 s.
 - feedforward: the whole-body QP per sample (median, p95) and for 10 s of motion at 100 Hz
   (app.core.dynamics.wbc_bench), beside the previous full QP by ProxQP in the same run;
   targets ≤ 0.25 ms median, ≤ 0.25 s on one core; over a pool of every core against a pool
@@ -109,6 +109,11 @@ DRAG_IK_TARGET_RATIO = 2.0
 """The whole-body IK's call per drag event over placo's bare solve of it (issue 12)."""
 PLAYBACK_TARGET_HZ = 60.0
 INTERPOLATE_TARGET_S = 0.5
+INTERPOLATE_RUNS = 3
+"""The keyframed motion is generated this many times (a fresh IK each) and the fastest run
+kept, as the IK's drag figure keeps the best of its passes: one run of half a second on a
+shared machine measures the machine's other work as much as the code; the median is printed
+beside it."""
 COMPENSATION_TARGET_MS = 50.0
 PLAN_COLD_TARGET_S = 10.0
 PLAN_WARM_TARGET_S = 1.0
@@ -324,14 +329,15 @@ def _entry_interpolate(ctx: BenchContext) -> tuple[dict, list[Figure]]:
     row = _bench_interpolate(ctx.studio)
     return row, [
         Figure(
-            "keyframed motion at 100 Hz with IK at every sample, per 10 s (CPU)",
+            f"keyframed motion at 100 Hz with IK at every sample, per 10 s (CPU, best of "
+            f"{row['runs']} runs)",
             row["cpu_per_10s_s"],
             "s",
             f"≤ {INTERPOLATE_TARGET_S} s",
             row["cpu_per_10s_s"] <= INTERPOLATE_TARGET_S,
             row["ik_cpu_per_10s_s"],
             "the whole-body IK's own solves in the same run, CPU",
-            f"wall {row['per_10s_s']:.2f} s",
+            f"median of the runs {row['median_cpu_per_10s_s']:.3f} s; wall {row['per_10s_s']:.2f} s",
         )
     ]
 
@@ -1125,19 +1131,24 @@ def _bench_interpolate(studio: Studio) -> dict:
             finally:
                 self.solve_cpu_s += time.thread_time() - begin
 
-    ik = TimedIK(robot, com_in_support=True, posture_weight=MOTION_POSTURE_WEIGHT)
-    begin, begin_cpu = time.perf_counter(), time.thread_time()
-    result = interpolate(robot, plan.keyframes, dt=0.01, ik=ik)
-    seconds = time.perf_counter() - begin
-    cpu_s = time.thread_time() - begin_cpu
-    duration = result.trajectory.duration
+    runs = []  # (CPU s, wall s, the IK's CPU s, duration s) per run
+    for _ in range(INTERPOLATE_RUNS):
+        ik = TimedIK(robot, com_in_support=True, posture_weight=MOTION_POSTURE_WEIGHT)
+        begin, begin_cpu = time.perf_counter(), time.thread_time()
+        result = interpolate(robot, plan.keyframes, dt=0.01, ik=ik)
+        seconds = time.perf_counter() - begin
+        cpu_s = time.thread_time() - begin_cpu
+        runs.append((cpu_s, seconds, ik.solve_cpu_s, result.trajectory.duration))
+    cpu_s, seconds, ik_cpu_s, duration = min(runs)
     return {
         "motion": "one_leg_squats",
+        "runs": len(runs),
         "duration_s": duration,
         "seconds": seconds,
         "per_10s_s": seconds * 10.0 / duration,
         "cpu_per_10s_s": cpu_s * 10.0 / duration,
-        "ik_cpu_per_10s_s": ik.solve_cpu_s * 10.0 / duration,
+        "median_cpu_per_10s_s": statistics.median(run[0] for run in runs) * 10.0 / duration,
+        "ik_cpu_per_10s_s": ik_cpu_s * 10.0 / duration,
     }
 
 
