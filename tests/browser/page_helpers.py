@@ -3,6 +3,7 @@ finding viser's folders, buttons and number inputs by their labels."""
 
 from __future__ import annotations
 
+import contextlib
 import io
 import math
 import re
@@ -77,12 +78,22 @@ def wait_stable(
     return wait_for(what, probe, timeout_s)
 
 
+HIDE_WEBGL_NOTICE_CSS = "#webgl-software-rendering { display: none !important; }"
+HIDE_WEBGL_NOTICE_SCRIPT = (
+    "document.addEventListener('DOMContentLoaded', () => {"
+    " const style = document.createElement('style');"
+    f" style.textContent = {HIDE_WEBGL_NOTICE_CSS!r};"
+    " document.head.appendChild(style); });"
+)
+"""Installed on every page of the browser fixtures (context.add_init_script)."""
+
+
 def dismiss_software_webgl_warning(page) -> None:
-    """viser warns about SwiftShader with a sticky notification; close it for a clean picture."""
-    close = page.locator("#webgl-software-rendering .mantine-Notification-closeButton")
-    if close.count():
-        close.first.click()
-        close.wait_for(state="detached")
+    """viser warns about SwiftShader with a sticky notification; hide it for a clean picture.
+    Cosmetic: a style sheet, no click and no wait, so it can never fail or slow a test (on a
+    busy machine, clicking its close button timed out and failed tests)."""
+    with contextlib.suppress(Exception):
+        page.add_style_tag(content=HIDE_WEBGL_NOTICE_CSS)
 
 
 def open_share_page(context, url: str, inside: str):
