@@ -12,7 +12,9 @@ from viser import _messages as viser_messages
 
 from app.web.callback_guard import guard_callbacks
 from app.web.hook import ViserHookError
-from tests.studio.ws_tab import Tab, loop, wait  # noqa: F401
+from tests.studio.ws_tab import Tab, loop, wait
+
+__all__ = ["loop"]  # the fixture, used by name
 
 
 def _notifications(tab: Tab) -> list[str]:
