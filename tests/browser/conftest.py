@@ -117,7 +117,7 @@ def browser_page(chromium) -> Iterator[object]:
     context = chromium.new_context(viewport=VIEWPORT)
     context.add_init_script(HIDE_WEBGL_NOTICE_SCRIPT)
     page = context.new_page()
-    page.set_default_timeout(30_000)
+    page.set_default_timeout(120_000)  # bounds a hang; busy machines are slow
     try:
         yield page
     finally:
