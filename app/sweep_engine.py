@@ -12,6 +12,16 @@ BLAS/OpenMP pinned to one thread in each (the workers' environment), so n worker
 A remote scheduler's workers must have this package installed and should set
 OMP_NUM_THREADS=1 themselves.
 
+The local cluster is private to the studio that starts it: its scheduler, workers and nannies
+speak only TLS with credentials made for this run (`Security.temporary()`, kept in memory,
+never on disk), so another process on the machine cannot connect to it and run code in the
+workers or in the studio (Dask runs pickled tasks); and it serves no HTTP (Dask starts an HTTP
+server on every scheduler and worker even without a dashboard: it is given no routes, bound
+to 127.0.0.1 on a free port, and stopped once the cluster is up). A `scheduler` address uses
+the caller's Dask security settings (`distributed.comm.tls.*` in the Dask configuration, or
+DASK_DISTRIBUTED__COMM__TLS__* variables): give the remote cluster TLS and mutual
+certificates there.
+
 Each point is one task, `app.core.sweeps.evaluate.evaluate_point`; the process's cache of built
 NLPs survives between tasks, so a worker builds each structure once. A worker that dies
 mid-point (killed, out of memory) loses only its running points: the scheduler hands them to
@@ -57,6 +67,49 @@ def local_cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
+NO_HTTP_CONFIG = {"distributed.scheduler.http.routes": [], "distributed.worker.http.routes": []}
+"""Dask configuration of the local cluster: its HTTP servers serve nothing."""
+
+
+def _private_local_cluster(local_cluster: Any, n_workers: int) -> Any:
+    """A LocalCluster of `n_workers` single-thread processes on 127.0.0.1 that speaks only TLS
+    with this run's credentials and serves no HTTP routes."""
+    import dask
+    from distributed.security import Security
+
+    env = {
+        **SINGLE_THREAD_ENV,
+        "DASK_DISTRIBUTED__WORKER__HTTP__ROUTES": "[]",
+        "DASK_DISTRIBUTED__SCHEDULER__HTTP__ROUTES": "[]",
+    }
+    with dask.config.set(NO_HTTP_CONFIG):
+        return local_cluster(
+            n_workers=n_workers,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            protocol="tls://",
+            security=Security.temporary(),
+            dashboard_address="127.0.0.1:0",
+            worker_dashboard_address="127.0.0.1:0",
+            env=env,
+            silence_logs=logging.ERROR,
+        )
+
+
+async def _stop_http(server: Any) -> None:
+    http = getattr(server, "http_server", None)
+    if http is not None:
+        http.stop()
+        server.services.pop("dashboard", None)
+
+
+def _stop_worker_http(dask_worker: Any) -> None:
+    http = getattr(dask_worker, "http_server", None)
+    if http is not None:
+        http.stop()
+
+
 class SweepEngine:
     """A Dask client on a local cluster (owned, closed with the engine) or a remote scheduler."""
 
@@ -66,11 +119,13 @@ class SweepEngine:
         n_workers: int | None = None,
         *,
         fallback_local: bool = False,
+        security: Any = None,
     ) -> None:
         """`scheduler` "tcp://host:port" connects to a running cluster; None starts a local one
         of `n_workers` processes (default: one per core). An unreachable scheduler raises
         SweepEngineError unless `fallback_local`, which starts the local cluster instead (and
-        says so in `notes`)."""
+        says so in `notes`). `security` (a `distributed.security.Security`) for a scheduler
+        address; None takes the Dask configuration's (`distributed.comm.tls.*`)."""
         from distributed import Client, LocalCluster
 
         self.notes: list[str] = []
@@ -79,14 +134,19 @@ class SweepEngine:
             raise SweepEngineError(f"workers = {n_workers}: give 1 to 256")
         if scheduler is not None:
             try:
-                self.client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
+                self.client = Client(scheduler, timeout=CONNECT_TIMEOUT_S, security=security)
                 self.address = scheduler
                 return
-            except (OSError, TimeoutError, ValueError) as error:
-                message = (
-                    f"cannot reach the Dask scheduler at {scheduler} "
-                    f"({type(error).__name__}: {error})"
+            except (OSError, TimeoutError, ValueError, TypeError) as error:
+                reason = (
+                    f"{type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''}"
                 )
+                if isinstance(error, TypeError) and "ssl" in str(error).lower():
+                    reason = (
+                        "a tls:// scheduler needs TLS credentials: set distributed.comm.tls.* "
+                        "in your Dask configuration"
+                    )
+                message = f"cannot reach the Dask scheduler at {scheduler} ({reason})"
                 if not fallback_local:
                     raise SweepEngineError(
                         f"{message}; check the address, or allow the local fallback "
@@ -95,18 +155,19 @@ class SweepEngine:
                 self.notes.append(f"{message}; running on a local cluster instead")
         n = n_workers or local_cores()
         try:
-            self._cluster = LocalCluster(
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                env=SINGLE_THREAD_ENV,
-                silence_logs=logging.ERROR,
-            )
+            self._cluster = _private_local_cluster(LocalCluster, n)
         except Exception as error:  # a cluster that cannot start: ports, memory, sandboxing
             raise SweepEngineError(f"the local Dask cluster did not start: {error}") from None
-        self.client = Client(self._cluster)
+        self.client = Client(self._cluster, security=self._cluster.security)
         self.address = self._cluster.scheduler_address
+        self._stop_http_servers()
+
+    def _stop_http_servers(self) -> None:
+        """Close the HTTP servers Dask started on the scheduler and every worker (they serve
+        no routes here; closed, nothing listens but the TLS ports)."""
+        scheduler = self._cluster.scheduler
+        self._cluster.sync(_stop_http, scheduler)
+        self.client.run(_stop_worker_http)
 
     @property
     def n_workers(self) -> int:

@@ -117,7 +117,9 @@ def test_an_unreachable_scheduler_is_a_clear_error():
 def test_the_same_sweep_runs_unchanged_against_a_scheduler_address(engine):
     points = sweep_points(small_spec(2, seed=8))
     local = {r.index: r for r in engine.start(points).results()}
-    with SweepEngine(engine.address) as remote:  # a client of the running cluster's scheduler
+    # A client of the running cluster's scheduler, with the credentials (without them it is
+    # refused: tests/test_sweep_cluster_security.py).
+    with SweepEngine(engine.address, security=engine._cluster.security) as remote:
         assert remote.address == engine.address and remote.n_workers == 2
         by_address = {r.index: r for r in remote.start(points).results()}
     assert sorted(by_address) == sorted(local)
