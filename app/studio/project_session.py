@@ -63,6 +63,9 @@ QUIET_S = 0.3
 """An autosave is written once the work has not changed for this long (a drag pauses)…"""
 MAX_DELAY_S = 5.0
 """… or this long after the first unsaved change, whatever goes on (a long drag, playback)."""
+UNTITLED = "untitled"
+RESTORED = "untitled (restored)"
+"""The name of restored work that had no project name."""
 
 
 class HoldsKeyframes(Protocol):
@@ -115,7 +118,7 @@ class ProjectSession:
         )
         self.panel = ProjectPanel(server.gui, self, str(self.projects_dir))
         self.path: Path | None = None
-        self.name = "untitled"
+        self.name = UNTITLED
         self.saved_at = ""
         self.last_error = ""
         """Why the last save or open failed."""
@@ -340,9 +343,15 @@ class ProjectSession:
             except StudioError as error:
                 log.warning("autosave %s not restored: %s", path.name, error)
                 continue
-            if self.install(project, "untitled (restored)", None, saved=False):
+            name, origin = _origin(project)
+            if self.install(project, name or RESTORED, origin, saved=False):
+                if origin is not None:  # when its file was last saved, if it still is there
+                    self.saved_at = _file_time(origin)
+                    self._show_title(self.marks())
                 when = _saved_time(project.saved_at, "%H:%M")
-                self.welcome = f"Restored your work from {when}: {_contents(project)}"
+                contents = _contents(project)
+                work = f"{name} ({contents})" if name else contents
+                self.welcome = f"Restored your work from {when}: {work}"
                 self.panel.show_status(f"{self.welcome} (autosave `{path.name}`)")
                 self._notifier.notify("Welcome back", self.welcome)
                 return True
@@ -397,7 +406,12 @@ class ProjectSession:
         if marks["loaded"] is None or _same(self._autosaved, marks):
             return None
         try:
-            data = project_bytes(self.project(marks))
+            work = dataclasses.replace(
+                self.project(marks),
+                autosave_of="" if self.name in (UNTITLED, RESTORED) else self.name,
+                autosave_path=str(self.path) if self.path is not None else "",
+            )
+            data = project_bytes(work)
             with self._lock:
                 path = self.autosaves.write(data)
                 self._autosaved = marks
@@ -487,6 +501,20 @@ def _same_value(x: object, y: object) -> bool:
     return False
 
 
+def _origin(project: Project) -> tuple[str, Path | None]:
+    """The name and file of the project an autosave is of ("", None for untitled work); a
+    path that is not an absolute .bstudio path (a damaged or edited autosave) is dropped."""
+    name = project.autosave_of.strip()
+    if len(name) > 200 or not name.isprintable():
+        name = ""
+    path = Path(project.autosave_path) if project.autosave_path else None
+    if path is not None and (not path.is_absolute() or path.suffix.lower() != SUFFIX):
+        path = None
+    if path is not None and not name:
+        name = path.stem
+    return name, path
+
+
 def _contents(project: Project) -> str:
     """What a project holds, in a few words: robot, motion, keyframes, results."""
     parts = [project.robot.builtin or project.robot.name]
@@ -504,6 +532,14 @@ def _contents(project: Project) -> str:
         if present
     ]
     return ", ".join(parts)
+
+
+def _file_time(path: Path) -> str:
+    """The local clock time `path` was last written ("" when it cannot be read)."""
+    try:
+        return datetime.fromtimestamp(path.stat().st_mtime).strftime("%H:%M:%S")
+    except OSError:
+        return ""
 
 
 def _saved_time(iso: str, fmt: str = "%H:%M:%S") -> str:
