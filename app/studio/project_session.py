@@ -52,7 +52,7 @@ from app.core.robot.report import RobotReport, robot_report
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.state import LoadedRobot, Pose, StudioState
-from app.studio.undo import Step, UndoHistory
+from app.studio.undo import Move, Step, UndoHistory
 from panels.project_panel import ProjectPanel
 
 log = logging.getLogger(__name__)
@@ -444,15 +444,24 @@ class ProjectSession:
             self.panel.show_undo(self.history.can_undo, self.history.can_redo)
 
     def undo(self, client: viser.ClientHandle | None = None) -> bool:
-        """Go back one step of pose and keyframe edits; False if there is none."""
-        return self._go(self.history.undo())
+        """Go back one step of pose and keyframe edits, saying which; False if there is none."""
+        said = ("Undid", "Redo puts it back.", "Nothing to undo")
+        return self._go(self.history.undo(), said, client)
 
     def redo(self, client: viser.ClientHandle | None = None) -> bool:
-        return self._go(self.history.redo())
+        said = ("Redid", "Undo takes it back again.", "Nothing to redo")
+        return self._go(self.history.redo(), said, client)
 
-    def _go(self, step: Step | None) -> bool:
+    def _go(
+        self, move: Move | None, said: tuple[str, str, str], client: viser.ClientHandle | None
+    ) -> bool:
+        """Install `move`'s step; say "Undid: <edit>" (or that there was nothing) in the
+        panel's status and to the tab that asked."""
+        done, hint, nothing = said
         state = self._state
-        if step is not None:
+        applied = False
+        if move is not None:
+            step = move.step
             with self._undo_lock, state.lock, self._server.atomic():
                 if state.loaded is step.loaded:
                     self._keyframes.set_keyframes(step.keyframes)
@@ -461,8 +470,15 @@ class ProjectSession:
                     )
                     assert state.loaded is not None and state.pose is not None
                     self.history.replace_current(Step(state.loaded, state.pose, step.keyframes))
+                    applied = True
         self.panel.show_undo(self.history.can_undo, self.history.can_redo)
-        return step is not None
+        if move is None or not applied:
+            self.panel.show_status(nothing)
+            self._notifier.notify(nothing, "", client, "yellow")
+        else:
+            self.panel.show_status(f"{done}: {move.edit}")
+            self._notifier.notify(f"{done}: {move.edit}", hint, client, "blue")
+        return move is not None
 
     def stop(self) -> None:
         self._stop.set()
