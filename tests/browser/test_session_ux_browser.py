@@ -4,7 +4,6 @@ under its own name; *Undo* after a click says what it undid."""
 
 from __future__ import annotations
 
-import contextlib
 import re
 
 from playwright.sync_api import expect
@@ -24,12 +23,6 @@ from tests.studio.conftest import wait_for_signal
 NOTICE = "needs its access link"
 
 
-def _close_webgl_notice(page) -> None:
-    """Cosmetic: a notice left open must not fail the test."""
-    with contextlib.suppress(Exception):
-        dismiss_software_webgl_warning(page)
-
-
 def _notification(page, text: str):
     return page.locator(".mantine-Notification-root", has_text=text)
 
@@ -45,7 +38,7 @@ def test_an_open_tab_survives_a_restart_and_the_project_keeps_its_name(chromium,
         page = context.new_page()
         page.set_default_timeout(RENDER_TIMEOUT_S * 1000)
         page.goto(first.web.url)
-        _close_webgl_notice(page)
+        dismiss_software_webgl_warning(page)
         title = page.get_by_text(re.compile(r"^walker ● unsaved changes"))
         title.wait_for()
         assert len(first.server.get_clients()) == 1
@@ -60,7 +53,7 @@ def test_an_open_tab_survives_a_restart_and_the_project_keeps_its_name(chromium,
         assert len(second.server.get_clients()) == 1
 
         page.reload()  # the link the tab was opened with still works
-        _close_webgl_notice(page)
+        dismiss_software_webgl_warning(page)
         title.wait_for()
         assert NOTICE not in page.content()
     finally:
@@ -71,7 +64,7 @@ def test_an_open_tab_survives_a_restart_and_the_project_keeps_its_name(chromium,
 def test_undo_after_a_click_says_what_it_undid(studio, studio_url, browser_page):
     page = browser_page
     page.goto(studio_url)
-    _close_webgl_notice(page)
+    dismiss_software_webgl_warning(page)
     expand_folder(page, "Keyframes", "Capture pose")
     click_button(page, "Capture pose")
     expand_folder(page, "Project", "Undo")
