@@ -18,7 +18,9 @@ the serialisation and the write all run on the autosave thread, never on viser's
 threads (a profile of 160 paced drags finds nothing of autosave on the drag's thread but
 that `Event.set`; `biped-studio bench --only projects` compares drags with autosave on and
 held). A failing write keeps the earlier autosaves and is
-reported once until a write succeeds again.
+reported once until a write succeeds again. An autosave names the project the work was (its
+name and file), so that a restored project keeps them; only unnamed work comes back as
+"untitled (restored)".
 """
 
 from __future__ import annotations
@@ -478,7 +480,7 @@ class ProjectSession:
         else:
             self.panel.show_status(f"{done}: {move.edit}")
             self._notifier.notify(f"{done}: {move.edit}", hint, client, "blue")
-        return move is not None
+        return applied
 
     def stop(self) -> None:
         self._stop.set()
@@ -523,7 +525,8 @@ def _origin(project: Project) -> tuple[str, Path | None]:
     name = project.autosave_of.strip()
     if len(name) > 200 or not name.isprintable():
         name = ""
-    path = Path(project.autosave_path) if project.autosave_path else None
+    typed = project.autosave_path
+    path = Path(typed) if typed and "\x00" not in typed else None
     if path is not None and (not path.is_absolute() or path.suffix.lower() != SUFFIX):
         path = None
     if path is not None and not name:
