@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 from app.core.robot.uploads import MAX_UPLOAD_BYTES
-from app.web.access import new_token
+from app.web.token_store import stored_token
 from robots.catalogue import DEFAULT_ROBOT
 
 LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
@@ -35,8 +35,12 @@ class StudioConfig:
     store whose files *Open path* may load (`--allow DIR`)."""
     data_dir: Path = dataclasses.field(default_factory=default_data_dir)
     max_upload_bytes: int = MAX_UPLOAD_BYTES
-    token: str = dataclasses.field(default_factory=new_token, repr=False)
-    """Access token a browser must present (`?token=` once, then a cookie); random per run."""
+    token: str | None = dataclasses.field(default=None, repr=False)
+    """Access token a browser must present (`?token=` once, then a cookie). None: the one kept
+    in `data_dir` (app.web.token_store), made at the first start and reused after, so open
+    tabs survive a restart; `settle_token()` fills it in."""
+    new_token: bool = False
+    """Replace the kept token with a new one (`--new-token`): links opened before stop working."""
     prepare_gait: bool = False
     """Build the gait planner's default problem for each loaded robot in the background, so
     the first *Solve* pays no build (`serve` turns it on; tests and the bench leave it off)."""
@@ -59,7 +63,20 @@ class StudioConfig:
     @property
     def access_token(self) -> str | None:
         """The token the server requires, None when the user turned it off."""
-        return None if self.no_token else self.token
+        if self.no_token:
+            return None
+        if self.token is None:  # never read as "no token": that would open the studio
+            raise ValueError("the access token is not settled yet: call settle_token() first")
+        return self.token
+
+    def settle_token(self) -> tuple[StudioConfig, str]:
+        """This config with its token filled in (the one kept in `data_dir`, made there when
+        there is none or `new_token` asks), and one line for the user ("" when nothing needs
+        saying: the stored token was refused and replaced, or cannot be kept)."""
+        if self.no_token or self.token is not None:
+            return self, ""
+        stored = stored_token(self.data_dir, rotate=self.new_token)
+        return dataclasses.replace(self, token=stored.token), stored.warning
 
     @property
     def uploads_dir(self) -> Path:

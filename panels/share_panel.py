@@ -1,4 +1,4 @@
-"""Share panel: export a replay that plays in any browser, and save a screenshot."""
+"""Share panel: export a replay that plays in any browser, download a screenshot, film a video."""
 
 from __future__ import annotations
 
@@ -30,7 +30,9 @@ class SharePanel:
             )
             self.zip = gui.add_checkbox("Also write a .zip", False)
             self.progress = gui.add_progress_bar(0.0, visible=False)
-            self.screenshot = gui.add_button("Screenshot", icon=viser.Icon.CAMERA)
+            self.screenshot = gui.add_button(
+                "Screenshot", icon=viser.Icon.CAMERA, hint="this tab's view, as a PNG download"
+            )
             self.video = gui.add_button(
                 "Export video",
                 icon=viser.Icon.VIDEO,

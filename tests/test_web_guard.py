@@ -540,9 +540,12 @@ def test_the_studio_serves_only_its_tokened_link(tmp_path: Path) -> None:
     from app.config import StudioConfig
     from app.studio import Studio
 
-    config = StudioConfig(port=_free_port(), data_dir=tmp_path)
-    studio = Studio(config)
+    studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path))
+    config = studio.config  # its token settled: the one kept in the data folder
     try:
+        assert config.token is not None and (tmp_path / "access-token").read_text().strip() == (
+            config.token
+        )
         port = studio.server.get_port()
         assert studio.web.url == f"http://127.0.0.1:{port}/?token={config.token}"
         assert http_get(port, "/")[0] == 401

@@ -112,7 +112,11 @@ def _parser() -> argparse.ArgumentParser:
         package_root=[],
         feet=None,
         no_token=False,
+        new_token=False,
         open_browser=False,
         allow=[],
+        project=None,
+        fresh=False,
+        presenter_only=False,
     )
     return parser

@@ -44,6 +44,12 @@ def add_parser(sub) -> None:
         "could then drive the studio)",
     )
     serve.add_argument(
+        "--new-token",
+        action="store_true",
+        help="replace the access token kept in the data folder: links (and open tabs) from "
+        "before stop working",
+    )
+    serve.add_argument(
         "--presenter-only",
         action="store_true",
         help="demo mode: only the first tab opened (the presenter's) can change the work; "
@@ -75,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
         package_roots=tuple(args.package_root),
         feet=parse_feet(args.feet),
         no_token=args.no_token,
+        new_token=args.new_token,
         prepare_gait=True,
         prepare_sweep=True,
         allow=tuple(args.allow),
@@ -82,6 +89,13 @@ def run(args: argparse.Namespace) -> int:
         presenter_only=args.presenter_only,
         restore_autosave=not (args.fresh or explicit_robot or args.project is not None),
     )
+    if args.no_token and args.new_token:
+        print("warning: --new-token has no effect with --no-token", file=sys.stderr)
+    config, token_warning = config.settle_token()
+    if token_warning:
+        print(f"warning: {token_warning}", file=sys.stderr)
+    elif args.new_token and not config.no_token:
+        print("Made a new access token: links opened before no longer work.", file=sys.stderr)
     check_bind(config.host, config.access_token)
     if args.project is not None:  # a bad file is said before anything starts
         from app.core.projects.files import read_project

@@ -18,7 +18,9 @@ the serialisation and the write all run on the autosave thread, never on viser's
 threads (a profile of 160 paced drags finds nothing of autosave on the drag's thread but
 that `Event.set`; `biped-studio bench --only projects` compares drags with autosave on and
 held). A failing write keeps the earlier autosaves and is
-reported once until a write succeeds again.
+reported once until a write succeeds again. An autosave names the project the work was (its
+name and file), so that a restored project keeps them; only unnamed work comes back as
+"untitled (restored)".
 """
 
 from __future__ import annotations
@@ -52,7 +54,7 @@ from app.core.robot.report import RobotReport, robot_report
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.state import LoadedRobot, Pose, StudioState
-from app.studio.undo import Step, UndoHistory
+from app.studio.undo import Move, Step, UndoHistory
 from panels.project_panel import ProjectPanel
 
 log = logging.getLogger(__name__)
@@ -63,6 +65,9 @@ QUIET_S = 0.3
 """An autosave is written once the work has not changed for this long (a drag pauses)…"""
 MAX_DELAY_S = 5.0
 """… or this long after the first unsaved change, whatever goes on (a long drag, playback)."""
+UNTITLED = "untitled"
+RESTORED = "untitled (restored)"
+"""The name of restored work that had no project name."""
 
 
 class HoldsKeyframes(Protocol):
@@ -115,7 +120,7 @@ class ProjectSession:
         )
         self.panel = ProjectPanel(server.gui, self, str(self.projects_dir))
         self.path: Path | None = None
-        self.name = "untitled"
+        self.name = UNTITLED
         self.saved_at = ""
         self.last_error = ""
         """Why the last save or open failed."""
@@ -340,9 +345,15 @@ class ProjectSession:
             except StudioError as error:
                 log.warning("autosave %s not restored: %s", path.name, error)
                 continue
-            if self.install(project, "untitled (restored)", None, saved=False):
+            name, origin = _origin(project)
+            if self.install(project, name or RESTORED, origin, saved=False):
+                if origin is not None:  # when its file was last saved, if it still is there
+                    self.saved_at = _file_time(origin)
+                    self._show_title(self.marks())
                 when = _saved_time(project.saved_at, "%H:%M")
-                self.welcome = f"Restored your work from {when}: {_contents(project)}"
+                contents = _contents(project)
+                work = f"{name} ({contents})" if name else contents
+                self.welcome = f"Restored your work from {when}: {work}"
                 self.panel.show_status(f"{self.welcome} (autosave `{path.name}`)")
                 self._notifier.notify("Welcome back", self.welcome)
                 return True
@@ -397,7 +408,12 @@ class ProjectSession:
         if marks["loaded"] is None or _same(self._autosaved, marks):
             return None
         try:
-            data = project_bytes(self.project(marks))
+            work = dataclasses.replace(
+                self.project(marks),
+                autosave_of="" if self.name in (UNTITLED, RESTORED) else self.name,
+                autosave_path=str(self.path) if self.path is not None else "",
+            )
+            data = project_bytes(work)
             with self._lock:
                 path = self.autosaves.write(data)
                 self._autosaved = marks
@@ -430,15 +446,24 @@ class ProjectSession:
             self.panel.show_undo(self.history.can_undo, self.history.can_redo)
 
     def undo(self, client: viser.ClientHandle | None = None) -> bool:
-        """Go back one step of pose and keyframe edits; False if there is none."""
-        return self._go(self.history.undo())
+        """Go back one step of pose and keyframe edits, saying which; False if there is none."""
+        said = ("Undid", "Redo puts it back.", "Nothing to undo")
+        return self._go(self.history.undo(), said, client)
 
     def redo(self, client: viser.ClientHandle | None = None) -> bool:
-        return self._go(self.history.redo())
+        said = ("Redid", "Undo takes it back again.", "Nothing to redo")
+        return self._go(self.history.redo(), said, client)
 
-    def _go(self, step: Step | None) -> bool:
+    def _go(
+        self, move: Move | None, said: tuple[str, str, str], client: viser.ClientHandle | None
+    ) -> bool:
+        """Install `move`'s step; say "Undid: <edit>" (or that there was nothing) in the
+        panel's status and to the tab that asked."""
+        done, hint, nothing = said
         state = self._state
-        if step is not None:
+        applied = False
+        if move is not None:
+            step = move.step
             with self._undo_lock, state.lock, self._server.atomic():
                 if state.loaded is step.loaded:
                     self._keyframes.set_keyframes(step.keyframes)
@@ -447,8 +472,15 @@ class ProjectSession:
                     )
                     assert state.loaded is not None and state.pose is not None
                     self.history.replace_current(Step(state.loaded, state.pose, step.keyframes))
+                    applied = True
         self.panel.show_undo(self.history.can_undo, self.history.can_redo)
-        return step is not None
+        if move is None or not applied:
+            self.panel.show_status(nothing)
+            self._notifier.notify(nothing, "", client, "yellow")
+        else:
+            self.panel.show_status(f"{done}: {move.edit}")
+            self._notifier.notify(f"{done}: {move.edit}", hint, client, "blue")
+        return applied
 
     def stop(self) -> None:
         self._stop.set()
@@ -487,6 +519,21 @@ def _same_value(x: object, y: object) -> bool:
     return False
 
 
+def _origin(project: Project) -> tuple[str, Path | None]:
+    """The name and file of the project an autosave is of ("", None for untitled work); a
+    path that is not an absolute .bstudio path (a damaged or edited autosave) is dropped."""
+    name = project.autosave_of.strip()
+    if len(name) > 200 or not name.isprintable():
+        name = ""
+    typed = project.autosave_path
+    path = Path(typed) if typed and "\x00" not in typed else None
+    if path is not None and (not path.is_absolute() or path.suffix.lower() != SUFFIX):
+        path = None
+    if path is not None and not name:
+        name = path.stem
+    return name, path
+
+
 def _contents(project: Project) -> str:
     """What a project holds, in a few words: robot, motion, keyframes, results."""
     parts = [project.robot.builtin or project.robot.name]
@@ -504,6 +551,14 @@ def _contents(project: Project) -> str:
         if present
     ]
     return ", ".join(parts)
+
+
+def _file_time(path: Path) -> str:
+    """The local clock time `path` was last written ("" when it cannot be read)."""
+    try:
+        return datetime.fromtimestamp(path.stat().st_mtime).strftime("%H:%M:%S")
+    except OSError:
+        return ""
 
 
 def _saved_time(iso: str, fmt: str = "%H:%M:%S") -> str:

@@ -8,6 +8,7 @@ its overlays in `app/views/`), constructed here, talking only to the state.
 from __future__ import annotations
 
 import contextlib
+import logging
 import sys
 
 from app.config import StudioConfig
@@ -32,12 +33,18 @@ from app.studio.sweep_session import SweepSession
 from app.web.callback_guard import guard_callbacks
 from app.web.guard import guarded_server
 
+log = logging.getLogger(__name__)
+
 
 class Studio:
     """A running studio. All browser tabs share its state."""
 
     def __init__(self, config: StudioConfig, robot: RobotModel | None = None) -> None:
+        config, warning = config.settle_token()  # the token kept in the data folder
+        if warning:
+            log.warning("%s", warning)
         self.config = config
+        """The configuration served, its access token filled in."""
         self.web = guarded_server(
             config.host,
             config.port,

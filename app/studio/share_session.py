@@ -1,11 +1,13 @@
 """Sharing from the studio: *Export replay* records the current motion as shown (robot, the
-ghosts and traces that are on, a title card) into a folder that plays in any browser, and
-*Screenshot* saves a tab's render as a PNG, and *Export video* films the current motion from a
-tab's renders (MP4 or GIF). All write under the data folder.
+ghosts and traces that are on, a title card) into a folder that plays in any browser,
+*Screenshot* sends a tab's render to that tab as a PNG download (the user's browser saves it;
+nothing is written on the server, which may be another machine), and *Export video* films the
+current motion from a tab's renders (MP4 or GIF). Replays and videos are written under the data
+folder.
 
 The recording is drawn on a private viser server (app/replay_recorder.py): the live tabs see
 nothing of it. An export runs in one named thread, "replay-export"; its end is announced by
-`exported` (the result, or None after a failure), a screenshot's by `screenshot_saved`. A video
+`exported` (the result, or None after a failure), a screenshot's by `screenshot_sent`. A video
 is filmed in the "video-export" thread (viser's callback thread stays free): the timeline is
 moved frame by frame and the tab asked for a render of each; the time shown before is restored
 after, and the end is announced by `video_saved` (the file, or None after a failure or Cancel).
@@ -13,6 +15,7 @@ after, and the end is announced by `video_saved` (the file, or None after a fail
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import re
 import threading
@@ -55,6 +58,18 @@ def on_white(image: np.ndarray) -> np.ndarray:
     return np.round(rgb).astype(np.uint8)
 
 
+@dataclasses.dataclass(frozen=True)
+class Screenshot:
+    """A screenshot sent to a tab as a download."""
+
+    filename: str
+    png: bytes
+    """The PNG file's bytes, as the browser receives them."""
+    width: int
+    height: int
+    """Its size [px]: the tab's view."""
+
+
 class ShareSession:
     """Owns the Share panel; `layers()` says what the studio shows beside the robot."""
 
@@ -72,7 +87,7 @@ class ShareSession:
         self.panel = SharePanel(server.gui, self)
         self._worker: threading.Thread | None = None
         self.exported: Signal[RecordedReplay | None] = Signal("replay_exported")
-        self.screenshot_saved: Signal[Path | None] = Signal("screenshot_saved")
+        self.screenshot_sent: Signal[Screenshot | None] = Signal("screenshot_sent")
         self.video_saved: Signal[Path | None] = Signal("video_saved")
         self._pause_playback = pause_playback
         self._video_worker: threading.Thread | None = None
@@ -154,8 +169,8 @@ class ShareSession:
     # --- screenshot ------------------------------------------------------------------------
 
     def screenshot(self, client: viser.ClientHandle | None = None) -> None:
-        """Save what `client` renders now as a PNG under the data folder."""
-        path: Path | None = None
+        """Send what `client` renders now to that tab as a PNG download."""
+        shot: Screenshot | None = None
         try:
             if client is None:
                 raise StudioError("a screenshot is taken from a browser tab; none asked")
@@ -164,17 +179,19 @@ class ShareSession:
             if height <= 0 or width <= 0:
                 raise StudioError("the tab has not drawn the scene yet")
             image = client.get_render(height, width, transport_format="png", timeout=60.0)
-            folder = self._data_dir / "screenshots"
-            folder.mkdir(parents=True, exist_ok=True)
+            png = iio.imwrite("<bytes>", on_white(image), extension=".png")
             name = self._state.trajectory.name if self._state.trajectory is not None else "pose"
-            path = folder / f"{_slug(name)}-{time.strftime('%Y%m%d-%H%M%S')}-{client.client_id}.png"
-            iio.imwrite(path, on_white(image))
-            self.panel.status.content = f"Screenshot ({width}×{height}) saved to `{path}`."
-            self._notifier.notify("Screenshot saved", str(path), client)
-        except (StudioError, OSError, TimeoutError) as error:
-            path = None
-            self._fail("Screenshot failed", str(error), client)
-        self.screenshot_saved.emit(path)
+            filename = f"{_slug(name)}-{time.strftime('%Y%m%d-%H%M%S')}.png"
+            client.send_file_download(filename, png, save_immediately=True)
+            shot = Screenshot(filename, png, width, height)
+            self.panel.status.content = (
+                f"Screenshot ({width}×{height}) sent to your browser as `{filename}`."
+            )
+            self._notifier.notify("Screenshot downloaded", filename, client)
+        except (StudioError, OSError, TimeoutError, RuntimeError) as error:
+            # RuntimeError: viser's answer when the tab closed while the render was awaited.
+            self._fail("Screenshot failed", str(error) or type(error).__name__, client)
+        self.screenshot_sent.emit(shot)
 
     # --- video ---------------------------------------------------------------------------------
 

@@ -55,7 +55,9 @@ TOKEN_PAGE = """<!doctype html>
 <h1>Biped Studio needs its access link</h1>
 <p>This studio only answers the link printed in the terminal where it was started,
 the one that ends in <code>?token=&hellip;</code>. Open that link in this browser.</p>
-<p>Lost it? Stop the studio (Ctrl+C) and start it again: it prints a new link.</p>
+<p>Lost it? Stop the studio (Ctrl+C) and start it again: it prints the link again.
+If this tab worked before, the studio was started with <code>--new-token</code>, which
+makes a new link: open the new one.</p>
 </body></html>
 """
 

@@ -124,15 +124,15 @@ def test_the_replay_plays_from_a_static_server(chromium, static_url: str):
 
 def test_screenshot_and_follow_presenter(chromium, tmp_path):
     """A studio of its own (the replay test above runs with none): *Screenshot* in the Share
-    folder saves what the tab shows (compared with Chromium's own picture of the page,
-    coarsely); then a second tab ticks *Follow presenter* and, when the first tab's camera is
-    dragged round, shows the same view."""
+    folder arrives in the browser as a PNG download of what the tab shows (compared with
+    Chromium's own picture of the page, coarsely), and nothing is written on the server; then a
+    second tab ticks *Follow presenter* and, when the first tab's camera is dragged round,
+    shows the same view."""
     from app.config import StudioConfig
     from app.studio import Studio
     from tests.browser.conftest import _free_port
     from tests.browser.page_helpers import (
         click_button,
-        collect,
         dismiss_software_webgl_warning,
         folder_title,
         open_share_page,
@@ -141,18 +141,21 @@ def test_screenshot_and_follow_presenter(chromium, tmp_path):
     )
 
     studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path / "data"))
-    context = chromium.new_context(viewport=VIEWPORT)
-    saved, done = collect(studio.share.screenshot_saved)
+    context = chromium.new_context(viewport=VIEWPORT, accept_downloads=True)
     try:
         page = open_share_page(context, studio.web.url, "Screenshot")
-        click_button(page, "Screenshot")
-        wait_for("the screenshot", done.is_set, RENDER_TIMEOUT_S)
+        with page.expect_download(timeout=RENDER_TIMEOUT_S * 1000) as download:
+            click_button(page, "Screenshot")
         # The page's own picture once it holds still (meshes still arriving when the button
         # was clicked are in the render too).
         seen = wait_stable(page, "the studio's view", not_blank)
-        path = saved[0]
-        assert path is not None and path.parent == tmp_path / "data" / "screenshots"
-        assert str(path) in page.get_by_text("Screenshot (").first.inner_text()
+        received = download.value
+        assert received.suggested_filename.endswith(".png")
+        path = tmp_path / "downloaded.png"
+        received.save_as(path)
+        assert path.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+        assert received.suggested_filename in page.get_by_text("Screenshot (").first.inner_text()
+        assert not (tmp_path / "data" / "screenshots").exists()  # nothing kept on the server
         image = np.asarray(Image.open(path).convert("RGB"), dtype=np.float64)
         assert not_blank(image.astype(np.int16))
         # The same view as the page's: coarse grey levels on a 32×20 grid correlate strongly,

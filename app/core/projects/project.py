@@ -83,6 +83,12 @@ class Project:
     """The Sweep panel's last sweep (its spec and every point's metrics)."""
     saved_at: str = ""
     """UTC time of the save, ISO 8601."""
+    autosave_of: str = ""
+    """In an autosave only: the name of the project the work was (its file's stem, an
+    upload's name; "" for untitled work), so that a restore keeps calling it that."""
+    autosave_path: str = ""
+    """In an autosave only: the .bstudio file the work was opened from or saved to ("" when
+    none), so that *Save* after a restore writes there again."""
     display: DisplaySettings = dataclasses.field(default_factory=DisplaySettings)
     """How the studio showed the work (camera, toggles, ghosts, plots, playback speed); the
     defaults in files saved before it was kept."""
