@@ -25,7 +25,7 @@ import pinocchio as pin
 
 from app.core.errors import StudioError
 from app.core.posing.ik import IkResult, IkTargets, Stance, WholeBodyIK
-from app.core.posing.ready_pose import crouch, leg_is_straight
+from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT, crouch, leg_is_straight
 from app.core.robot.model import RobotModel
 
 MAX_DRAG_DISTANCE_M = 100.0
@@ -102,6 +102,10 @@ class Posing:
         self.stance: Stance = "both"
         self._data = robot.model.createData()
         self._gesture: _Gesture | None = None
+        self._crouch_ik: WholeBodyIK | None = None
+        """The IK that bends straight legs at a gesture's start, made on first need: its
+        solve holds both feet (hard equalities that a 5-DOF leg cannot take, which would
+        turn the drag IK's stance soft for good) and counts as no drag solve."""
 
     @property
     def com_in_support(self) -> bool:
@@ -145,7 +149,9 @@ class Posing:
         if which == "pelvis" or not robot.floating_base:
             return _Gesture(which, start, None, b"")
         if leg_is_straight(robot, start, which):
-            start = crouch(robot, start, self.ik, stance="both").q
+            if self._crouch_ik is None:
+                self._crouch_ik = WholeBodyIK(robot, posture_weight=MOTION_POSTURE_WEIGHT)
+            start = crouch(robot, start, self._crouch_ik, stance="both").q
         pin.framesForwardKinematics(robot.model, self._data, start)
         R = self._data.oMf[robot.link_frame_ids[robot.tree.root]].rotation.copy()
         return _Gesture(which, start, R, b"")
