@@ -20,7 +20,6 @@ import dataclasses
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg import null_space
 from scipy.optimize import nnls
 
 AT_LIMIT_RAD = np.deg2rad(0.5)
@@ -91,7 +90,7 @@ def blockers(model: pin.Model, data: pin.Data, q: np.ndarray, situation: Situati
             miss = situation.com_target_xy - data.com[0][:2]
             push += situation.com_target_weight * J_com.T @ miss
     held = [pin.getFrameJacobian(model, data, fid, pin.LOCAL) for fid in situation.held_frame_ids]
-    N = null_space(np.vstack(held)) if held else np.eye(model.nv)
+    N = _null_space(np.vstack(held)) if held else np.eye(model.nv)
     b = N.T @ push
     if float(b @ b) < NO_PUSH**2:
         return ["no joint motion brings the target closer from here (a straight leg?)"]
@@ -136,3 +135,10 @@ def blockers(model: pin.Model, data: pin.Data, q: np.ndarray, situation: Situati
     return [
         label for label, share in sorted(out.items(), key=lambda x: -x[1]) if share >= SHARE_NAMED
     ]
+
+
+def _null_space(A: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
+    """Orthonormal basis (columns) of A's null space, from its full SVD."""
+    _, sigma, Vt = np.linalg.svd(A, full_matrices=True)
+    rank = int(np.sum(sigma > rtol * sigma[0])) if sigma.size else 0
+    return Vt[rank:].T
