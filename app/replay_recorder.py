@@ -21,7 +21,7 @@ from pathlib import Path
 import viser
 from viser.infra import StateSerializer
 
-from app.core.replay.folder import ReplayFolder, write_replay_folder
+from app.core.replay.folder import ReplayFolder, check_replay_target, write_replay_folder
 from app.core.replay.scene import ReplayError, ReplayScene
 from app.core.robot.model import RobotModel
 from app.views.ghosts_view import GHOSTS, OPACITY
@@ -140,8 +140,11 @@ def export_replay(
     out: Path,
     make_zip: bool = False,
     progress: Callable[[float], None] | None = None,
+    force: bool = False,
 ) -> RecordedReplay:
-    """Record the scene and write the replay folder at `out` (ReplayError on bad output)."""
+    """Record the scene and write the replay folder at `out` (ReplayError on bad output,
+    before anything is recorded)."""
+    check_replay_target(out, make_zip, force)
     client = viser_client_html()
     start = time.perf_counter()
     data = record(robot, scene, progress)
@@ -154,7 +157,7 @@ def export_replay(
         "traces": bool(scene.paths),
         "viser_version": viser.__version__,
     }
-    folder = write_replay_folder(out, data, client, scene.title, manifest, make_zip)
+    folder = write_replay_folder(out, data, client, scene.title, manifest, make_zip, force)
     if progress is not None:
         progress(1.0)
     return RecordedReplay(folder, scene.n_frames, scene.duration_s, time.perf_counter() - start)

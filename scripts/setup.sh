@@ -5,8 +5,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 extras="${1:-}"
 python="${PYTHON:-python3}"
-if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 10))'; then
-  echo "Biped Studio needs Python 3.10 or newer ($python is $("$python" --version 2>&1))." >&2
+# 3.11: mujoco 4 needs it, and the code uses tomllib and datetime.UTC.
+if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 11))' 2>/dev/null; then
+  echo "Biped Studio needs Python 3.11 or newer ($python is $("$python" --version 2>&1)); set PYTHON=python3.11 (or newer)." >&2
+  exit 1
+fi
+if ! "$python" -c 'import ensurepip, venv' 2>/dev/null; then
+  echo "Python's venv module is missing: on Debian/Ubuntu, sudo apt-get install python3-venv" >&2
   exit 1
 fi
 # A venv that no longer runs (its Python was removed, or the checkout moved: its scripts point
@@ -22,7 +27,9 @@ sys.exit(not pathlib.Path(app.__file__).resolve().is_relative_to(pathlib.Path(sy
 PY
   local interpreter
   interpreter="$(head -n 1 .venv/bin/pip 2>/dev/null | cut -c3-)"
-  [ -z "$interpreter" ] || [ -x "$interpreter" ]
+  [ -z "$interpreter" ] || [ -x "$interpreter" ] || return 1
+  # A venv made without pip (python3-venv missing at the time) never installs anything.
+  .venv/bin/python -m pip --version >/dev/null 2>&1
 }
 if [ -e .venv ] && ! venv_runs; then
   echo "The virtual environment in .venv no longer runs this checkout: making it anew…"

@@ -1,7 +1,11 @@
-"""Shared test helpers: paths of the third-party robots and a tiny biped URDF to mutate."""
+"""Shared test helpers: paths of the third-party robots, a tiny biped URDF to mutate, and the
+rule that a traceback in the studio's log fails the test that caused it."""
 
 from __future__ import annotations
 
+import logging
+import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -60,3 +64,64 @@ def write_urdf(tmp_path: Path):
         return path
 
     return write
+
+
+class _Tracebacks(logging.Handler):
+    """Every log record that carries a traceback (log.exception, exc_info=True)."""
+
+    def __init__(self) -> None:
+        super().__init__(level=logging.DEBUG)
+        self.records: list[logging.LogRecord] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if record.exc_info is not None and record.exc_info[0] is not None:
+            self.records.append(record)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line(
+        "markers",
+        "expected_traceback(logger, ...): the test provokes a failure that these loggers log "
+        "with its traceback by design (a third-party parser refusing a hostile file)",
+    )
+
+
+@pytest.fixture(autouse=True)
+def no_traceback_in_the_log(request: pytest.FixtureRequest) -> Iterator[None]:
+    """Fail a test during which the studio logged a traceback (a callback that raised, a
+    signal subscriber that failed, a thread that died), unless the test expects it from a
+    named logger. The studio's log is where an error hidden from the user shows."""
+    handler = _Tracebacks()
+    root = logging.getLogger()
+    root.addHandler(handler)
+    died: list[str] = []
+    previous_hook = threading.excepthook
+
+    def thread_died(args: threading.ExceptHookArgs) -> None:
+        name = args.thread.name if args.thread is not None else "?"
+        died.append(f"thread {name}: {args.exc_type.__name__}: {args.exc_value}")
+        previous_hook(args)
+
+    threading.excepthook = thread_died
+    try:
+        yield
+    finally:
+        threading.excepthook = previous_hook
+        root.removeHandler(handler)
+    allowed = {
+        name for mark in request.node.iter_markers("expected_traceback") for name in mark.args
+    }
+    unexpected = [
+        f"{record.name}: {record.getMessage()} ({record.exc_info[0].__name__}: "
+        f"{record.exc_info[1]})"
+        for record in handler.records
+        if record.exc_info is not None
+        and record.exc_info[0] is not None
+        and not any(record.name == a or record.name.startswith(a + ".") for a in allowed)
+    ]
+    if unexpected or died:
+        pytest.fail(
+            "traceback(s) in the studio's log during this test:\n  "
+            + "\n  ".join([*unexpected, *died]),
+            pytrace=False,
+        )

@@ -167,6 +167,6 @@ def test_replay_export_refuses_a_folder_of_other_files(tmp_path: Path):
     (tmp_path / "thesis.tex").write_text("precious")
     result = run("replay", "export", "--motion", "com_shift", "--out", str(tmp_path))
     assert result.returncode == 1
-    assert "holding other files" in result.stderr
+    assert "holding files this export did not write" in result.stderr
     assert (tmp_path / "thesis.tex").read_text() == "precious"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["thesis.tex"]

@@ -40,6 +40,9 @@ def add_parser(sub) -> None:
     export.add_argument("--fps", type=float, default=30.0, help="frames per second (≤ 60)")
     export.add_argument("--out", type=Path, required=True, help="replay folder to write")
     export.add_argument("--zip", action="store_true", help="also write OUT.zip")
+    export.add_argument(
+        "--force", action="store_true", help="with --zip: replace an existing OUT.zip"
+    )
     export.add_argument("--json", action="store_true")
     add_robot_argument(export)
     open_ = actions.add_parser("open", help="serve a replay folder on 127.0.0.1 and print its link")
@@ -58,11 +61,13 @@ def run(args: argparse.Namespace) -> int:
 def _export(args: argparse.Namespace) -> int:
     from app.core.budgets import check_dt
     from app.core.motions.library import resolve_params
+    from app.core.replay.folder import check_replay_target
     from app.core.replay.pipeline import headless_scene
     from app.core.replay.scene import check_frame_rate
     from app.core.simulation.files import default_servos
     from app.replay_recorder import export_replay
 
+    check_replay_target(args.out, args.zip, args.force)  # refused before any work
     params = _params(args.param)
     resolve_params(args.motion, params)  # bad names fail before loading
     check_dt(args.dt, "--dt")
@@ -80,7 +85,7 @@ def _export(args: argparse.Namespace) -> int:
         dt=args.dt,
         frame_rate_hz=args.fps,
     )
-    result = export_replay(robot, scene, args.out, make_zip=args.zip)
+    result = export_replay(robot, scene, args.out, make_zip=args.zip, force=args.force)
     folder = result.folder
     if args.json:
         report = {

@@ -46,11 +46,15 @@ class FileAccess:
 
     def allows(self, path: str | os.PathLike[str]) -> bool:
         """Whether `path`, symbolic links followed, lies inside one of the roots."""
+        if "\0" in os.fspath(path):  # no file has such a name (os calls raise ValueError)
+            return False
         resolved = Path(os.path.realpath(os.fspath(path)))
         return any(resolved == root or resolved.is_relative_to(root) for root in self.roots)
 
     def check(self, path: str | os.PathLike[str]) -> Path:
         """The resolved path if allowed; PathNotAllowed otherwise (revealing nothing about it)."""
+        if "\0" in os.fspath(path):
+            raise PathNotAllowed("a path cannot hold a NUL character; type the path again")
         if not self.allows(path):
             raise PathNotAllowed(
                 f"{os.fspath(path)}: not inside the folders the studio may open; start it with "

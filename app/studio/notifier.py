@@ -6,8 +6,10 @@ feature that failed (the session writes it) and as a notification from here.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
+import threading
 from typing import Literal
 
 import viser
@@ -65,14 +67,28 @@ class Notifier:
 
 
 class Progress:
+    """A loading notification in one or more tabs. Once `done`, it is gone: later `say`s are
+    dropped (viser raises on a removed handle), and a tab that closed meanwhile is skipped."""
+
     def __init__(self, handles: list[viser.NotificationHandle]) -> None:
         self._handles = handles
+        self._lock = threading.Lock()
+        self._done = False
 
     def say(self, body: str) -> None:
         """Replace the notification's text (the stage a long task is in)."""
-        for handle in self._handles:
-            handle.body = body
+        with self._lock:
+            if self._done:
+                return
+            for handle in self._handles:
+                with contextlib.suppress(RuntimeError):  # its tab closed meanwhile
+                    handle.body = body
 
     def done(self) -> None:
-        for handle in self._handles:
-            handle.remove()
+        with self._lock:
+            if self._done:
+                return
+            self._done = True
+            for handle in self._handles:
+                with contextlib.suppress(RuntimeError):
+                    handle.remove()

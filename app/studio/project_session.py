@@ -247,6 +247,8 @@ class ProjectSession:
         against the allowed folders, which guard paths typed in a browser)."""
         if not str(path).strip():
             return self._fail("Nothing to open", "type the path of a .bstudio file", client)
+        if "\0" in str(path):  # Path.exists would raise ValueError on it
+            return self._fail("Project not opened", "a path cannot hold a NUL character", client)
         typed = Path(str(path).strip()).expanduser()
         if len(typed.parts) == 1 and not typed.exists():
             typed = self.projects_dir / typed

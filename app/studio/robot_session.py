@@ -168,6 +168,7 @@ class RobotSession:
             report = robot_report(robot)
             stage("preparing the posing")
             prepare(robot)
+            stage("building the scene")
         except StudioError as error:
             self._fail("Could not load the robot", str(error), client)
             return False
@@ -182,7 +183,6 @@ class RobotSession:
             return False
         finally:
             progress.done()
-        stage("building the scene")
         with self._state.lock, self._server.atomic():
             self._state.set_robot(robot, report)
         problems = f", {len(report.problems)} problem(s) in the report" if report.problems else ""
@@ -211,8 +211,11 @@ class RobotSession:
         self.stage.emit(text)
 
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
-        kept = " — the previous robot is still loaded." if self._state.robot is not None else "."
+        loaded = self._state.robot
+        kept = " — the previous robot is still loaded." if loaded is not None else "."
         self.panel.show_status(f"⚠️ {body}{kept}")
+        if loaded is not None:  # the dropdown shows what is loaded, not what was refused
+            self.panel.show_builtin(loaded.name)
         self._notifier.error(title, f"{body}{kept}", client)
 
     # --- state changes --------------------------------------------------------------------

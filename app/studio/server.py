@@ -29,6 +29,7 @@ from app.studio.robot_session import RobotSession, prepare
 from app.studio.share_session import ShareSession
 from app.studio.state import StudioState
 from app.studio.sweep_session import SweepSession
+from app.web.callback_guard import guard_callbacks
 from app.web.guard import guarded_server
 
 
@@ -58,6 +59,8 @@ class Studio:
             shadow_opacity=0.2,
         )
         self.notifier = Notifier(self.server)
+        # No silent failure: whatever a tab's action raises reaches that tab in one line.
+        guard_callbacks(self.server, self.notifier.error)
         self.state = StudioState()
         server, state, notifier = self.server, self.state, self.notifier
         self.robots = RobotSession(server, state, notifier, config)

@@ -23,6 +23,7 @@ import pytest
 
 from app.config import StudioConfig
 from app.studio import Studio
+from tests.browser.page_helpers import HIDE_WEBGL_NOTICE_SCRIPT
 
 HERE = Path(__file__).resolve().parent
 CHROMIUM = Path(os.environ.get("BIPED_STUDIO_CHROMIUM", "/usr/bin/chromium"))
@@ -114,8 +115,9 @@ def chromium() -> Iterator[object]:
 def browser_page(chromium) -> Iterator[object]:
     """A fresh 1280x800 page, shared by the tests of a module (page loads are slow)."""
     context = chromium.new_context(viewport=VIEWPORT)
+    context.add_init_script(HIDE_WEBGL_NOTICE_SCRIPT)
     page = context.new_page()
-    page.set_default_timeout(30_000)
+    page.set_default_timeout(120_000)  # bounds a hang; busy machines are slow
     try:
         yield page
     finally:

@@ -80,6 +80,50 @@ def test_a_file_or_a_foreign_folder_is_not_overwritten(tmp_path):
     assert target.read_text() == "keep"
 
 
+def test_a_sibling_named_like_the_old_replay_is_left_alone(tmp_path):
+    """The earlier replay moves aside under a fresh name: the user's own `.replay.old` (the
+    name the writer once used and removed wholesale) is not touched."""
+    out = tmp_path / "replay"
+    write_replay_folder(out, b"one", _client(tmp_path), "A", {})
+    theirs = tmp_path / ".replay.old"
+    theirs.mkdir()
+    (theirs / "thesis.tex").write_text("keep")
+    write_replay_folder(out, b"two", _client(tmp_path), "B", {})
+    assert (theirs / "thesis.tex").read_text() == "keep"
+    assert (out / RECORDING).read_bytes() == b"two"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".replay.old", "client.html", "replay"]
+
+
+def test_a_replay_folder_holding_other_files_is_not_replaced(tmp_path):
+    out = tmp_path / "replay"
+    write_replay_folder(out, b"one", _client(tmp_path), "A", {})
+    (out / "notes.md").write_text("mine")
+    with pytest.raises(ReplayError, match="did not write"):
+        write_replay_folder(out, b"two", _client(tmp_path), "B", {})
+    assert (out / "notes.md").read_text() == "mine" and (out / RECORDING).read_bytes() == b"one"
+
+
+def test_a_folder_whose_manifest_is_not_ours_is_not_replaced(tmp_path):
+    out = tmp_path / "replay"
+    out.mkdir()
+    (out / MANIFEST).write_text('{"format": "someone-else"}')
+    with pytest.raises(ReplayError, match="did not write"):
+        write_replay_folder(out, b"x", _client(tmp_path), "t", {})
+    assert (out / MANIFEST).read_text() == '{"format": "someone-else"}'
+
+
+def test_an_existing_zip_is_kept_unless_forced(tmp_path):
+    out = tmp_path / "replay"
+    archive = tmp_path / "replay.zip"
+    archive.write_bytes(b"the user's zip")
+    with pytest.raises(ReplayError, match="--force"):
+        write_replay_folder(out, b"one", _client(tmp_path), "A", {}, make_zip=True)
+    assert archive.read_bytes() == b"the user's zip" and not out.exists()
+    write_replay_folder(out, b"one", _client(tmp_path), "A", {}, make_zip=True, force=True)
+    with zipfile.ZipFile(archive) as replaced:
+        assert replaced.read("replay/recording.viser") == b"one"
+
+
 def test_check_accepts_links_inside_and_refuses_links_outside(tmp_path):
     folder = tmp_path / "r"
     folder.mkdir()

@@ -73,6 +73,15 @@ def npy(array: np.ndarray) -> bytes:
     return buffer.getvalue()
 
 
+def npy_header(shape: tuple[int, ...]) -> bytes:
+    """An .npy header declaring `shape` of float64, with no data after it."""
+    buffer = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        buffer, {"descr": "<f8", "fortran_order": False, "shape": shape}
+    )
+    return buffer.getvalue()
+
+
 def _set(path: list, value: object) -> Callable[[dict], None]:
     def edit(manifest: dict) -> None:
         node = manifest
@@ -158,6 +167,14 @@ CASES = {
             g, text=lambda t: t[:-1] + ',"pad":' + "[" * 100_000 + "]" * 100_000 + "}"
         ),
         r"nested too deeply|not valid JSON",
+    ),
+    "huge declared shape (allocated before it is read)": (
+        lambda g: rewrite(g, entries={"arrays/project.q.npy": npy_header((10**9, 10**6)) + b"x"}),
+        r"project.q: its header declares shape \(1000000000, 1000000\) .* but the entry holds",
+    ),
+    "fewer bytes than the header says": (
+        lambda g: rewrite(g, entries={"arrays/project.q.npy": npy(np.zeros(19))[:-8]}),
+        r"project.q: its header declares shape \(19,\) of float64 \(152 bytes\)",
     ),
     "motion of the wrong length": (
         lambda g: rewrite(g, entries={"arrays/project.motion.t.npy": npy(np.arange(5) * 0.01)}),

@@ -300,3 +300,24 @@ def test_motion_budget_is_checked_before_solving() -> None:
     robot = load_robot("servo_biped")
     with pytest.raises(BudgetExceeded, match="samples; at most 100000"):
         run_motion(robot, "one_leg_squats", dt=1e-4, squats=100)
+
+
+def test_a_nul_in_a_typed_path_is_one_line_everywhere(tmp_path: Path) -> None:
+    """*Save as*, *Open* and *Open path* with a NUL byte in the path: refused in one line, no
+    traceback (os calls raise ValueError on such a name), the work kept."""
+    from tests.studio.conftest import start_studio
+
+    studio = start_studio(tmp_path / "data")
+    try:
+        robot = studio.state.robot
+        for action in (
+            lambda: studio.project.save_as("my\0project"),
+            lambda: studio.project.open("my\0project.bstudio"),
+            lambda: studio.robots.load("robot\0.urdf"),
+        ):
+            assert action() is False
+            assert "NUL" in studio.notifier.last_error
+            assert "\n" not in studio.notifier.last_error
+        assert studio.state.robot is robot
+    finally:
+        studio.stop()

@@ -108,5 +108,16 @@ def loop():
     thread = threading.Thread(target=loop.run_forever, daemon=True)
     thread.start()
     yield loop
+
+    async def drain() -> None:
+        """End the tabs' readers and keepalives before the loop stops: destroyed pending tasks
+        make asyncio log errors into the next test."""
+        tasks = [task for task in asyncio.all_tasks() if task is not asyncio.current_task()]
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+
+    asyncio.run_coroutine_threadsafe(drain(), loop).result(60)
     loop.call_soon_threadsafe(loop.stop)
     thread.join()
+    loop.close()

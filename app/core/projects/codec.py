@@ -237,11 +237,8 @@ class Reader:
 
     def _array(self, data: Json, where: str, owner: str) -> np.ndarray:
         raw = self.blob(self._entry_of(data, "array", where))
-        try:
-            array = np.load(io.BytesIO(raw), allow_pickle=False)
-        except (ValueError, OSError, EOFError) as error:
-            raise ProjectError(f"{where}: not a readable array ({error})") from None
-        if not isinstance(array, np.ndarray) or array.dtype.kind not in "fiub":
+        array = read_npy(raw, where)
+        if array.dtype.kind not in "fiub":
             raise ProjectError(f"{where}: an array of numbers or booleans is needed")
         if (
             array.dtype.kind == "f"
@@ -250,6 +247,34 @@ class Reader:
         ):
             raise ProjectError(f"{where} contains NaN or infinite values; give finite numbers")
         return array
+
+
+def read_npy(raw: bytes, where: str) -> np.ndarray:
+    """The array of an `.npy` entry, its header checked against its bytes *before* anything is
+    allocated: a header that declares a huge shape (np.load would allocate it first and fail
+    with MemoryError) or a byte count that does not match is refused with one line."""
+    stream = io.BytesIO(raw)
+    try:
+        version = np.lib.format.read_magic(stream)
+        if version == (1, 0):
+            shape, fortran, dtype = np.lib.format.read_array_header_1_0(stream)
+        elif version == (2, 0):
+            shape, fortran, dtype = np.lib.format.read_array_header_2_0(stream)
+        else:
+            raise ValueError(f".npy format version {version[0]}.{version[1]} is not read")
+    except (ValueError, OSError, EOFError, SyntaxError) as error:
+        raise ProjectError(f"{where}: not a readable array ({error})") from None
+    if dtype.hasobject:
+        raise ProjectError(f"{where}: not a readable array (it holds Python objects)")
+    count = math.prod(shape)
+    body = memoryview(raw)[stream.tell() :]
+    if count * dtype.itemsize != len(body):
+        raise ProjectError(
+            f"{where}: its header declares shape {tuple(shape)} of {dtype} "
+            f"({count * dtype.itemsize} bytes) but the entry holds {len(body)} bytes"
+        )
+    flat = np.frombuffer(body, dtype=dtype, count=count)
+    return flat.reshape(shape, order="F" if fortran else "C").copy(order="C")
 
 
 def _show(data: Json) -> str:

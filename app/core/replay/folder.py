@@ -8,7 +8,10 @@ server, and nothing of the studio.
     DIR/README.txt       how to open it
 
 The folder is built beside DIR and moved into place whole, so a failed export leaves what was
-at DIR untouched. DIR may be missing, empty, or an earlier replay; anything else is refused.
+at DIR untouched. DIR may be missing, empty, or an earlier replay (its replay.json says
+FORMAT and it holds only the files above); anything else is refused, and nothing outside DIR
+is ever removed (the earlier replay is moved aside under a fresh name of our own while the
+new one moves in). An existing DIR.zip is replaced only when asked (`force`).
 """
 
 from __future__ import annotations
@@ -71,10 +74,11 @@ def write_replay_folder(
     title: str,
     manifest: dict[str, object],
     make_zip: bool = False,
+    force: bool = False,
 ) -> ReplayFolder:
-    """Write the replay folder at `out` (and `out.zip` beside it when asked)."""
-    out = Path(os.path.normpath(Path(out).absolute()))  # "." and "a/.." have a name and a parent
-    _check_target(out)
+    """Write the replay folder at `out` (and `out.zip` beside it when asked; an existing zip
+    is replaced only with `force`)."""
+    out = check_replay_target(out, make_zip, force)
     parent = out.parent
     try:
         parent.mkdir(parents=True, exist_ok=True)
@@ -101,20 +105,46 @@ def write_replay_folder(
     return ReplayFolder(out, zip_path, len(recording), total)
 
 
-def _check_target(out: Path) -> None:
+OWN_FILES = frozenset({INDEX, VIEWER, RECORDING, MANIFEST, README})
+
+
+def check_replay_target(out: Path, make_zip: bool = False, force: bool = False) -> Path:
+    """`out` made absolute, if a replay may be written there: missing, an empty folder or an
+    earlier replay of ours; with `make_zip`, no `out.zip` unless `force`. ReplayError (one
+    line) otherwise: call it before recording, so a refusal costs nothing."""
+    out = Path(os.path.normpath(Path(out).absolute()))  # "." and "a/.." have a name and a parent
     if out.is_symlink() or (out.exists() and not out.is_dir()):
         raise ReplayError(f"{out} exists and is not a folder; choose another --out")
-    if out.is_dir() and any(out.iterdir()) and not (out / MANIFEST).is_file():
-        raise ReplayError(f"{out} is a folder holding other files; choose an empty or new folder")
+    if out.is_dir() and any(out.iterdir()) and not _is_own_replay(out):
+        raise ReplayError(
+            f"{out} is a folder holding files this export did not write; "
+            "choose an empty or new folder"
+        )
+    archive = out.with_name(out.name + ".zip")
+    if make_zip and (archive.exists() or archive.is_symlink()) and not force:
+        raise ReplayError(f"{archive} exists; pass --force to replace it, or choose another --out")
+    return out
+
+
+def _is_own_replay(folder: Path) -> bool:
+    """An earlier export: only our files, plain ones, and a replay.json that says so."""
+    try:
+        entries = list(folder.iterdir())
+        if any(e.name not in OWN_FILES or e.is_symlink() or not e.is_file() for e in entries):
+            return False
+        info = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(info, dict) and info.get("format") == FORMAT
 
 
 def _swap_into_place(staging: Path, out: Path) -> None:
-    """Move the finished folder to `out`, replacing an earlier replay (or an empty folder)."""
+    """Move the finished folder to `out`, replacing an earlier replay (or an empty folder).
+    The earlier one waits under a fresh name of our own (never a name someone else uses)."""
     old = None
     if out.exists():
-        old = out.with_name(f".{out.name}.old")
-        shutil.rmtree(old, ignore_errors=True)
-        out.rename(old)
+        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
+        out.rename(old)  # over the fresh empty folder
     try:
         staging.rename(out)
     except OSError:
