@@ -15,7 +15,7 @@ import viser
 
 from app.core.errors import StudioError
 from app.core.posing.drag import Posing
-from app.core.posing.ik import IkResult
+from app.core.posing.ik import OUT_OF_REACH, IkResult
 from app.core.posing.ready_pose import ready_pose
 from app.core.robot.model import RobotModel
 from app.studio.coalesce import Coalescer
@@ -218,9 +218,17 @@ class PoseSession:
         result = self.last_result
         lines = [f"Stance: **{stance}**"]
         if result is not None:
-            lines.append("Target reached ✓" if result.reached else "Target **not reached**")
+            if result.reached:
+                lines.append("Target reached ✓")
+            else:  # what is missed by how much, and what holds the pose back
+                lines.append("**Closest reachable pose** (target not reached):")
+                lines.extend(f"- {reason}" for reason in result.shortfall)
             lines.append(f"CoM margin in support: {result.com_margin_m * 1000:.0f} mm")
             if result.joints_near_limit:
                 lines.append("Near a limit: " + ", ".join(result.joints_near_limit))
-            lines.extend(f"⚠️ {warning}" for warning in result.warnings)
+            lines.extend(
+                f"⚠️ {warning}"
+                for warning in result.warnings
+                if not (result.shortfall and OUT_OF_REACH in warning)  # said above
+            )
         return "  \n".join(lines)

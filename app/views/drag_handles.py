@@ -57,6 +57,10 @@ class DragHandles:
             ):
                 push_pose(control, T[:3, 3], wxyz)
 
+    def handle(self, which: str) -> viser.TransformControlsHandle:
+        """The gizmo of "left", "right" or "pelvis" (its scale, and where a drag left it)."""
+        return self._controls[which]
+
     def set_visible(self, visible: bool) -> None:
         for control in self._controls.values():
             control.visible = visible

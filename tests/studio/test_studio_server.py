@@ -216,7 +216,10 @@ def test_unreachable_drag_keeps_a_finite_pose_and_says_so(studio):
     target[:3, 3] += [1.0, 0.5, 0.4]
     studio.pose.request_drag("left", target)
     assert np.all(np.isfinite(studio.state.q))
-    assert "out of reach" in studio.pose.panel.status.content
+    status = studio.pose.panel.status.content
+    assert (
+        "Closest reachable pose" in status and "left foot" in status and "from its target" in status
+    )
     for joint, angle in zip(
         studio.state.robot.joints, studio.state.robot.joint_angles(studio.state.q), strict=True
     ):

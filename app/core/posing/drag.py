@@ -3,6 +3,17 @@
 Pure state and computation (no GUI): the studio feeds drag targets in and draws what comes
 out. Dragging a foot makes the other foot the stance foot; dragging the pelvis keeps the
 current stance.
+
+A drag is a gesture: its events (one per gizmo move) continue it while each starts from the
+pose the previous one returned; any other pose (a button, a slider, another handle) starts a
+new one. Through a gesture:
+- the posture task pulls towards the pose the gesture started from, so that the joints the
+  targets leave free stay where the user left them, whatever path the handle took;
+- a foot drag holds the torso at its orientation at the start (IkTargets.R_world_torso): the
+  legs lift the foot, the body does not fold over to reach it;
+- a foot drag that starts with the moving leg straight (standing: a singular leg, whose knee
+  does not lift the foot to first order) starts from the knees bent instead
+  (app.core.posing.ready_pose.crouch: the pelvis READY_CROUCH of the leg lower).
 """
 
 from __future__ import annotations
@@ -14,6 +25,7 @@ import pinocchio as pin
 
 from app.core.errors import StudioError
 from app.core.posing.ik import IkResult, IkTargets, Stance, WholeBodyIK
+from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT, crouch, leg_is_straight
 from app.core.robot.model import RobotModel
 
 MAX_DRAG_DISTANCE_M = 100.0
@@ -66,6 +78,21 @@ class Balance:
     """4x4 placements of the sole corners of the stance feet."""
 
 
+@dataclasses.dataclass(frozen=True)
+class _Gesture:
+    """A drag in progress (module docstring)."""
+
+    which: str
+    q_start: np.ndarray
+    """The pose it started from (the knees bent first if the moving leg was straight): the
+    posture task's target."""
+    R_world_torso: np.ndarray | None
+    """The torso's orientation at q_start, held through a foot drag (None for the pelvis)."""
+    q_last: bytes
+    """The configuration its last event returned (exact bytes): the next event continues the
+    gesture only from there."""
+
+
 class Posing:
     """Drag-to-pose state of one robot."""
 
@@ -74,6 +101,11 @@ class Posing:
         self.ik = WholeBodyIK(robot, com_in_support=com_in_support)
         self.stance: Stance = "both"
         self._data = robot.model.createData()
+        self._gesture: _Gesture | None = None
+        self._crouch_ik: WholeBodyIK | None = None
+        """The IK that bends straight legs at a gesture's start, made on first need: its
+        solve holds both feet (hard equalities that a 5-DOF leg cannot take, which would
+        turn the drag IK's stance soft for good) and counts as no drag solve."""
 
     @property
     def com_in_support(self) -> bool:
@@ -90,16 +122,39 @@ class Posing:
             raise DragTargetError("the drag target is not a finite placement; drag again")
         if which not in ("left", "right", "pelvis"):
             raise DragTargetError(f"no handle named {which!r}; handles: left, right, pelvis")
+        gesture = self._gesture
+        if gesture is None or gesture.which != which or gesture.q_last != q.tobytes():
+            gesture = self._start(q, which)
+            q = gesture.q_start
         if which in ("left", "right"):
             other = "right" if which == "left" else "left"
             if self.stance in (which, "both"):
                 self.stance = other  # type: ignore[assignment]
             targets = IkTargets(
-                **{f"T_world_{which}": T_world_target}, stance=self.stance, posture_q=q
+                **{f"T_world_{which}": T},
+                stance=self.stance,
+                posture_q=gesture.q_start,
+                R_world_torso=gesture.R_world_torso,
             )
         else:
-            targets = IkTargets(T_world_pelvis=T_world_target, stance=self.stance, posture_q=q)
-        return self.ik.solve(q, targets)
+            targets = IkTargets(T_world_pelvis=T, stance=self.stance, posture_q=gesture.q_start)
+        result = self.ik.solve(q, targets)
+        self._gesture = dataclasses.replace(gesture, q_last=result.q.tobytes())
+        return result
+
+    def _start(self, q: np.ndarray, which: str) -> _Gesture:
+        """A new gesture from q: from the knees bent when a foot is dragged on a straight leg."""
+        robot = self.robot
+        start = np.array(q, dtype=float)
+        if which == "pelvis" or not robot.floating_base:
+            return _Gesture(which, start, None, b"")
+        if leg_is_straight(robot, start, which):
+            if self._crouch_ik is None:
+                self._crouch_ik = WholeBodyIK(robot, posture_weight=MOTION_POSTURE_WEIGHT)
+            start = crouch(robot, start, self._crouch_ik, stance="both").q
+        pin.framesForwardKinematics(robot.model, self._data, start)
+        R = self._data.oMf[robot.link_frame_ids[robot.tree.root]].rotation.copy()
+        return _Gesture(which, start, R, b"")
 
     def snap_feet_to_ground(self, q: np.ndarray) -> IkResult:
         """Put both soles flat on z = 0, keeping each foot's x, y and heading; both feet stance after."""

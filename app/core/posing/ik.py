@@ -9,7 +9,14 @@ Built on placo's KinematicsSolver (a QP per step over the configuration incremen
   a pull towards the polygon while outside (see COM_PULL_WEIGHT);
 - joint limits are hard; declared loop closures are heavily weighted relative-position tasks,
   polished to numerical precision by app.core.robot.loops;
-- a light posture task towards the standing pose keeps the redundancy from wandering.
+- a light posture task towards the standing pose keeps the redundancy from wandering;
+- the torso (the root link) can be held at an orientation (soft, TORSO_WEIGHT): drag posing
+  holds it as it was, so that a foot out of the legs' easy reach does not fold the body.
+
+A result that misses a target, or whose torso turned more than TORSO_TURN_RAD from where it
+was held, is not `reached`; its `shortfall` says by how much and what holds it back
+(app.core.posing.shortfall: a joint at a limit the targets push against, the CoM polygon, the
+torso hold).
 
 Each `solve` iterates the QP from the given configuration until the step vanishes.
 """
@@ -25,6 +32,7 @@ import pinocchio as pin
 import placo
 from scipy.spatial import ConvexHull, QhullError
 
+from app.core.posing.shortfall import Bounded, Goal, Situation, blockers
 from app.core.posing.stance import anchor_on_foot
 from app.core.robot.loops import close_loops
 from app.core.robot.model import RobotModel
@@ -68,6 +76,21 @@ first steps of a solve are large, nonlinear moves whose ratio says nothing of th
 ANCHORED_M = 1e-10
 """[m, and rotation-matrix entries] A stance foot this close to its target needs no rigid
 correction of the base (most solves end with the held foot within ~1e-12 of it)."""
+TORSO_WEIGHT = 1.0
+"""[per rad², beside the moving foot's 1 per m²] of the torso hold: tilting the torso by a
+degree costs what missing the foot by 17 mm does, so the legs do the work and a lean appears
+only for a target the legs cannot reach (then reported: TORSO_TURN_RAD)."""
+HELD_MERIT_WEIGHT = 100.0
+"""While the torso is held, the held feet's drift from their targets weighs this much in the
+goal cost that accepts steps: near the edge of what the legs reach upright, the QP asks for
+long steps whose second-order drift of a held foot (the QP holds it to first order only) can
+reach centimetres; the rigid correction of the base (_anchor) would then swing the whole
+robot by that much."""
+TORSO_TURN_RAD = np.deg2rad(5.0)
+"""A torso held at an orientation that ends further than this from it is a fold the user did
+not ask for: the result is not `reached`."""
+OUT_OF_REACH = " target out of reach: closest pose is "
+"""The words of the warning a missed target gives (its distance follows)."""
 STANCE_WEIGHT = 1e4
 """Stance feet are soft tasks of overwhelming weight rather than hard equalities: with both
 feet of a 5-DOF-leg robot (dircon_biped) held, hard 6-D equalities are rank-deficient and
@@ -91,6 +114,9 @@ class IkTargets:
     what the targets leave free); None for the standing pose. Drag posing passes the pose
     before the drag, so that moving a foot moves its leg and leaves the rest near where it
     was."""
+    R_world_torso: np.ndarray | None = None
+    """Orientation (3x3) the torso (the root link) is held at (soft, TORSO_WEIGHT); None leaves
+    it free. Not used with a pelvis target (whose orientation is the pelvis's)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -107,6 +133,10 @@ class IkResult:
     """Distance of the CoM's ground projection inside the support polygon [m] (negative: outside)."""
     joints_near_limit: tuple[str, ...]
     warnings: tuple[str, ...]
+    shortfall: tuple[str, ...] = ()
+    """Why this is only the closest reachable pose (empty when reached): each target missed
+    and by how much, the torso turned from where it was held, then what holds the pose back
+    (a joint at a limit the targets push against, the CoM polygon, the torso hold)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -156,6 +186,10 @@ class WholeBodyIK:
         self._pelvis: placo.FrameTask | None = None
         """The pelvis task while a solve has a pelvis target (added then, removed after: see
         _com_target)."""
+        self._torso: placo.OrientationTask | None = None
+        """The torso hold while a solve has one (added then, removed after)..."""
+        self._torso_goal: np.ndarray | None = None
+        """...and the orientation it holds (also in the goal cost)."""
         for loop in robot.tree.loops:
             task = self._solver.add_relative_position_task(loop.link_a, loop.link_b, np.zeros(3))
             # Soft but dominant: a planar loop's out-of-plane rows are rank-deficient as hard
@@ -167,6 +201,13 @@ class WholeBodyIK:
         """Configuration index of each joint with limits (not continuous), in joint order."""
         self._bounded_lower = np.array([joint.lower for joint in bounded], dtype=float)
         self._bounded_upper = np.array([joint.upper for joint in bounded], dtype=float)
+        self._bounded_info = Bounded(
+            self._bounded_names,
+            np.array([joint.idx_v for joint in bounded], dtype=int),
+            self._bounded_q,
+            self._bounded_lower,
+            self._bounded_upper,
+        )
         self._foot_ids = {foot.side: robot.link_frame_ids[foot.link] for foot in robot.feet}
         self._stance_feet = {
             stance: tuple(foot for foot in robot.feet if stance in (foot.side, "both"))
@@ -217,6 +258,9 @@ class WholeBodyIK:
         """The target each soft goal's task holds now (its goal, or a clamped one)."""
         self._goal_parts: list[tuple[str, np.ndarray, np.ndarray]] = []
         """(frame, position, rotation) of each soft goal, contiguous."""
+        self._held_parts: list[tuple[str, np.ndarray, np.ndarray]] = []
+        """(frame, position, rotation) of each held foot's target (in the goal cost with
+        HELD_MERIT_WEIGHT while a torso is held)."""
 
     def _configure_foot(self, side: str, role: Literal["moving", "held"]) -> None:
         """A moving foot is a soft task; a held one hard (or of STANCE_WEIGHT once hard stance
@@ -285,6 +329,12 @@ class WholeBodyIK:
     def _margin_of(self, com_xy: np.ndarray, polygon: np.ndarray) -> float:
         """Signed distance [m] of a point inside a convex polygon (its edges' inward normals
         kept for the last polygon asked about)."""
+        normals, offsets = self._edges(polygon)
+        return float((offsets - normals.dot(com_xy)).min())
+
+    def _edges(self, polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(outward unit normals, offsets) of a counter-clockwise polygon's edges: a point p
+        is inside when normals·p ≤ offsets (cached for the last polygon asked about)."""
         if self._halfplanes is None or self._halfplanes[0] is not polygon:
             edges = np.roll(polygon, -1, axis=0) - polygon
             normals = (
@@ -292,8 +342,7 @@ class WholeBodyIK:
                 / np.linalg.norm(edges, axis=1)[:, None]
             )
             self._halfplanes = (polygon, normals, np.einsum("ij,ij->i", polygon, normals))
-        _, normals, offsets = self._halfplanes
-        return float((offsets - normals.dot(com_xy)).min())
+        return self._halfplanes[1], self._halfplanes[2]
 
     def _guard_com(self, polygon: np.ndarray) -> None:
         """Hard CoM-in-polygon constraint once the CoM is inside (the QP stays feasible from
@@ -439,6 +488,20 @@ class WholeBodyIK:
                 break
         return q, iterations
 
+    def _hold_torso(self, R_world: np.ndarray | None) -> None:
+        """Hold the torso at R_world (soft, TORSO_WEIGHT), or (None) not at all."""
+        if R_world is None:
+            if self._torso is not None:
+                self._solver.remove_task(self._torso)
+                self._torso = None
+            self._torso_goal = None
+            return
+        if self._torso is None:
+            self._torso = self._solver.add_orientation_task(self._pelvis_frame, np.eye(3))
+            self._torso.configure("torso", "soft", TORSO_WEIGHT)
+        self._torso_goal = np.array(R_world, dtype=float)
+        self._torso.R_world_frame = self._torso_goal
+
     def _aim(self, goals: list, aimed: list[np.ndarray]) -> None:
         """Each soft goal's task aimed at its goal, or MAX_STEP towards it when it is further
         (from where the goal cost was last computed)."""
@@ -451,7 +514,10 @@ class WholeBodyIK:
                 aimed[i] = aim
 
     def _goal_cost(self) -> float:
-        """Weighted distance of the soft goals: Σ |Δp|² [m²] + ROTATION_WEIGHT·|Δθ|² [rad²]."""
+        """Weighted distance of the soft goals: Σ |Δp|² [m²] + ROTATION_WEIGHT·|Δθ|² [rad²];
+        while a torso is held, its turn from the hold (TORSO_WEIGHT·|Δθ|², as in the QP: a
+        step that straightens the torso while the foot lags is a step forward) and the held
+        feet's drift (HELD_MERIT_WEIGHT)."""
         cost = 0.0
         here = []
         get = self._wrapper.get_T_world_frame
@@ -463,6 +529,15 @@ class WholeBodyIK:
             cost += squared + ROTATION_WEIGHT * turned
             here.append((current, turn, squared > MAX_STEP_M**2 or turned > MAX_STEP_RAD**2))
         self._goals_here = here
+        if self._torso_goal is not None:
+            turn = pin.log3(get(self._pelvis_frame)[:3, :3].T.dot(self._torso_goal))
+            cost += TORSO_WEIGHT * float(turn.dot(turn))
+            for frame, position, rotation in self._held_parts:
+                current = get(frame)
+                delta = position - current[:3, 3]
+                turn = pin.log3(current[:3, :3].T.dot(rotation))
+                drift = float(delta.dot(delta)) + ROTATION_WEIGHT * float(turn.dot(turn))
+                cost += HELD_MERIT_WEIGHT * drift
         return cost
 
     def _anchor(self, q: np.ndarray, stance_targets: dict[str, np.ndarray]) -> np.ndarray:
@@ -564,6 +639,11 @@ class WholeBodyIK:
         elif self._pelvis is not None:
             self._solver.remove_task(self._pelvis)
             self._pelvis = None
+        self._hold_torso(None if targets.T_world_pelvis is not None else targets.R_world_torso)
+        self._held_parts = [
+            (robot.foot(side).link, wanted[side][:3, 3].copy(), wanted[side][:3, :3].copy())
+            for side in stance_sides
+        ]
         self._aimed = [goal for _, _, goal in self._soft_goals]
         self._goal_parts = [
             (frame, goal[:3, 3].copy(), goal[:3, :3].copy()) for _, frame, goal in self._soft_goals
@@ -627,12 +707,27 @@ class WholeBodyIK:
         reached = all(
             position_error[k] < REACHED_M and orientation_error[k] < REACHED_RAD for k in wanted
         )
+        shortfall = [
+            f"{k if k == 'pelvis' else k + ' foot'} {position_error[k] * 1000:.1f} mm, "
+            f"{np.rad2deg(orientation_error[k]):.1f}° from its target"
+            for k in wanted
+            if position_error[k] >= REACHED_M or orientation_error[k] >= REACHED_RAD
+        ]
         if not reached:
             worst = max(wanted, key=lambda k: position_error[k])
             warnings.append(
-                f"{worst} target out of reach: closest pose is {position_error[worst] * 1000:.1f} mm, "
+                f"{worst}{OUT_OF_REACH}{position_error[worst] * 1000:.1f} mm, "
                 f"{np.rad2deg(orientation_error[worst]):.1f}° away"
             )
+        if self._torso_goal is not None:
+            R = oMf[robot.link_frame_ids[self._pelvis_frame]].rotation
+            turn = pin.log3(self._torso_goal.T.dot(R))
+            orientation_error["torso"] = math.sqrt(float(turn.dot(turn)))
+            if orientation_error["torso"] >= TORSO_TURN_RAD:
+                reached = False
+                shortfall.append(
+                    f"torso turned {np.rad2deg(orientation_error['torso']):.0f}° from where it was"
+                )
         if polygon is None:
             polygon = self._polygon_here(targets.stance, feet)
         com_xy = np.array(pin.centerOfMass(robot.model, data, False))[:2]  # data placed at q
@@ -644,7 +739,10 @@ class WholeBodyIK:
                 warnings.append(
                     f"CoM target out of reach: {position_error['com'] * 1000:.1f} mm away"
                 )
+                shortfall.append(f"CoM {position_error['com'] * 1000:.1f} mm from its target")
         margin = self._margin_of(com_xy, polygon)
+        if not reached:
+            shortfall += self._blockers(q, targets, wanted)
         self._ended = _Ended(
             q.tobytes(),
             targets.stance,
@@ -662,8 +760,49 @@ class WholeBodyIK:
                 if close
             )
         return IkResult(
-            q, reached, iterations, position_error, orientation_error, margin, near, tuple(warnings)
+            q,
+            reached,
+            iterations,
+            position_error,
+            orientation_error,
+            margin,
+            near,
+            tuple(warnings),
+            tuple(shortfall),
         )
+
+    def _blockers(
+        self, q: np.ndarray, targets: IkTargets, wanted: dict[str, np.ndarray]
+    ) -> list[str]:
+        """What holds q back from the soft targets (app.core.posing.shortfall); self._data's
+        frames are placed at q."""
+        robot = self.robot
+        ids = robot.link_frame_ids
+        stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
+        goals = [
+            Goal(ids[self._pelvis_frame] if k == "pelvis" else self._foot_ids[k], T)
+            for k, T in wanted.items()
+            if k not in stance_sides
+        ]
+        edges = None
+        if self._polygon_on and self._polygon_wanted is not OFF_POLYGON:
+            normals, offsets = self._edges(self._polygon_wanted)
+            edges = (normals, offsets - self.com_margin_m)
+        torso = None
+        if self._torso_goal is not None:
+            torso = (ids[self._pelvis_frame], self._torso_goal, TORSO_WEIGHT)
+        situation = Situation(
+            tuple(goals),
+            tuple(self._foot_ids[side] for side in stance_sides),
+            self._bounded_info,
+            None if targets.com_xy is None else np.asarray(targets.com_xy, dtype=float)[:2],
+            COM_TARGET_WEIGHT,
+            edges,
+            torso,
+        )
+        return [
+            f"held back by {reason}" for reason in blockers(robot.model, self._data, q, situation)
+        ]
 
 
 DEGENERATE_PAD_M = 5e-4

@@ -6,11 +6,15 @@ pose: the pelvis READY_CROUCH of the leg length below standing, upright, feet at
 standing placements. The knee of each leg is found from the kinematics, not from names: the
 actuated joint whose small rotation shortens the hip-to-foot distance most; it is bent by
 KNEE_KICK_RAD (so that the foot goes backwards) before the IK solves the pose.
+
+`crouch` does the same from any pose (feet where they are, the torso as it was): drag posing
+starts a foot drag from it when the moving leg is straight.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from typing import Literal
 
 import numpy as np
 import pinocchio as pin
@@ -48,32 +52,55 @@ class ReadyPose:
 
 def ready_pose(robot: RobotModel, ik: WholeBodyIK | None = None) -> ReadyPose:
     """The ready pose of a floating-base robot (module docstring)."""
+    return crouch(
+        robot, robot.q_neutral, ik or WholeBodyIK(robot, posture_weight=MOTION_POSTURE_WEIGHT)
+    )
+
+
+def crouch(
+    robot: RobotModel, q: np.ndarray, ik: WholeBodyIK, stance: Literal["left", "both"] = "left"
+) -> ReadyPose:
+    """q with the knees of its straight legs bent and the pelvis lowered by READY_CROUCH of
+    the leg length, the pelvis's orientation and both feet where they are at q: the left
+    foot held, the right one a soft target (the ready pose's way), or (stance "both") both
+    held, so that neither moves by a hair."""
     if not robot.floating_base:
         raise PoseError(
             f"robot {robot.name!r} is fixed to the world; the motions move a floating base"
         )
     data = robot.model.createData()
-    q = robot.q_neutral.copy()
-    hips = [_leg_chain(robot, side)[0] for side in ("left", "right")]
-    pin.forwardKinematics(robot.model, data, q)
-    leg = float(np.mean([data.oMi[jid].translation[2] for jid in hips]))
+    leg = leg_length_m(robot)
+    bent_q = np.array(q, dtype=float)
     for side in ("left", "right"):
-        q = _bend_knee(robot, q, side)
+        bent_q = _bend_knee(robot, bent_q, side)
     # Put the bent robot back on its left foot, then straighten the rest with the IK.
-    standing = robot.link_placements(robot.q_neutral, data)
-    bent = robot.link_placements(q, data)
+    placed = robot.link_placements(q, data)
+    bent = robot.link_placements(bent_q, data)
     left = robot.foot("left").link
-    T_world_base = standing[left] @ np.linalg.inv(bent[left]) @ bent[robot.tree.root]
-    q[:3] = T_world_base[:3, 3]
-    q[3:7] = pin.Quaternion(T_world_base[:3, :3]).coeffs()
-    pelvis = standing[robot.tree.root].copy()
+    T_world_base = placed[left] @ np.linalg.inv(bent[left]) @ bent[robot.tree.root]
+    bent_q[:3] = T_world_base[:3, 3]
+    bent_q[3:7] = pin.Quaternion(T_world_base[:3, :3]).coeffs()
+    pelvis = placed[robot.tree.root].copy()
     pelvis[2, 3] -= READY_CROUCH * leg
     targets = IkTargets(
-        T_world_right=standing[robot.foot("right").link], T_world_pelvis=pelvis, stance="left"
+        T_world_right=placed[robot.foot("right").link], T_world_pelvis=pelvis, stance=stance
     )
-    ik = ik or WholeBodyIK(robot, posture_weight=MOTION_POSTURE_WEIGHT)
-    result = ik.solve(q, targets, com_in_support=False, max_iterations=POSE_ITERATIONS)
+    result = ik.solve(bent_q, targets, com_in_support=False, max_iterations=POSE_ITERATIONS)
     return ReadyPose(result.q, leg, result.warnings)
+
+
+def leg_length_m(robot: RobotModel) -> float:
+    """Mean height [m] of the legs' top joints above the ground when standing."""
+    data = robot.model.createData()
+    pin.forwardKinematics(robot.model, data, robot.q_neutral)
+    hips = [_leg_chain(robot, side)[0] for side in ("left", "right")]
+    return float(np.mean([data.oMi[jid].translation[2] for jid in hips]))
+
+
+def leg_is_straight(robot: RobotModel, q: np.ndarray, side: str) -> bool:
+    """Whether a leg's knee is within STRAIGHT_LEG of its length of the hip-foot line at q
+    (a singular leg: bending its knee does not shorten it to first order)."""
+    return _knee(robot, q, side)[1]
 
 
 def _leg_chain(robot: RobotModel, side: str) -> list[int]:
@@ -97,8 +124,33 @@ def _leg_chain(robot: RobotModel, side: str) -> list[int]:
     return chain[::-1]
 
 
+def _knee(robot: RobotModel, q: np.ndarray, side: str) -> tuple[int, bool]:
+    """(pinocchio id of the knee of one leg: the joint whose small rotation shortens the
+    hip-to-foot distance most, whether the leg is straight at q)."""
+    model, data = robot.model, robot.model.createData()
+    chain = _leg_chain(robot, side)
+    foot = robot.link_frame_ids[robot.foot(side).link]
+
+    def hip_to_foot(jid: int, angle: float) -> float:
+        q_try = np.array(q, dtype=float)
+        q_try[model.joints[jid].idx_q] += angle
+        pin.framesForwardKinematics(model, data, q_try)
+        return float(np.linalg.norm(data.oMf[foot].translation - data.oMi[chain[0]].translation))
+
+    knee = min(chain, key=lambda j: min(hip_to_foot(j, s * 0.05) for s in (1, -1)))
+    pin.framesForwardKinematics(model, data, q)
+    hip, at_knee = data.oMi[chain[0]].translation, data.oMi[knee].translation
+    axis = data.oMf[foot].translation - hip
+    off_line = np.linalg.norm(np.cross(axis, at_knee - hip)) / np.dot(axis, axis)
+    return knee, bool(off_line <= STRAIGHT_LEG)
+
+
 def _bend_knee(robot: RobotModel, q: np.ndarray, side: str) -> np.ndarray:
-    """q with the knee of one leg bent by KNEE_KICK_RAD (inside its limits), foot backwards."""
+    """q with the knee of one leg bent by KNEE_KICK_RAD (inside its limits), foot backwards,
+    if the leg is straight; else q."""
+    knee, straight = _knee(robot, q, side)
+    if not straight:
+        return q  # already bent: not singular
     model, data = robot.model, robot.model.createData()
     chain = _leg_chain(robot, side)
     foot = robot.link_frame_ids[robot.foot(side).link]
@@ -118,13 +170,6 @@ def _bend_knee(robot: RobotModel, q: np.ndarray, side: str) -> np.ndarray:
         return q_try
 
     x0 = hip_to_foot(q)[1]
-    knee = min(chain, key=lambda j: min(hip_to_foot(bent(j, s * 0.05))[0] for s in (1, -1)))
-    pin.forwardKinematics(model, data, q)
-    hip, at_knee = data.oMi[chain[0]].translation, data.oMi[knee].translation
-    axis = data.oMf[foot].translation - hip
-    off_line = np.linalg.norm(np.cross(axis, at_knee - hip)) / np.dot(axis, axis)
-    if off_line > STRAIGHT_LEG:
-        return q  # already bent: not singular
     i = model.joints[knee].idx_q
     lower, upper = model.lowerPositionLimit[i], model.upperPositionLimit[i]
     options = []

@@ -1,0 +1,57 @@
+"""The Pose panel's status after a foot drag says what the solve did (issue 23, defect 1):
+"Target reached ✓" only when pinocchio finds the foot on its target and the torso upright;
+a foot dragged out of reach gives "Closest reachable pose" with the distance and the joint
+at its limit."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pinocchio as pin
+
+
+def drag_left_foot_up(studio, lift_m: float, events: int = 20) -> np.ndarray:
+    """Drag the left foot's handle straight up in `events` gizmo events; the last target."""
+    robot = studio.state.robot
+    start = robot.link_placements(studio.state.q, robot.model.createData())[robot.feet[0].link]
+    for k in range(1, events + 1):
+        target = start.copy()
+        target[2, 3] += lift_m * k / events
+        studio.pose.request_drag("left", target)
+    return target
+
+
+def test_a_foot_lifted_from_standing_is_reached_upright_and_says_so(studio):
+    studio.robots.load("servo_biped")
+    robot = studio.state.robot
+    target = drag_left_foot_up(studio, 0.11)  # 60 px in the default framing (test_foot_lift)
+    q = studio.state.q
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, q)
+    foot = data.oMf[robot.link_frame_ids[robot.feet[0].link]]
+    assert np.linalg.norm(foot.translation - target[:3, 3]) < 1e-3
+    torso = data.oMf[robot.link_frame_ids[robot.tree.root]].rotation
+    assert np.rad2deg(np.arccos(torso[2, 2])) < 2.0
+    status = studio.pose.panel.status.content
+    assert "Target reached ✓" in status and "Closest reachable" not in status
+
+
+def test_a_foot_dragged_out_of_reach_says_closest_reachable_and_why(studio):
+    studio.robots.load("servo_biped")
+    robot = studio.state.robot
+    target = drag_left_foot_up(studio, 0.40, events=30)
+    status = studio.pose.panel.status.content
+    assert "Target reached" not in status
+    assert "**Closest reachable pose**" in status
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, studio.state.q)
+    foot = data.oMf[robot.link_frame_ids[robot.feet[0].link]]
+    miss_mm = 1000 * np.linalg.norm(foot.translation - target[:3, 3])
+    shown = re.search(r"left foot ([\d.]+) mm", status)
+    assert shown and abs(float(shown.group(1)) - miss_mm) < 0.06, status
+    knee = robot.joint_names.index("left_knee")
+    upper = robot.joints[knee].upper  # the URDF's bound, where pinocchio finds the knee
+    assert abs(robot.joint_angles(studio.state.q)[knee] - upper) < 1e-2
+    assert f"left_knee at its upper limit ({np.rad2deg(upper):.1f}°)" in status
+    assert status.count("out of reach") == 0  # the reason is said once, not again as a warning
