@@ -238,18 +238,23 @@ class SweepPanel:
         labels: tuple[str, str],
         xy: np.ndarray,
         kind: Sequence[str],
+        fell: np.ndarray,
     ) -> None:
-        """Scatter of every returned point, xy shape (n, 2), drawn by `kind` (one of "design",
-        "front", "fell", "failed" per point): the front joined, the fallen and the failed (in
-        their strip below) in their own series."""
-        kinds = np.array(kind, dtype=object)
+        """Scatter of every returned point, xy shape (n, 2), by `kind` (one of "design",
+        "front", "fell", "failed" per point) and `fell` (bool (n,)): the solved designs that
+        stayed up and those that fell in the simulation in their own series, the front joined
+        over them, the failed ones in their strip below."""
         order = np.argsort(xy[:, 0], kind="stable")
-        x, y, kinds = xy[order, 0], xy[order, 1], kinds[order]
-
-        def only(*names: str) -> np.ndarray:
-            return np.where(np.isin(kinds, names), y, np.nan)
-
-        data = (x, only("design"), only("fell"), only("front"), only("failed"))
+        x, y = xy[order, 0], xy[order, 1]
+        kinds, down = np.array(kind, dtype=object)[order], np.asarray(fell, dtype=bool)[order]
+        solved = kinds != "failed"
+        data = (
+            x,
+            np.where(solved & ~down, y, np.nan),
+            np.where(solved & down, y, np.nan),
+            np.where(kinds == "front", y, np.nan),
+            np.where(~solved, y, np.nan),
+        )
         title = f"{labels[1]} vs {labels[0]}"
         if self.plot is not None and self._plot_title == title:
             self.plot.data = data

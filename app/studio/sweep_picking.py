@@ -77,7 +77,7 @@ class SweepPicker:
         ]
         self._panel.show_failures(lines)
         if len(plotted.index):
-            self._panel.show_points(plotted.labels, plotted.xy, plotted.kind)
+            self._panel.show_points(plotted.labels, plotted.xy, plotted.kind, plotted.fell)
             self.board.draw(plotted, selected)
         self._panel.view_button.disabled = not len(plotted.index)
         if selected is not None and selected in self._results:

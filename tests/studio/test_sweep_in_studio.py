@@ -54,9 +54,8 @@ def test_sweep_panel_runs_plots_and_loads_a_point(studio):
     x, designs, fell, front, failed = panel.plot.data
     assert not np.isfinite(fell).any()  # no simulation: no point fell
     assert np.count_nonzero(np.isfinite(failed)) == 3 - len(solved)
-    y = np.where(np.isfinite(designs), designs, front)[np.isfinite(designs) | np.isfinite(front)]
-    x_solved = x[np.isfinite(designs) | np.isfinite(front)]
-    assert sorted(x_solved) == sorted(xy[:, 0]) and sorted(y) == sorted(xy[:, 1])
+    drawn = np.isfinite(designs)
+    assert sorted(x[drawn]) == sorted(xy[:, 0]) and sorted(designs[drawn]) == sorted(xy[:, 1])
     assert np.count_nonzero(np.isfinite(front)) == len(expected)
     counts = f"3 / 3 done: {len(solved)} solved, {3 - len(solved)} failed, 0 cancelled"
     assert counts in panel.status.content

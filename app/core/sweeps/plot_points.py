@@ -36,6 +36,9 @@ class PlotPoints:
     """Plot position of each point, shape (n, 2), in the metrics' units."""
     kind: tuple[str, ...]
     """One of KINDS per point."""
+    fell: np.ndarray
+    """Whether each point fell in the simulation (bool (n,); a fallen point on the front is
+    of kind "front")."""
     strip_y: float | None
     """The failed strip's y (None without a point in it)."""
 
@@ -78,4 +81,5 @@ def plot_points(spec: SweepSpec, results: Sequence[PointResult]) -> PlotPoints:
         ends = (x_lo, x_hi) if len(rows) > 1 else (0.5 * (x_lo + x_hi),) * 2
         xy[rows, 0] = np.linspace(*ends, len(rows))
         xy[rows, 1] = strip_y
-    return PlotPoints(metrics, tuple(r.index for r in ordered), xy, tuple(kinds), strip_y)
+    fell = np.array([r.fell == 1.0 for r in ordered], dtype=bool)
+    return PlotPoints(metrics, tuple(r.index for r in ordered), xy, tuple(kinds), fell, strip_y)
