@@ -41,7 +41,9 @@ V_STRIP = 0.09
 V_AXIS = 0.18
 MARKER = 0.022
 """Marker radius, × the board's height."""
-Anchor = Literal["top-right", "bottom-left", "bottom-center", "center-left"]
+Anchor = Literal[
+    "top-center", "bottom-right", "bottom-left", "bottom-center", "center-left", "center-right"
+]
 Pick = Callable[[int, Any], None]
 """Called with (point index, the clicking client)."""
 
@@ -196,7 +198,7 @@ class ParetoBoard:
         )
         x_label, y_label = points.labels
         texts: list[tuple[str, str, tuple[float, float, float], Anchor]] = [
-            ("x", f"{x_label} →", (right, -0.01, v0 - 0.02 * height), "top-right"),
+            ("x", f"{x_label} →", (right, -0.01, v0 + 0.01 * height), "bottom-right"),
             ("y", f"↑ {y_label}", (u0, -0.01, top), "bottom-left"),
             ("title", "Pareto plot: click a point", (0.5 * width, -0.01, height), "bottom-center"),
         ]
@@ -204,6 +206,19 @@ class ParetoBoard:
             texts.append(
                 ("strip", "failed", (0.01 * width, -0.01, V_STRIP * height), "center-left")
             )
+        placed = points.xy[np.array([k != "failed" for k in points.kind], dtype=bool)]
+        placed = placed[np.isfinite(placed).all(axis=1)]
+        for axis, (lo, hi) in enumerate((U_RANGE, V_RANGE) if len(placed) else ()):
+            values = placed[:, axis]  # the solved points' range at the ends of the axis
+            ends = [(values.min(), lo), (values.max(), hi)]
+            if values.max() <= values.min():
+                ends = [(values.min(), 0.5 * (lo + hi))]
+            for k, (value, at) in enumerate(ends):
+                spot: tuple[float, float, float] = (at * width, -0.01, v0 - 0.02 * height)
+                anchor: Anchor = "top-center"
+                if axis == 1:
+                    spot, anchor = (u0 - 0.01 * width, -0.01, at * height), "center-right"
+                texts.append((f"tick{axis}{k}", f"{value:.3g}", spot, anchor))
         for name, text, position, anchor in texts:
             self._nodes.append(
                 scene.add_label(
