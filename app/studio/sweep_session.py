@@ -11,6 +11,11 @@ compliance, dead band and compensation it was simulated with) to the Compensatio
 the `servos` callback. Bad input (the panel's ranges, an unknown point) goes to the panel's
 status line and the notifier, and the studio keeps its state.
 
+Every point is counted once (`app.core.sweeps.outcomes`: done = solved + failed + cancelled),
+failed points are listed with their one-line reason and drawn in the plots' failed strip, and a
+point is picked by its number or by a click on the Pareto board in the 3D view (`SweepPicker`,
+app/studio/sweep_picking.py); Load point loads the point picked.
+
 The panel sweeps the loaded robot: a built-in robot with sweep parameters (servo_biped,
 dircon_biped) with its robot, gait and servo parameters; any other robot (an uploaded URDF, a
 loaded sweep design) as its .urdf file, with gait and servo parameters only. When the robot

@@ -12,7 +12,6 @@ The page is loaded once for the module (software WebGL is slow)."""
 from __future__ import annotations
 
 import contextlib
-import math
 
 import numpy as np
 import pytest
@@ -26,6 +25,8 @@ from tests.browser.page_helpers import (
     expand_folder,
     folder,
     folder_title,
+    scene_canvas_box,
+    screen_point,
     type_number,
     wait_for,
 )
@@ -85,16 +86,7 @@ def test_run_a_sweep_and_load_a_pareto_point(page, studio: Studio) -> None:
         ),
         UI_TIMEOUT_S,
     )
-    canvas = max(
-        (c.bounding_box() for c in page.locator("canvas").all()),
-        key=lambda box: 0 if box is None else box["width"] * box["height"],
-    )
-    assert canvas is not None
-    x, y = _on_screen(client.camera, position, canvas)
-    import os
-
-    if os.environ.get("H2_SHOT"):
-        page.screenshot(path=os.environ["H2_SHOT"])
+    x, y = screen_point(client.camera, position, scene_canvas_box(page))
     picked: list[int] = []
     disconnect = session.picker.on_selected.connect(picked.append)
     try:
@@ -117,19 +109,3 @@ def test_run_a_sweep_and_load_a_pareto_point(page, studio: Studio) -> None:
     assert robot is not None and robot.name == "dircon_biped"
     motion = studio.state.motion
     assert motion is not None and f"sweep point #{best}" in motion.summary
-
-
-def _on_screen(camera, point: np.ndarray, canvas: dict) -> tuple[float, float]:
-    """Page pixel of world `point` seen by `camera` (vertical fov, up vector) on `canvas`."""
-    eye, look_at = np.asarray(camera.position), np.asarray(camera.look_at)
-    forward = (look_at - eye) / np.linalg.norm(look_at - eye)
-    right = np.cross(forward, camera.up_direction)
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    d = np.asarray(point) - eye
-    depth = float(d @ forward)
-    assert depth > 0, "the point is behind the camera"
-    focal = 0.5 * canvas["height"] / math.tan(0.5 * float(camera.fov))
-    x = canvas["x"] + 0.5 * canvas["width"] + focal * float(d @ right) / depth
-    y = canvas["y"] + 0.5 * canvas["height"] - focal * float(d @ up) / depth
-    return x, y
