@@ -87,9 +87,10 @@ class SweepSummary:
     points: int
     """Points evaluated."""
     solved: int
-    """Points with a gait."""
+    """Points with every metric asked for (a gait, and its simulation with simulate = true)."""
     failed: int
-    """Points whose evaluation failed (worker lost too often): not the unsolved ones."""
+    """Points without (no gait, settings refused, the simulation or the worker failed):
+    points = solved + failed (app.core.sweeps.outcomes)."""
     pareto: tuple[int, ...]
     """Indices of the Pareto-front points."""
     pareto_metrics: tuple[tuple[str, str], ...]
