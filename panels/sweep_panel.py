@@ -1,8 +1,10 @@
 """Sweep panel: up to three swept parameters (robot, gait or servo) with their ranges, the sample
 count, the simulation switch (with what it costs per point), two metrics to trade off, Run /
-Cancel, progress, a Pareto scatter (uPlot) with the front highlighted and the designs that fell
-in the simulation drawn apart, and a point number to load that design, its gait and its servo
-settings into the studio.
+Cancel, progress with counts that add up (solved + failed + cancelled), the failed points with
+their reasons, a Pareto scatter (uPlot) with the front highlighted, the designs that fell in the
+simulation and the failed points (in a strip below) drawn apart, the point picked (by a click on
+the plot in the 3D view, or by its number) with its parameters and metrics, and Load point for
+that design, its gait and its servo settings.
 
 The panel holds no sweep logic: its buttons call a `SweepActions` the session implements, and
 the session reads the values back with `spec_values()`.
@@ -17,12 +19,15 @@ import numpy as np
 import viser
 import viser.uplot as uplot
 
-from panels.quiet import set_value
+from panels.quiet import Quiet, set_value
 
 NONE = "(none)"
-ALL_COLOUR = "#7f7f7f"
+ALL_COLOUR = "#4c72b0"
 FELL_COLOUR = "#1f1f1f"
 FRONT_COLOUR = "#d62728"
+FAILED_COLOUR = "#969696"
+FAILURES_SHOWN = 12
+"""Failed points listed in the panel (the rest counted)."""
 ROWS = 3
 """Parameters one sweep of the panel may vary."""
 
@@ -31,6 +36,8 @@ class SweepActions(Protocol):
     def run(self, client: viser.ClientHandle | None) -> None: ...
     def cancel(self) -> None: ...
     def load_point(self, client: viser.ClientHandle | None) -> None: ...
+    def select(self, index: int, client: viser.ClientHandle | None) -> None: ...
+    def view_plot(self, client: viser.ClientHandle | None) -> None: ...
 
 
 class SweepPanel:
@@ -93,7 +100,17 @@ class SweepPanel:
             self.run_button = gui.add_button("Run sweep")
             self.cancel_button = gui.add_button("Cancel sweep", disabled=True)
             self.status = gui.add_markdown("No sweep yet.")
-            self.point = gui.add_number("Point #", 0, min=0, step=1, hint="From the table")
+            self.failures = gui.add_markdown("")
+            self.view_button = gui.add_button(
+                "Pick on the plot in 3D",
+                disabled=True,
+                hint="Turns this tab's camera to the Pareto plot drawn beside the robot: click "
+                "a point there to pick it",
+            )
+            self.point = gui.add_number(
+                "Point #", 0, min=0, step=1, hint="Or click the point on the plot in the 3D view"
+            )
+            self.selected = gui.add_markdown("")
             self.load_button = gui.add_button("Load point", disabled=True)
         self.plot: viser.GuiUplotHandle | None = None
         self._plot_title = ""
@@ -103,6 +120,15 @@ class SweepPanel:
         self.run_button.on_click(lambda event: actions.run(event.client))
         self.cancel_button.on_click(lambda _: actions.cancel())
         self.load_button.on_click(lambda event: actions.load_point(event.client))
+        self.view_button.on_click(lambda event: actions.view_plot(event.client))
+        self._quiet = Quiet()
+
+        @self.point.on_update
+        def _(event: viser.GuiEvent) -> None:
+            if not self._quiet.is_quiet():
+                value = self.point.value
+                if np.isfinite(value) and float(value).is_integer():
+                    actions.select(int(value), event.client)
 
     def offer(
         self,
@@ -189,21 +215,46 @@ class SweepPanel:
         self.run_button.disabled = running
         self.cancel_button.disabled = not running
 
+    def show_selected(self, index: int, text: str, loadable: bool) -> None:
+        """The point picked: its number in the box (without calling back), what it is, and
+        whether Load point may load it."""
+        with self._quiet.quietly():
+            set_value(self.point, index)
+        self.selected.content = text
+        self.load_button.disabled = not loadable
+
+    def show_failures(self, lines: Sequence[str]) -> None:
+        """The failed points' one-line reasons (the first FAILURES_SHOWN, the rest counted)."""
+        if not lines:
+            self.failures.content = ""
+            return
+        shown = [f"- {line}" for line in lines[:FAILURES_SHOWN]]
+        if len(lines) > FAILURES_SHOWN:
+            shown.append(f"- … and {len(lines) - FAILURES_SHOWN} more (in the results table)")
+        self.failures.content = f"**Failed points ({len(lines)}):**\n" + "\n".join(shown)
+
     def show_points(
         self,
         labels: tuple[str, str],
         xy: np.ndarray,
-        front: np.ndarray,
-        fell: np.ndarray | None = None,
+        kind: Sequence[str],
+        fell: np.ndarray,
     ) -> None:
-        """Scatter of every solved point, xy shape (n, 2), with the front (bool (n,)) joined and
-        the points that fell in the simulation (bool (n,)) drawn in their own series."""
-        fell = np.zeros(len(xy), dtype=bool) if fell is None else fell
+        """Scatter of every returned point, xy shape (n, 2), by `kind` (one of "design",
+        "front", "fell", "failed" per point) and `fell` (bool (n,)): the solved designs that
+        stayed up and those that fell in the simulation in their own series, the front joined
+        over them, the failed ones in their strip below."""
         order = np.argsort(xy[:, 0], kind="stable")
         x, y = xy[order, 0], xy[order, 1]
-        on = np.where(front[order], y, np.nan)
-        down = fell[order]
-        data = (x, np.where(down, np.nan, y), np.where(down, y, np.nan), on)
+        kinds, down = np.array(kind, dtype=object)[order], np.asarray(fell, dtype=bool)[order]
+        solved = kinds != "failed"
+        data = (
+            x,
+            np.where(solved & ~down, y, np.nan),
+            np.where(solved & down, y, np.nan),
+            np.where(kinds == "front", y, np.nan),
+            np.where(~solved, y, np.nan),
+        )
         title = f"{labels[1]} vs {labels[0]}"
         if self.plot is not None and self._plot_title == title:
             self.plot.data = data
@@ -232,6 +283,14 @@ class SweepPanel:
                 width=1.5,
                 spanGaps=True,
                 points=uplot.Series_Points(show=True, size=8.0, fill=FRONT_COLOUR),
+            ),
+            uplot.Series(
+                label="failed (strip below)",
+                stroke=FAILED_COLOUR,
+                width=0.0,
+                points=uplot.Series_Points(
+                    show=True, size=7.0, fill="#ffffff", stroke=FAILED_COLOUR, width=2.0
+                ),
             ),
         )
         with self.folder:

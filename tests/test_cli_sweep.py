@@ -42,6 +42,7 @@ def test_sweep_writes_every_point_and_the_pareto_set_of_its_rows(tmp_path):
     rows = list(csv.DictReader(out.open()))
     assert report["points"] == len(rows) == 3
     assert report["solved"] == sum(row["solved"] == "True" for row in rows)
+    assert report["solved"] + report["failed"] == report["points"]  # every point counted once
     assert report["first_result_s"] <= report["wall_s"]
     values = np.array([[float(r["sr"]), float(r["max_torque_Nm"])] for r in rows])
     expected = {

@@ -46,6 +46,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from app.core.sweeps.evaluate import PointResult
+    from app.core.sweeps.outcomes import tally
     from app.core.sweeps.results import SweepSummary, pareto_indices, write_results
     from app.core.sweeps.sampling import sweep_points
     from app.core.sweeps.spec import read_sweep_toml
@@ -89,10 +90,11 @@ def run(args: argparse.Namespace) -> int:
         notes = list(engine.notes)
     wall = time.perf_counter() - start
     front = pareto_indices(spec, results)
+    counts = tally(results, len(points), spec.simulate, finished=True)
     summary = SweepSummary(
         points=len(results),
-        solved=sum(r.solved for r in results),
-        failed=sum(r.status == "failed" for r in results),
+        solved=counts.solved,
+        failed=counts.failed,
         pareto=tuple(front),
         pareto_metrics=spec.pareto,
         wall_s=wall,

@@ -11,6 +11,11 @@ compliance, dead band and compensation it was simulated with) to the Compensatio
 the `servos` callback. Bad input (the panel's ranges, an unknown point) goes to the panel's
 status line and the notifier, and the studio keeps its state.
 
+Every point is counted once (`app.core.sweeps.outcomes`: done = solved + failed + cancelled),
+failed points are listed with their one-line reason and drawn in the plots' failed strip, and a
+point is picked by its number or by a click on the Pareto board in the 3D view (`SweepPicker`,
+app/studio/sweep_picking.py); Load point loads the point picked.
+
 The panel sweeps the loaded robot: a built-in robot with sweep parameters (servo_biped,
 dircon_biped) with its robot, gait and servo parameters; any other robot (an uploaded URDF, a
 loaded sweep design) as its .urdf file, with gait and servo parameters only. When the robot
@@ -44,6 +49,7 @@ from app.core.collocation.controls import CONTROLS
 from app.core.errors import StudioError
 from app.core.projects.project import Project
 from app.core.sweeps.evaluate import PointResult
+from app.core.sweeps.outcomes import tally
 from app.core.sweeps.results import SweepRecord, pareto_indices
 from app.core.sweeps.robot_variants import ROBOT_PARAMETERS, sweep_robot_of
 from app.core.sweeps.sampling import SweepPoint, start_point, sweep_points
@@ -52,6 +58,7 @@ from app.core.sweeps.spec import METRICS, SweepSpec
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.state import StudioState
+from app.studio.sweep_picking import SweepPicker
 from panels.sweep_panel import SweepPanel
 from robots.catalogue import BUILTIN_ROBOTS
 
@@ -186,6 +193,8 @@ class SweepSession:
             "Robot: none loaded yet.",
             _cost_line,
         )
+        self.picker = SweepPicker(server, self.panel)
+        """The plots (the panel's and the clickable one in the 3D view) and the picked point."""
         self._cancelling = False
         """Cancel was asked for the sweep under way (which may not have started its run yet)."""
         self._changed_to = ""
@@ -235,6 +244,7 @@ class SweepSession:
         if self._thread is not None and self._thread.is_alive():
             self._changed_to = robot.name
             self.cancel()
+        self.picker.place(robot)
         choices = _choices(self._robot, shown)
         self.panel.offer(_ordered(choices), choices, _robot_line(self._robot, robot.name))
         self.on_choices.emit(self._robot)
@@ -321,6 +331,7 @@ class SweepSession:
                 self._notifier.error("Cannot run this sweep", str(error), client)
                 return
             self._cancelling, self._changed_to = False, ""
+            self.picker.clear()
             self.panel.running(True)
             self.panel.status.content = f"Starting {len(points)} points on {workers} workers…"
             self._data = data
@@ -367,47 +378,39 @@ class SweepSession:
         if cancelled and self._changed_to:
             done += f" (the robot changed to {self._changed_to}; these points are {spec.robot}'s)"
         self._changed_to = ""
+        counts = tally(results, len(points), spec.simulate, finished=True).line()
+        line = f"Sweep {done}: {counts}; Pareto points: {list(front)}."
         if error:
-            self.panel.status.content = f"⚠️ {error}"
+            self.panel.status.content = f"⚠️ {error}  \n{line}"
         else:
-            self.panel.status.content += f"  \nSweep {done}; Pareto points: {list(front)}."
+            self.panel.status.content = f"{self.panel.status.content}  \n{line}"
         self.panel.running(False)
-        self.panel.load_button.disabled = not any(r.solved for r in results)
+        self.picker.show(spec, results, final=True)
+        if self.picker.selected is None:
+            self.picker.pick_first(front, self.panel.point.value)
         self.on_sweep_done.emit(self.outcome)
 
     def _progress(
         self, spec: SweepSpec, results: list[PointResult], total: int, seconds: float
     ) -> None:
-        solved = [r for r in results if r.solved]
-        failed = sum(r.status == "failed" for r in results)
-        line = (
-            f"{len(results)} / {total} done, {len(solved)} solved, {failed} failed, "
-            f"{len(results) / seconds:.2f} points/s"
-        )
-        if spec.simulate:
-            simulated = [r for r in solved if np.isfinite(r.fell)]
-            fell = sum(r.fell == 1.0 for r in simulated)
-            line += f"; simulated {len(simulated)}: {fell} fell, {len(simulated) - fell} stayed up"
-            if solved:
-                line += f" (simulation {np.mean([r.sim_s for r in solved]):.1f} s/point)"
+        counts = tally(results, total, spec.simulate)
+        line = f"{counts.line()}, {counts.pending} to come; {len(results) / seconds:.2f} points/s"
+        simulated = [r for r in results if r.solved and np.isfinite(r.fell)]
+        if simulated:
+            line += f" (simulation {np.mean([r.sim_s for r in simulated]):.1f} s/point)"
         self.panel.status.content = line
-        if solved:
-            with self._server.atomic():
-                self._plot(spec, results)
-
-    def _plot(self, spec: SweepSpec, results: list[PointResult] | tuple[PointResult, ...]) -> None:
-        """The solved points with finite metrics on the plot, the front and the fallen apart."""
-        metrics = tuple(m for m, _ in spec.pareto)
-        front = set(pareto_indices(spec, results))
-        shown = [r for r in results if r.solved and all(np.isfinite(r.metric(m)) for m in metrics)]
-        if not shown:
-            return
-        xy = np.array([[r.metric(m) for m in metrics] for r in shown])
-        on = np.array([r.index in front for r in shown])
-        fell = np.array([r.fell == 1.0 for r in shown])
-        self.panel.show_points((metrics[0], metrics[1]), xy, on, fell)
+        with self._server.atomic():
+            self.picker.show(spec, results)
 
     # --- loading a point ----------------------------------------------------------------------
+
+    def select(self, index: int, client: viser.ClientHandle | None = None) -> None:
+        """Pick point `index` (its number typed in the panel, or a click on the plot)."""
+        self.picker.select(index, client)
+
+    def view_plot(self, client: viser.ClientHandle | None = None) -> None:
+        """Turn the tab's camera to the clickable Pareto plot in the 3D view."""
+        self.picker.view(client)
 
     def load_point(self, client: viser.ClientHandle | None = None) -> None:
         """Load the chosen point's robot and play a walk of its gait, on "sweep-loader"."""
@@ -513,17 +516,18 @@ class SweepSession:
         self.outcome = SweepOutcome(spec, results, front, record.cancelled)
         self.panel.show_spec(json.loads(record.spec_json))
         solved = [r for r in results if r.solved]
+        counts = tally(results, spec.n_points, spec.simulate, finished=True).line()
         self.panel.status.content = (
-            f"From the project: {len(results)} points, {len(solved)} solved; Pareto points: "
-            f"{list(front)}."
+            f"From the project{' (cancelled)' if record.cancelled else ''}: {counts}; "
+            f"Pareto points: {list(front)}."
         )
-        self.panel.load_button.disabled = not (solved and self.points)
+        self.picker.show(spec, results, final=True)
+        self.picker.pick_first(front, self.panel.point.value)
         if solved and not self.points:
+            self.panel.load_button.disabled = True
             self.panel.status.content += (
                 f"  \nLoad its points after loading {Path(spec.robot).name} (Robot panel)."
             )
-        if solved:
-            self._plot(spec, results)
 
     def close(self) -> None:
         self.cancel()

@@ -174,3 +174,29 @@ def page_time_s(page) -> float:
         return float(text)
     except ValueError:
         return math.nan
+
+
+def scene_canvas_box(page) -> dict:
+    """The 3D view's canvas on the page (the largest canvas: plots have small ones), as
+    Playwright's bounding box {x, y, width, height} [px]."""
+    boxes = [c.bounding_box() for c in page.locator("canvas").all()]
+    box = max((b for b in boxes if b is not None), key=lambda b: b["width"] * b["height"])
+    return box
+
+
+def screen_point(camera, point_m: np.ndarray, canvas: dict) -> tuple[float, float]:
+    """The page pixel (x, y) where world `point_m` is drawn, seen by a tab's `camera` (viser's
+    CameraHandle: position, look_at, up_direction, vertical fov) on `canvas`: the pinhole
+    model three.js's PerspectiveCamera draws with. To click a scene node as a user would."""
+    eye, look_at = np.asarray(camera.position, float), np.asarray(camera.look_at, float)
+    forward = (look_at - eye) / np.linalg.norm(look_at - eye)
+    right = np.cross(forward, np.asarray(camera.up_direction, float))
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    d = np.asarray(point_m, float) - eye
+    depth = float(d @ forward)
+    assert depth > 0, "the point is behind the camera"
+    focal = 0.5 * canvas["height"] / math.tan(0.5 * float(camera.fov))
+    x = canvas["x"] + 0.5 * canvas["width"] + focal * float(d @ right) / depth
+    y = canvas["y"] + 0.5 * canvas["height"] - focal * float(d @ up) / depth
+    return x, y

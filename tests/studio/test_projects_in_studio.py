@@ -446,9 +446,12 @@ def test_a_sweep_travels_with_the_project(studio, tmp_path):
         assert (panel.samples.value, panel.knots.value) == (4, 16)
         assert (panel.metric_x.value, panel.metric_y.value) == ("energy_J", "max_torque_Nm")
         assert panel.plot is not None
-        x, y, _fell, front = panel.plot.data
-        assert list(x) == [1.0, 2.0, 3.0] and list(y) == [5.0, 2.0, 4.0]
+        x, y, _fell, front, failed = panel.plot.data
+        drawn = np.isfinite(y)
+        assert list(x[drawn]) == [1.0, 2.0, 3.0] and list(y[drawn]) == [5.0, 2.0, 4.0]
         assert np.count_nonzero(np.isfinite(front)) == 2  # the front: points 0 and 1
+        assert np.count_nonzero(np.isfinite(failed)) == 1  # the failed point, in its strip
+        assert "3 solved, 1 failed, 0 cancelled" in panel.status.content
         assert not panel.load_button.disabled
         assert fresh.project.project().sweep is session.record  # saved again as it came
     finally:

@@ -51,11 +51,14 @@ def test_sweep_panel_runs_plots_and_loads_a_point(studio):
     }
     assert set(outcome.pareto) == expected
     assert panel.plot is not None
-    x, y, fell, front = panel.plot.data
+    x, designs, fell, front, failed = panel.plot.data
     assert not np.isfinite(fell).any()  # no simulation: no point fell
-    assert sorted(x) == sorted(xy[:, 0]) and sorted(y) == sorted(xy[:, 1])
+    assert np.count_nonzero(np.isfinite(failed)) == 3 - len(solved)
+    drawn = np.isfinite(designs)
+    assert sorted(x[drawn]) == sorted(xy[:, 0]) and sorted(designs[drawn]) == sorted(xy[:, 1])
     assert np.count_nonzero(np.isfinite(front)) == len(expected)
-    assert "3 / 3 done" in panel.status.content
+    counts = f"3 / 3 done: {len(solved)} solved, {3 - len(solved)} failed, 0 cancelled"
+    assert counts in panel.status.content
 
     # an unsolved or unknown point is refused with the reason
     panel.point.value = 99
@@ -98,5 +101,11 @@ def test_sweep_panel_runs_plots_and_loads_a_point(studio):
     finally:
         disconnect()
     assert ends[0].cancelled and len(ends[0].results) < 12
+    back = ends[0].results
+    solved_back = sum(r.solved for r in back)
+    assert (
+        f"12 / 12 done: {solved_back} solved, {len(back) - solved_back} failed, "
+        f"{12 - len(back)} cancelled"
+    ) in panel.status.content
     assert "Sweep cancelled" in panel.status.content and not panel.run_button.disabled
     assert studio.state.robot is robot

@@ -114,10 +114,11 @@ def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepare
     fell = [r for r in by_panel if r.fell == 1.0]
     standing = [r for r in by_panel if r.solved and r.fell == 0.0]
     assert panel.plot is not None
-    _x, up, down, _front = panel.plot.data
+    _x, up, down, _front, _failed = panel.plot.data
     assert np.count_nonzero(np.isfinite(down)) == len(fell)
     assert np.count_nonzero(np.isfinite(up)) == len(standing)
-    assert f"{len(fell)} fell, {len(standing)} stayed up" in panel.status.content
+    solved = len(fell) + len(standing)
+    assert f"{solved} solved ({len(fell)} fell in simulation)" in panel.status.content
 
     # Load point: the design, its walk, and the servos it was simulated with
     best = next(r for r in by_panel if r.solved)

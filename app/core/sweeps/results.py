@@ -15,6 +15,7 @@ import numpy as np
 
 from app.core.atomic_write import write_atomically, write_bytes_atomically
 from app.core.sweeps.evaluate import PointResult
+from app.core.sweeps.outcomes import completed
 from app.core.sweeps.pareto import pareto_mask
 from app.core.sweeps.robot_variants import SweepSpecError
 from app.core.sweeps.servo_metrics import SimulationMetrics
@@ -70,8 +71,9 @@ def columns(spec: SweepSpec) -> tuple[str, ...]:
 
 
 def pareto_indices(spec: SweepSpec, results: Sequence[PointResult]) -> list[int]:
-    """Point indices on the Pareto front of the spec's two metrics (solved points only)."""
-    solved = [r for r in results if r.solved]
+    """Point indices on the Pareto front of the spec's two metrics (solved points only: a point
+    whose simulation failed is not one, whatever its gait's metrics)."""
+    solved = [r for r in results if completed(r, spec.simulate)]
     if not solved:
         return []
     metrics = [m for m, _ in spec.pareto]
@@ -85,9 +87,10 @@ class SweepSummary:
     points: int
     """Points evaluated."""
     solved: int
-    """Points with a gait."""
+    """Points with every metric asked for (a gait, and its simulation with simulate = true)."""
     failed: int
-    """Points whose evaluation failed (worker lost too often): not the unsolved ones."""
+    """Points without (no gait, settings refused, the simulation or the worker failed):
+    points = solved + failed (app.core.sweeps.outcomes)."""
     pareto: tuple[int, ...]
     """Indices of the Pareto-front points."""
     pareto_metrics: tuple[tuple[str, str], ...]
