@@ -7,11 +7,10 @@ top joint above the soles with straight legs, less the ready pose's crouch, READ
   gait time H (two steps)           = 2 · step / √(Fr · g · L)  (a walking speed v of Froude
                                        number Fr = v² / (g L) = FROUDE = 0.05)
 so H = 2 · 0.26 / √0.05 · √(L / g) = 2.33 √(L / g): servo_biped (L = 0.296 m) steps 7.7 cm in
-0.40 s per two steps, Roban S14 (L = 0.651 m) 16.9 cm in 0.60 s. Where the planner and the
-walk allow: on Roban S14 steps of 0.3 L still solve, but its 3-D walk then puts the last foot
-down 12 cm short of its foothold (its legs cannot follow), so 0.26 L it is (tests/core/
-test_gait_defaults_walk.py measures the walk's footholds). Before (issue 23), the paper's
-0.1 L steps scaled by the leg ratio gave servo_biped 3.1 cm steps.
+0.40 s per two steps, Roban S14 (L = 0.651 m) 16.9 cm in 0.60 s; both solve (servo_biped
+from the cold guess in ~30 iterations) and walk (tests/core/test_gait_defaults_walk.py measures the walk's
+footholds with pinocchio). 0.26 rather than 0.25: a quarter of the leg with room for rounding.
+Before (issue 23), the paper's 0.1 L steps scaled by the leg ratio gave servo_biped 3.1 cm steps.
 The swing height and clearance are the paper's scaled by λ = l / l_paper (l the base's
 straight-leg standing height above the soles), the touch-down speed by √λ.
 The torque bound is the smallest URDF effort limit of the planar joints and the speed bound the
