@@ -22,7 +22,11 @@ import numpy as np
 import viser
 
 from app.core.collocation.defaults import robot_gait_defaults
-from app.core.collocation.gait_problem import COARSE_KNOTS, REFINE_ABOVE_KNOTS
+from app.core.collocation.gait_problem import (
+    COARSE_KNOTS,
+    REFINE_ABOVE_KNOTS,
+    WARM_ITERATIONS_BEFORE_FALLBACK,
+)
 from app.core.collocation.job_key import GaitProblemKey
 from app.core.collocation.planar_model import PlanarModel
 from app.core.collocation.result import GaitResult
@@ -69,6 +73,10 @@ class Solve:
     refines: bool = False
     """The worker solves COARSE_KNOTS first and starts this mesh from it (a first solve of
     more knots than REFINE_ABOVE_KNOTS): its progress comes in two stages."""
+    warm: bool = False
+    """The worker holds a converged gait of this structure: the solve starts warm from it, and
+    restarts cold after WARM_ITERATIONS_BEFORE_FALLBACK iterations without converging."""
+    key: GaitProblemKey | None = None
     ended_s: float = 0.0
     result: GaitResult | None = None
     error: str = ""
@@ -125,6 +133,8 @@ class GaitSession:
         """Stage of the solve under way: 1, or 2 once a refining solve's fine mesh started."""
         self._solved_keys: set[GaitProblemKey] = set()
         """Structures the worker holds a result of (a warm start: no mesh refinement)."""
+        self._converged_keys: set[GaitProblemKey] = set()
+        """Structures the worker holds a converged gait of (its solves start warm)."""
         self.progressed: Signal[int] = Signal("gait_progressed")
         """Emitted with the iteration after the panel showed a solve's progress (every tab sees
         the panel: a tab opened during a solve sees how far it is)."""
@@ -211,8 +221,9 @@ class GaitSession:
             if running is None:
                 job_id = f"gait-{next(self._ids)}"
                 self.running = Solve(
-                    job_id, settings, robot, time.monotonic(), kind=kind, refines=refines
-                )
+                    job_id, settings, robot, time.monotonic(), kind=kind, refines=refines,
+                    warm=key in self._converged_keys, key=key,
+                )  # fmt: skip
                 self.history = ([], [], [])
                 self.stage = 1
         if running is not None:  # another tab's (or this one's) solve: never cancelled silently
@@ -247,6 +258,7 @@ class GaitSession:
         if self._worker is not None:
             self._worker.close()
             self._worker = None
+        self._converged_keys.clear()
         self._solved_keys.clear()
 
     # --- events from the worker (the "solver-events" thread) ------------------------------------
@@ -274,10 +286,16 @@ class GaitSession:
         if len(history[0]) % 5 == 1:
             self.panel.show_convergence(*history)
             waited = time.monotonic() - running.started_s
+            restarted = ""
+            if running.warm and iteration > WARM_ITERATIONS_BEFORE_FALLBACK:
+                restarted = (
+                    f" 🔄 The warm start did not converge in {WARM_ITERATIONS_BEFORE_FALLBACK} "
+                    "iterations: restarted cold from the built-in guess."
+                )
             self.panel.status.content = (
                 f"Solving the {running.kind} (job {job_id}){_stage_words(running, self.stage)}: "
                 f"IPOPT iteration {iteration}, constraint violation {violation:.1e}, "
-                f"{waited:.1f} s since the click…"
+                f"{waited:.1f} s since the click…{restarted}"
             )
             self.progressed.emit(iteration)
 
@@ -294,6 +312,8 @@ class GaitSession:
                 ended = dataclasses.replace(ended, result=None, error="another robot was loaded")
                 self.last = ended
             elif result is not None and result.converged:
+                if running.key is not None:
+                    self._converged_keys.add(running.key)
                 if running.settings.baseline:
                     self.results.baseline = result
                 else:
@@ -312,10 +332,12 @@ class GaitSession:
         self._end(job_id, result=result)
 
     def _on_failed(self, job_id: str, message: str) -> None:
+        self._converged_keys.clear()
         self._solved_keys.clear()  # the worker may have crashed and restarted
         self._end(job_id, error=message)
 
     def _on_cancelled(self, job_id: str) -> None:
+        self._converged_keys.clear()
         self._solved_keys.clear()  # a cancel restarts the worker: its results are gone
         self._end(job_id, error="cancelled")
 
@@ -509,10 +531,18 @@ def _status_line(solve: Solve, results: GaitResults) -> str:
     parts = f"IPOPT {result.solve_s:.1f} s, {result.iterations} iterations"
     if waited > result.solve_s:
         parts += f"; worker start and NLP build {waited - result.solve_s:.1f} s"
+    restart = ""
+    if result.restarted_cold:
+        restart = (
+            f" 🔄 The warm start from the last gait did not converge in "
+            f"{result.warm_iterations_before_cold} iterations, so the solve restarted cold "
+            "from the built-in guess"
+        )
+        restart += "." if result.converged else ", which did not converge either."
     if result.converged:
-        return f"Solved in {waited:.1f} s ({parts})."
-    blame = f" It ran into {result.blame.split(': ', 1)[-1]}." if result.blame else ""
-    return f"⚠️ Not solved after {waited:.1f} s: {result.status} ({parts}).{blame}{kept}"
+        return f"Solved in {waited:.1f} s ({parts}).{restart}"
+    blame = f" {result.blame}" if result.blame else ""
+    return f"⚠️ Not solved after {waited:.1f} s: {result.status} ({parts}).{restart}{blame}{kept}"
 
 
 def _stage_words(solve: Solve, stage: int) -> str:

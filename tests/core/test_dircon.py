@@ -268,34 +268,15 @@ def test_warm_restart_after_a_slider_change(small):
     problem.solve(first.settings)  # leave the last good solution as it was
 
 
-def test_a_warm_start_that_stalls_falls_back_to_the_primal_start(small, monkeypatch):
-    """When the primal-dual warm start has not converged within its budget, the solve goes on
-    from the primal point alone and must still end at the optimum a cold solve finds; the
-    iterations of both attempts are counted."""
-    import app.core.collocation.gait_problem as gait_problem
-
-    problem, first = small
-    changed = dataclasses.replace(first.settings, K0=5.0)
-    cold = problem.solve(changed, cold=True)
-    problem.solve(first.settings)
-    monkeypatch.setattr(gait_problem, "WARM_ITERATIONS_BEFORE_FALLBACK", 2)
-    primal_only = dataclasses.replace(first, lam_x=np.zeros(0), lam_g=np.zeros(0))
-    reference = problem.solve(changed, warm_start=primal_only)
-    problem.solve(first.settings)
-    warm = problem.solve(changed, warm_start=first)
-    assert warm.converged and cold.converged and reference.converged
-    assert warm.objective == pytest.approx(cold.objective, rel=1e-3)
-    assert warm.iterations == 2 + reference.iterations
-    problem.solve(first.settings)
-
-
 @pytest.mark.parametrize(
     "change, words",
     [
         ({"slack_a": 0.1, "slack_b": -0.1}, "a = 0.1 > b = -0.1"),
         ({"knots": 3}, "at least 5 knots"),
         ({"H_s": float("nan")}, "H_s is nan"),
-        ({"tau_max_Nm": 0.1}, "the settings admit no gait"),
+        # No verdict of infeasibility within max_iter (the warm start then the cold restart
+        # stall); the blame measures the torques sitting on their bound.
+        ({"tau_max_Nm": 0.1}, "torques at their bound"),
         ({"max_iter": 3}, "iteration limit"),
         ({"knots": 20}, "built for knots = 12"),
     ],
@@ -306,7 +287,7 @@ def test_bad_settings_give_clear_messages_and_keep_the_last_good_gait(small, cha
     assert good is not None
     result = problem.solve(dataclasses.replace(good.settings, **change))
     assert not result.converged
-    assert words in result.status
+    assert words in f"{result.status} {result.blame}"
     assert problem.last_good is good
 
 

@@ -200,3 +200,41 @@ def test_a_fine_mesh_solves_by_refinement_and_says_its_stage(studio):
     robot, planar = studio.state.robot, studio.gait.planar
     worst = max(_eom_residual(robot, planar, result, k) for k in range(len(result.t)))
     assert worst < 1e-4  # N / N·m: the collocation holds to IPOPT's tolerance at the knots
+
+
+def test_k0_2_after_a_solve_re_solves_in_the_panel(studio):
+    """Issue 23 defect 2 as a user meets it: Solve, move K0 from 6.5 to 2, Solve again. It
+    converges (warm, from the first gait) and the panel says it solved."""
+    panel = studio.gait.panel
+    first = solve_gait(studio)
+    assert first.result is not None and first.result.converged
+    panel.sliders["K0"].value = 2.0
+    ended = solve_gait(studio)
+    assert ended.warm and ended.result is not None
+    assert ended.result.converged, panel.status.content
+    assert panel.status.content.startswith("Solved in"), panel.status.content
+    assert studio.gait.results.symmetric is ended.result
+
+
+def test_a_cold_restart_shows_while_the_solve_runs(studio):
+    """The panel says so live once a warm solve runs past the warm start's budget (the solve
+    restarts cold then): fed the worker's progress events for such a solve."""
+    import dataclasses
+
+    from app.core.collocation.gait_problem import WARM_ITERATIONS_BEFORE_FALLBACK
+    from app.studio.gait_session import Solve
+
+    session = studio.gait
+    settings = session.panel.settings(False)
+    session.running = Solve("gait-test", settings, studio.state.robot, warm=True)
+    session.history = ([], [], [])
+    session._on_progress("gait-test", 3, 1.0, 1e-3)
+    assert "restarted cold" not in session.panel.status.content
+    session.history = ([], [], [])
+    session._on_progress("gait-test", WARM_ITERATIONS_BEFORE_FALLBACK + 1, 1.0, 1e-3)
+    assert "restarted cold" in session.panel.status.content
+    session.running = dataclasses.replace(session.running, warm=False)
+    session.history = ([], [], [])
+    session._on_progress("gait-test", WARM_ITERATIONS_BEFORE_FALLBACK + 1, 1.0, 1e-3)
+    assert "restarted cold" not in session.panel.status.content
+    session.running = None

@@ -39,7 +39,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from app.core.collocation.blame import hardest_constraint
+from app.core.collocation.blame import Scales, hardest_constraint
 from app.core.collocation.guess import initial_guess
 from app.core.collocation.mesh_interpolation import interpolate_point
 from app.core.collocation.nlp import (
@@ -83,8 +83,15 @@ IPOPT_OPTIONS: dict[str, Any] = {
     "ipopt.mu_strategy": "monotone",
 }
 WARM_ITERATIONS_BEFORE_FALLBACK = 40
-"""Iterations a primal-dual warm start gets before the solve restarts from the primal point
-alone (measured: 5–15 iterations after one slider step on the built-ins and Roban S14)."""
+"""Iterations a warm start (from the previous solution, with its multipliers when it has them)
+gets before the solve restarts cold from the built-in guess with the rest of max_iter
+(measured: 5–15 iterations after one slider step on the built-ins and Roban S14; a cold solve
+takes 25–50). A warm start that has not converged by then is stalled, not slow: before this
+restart the K0 6.5 → 2 re-solve on servo_biped spent 1000 iterations (~200 s) on one point."""
+FINAL_WARM_STATUSES = ("User_Requested_Stop", "Infeasible_Problem_Detected")
+"""A warm start ending so is not restarted: stopped on request, or IPOPT converged to a point
+of locally least infeasibility (tau_max 0.1 N·m: "the settings admit no gait" in 36 iterations,
+where a cold restart spends the rest of max_iter without a verdict)."""
 REFINE_ABOVE_KNOTS = 38
 """A first solve (no warm start) of more knots than this starts from a COARSE_KNOTS solve
 interpolated onto its mesh (app.core.collocation.refine): at 160 knots a few seconds of CPU
@@ -165,7 +172,7 @@ class GaitProblem:
         if self.baseline:
             T = nlp.variable("T", 3)
             durations = (T[0], T[1], T[2])
-            nlp.constrain(T[0] + T[1] + T[2] - H)
+            nlp.constrain(T[0] + T[1] + T[2] - H, tag="durations")
             x1 = nlp.variable("x1", 1)
             slack = None
         else:
@@ -175,7 +182,9 @@ class GaitProblem:
 
         def friction(c: Constrainer, force: Any, mu: Any) -> None:
             total = force[1] + force[2]
-            c.constrain(ca.vertcat(mu * total - force[0], mu * total + force[0]), 0.0, ca.inf)
+            c.constrain(
+                ca.vertcat(mu * total - force[0], mu * total + force[0]), 0.0, ca.inf, "friction"
+            )
 
         if self.baseline:
             foothold_args: tuple[tuple[Any, ...], ...] = ((), (x1,), (d,))
@@ -204,10 +213,10 @@ class GaitProblem:
                       mu_: Any, *extra: Any) -> None:  # fmt: skip
                 p = m.contact_positions(qk)
                 Js = S @ m.contact_jacobian(qk)
-                c.constrain(m.rnea(qk, vk, ak) - Bd @ uk - Js.T @ lamk)
-                c.constrain(S @ p - ca.vertcat(foothold_of(j, *extra), 0.0, 0.0))
-                c.constrain(Js @ vk)
-                c.constrain(Js @ ak + S @ m.contact_jdot_v(qk, vk))
+                c.constrain(m.rnea(qk, vk, ak) - Bd @ uk - Js.T @ lamk, tag="dynamics")
+                c.constrain(S @ p - ca.vertcat(foothold_of(j, *extra), 0.0, 0.0), tag="contact")
+                c.constrain(Js @ vk, tag="contact")
+                c.constrain(Js @ ak + S @ m.contact_jdot_v(qk, vk), tag="contact")
                 friction(c, lamk, mu_)
                 c.constrain(swing_rows @ p, 0.0, 0.0, tag="swing")  # bounds set per solve
 
@@ -221,8 +230,11 @@ class GaitProblem:
                       a1: Any, u1: Any, gamma: Any, lam_mid: Any, mu_: Any, step: Any) -> None:  # fmt: skip
                 q_c, v_c, qd_c, vd_c = hermite_simpson(q0, v0, a0, q1, v1, a1, step_of(j, step))
                 Jc = S @ m.contact_jacobian(q_c)
-                c.constrain(qd_c - v_c - Jc.T @ gamma)
-                c.constrain(m.rnea(q_c, v_c, vd_c) - Bd @ (0.5 * (u0 + u1)) - Jc.T @ lam_mid)
+                c.constrain(qd_c - v_c - Jc.T @ gamma, tag="dynamics")
+                c.constrain(
+                    m.rnea(q_c, v_c, vd_c) - Bd @ (0.5 * (u0 + u1)) - Jc.T @ lam_mid,
+                    tag="dynamics",
+                )
                 friction(c, lam_mid, mu_)
                 # Bounds between the knots, at the collocation point (bounds set per solve).
                 c.constrain(q_c[BASE_DOF:], tag="range_mid")
@@ -243,6 +255,9 @@ class GaitProblem:
                 swing = _dm(swing_z_rows(other(STANCE[j]))) @ m.contact_positions(q[k])
                 nlp.constrain(swing, 0.0, 0.0, tag="clearance")
             energy += steps[j] * ca.sumsqr(u[k])
+        self._knot_swing = list(nlp.g_blocks["swing"])
+        assert len(self._knot_swing) == N
+        """The swing-foot height rows of each node (the knots' swing rows come first)."""
 
         for j in range(3):
             nodes = list(L.nodes(j))
@@ -273,22 +288,30 @@ class GaitProblem:
             pre, post = L.last(j), L.first(j + 1)
             impulse = nlp.variable("impulse", 3)
             S_land = _dm(stance_rows(STANCE[j + 1]))
-            nlp.constrain(q[post] - q[pre])
+            nlp.constrain(q[post] - q[pre], tag="impact")
             nlp.constrain(
                 m.mass_matrix(q[pre]) @ (v[post] - v[pre])
-                - (S_land @ m.contact_jacobian(q[pre])).T @ impulse
+                - (S_land @ m.contact_jacobian(q[pre])).T @ impulse,
+                tag="impact",
             )
             friction(nlp, impulse, mu)
             landing = _dm(foot_rows(STANCE[j + 1])) @ m.contact_jacobian(q[pre]) @ v[pre]
             nlp.constrain(landing, tag="touchdown")  # |heel, toe velocity| before touch-down
             jump = v[post] - v[pre]
             impact_loss += 0.5 * ca.dot(jump, m.mass_matrix(q[pre]) @ jump)
-            lifting = _dm(swing_z_rows(STANCE[j])) @ m.contact_jacobian(q[post]) @ v[post]
-            nlp.constrain(lifting, 0.0, ca.inf)
+            # The lifting foot's heel may not move down just after the impact. Its toe has no
+            # such row: where the foot rolls off its toe (the optimum at a low K0) that row is
+            # active and its gradient lies in the span of the impact and stance equalities, so
+            # IPOPT's multipliers grow without bound and the solve stalls (K0 = 2 on
+            # servo_biped: 1000 iterations). The toe stays above the floor by the swing rows
+            # of the next collocation point and knots.
+            heel = _dm(swing_z_rows(STANCE[j])[:1])
+            lifting = heel @ m.contact_jacobian(q[post]) @ v[post]
+            nlp.constrain(lifting, 0.0, ca.inf, tag="lifting")
 
         advance = ca.vertcat(d, ca.DM.zeros(m.nq - 1))
-        nlp.constrain(q[N - 1] - q[0] - advance)
-        nlp.constrain(v[N - 1] - v[0])
+        nlp.constrain(q[N - 1] - q[0] - advance, tag="periodicity")
+        nlp.constrain(v[N - 1] - v[0], tag="periodicity")
 
         cost = POSTURE_WEIGHT * (ca.sumsqr(q[0][2:]) + ca.sumsqr(q[N - 1][2:])) + K0 * energy
         cost += K_impact * impact_loss
@@ -350,6 +373,15 @@ class GaitProblem:
         lbg, ubg = self.compiled.lbg.copy(), self.compiled.ubg.copy()
         for sl in nlp.g_blocks["swing"]:
             lbg[sl], ubg[sl] = 0.0, s.swing_height_m
+        L = self.layout
+        for j in (0, 1):  # both soles are on the floor at a touch-down: q_post = q_pre
+            for node in (L.last(j), L.first(j + 1)):
+                # The landing foot before, the lifting foot after: their heights are 0 by the
+                # stance rows of the node on the other side, so a bound here would only repeat
+                # an equality, and an active inequality that repeats one leaves its multiplier
+                # unbounded (IPOPT then stalls).
+                sl = self._knot_swing[node]
+                lbg[sl], ubg[sl] = -np.inf, np.inf
         for sl in nlp.g_blocks["range_mid"]:
             lbg[sl], ubg[sl] = m.lower, m.upper
         for sl in nlp.g_blocks["speed_mid"]:
@@ -391,7 +423,9 @@ class GaitProblem:
     ) -> GaitResult:
         """Solve for `settings`. Starts from `warm_start` if it is a converged result of this
         structure, else from the last converged solution of this problem, else (or with
-        cold=True) from the built-in guess. Never raises for bad settings or a failed solve:
+        cold=True) from the built-in guess; a warm start that does not converge within
+        WARM_ITERATIONS_BEFORE_FALLBACK iterations restarts cold (the result's
+        `warm_iterations_before_cold` says so). Never raises for bad settings or a failed solve:
         the result says what happened, and `last_good` keeps the last converged gait.
         `iteration_callback(iteration, objective, violation)` runs at every IPOPT iteration and
         may return True to stop the solve. `start_z` (nx,) is a primal starting point given
@@ -413,7 +447,8 @@ class GaitProblem:
             and warm_start.structure == self.structure
         ):
             start = warm_start
-        x0 = self._guess(settings) if cold or start is None else start.z
+        guess = self._guess(settings)
+        x0 = guess if cold or start is None else start.z
         if (
             start_z is None
             and start is None
@@ -430,21 +465,30 @@ class GaitProblem:
             x0, start = start_z, None
         lbx, ubx, lbg, ubg = self._bounds(settings)
         run = functools.partial(
-            self.compiled.run, np.clip(x0, lbx, ubx), self._parameters(settings),
-            lbx, ubx, lbg, ubg, callback=iteration_callback,
+            self.compiled.run, p=self._parameters(settings),
+            lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, callback=iteration_callback,
         )  # fmt: skip
+        warm_iterations = 0
         try:
-            if cold or start is None or not self._has_multipliers(start):
-                outcome = run(max_iter=settings.max_iter)
+            if cold or start is None:
+                outcome = run(np.clip(x0, lbx, ubx), max_iter=settings.max_iter)
             else:
-                outcome = self._warm_run(run, start, settings.max_iter)
+                outcome, warm_iterations = self._warm_run(
+                    run, np.clip(x0, lbx, ubx), np.clip(guess, lbx, ubx), start,
+                    settings.max_iter, iteration_callback,
+                )  # fmt: skip
         except RuntimeError as error:
             return GaitResult.refused(settings, f"the solver failed: {error}")
         result = read_result(outcome, settings, self.model, self.layout, self.nlp.x_blocks)
+        result = dataclasses.replace(result, warm_iterations_before_cold=warm_iterations)
         if result.converged:
             self.last_good = result
             return result
-        blame = hardest_constraint(outcome, self.nlp, (lbg, ubg), settings, (lbx, ubx))
+        scales = Scales(
+            self.model.mass_kg * self.model.gravity, self.model.standing_height_m,
+            self.model.gravity,
+        )  # fmt: skip
+        blame = hardest_constraint(outcome, self.nlp, (lbg, ubg), settings, (lbx, ubx), scales)
         return dataclasses.replace(result, blame=blame)
 
     def _refined_start(
@@ -469,18 +513,36 @@ class GaitProblem:
         return result.lam_x.shape == (self.nlp.nx,) and result.lam_g.shape == (self.nlp.ng,)
 
     def _warm_run(
-        self, run: Callable[..., SolveOutcome], start: GaitResult, max_iter: int
-    ) -> SolveOutcome:
-        """Primal-dual warm start from `start`, falling back to the primal-only start when that
-        does not converge within WARM_ITERATIONS_BEFORE_FALLBACK iterations (a large slider
-        change can make the old multipliers a poor start). Seconds and iterations add up."""
+        self,
+        run: Callable[..., SolveOutcome],
+        x_warm: np.ndarray,
+        x_guess: np.ndarray,
+        start: GaitResult,
+        max_iter: int,
+        iteration_callback: IterationCallback | None,
+    ) -> tuple[SolveOutcome, int]:
+        """Warm start from `start` (primal-dual when it has multipliers), restarting cold from
+        the built-in guess when that has not converged within WARM_ITERATIONS_BEFORE_FALLBACK
+        iterations or failed otherwise (but not with FINAL_WARM_STATUSES). Returns the outcome
+        and the iterations of the abandoned warm attempt (0 when none was abandoned); seconds
+        and iterations of both attempts add up, and the callback sees the cold attempt's
+        iterations numbered on from the warm ones."""
         budget = min(max_iter, WARM_ITERATIONS_BEFORE_FALLBACK)
-        warm = run(max_iter=budget, multipliers=(start.lam_x, start.lam_g))
-        if warm.converged or warm.raw_status == "User_Requested_Stop" or budget >= max_iter:
-            return warm
-        primal = run(max_iter=max_iter - warm.iterations)
-        return dataclasses.replace(
-            primal,
-            seconds=warm.seconds + primal.seconds,
-            iterations=warm.iterations + primal.iterations,
+        multipliers = (start.lam_x, start.lam_g) if self._has_multipliers(start) else None
+        warm = run(x_warm, max_iter=budget, multipliers=multipliers)
+        if warm.converged or warm.raw_status in FINAL_WARM_STATUSES or budget >= max_iter:
+            return warm, 0
+        offset = warm.iterations + 1  # the callback saw iterations 0 … warm.iterations
+
+        def numbered_on(iteration: int, objective: float, violation: float) -> bool | None:
+            assert iteration_callback is not None
+            return iteration_callback(offset + iteration, objective, violation)
+
+        callback = numbered_on if iteration_callback is not None else None
+        cold = run(x_guess, max_iter=max_iter - warm.iterations, callback=callback)
+        outcome = dataclasses.replace(
+            cold,
+            seconds=warm.seconds + cold.seconds,
+            iterations=warm.iterations + cold.iterations,
         )
+        return outcome, warm.iterations

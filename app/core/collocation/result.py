@@ -133,10 +133,20 @@ class GaitResult:
     sr_incl_impacts: float = float("nan")
     """work_incl_impacts_J / (M g d)."""
     bound_check: BoundCheck | None = None
-    blame: str = ""
-    """For a solve without a gait: the constraint it ran into and the slider or limit that
-    sets it (app.core.collocation.blame); "" otherwise."""
     """The bounds checked on a fine grid between the knots (None when refused)."""
+    blame: str = ""
+    """For a solve without a gait: the constraint groups violated at its last iterate, worst
+    first, with their violations and the sliders or limits that set them
+    (app.core.collocation.blame); "" otherwise."""
+    warm_iterations_before_cold: int = 0
+    """Iterations of a warm start that did not converge within its budget, after which the
+    solve restarted cold from the built-in guess (counted in `iterations` too); 0 when the
+    solve did not restart."""
+
+    @property
+    def restarted_cold(self) -> bool:
+        """Whether a stalled warm start was abandoned for a cold start."""
+        return self.warm_iterations_before_cold > 0
 
     @property
     def has_gait(self) -> bool:
@@ -187,6 +197,7 @@ class GaitResult:
             "impact_loss_J": self.impact_loss_J,
             "work_incl_impacts_J": self.work_incl_impacts_J,
             "sr_incl_impacts": self.sr_incl_impacts,
+            "warm_iterations_before_cold": self.warm_iterations_before_cold,
             "bound_check": None
             if self.bound_check is None
             else {**dataclasses.asdict(self.bound_check), "holds": self.bound_check.holds},

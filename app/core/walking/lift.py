@@ -23,8 +23,15 @@ from app.core.robot.model import RobotModel
 
 IK_TOLERANCE = 1e-10
 IK_MAX_ITERATIONS = 30
-IK_DAMPING = 1e-9
-"""Levenberg damping of the Gauss–Newton step [1/rad²]: only matters near singular legs."""
+IK_DAMPING = 1e-4
+"""Levenberg damping of the Gauss–Newton step [1/rad²]: only matters near singular legs and
+unreachable poses, where it keeps the least-squares pose close to the planar solution (at 1e-9
+Roban S14's legs jumped branches at the touch-downs of 0.26-leg steps)."""
+IK_MAX_STEP_RAD = 0.1
+"""Largest joint change of one Gauss–Newton step [rad]. Near a straight knee the damped step
+can be hundreds of radians (Roban S14's front leg at the last touch-down of a 0.26-leg step:
+its knee went to 12 rad and the walk's speeds to 10⁶ rad/s); a bounded step stays on the
+branch the warm start is on."""
 
 
 class LegLifter:
@@ -89,6 +96,7 @@ class LegLifter:
                 J = pin.computeFrameJacobian(model, data, q, fid, pin.ReferenceFrame.LOCAL)
                 Jl = J[:, iv]  # damped least squares: straight knees are singular
                 step = np.linalg.solve(Jl.T @ Jl + IK_DAMPING * np.eye(len(iv)), Jl.T @ error)
+                step *= min(1.0, IK_MAX_STEP_RAD / max(float(np.abs(step).max()), 1e-300))
                 q[iq] += step
                 if np.abs(step).max() < IK_TOLERANCE:
                     break
