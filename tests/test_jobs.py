@@ -242,6 +242,7 @@ def test_a_top_level_function_is_a_factory_too():
         assert solve(solver, recorder, "a")[0] == "done"
 
 
+@pytest.mark.expected_traceback("app.jobs")
 def test_callbacks_may_call_the_worker_and_a_raising_one_is_skipped(solver):
     recorder = Recorder(solver)
     chained: list[str] = []

@@ -84,6 +84,7 @@ def test_a_pose_of_a_robot_no_longer_loaded_is_dropped_and_nan_is_refused(robots
     np.testing.assert_array_equal(state.q, dircon.q_neutral)
 
 
+@pytest.mark.expected_traceback("app.studio.signals")
 def test_a_failing_subscriber_does_not_stop_the_others():
     signal: Signal[int] = Signal("test")
     got = []

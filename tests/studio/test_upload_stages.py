@@ -9,6 +9,7 @@ import re
 import xml.etree.ElementTree as ET
 import zipfile
 
+import pytest
 import trimesh
 import viser
 
@@ -68,6 +69,7 @@ def test_a_refused_upload_ends_on_why(studio):
     assert status.startswith("⚠️") and "previous robot is still loaded" in status
 
 
+@pytest.mark.expected_traceback("app.studio.robot_session")
 def test_a_library_failure_names_the_stage_it_failed_in(studio, monkeypatch):
     """A failure no check of ours foresaw (injected here: the feet finder raising) is reported
     with the stage the load was in, and the previous robot stays."""
