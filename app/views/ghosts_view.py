@@ -132,9 +132,3 @@ class GhostsView:
     def remove(self) -> None:
         for handle in self._handles:
             handle.remove()
-
-
-def legend_markdown() -> str:
-    return "  \n".join(
-        f'<span style="color: rgb{rgb}">■</span> {text}' for rgb, text in GHOSTS.values()
-    )
