@@ -4,12 +4,15 @@ to a preset (app.core.camera_presets). A new simulation becomes the comparison."
 
 from __future__ import annotations
 
+from typing import Any
+
 import viser
 
 from app.core.camera_presets import preset_view
 from app.studio.signals import Signal
 from app.studio.state import StudioState
 from panels.compare_panel import NOTHING, ComparePanel
+from panels.quiet import set_value
 
 SIMULATED_CHOICE = "sim_with"
 """What a simulation that just ended is compared as."""
@@ -22,7 +25,7 @@ class CompareControls:
         state: StudioState,
         boxes: dict[str, viser.GuiCheckboxHandle],
         labels: dict[str, str],
-        simulated: Signal[object],
+        simulated: Signal[Any],
         initial: str = "command",
     ) -> None:
         """boxes: ghost name -> its toggle; labels: ghost name -> its text; `simulated` is
@@ -41,11 +44,11 @@ class CompareControls:
         for name, box in self._boxes.items():
             wanted = name in ("planned", chosen)
             if box.value != wanted:
-                box.value = wanted  # its own callback shows or hides the ghost
+                set_value(box, wanted)  # its own callback shows or hides the ghost
 
     def _on_simulated(self, simulation: object) -> None:
         if getattr(simulation, "error", "x") == "":
-            self.panel.choice.value = self._labels[SIMULATED_CHOICE]
+            set_value(self.panel.choice, self._labels[SIMULATED_CHOICE])
 
     def look_from(self, which: str, client: viser.ClientHandle | None) -> None:
         """Move the acting tab's camera (every tab's without one) to the preset."""
