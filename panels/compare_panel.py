@@ -15,6 +15,7 @@ class CompareActions(Protocol):
 
     def compare_with(self, choice: str) -> None: ...
     def look_from(self, which: str, client: viser.ClientHandle | None) -> None: ...
+    def set_error_colouring(self, on: bool) -> None: ...
 
 
 class ComparePanel:
@@ -31,6 +32,12 @@ class ComparePanel:
                 hint="Draw the plan and this one ghost only (the Ghosts toggles in the "
                 "Compensation panel can add others)",
             )
+            self.errors = gui.add_checkbox(
+                "Colour by error",
+                False,
+                hint="Draw the compared ghost's links green (on the plan) to red (3 cm or more "
+                "from the plan's link)",
+            )
             self.front = gui.add_button(
                 "Front view",
                 icon=viser.Icon.USER,
@@ -42,6 +49,7 @@ class ComparePanel:
                 hint="This tab's camera looks at the robot's right side",
             )
         self.choice.on_update(lambda _: actions.compare_with(str(self.choice.value)))
+        self.errors.on_update(lambda _: actions.set_error_colouring(bool(self.errors.value)))
 
         @self.front.on_click
         def _(event: viser.GuiEvent) -> None:

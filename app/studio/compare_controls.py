@@ -4,6 +4,7 @@ to a preset (app.core.camera_presets). A new simulation becomes the comparison."
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import viser
@@ -26,10 +27,15 @@ class CompareControls:
         boxes: dict[str, viser.GuiCheckboxHandle],
         labels: dict[str, str],
         simulated: Signal[Any],
+        colour_by_error: Callable[[str | None], None],
         initial: str = "command",
     ) -> None:
         """boxes: ghost name -> its toggle; labels: ghost name -> its text; `simulated` is
-        emitted with a Simulation when one ends (its `error` empty when it ran)."""
+        emitted with a Simulation when one ends (its `error` empty when it ran);
+        `colour_by_error(name)` colours that ghost's links by their error (None: stop)."""
+        self._colour_by_error = colour_by_error
+        self.error_ghost: str | None = None
+        """The ghost drawn in error colours: the comparison, while *Colour by error* is on."""
         self._server, self._state, self._boxes = server, state, boxes
         self._names = {labels[name]: name for name in boxes if name != "planned"}
         self.panel = ComparePanel(server.gui, self, tuple(self._names), labels[initial])
@@ -41,10 +47,18 @@ class CompareControls:
         chosen = self._names.get(choice)
         if chosen is None and choice != NOTHING:
             return
+        self.set_error_colouring(bool(self.panel.errors.value), chosen)
         for name, box in self._boxes.items():
             wanted = name in ("planned", chosen)
             if box.value != wanted:
                 set_value(box, wanted)  # its own callback shows or hides the ghost
+
+    def set_error_colouring(self, on: bool, chosen: str | None = None) -> None:
+        """Colour the comparison's links by their error from the plan (on), or not."""
+        if chosen is None:
+            chosen = self._names.get(str(self.panel.choice.value))
+        self.error_ghost = chosen if on else None
+        self._colour_by_error(self.error_ghost)
 
     def _on_simulated(self, simulation: object) -> None:
         if getattr(simulation, "error", "x") == "":

@@ -126,7 +126,7 @@ class CompensationSession:
         self.runner.finished.connect(self._on_simulated)
         labels = {name: text for name, (_, text) in GHOSTS.items()}
         self.compare = CompareControls(
-            server, state, self.panel.ghosts, labels, self.runner.finished
+            server, state, self.panel.ghosts, labels, self.runner.finished, self.colour_by_error
         )
         self._roots = AlternatingRoot("/ghosts")
         self._poses = GhostPoses()
@@ -179,9 +179,7 @@ class CompensationSession:
         with self._lock:
             self.feedforward = feedforward
             if self.ghosts is None:
-                self.ghosts = GhostsView(self._server, robot, root=self._roots.next())
-                for name, checkbox in self.panel.ghosts.items():
-                    self.ghosts.set_visible(name, checkbox.value)
+                self.ghosts = self._new_ghosts(robot)
             if len(project.simulation) == 2:
                 without, with_ = project.simulation
                 self.simulation = Simulation(
@@ -293,9 +291,7 @@ class CompensationSession:
                 return  # the motion changed meanwhile: this result is stale
             self.feedforward = result
             if self.ghosts is None:
-                self.ghosts = GhostsView(self._server, robot, root=self._roots.next())
-                for name, checkbox in self.panel.ghosts.items():
-                    self.ghosts.set_visible(name, checkbox.value)
+                self.ghosts = self._new_ghosts(robot)
         self._repredict()
         self.panel.status.content = _torque_summary(
             torque_peaks(robot, trajectory, result), trajectory
@@ -486,6 +482,19 @@ class CompensationSession:
             poses = self._poses.at(robot, trajectory, prediction, self.simulation, k)
             with self._server.atomic():
                 ghosts.update(poses)
+
+    def _new_ghosts(self, robot: RobotModel) -> GhostsView:
+        ghosts = GhostsView(self._server, robot, root=self._roots.next())
+        for name, checkbox in self.panel.ghosts.items():
+            ghosts.set_visible(name, checkbox.value)
+        ghosts.colour_by_error(self.compare.error_ghost)
+        return ghosts
+
+    def colour_by_error(self, name: str | None) -> None:
+        """Colour ghost `name`'s links by their error from the plan (None: own colours)."""
+        with self._lock:
+            if self.ghosts is not None:
+                self.ghosts.colour_by_error(name)
 
     def set_ghost_visible(self, name: str, visible: bool) -> None:
         with self._lock:
