@@ -22,22 +22,13 @@ import viser
 from viser.infra import StateSerializer
 
 from app.core.replay.folder import ReplayFolder, check_replay_target, write_replay_folder
+from app.core.replay.legend import legend_html
 from app.core.replay.scene import ReplayError, ReplayScene
 from app.core.robot.model import RobotModel
 from app.views.ghosts_view import GHOSTS, OPACITY
 from app.views.robot_view import RobotView
 from app.views.traces_view import TracesView
 from app.web.guard import guarded_server
-
-GHOST_COLOUR_NAMES = {
-    "planned": "blue",
-    "command": "green",
-    "without": "red",
-    "with": "orange",
-    "sim_without": "purple",
-    "sim_with": "teal",
-}
-"""How the title card names each ghost's colour (app.views.ghosts_view.GHOSTS)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -61,10 +52,8 @@ def viser_client_html() -> Path:
 
 
 def legend(scene: ReplayScene) -> str:
-    """One line per ghost: its colour and what it shows (labels are one colour)."""
-    return "\n".join(
-        f"{GHOST_COLOUR_NAMES.get(name, 'tinted')}: {GHOSTS[name][1]}" for name in scene.ghosts
-    )
+    """The page's title card and legend: each ghost shown, with a swatch of its colour."""
+    return legend_html(scene.title, [GHOSTS[name] for name in scene.ghosts])
 
 
 def private_server() -> viser.ViserServer:
@@ -108,8 +97,12 @@ def draw_scene(
     server.scene.add_grid(
         "/ground", width=4.0, height=4.0, cell_size=0.1, section_size=0.5, plane="xy"
     )
-    text = scene.title + ("\n" + legend(scene) if scene.ghosts else "")
-    server.scene.add_label("/title", text, position=scene.title_position_m, anchor="bottom-center")
+    # The full card and legend are the page's (app.core.replay.legend); in 3D, the title only.
+    heading = scene.title.splitlines()[0] if scene.title else ""
+    if heading:
+        server.scene.add_label(
+            "/title", heading, position=scene.title_position_m, anchor="bottom-center"
+        )
     if scene.paths:
         TracesView(server, scene.paths, root="/traces")
     robot_view = RobotView(server, robot, root="/robot", with_collision=False)
@@ -157,7 +150,9 @@ def export_replay(
         "traces": bool(scene.paths),
         "viser_version": viser.__version__,
     }
-    folder = write_replay_folder(out, data, client, scene.title, manifest, make_zip, force)
+    folder = write_replay_folder(
+        out, data, client, scene.title, manifest, make_zip, force, overlay=legend(scene)
+    )
     if progress is not None:
         progress(1.0)
     return RecordedReplay(folder, scene.n_frames, scene.duration_s, time.perf_counter() - start)

@@ -1,5 +1,6 @@
 """Compensation panel: torque feed-forward, spring/clearance compensation coefficients per
-joint, the virtual servos' true compliance and backlash, and the ghosts' legend.
+joint, the virtual servos' true compliance and backlash, and the ghosts' toggles (each in its
+ghost's colour).
 
 Moving a slider re-predicts the motion (no torque recomputation): the callbacks only say
 which value changed; the studio's compensation session recomputes.
@@ -16,6 +17,7 @@ import viser
 from app.core.servo.compensation import MAX_ABS_K_DEG_PER_NM, MAX_PHI_DEG
 from app.core.servo.presets import PRESETS
 from panels.quiet import Quiet, set_value
+from panels.swatches import add_swatches
 
 K_SLIDER_DEG_PER_NM = 20.0
 """The k and compliance sliders span ±this [°/(N·m)]: a hand can tune values around the
@@ -50,9 +52,13 @@ class CompensationPanel:
     """Owns the "Compensation" folder; the per-joint controls edit the selected joint."""
 
     def __init__(
-        self, gui: viser.GuiApi, session: CompensationActions, ghosts: dict[str, str], legend: str
+        self,
+        gui: viser.GuiApi,
+        session: CompensationActions,
+        ghosts: dict[str, tuple[tuple[int, int, int], str]],
+        shown: tuple[str, ...],
     ) -> None:
-        """ghosts: name -> legend text of each ghost; legend: markdown with their colours."""
+        """ghosts: name -> (colour, legend text) of each ghost; shown: the ones ticked first."""
         self._session = session
         self._quiet = Quiet()
         with gui.add_folder("Compensation", order=4, expand_by_default=False):
@@ -128,11 +134,12 @@ class CompensationPanel:
                     "Compute the torques, then simulate: the verdict appears here."
                 )
             with gui.add_folder("Ghosts", expand_by_default=True):
-                gui.add_markdown(legend)
-                # The planned ghost coincides with the robot itself: off until asked for.
+                # Each toggle carries its ghost's colour (panels.swatches): no separate legend.
                 self.ghosts = {
-                    name: gui.add_checkbox(text, name != "planned") for name, text in ghosts.items()
+                    name: gui.add_checkbox(text, name in shown, hint=f"Draw the {text} ghost")
+                    for name, (_rgb, text) in ghosts.items()
                 }
+                add_swatches(gui, self.ghosts, {name: rgb for name, (rgb, _) in ghosts.items()})
             self.export_commands = gui.add_button(
                 "Export servo commands CSV", icon=viser.Icon.DOWNLOAD
             )

@@ -26,6 +26,7 @@ from app.core.dynamics.wbc import FeedForward, torque_feedforward
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
+from app.core.projects.display import DEFAULT_GHOSTS
 from app.core.projects.project import Project
 from app.core.replay.pipeline import prediction_verdicts
 from app.core.replay.scene import ReplayLayers
@@ -42,7 +43,6 @@ from app.core.servo.model import (
     Prediction,
     Predictor,
     ServoModel,
-    command_configuration,
     joint_angles,
 )
 from app.core.servo.preset_safety import implausible_prediction, scaled_to_limits
@@ -52,12 +52,15 @@ from app.core.simulation.result import SimulationResult
 from app.core.simulation.worker import SimulationJob
 from app.core.thinning import thin_minmax
 from app.studio.coalesce import Coalescer
+from app.studio.compare_controls import CompareControls
+from app.studio.compare_text import quick_estimate_summary, simulation_summary
+from app.studio.ghost_poses import GhostPoses
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.simulation_runner import WITH, WITHOUT, Simulation, SimulationRunner
 from app.studio.state import Display, LoadedRobot, Motion, StudioState
 from app.studio.throttle import Throttle
-from app.views.ghosts_view import GHOSTS, GhostsView, legend_markdown
+from app.views.ghosts_view import GHOSTS, GhostsView
 from app.views.roots import AlternatingRoot
 from panels.compensation_panel import CompensationPanel
 from panels.plots_panel import ATTITUDE_SERIES, SIMULATED_SERIES, PlotsPanel
@@ -86,9 +89,7 @@ class CompensationSession:
 
     def __init__(self, server: viser.ViserServer, state: StudioState, notifier: Notifier) -> None:
         self._server, self._state, self._notifier = server, state, notifier
-        self.panel = CompensationPanel(
-            server.gui, self, {name: text for name, (_, text) in GHOSTS.items()}, legend_markdown()
-        )
+        self.panel = CompensationPanel(server.gui, self, GHOSTS, DEFAULT_GHOSTS)
         self.plots = PlotsPanel(server.gui)
         self.feedforward: FeedForward | None = None
         self.prediction: Prediction | None = None
@@ -123,7 +124,12 @@ class CompensationSession:
         """The coefficients or servos changed since `simulation` ran."""
         self.runner = SimulationRunner(self._on_simulation_progress)
         self.runner.finished.connect(self._on_simulated)
+        labels = {name: text for name, (_, text) in GHOSTS.items()}
+        self.compare = CompareControls(
+            server, state, self.panel.ghosts, labels, self.runner.finished, self.colour_by_error
+        )
         self._roots = AlternatingRoot("/ghosts")
+        self._poses = GhostPoses()
         self._cursor: Throttle[float] = Throttle(
             CURSOR_PERIOD_S, self._show_cursor, name="plot-cursor"
         )
@@ -173,9 +179,7 @@ class CompensationSession:
         with self._lock:
             self.feedforward = feedforward
             if self.ghosts is None:
-                self.ghosts = GhostsView(self._server, robot, root=self._roots.next())
-                for name, checkbox in self.panel.ghosts.items():
-                    self.ghosts.set_visible(name, checkbox.value)
+                self.ghosts = self._new_ghosts(robot)
             if len(project.simulation) == 2:
                 without, with_ = project.simulation
                 self.simulation = Simulation(
@@ -192,7 +196,7 @@ class CompensationSession:
             torque_peaks(robot, trajectory, feedforward), trajectory
         )
         if self.simulation is not None:
-            self.panel.verdict.content = _simulation_summary(self.simulation)
+            self.panel.verdict.content = self._simulation_text(self.simulation)
             if project.simulation_stale:
                 self._mark_simulation_stale()
 
@@ -287,9 +291,7 @@ class CompensationSession:
                 return  # the motion changed meanwhile: this result is stale
             self.feedforward = result
             if self.ghosts is None:
-                self.ghosts = GhostsView(self._server, robot, root=self._roots.next())
-                for name, checkbox in self.panel.ghosts.items():
-                    self.ghosts.set_visible(name, checkbox.value)
+                self.ghosts = self._new_ghosts(robot)
         self._repredict()
         self.panel.status.content = _torque_summary(
             torque_peaks(robot, trajectory, result), trajectory
@@ -437,7 +439,7 @@ class CompensationSession:
             self.panel.status.content = "⚠️ " + "; ".join(absurd) + " (quick estimate)"
         deg = np.rad2deg
         t = prediction.t
-        self.plots.info.content = _attitude_summary(prediction)
+        self.plots.info.content = quick_estimate_summary(prediction)
         keep = thin_minmax(t, prediction.tau_Nm.T)  # plots get ≤ 2000 points, every peak kept
         self.plots.show_torques(t[keep], prediction.joint_names, prediction.tau_Nm[keep])
         attitude = np.stack(
@@ -477,19 +479,22 @@ class CompensationSession:
             )
             if prediction is None or ghosts is None or robot is None or trajectory is None:
                 return
-            k = int(np.clip(k, 0, trajectory.n_samples - 1))
-            poses = {
-                "planned": trajectory.q[k],
-                "command": command_configuration(robot, trajectory, prediction, k),
-                "without": prediction.q_world_uncompensated[k],
-                "with": prediction.q_world_compensated[k],
-            }
-            simulation = self.simulation
-            if simulation is not None and simulation.trajectory is trajectory:
-                poses["sim_without"] = simulation.results[WITHOUT].q[k]
-                poses["sim_with"] = simulation.results[WITH].q[k]
+            poses = self._poses.at(robot, trajectory, prediction, self.simulation, k)
             with self._server.atomic():
                 ghosts.update(poses)
+
+    def _new_ghosts(self, robot: RobotModel) -> GhostsView:
+        ghosts = GhostsView(self._server, robot, root=self._roots.next())
+        for name, checkbox in self.panel.ghosts.items():
+            ghosts.set_visible(name, checkbox.value)
+        ghosts.colour_by_error(self.compare.error_ghost)
+        return ghosts
+
+    def colour_by_error(self, name: str | None) -> None:
+        """Colour ghost `name`'s links by their error from the plan (None: own colours)."""
+        with self._lock:
+            if self.ghosts is not None:
+                self.ghosts.colour_by_error(name)
 
     def set_ghost_visible(self, name: str, visible: bool) -> None:
         with self._lock:
@@ -583,7 +588,7 @@ class CompensationSession:
             if simulation.trajectory is not self._trajectory:
                 return  # the motion changed meanwhile
             self.simulation, self.simulation_stale = simulation, False
-        self.panel.verdict.content = _simulation_summary(simulation)
+        self.panel.verdict.content = self._simulation_text(simulation)
         self._repredict()
 
     def _mark_simulation_stale(self) -> None:
@@ -591,8 +596,13 @@ class CompensationSession:
             self.simulation_stale = True
             self.panel.verdict.content = (
                 "⚠️ Stale: the coefficients or servos changed since this simulation; simulate "
-                "again.  \n" + _simulation_summary(self.simulation)
+                "again.  \n" + self._simulation_text(self.simulation)
             )
+
+    def _simulation_text(self, simulation: Simulation) -> str:
+        robot = self._robot
+        drift = self._poses.drift_m(robot, simulation) if robot is not None else None
+        return simulation_summary(simulation, drift)
 
     def replay_layers(self, traces: bool) -> ReplayLayers:
         """The ghosts shown now (checkbox on and poses to show), the key parameters and the
@@ -601,12 +611,10 @@ class CompensationSession:
             prediction, params, servo = self.prediction, self.params, self.servo
             simulation, trajectory = self.simulation, self._trajectory
             fresh = simulation is not None and simulation.trajectory is trajectory
+            robot = self._robot
             extra = (
-                {
-                    "sim_without": simulation.results[WITHOUT].q,
-                    "sim_with": simulation.results[WITH].q,
-                }
-                if fresh and simulation is not None and not simulation.error
+                {g: on_plan.q for g, on_plan in self._poses.simulated(robot, simulation).items()}
+                if fresh and simulation is not None and robot is not None and not simulation.error
                 else {}
             )
             shown = tuple(
@@ -747,27 +755,3 @@ def _torque_summary(peaks: TorquePeaks, trajectory: Trajectory) -> str:
         everything = float(np.max(peaks.max_abs_tau_all_samples_Nm))
         lines.append(f"Peak over every sample, flagged ones included: {everything:.2f} N·m.")
     return "  \n".join(lines)
-
-
-def _simulation_summary(simulation: Simulation) -> str:
-    waited = simulation.waited_s
-    took = "restored from the project" if waited is None else f"in {waited:.1f} s"
-    lines = [f"**Simulated** (MuJoCo) {took}:"]
-    for label in (WITHOUT, WITH):
-        run = simulation.results[label]
-        roll = np.degrees(np.max(np.abs(run.roll_rad - run.roll_planned_rad)))
-        pitch = np.degrees(np.max(np.abs(run.pitch_rad - run.pitch_planned_rad)))
-        lines.append(
-            f"{label}: **{run.verdict()}**; largest torso error roll {roll:.2f}°, pitch "
-            f"{pitch:.2f}° (×{run.real_time_factor:.0f} real time)"
-        )
-    return "  \n".join(lines)
-
-
-def _attitude_summary(prediction: Prediction) -> str:
-    errors = prediction.attitude_errors_deg()
-    return (
-        "Largest torso error vs plan — "
-        f"no compensation: roll {errors['roll_uncompensated']:.2f}°, pitch {errors['pitch_uncompensated']:.2f}°; "
-        f"compensated: roll {errors['roll_compensated']:.2f}°, pitch {errors['pitch_compensated']:.2f}°"
-    )

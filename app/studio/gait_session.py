@@ -141,6 +141,9 @@ class GaitSession:
         self.finished: Signal[Solve] = Signal("gait_finished")
         """Emitted once per solve when it ends (converged, failed or cancelled), after the
         panel shows it."""
+        self.pipeline_started: Signal[str] = Signal("pipeline_started")
+        """Emitted when the one click is taken, with its first stage ("planning", or
+        "walking" when the last gait still fits the settings)."""
         self.prepared: Signal[object] = Signal("gait_prepared")
         """Emitted with the structure key when the worker has built a problem ahead of time."""
         state.on_robot.connect(self._on_robot)
@@ -406,10 +409,12 @@ class GaitSession:
         compensation → simulation. Each stage shows its progress in its own panel."""
         fresh = self.results.symmetric is not None and not self._stale()
         if fresh:
+            self.pipeline_started.emit("walking")
             self.play_result(client, then=PIPELINE_STAGES)
             return
         job_id = self.solve(baseline=False, client=client)
         if job_id is not None:
+            self.pipeline_started.emit("planning")
             self._pipeline_job = job_id
             self.panel.status.content += "  \nThen: walk → torques → compensation → simulation."
 

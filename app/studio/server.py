@@ -23,6 +23,7 @@ from app.studio.gait_session import GaitSession
 from app.studio.joints_session import JointsSession
 from app.studio.motion_session import MotionSession
 from app.studio.notifier import Notifier
+from app.studio.pipeline_progress import PipelineProgress
 from app.studio.playback_session import PlaybackSession
 from app.studio.pose_session import PoseSession
 from app.studio.project_session import ProjectSession
@@ -79,6 +80,18 @@ class Studio:
         self.compensation = CompensationSession(server, state, notifier)
         self.gait = GaitSession(
             server, state, notifier, config.package_roots, prepare=config.prepare_gait
+        )
+        self.pipeline = PipelineProgress(
+            server.gui,
+            self.gait.panel.folder,
+            state,
+            {
+                "started": self.gait.pipeline_started,
+                "iteration": self.gait.progressed,
+                "solved": self.gait.finished,
+                "torques": self.compensation.torques_done,
+                "simulated": self.compensation.runner.finished,
+            },
         )
         self.share = ShareSession(
             server,

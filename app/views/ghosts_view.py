@@ -28,6 +28,18 @@ GHOSTS = {
 OPACITY = 0.4
 SEND_TOLERANCE = 1e-9
 """A mesh whose instances moved less than this (m, and quaternion entries) is not re-sent."""
+ERROR_FULL_SCALE_M = 0.03
+"""Error colouring: a link this far [m] (or farther) from the plan's is drawn red; at 0, green."""
+
+
+def error_colours(errors_m: np.ndarray, full_scale_m: float = ERROR_FULL_SCALE_M) -> np.ndarray:
+    """RGB (N, 3) uint8 for position errors [m] (N,): green at 0, yellow at half the full
+    scale, red at the full scale and beyond."""
+    t = np.clip(np.asarray(errors_m, dtype=float) / full_scale_m, 0.0, 1.0)
+    rgb = np.stack(
+        [np.minimum(1.0, 2.0 * t), np.minimum(1.0, 2.0 * (1.0 - t)), np.full_like(t, 0.15)]
+    )
+    return np.round(255.0 * rgb.T).astype(np.uint8)
 
 
 class GhostsView:
@@ -45,6 +57,10 @@ class GhostsView:
         self._wxyzs[..., 0] = 1.0
         self._scales = np.zeros(n)
         colours = np.array([rgb for rgb, _ in GHOSTS.values()], dtype=np.uint8)
+        self._colours = np.repeat(colours[None], len(meshes), axis=0)
+        """(meshes, ghosts, 3) colour of each instance, as last sent."""
+        self.error_ghost: str | None = None
+        """The ghost whose links are coloured by their distance from the plan's (None: none)."""
         with server.atomic():
             self._handles = [
                 server.scene.add_batched_meshes_simple(
@@ -75,6 +91,41 @@ class GhostsView:
             self._poses[name] = np.asarray(q, dtype=float)
             self._place(name)
         self._send()
+        self._colour_errors()
+
+    def colour_by_error(self, name: str | None) -> None:
+        """Colour ghost `name`'s links by their distance from the planned ones (green → red,
+        ERROR_FULL_SCALE_M), or give every ghost back its own colour (None)."""
+        self.error_ghost = name if name in self.names else None
+        self._colour_errors()
+
+    def link_errors_m(self, name: str) -> np.ndarray | None:
+        """Per visual mesh (`mesh_links` order), the distance [m] of its link's origin in ghost
+        `name` from the plan's; None without both poses."""
+        if name not in self._poses or "planned" not in self._poses:
+            return None
+        model, data = self.robot.model, self._data
+        origins = []
+        for q in (self._poses[name], self._poses["planned"]):
+            pin.framesForwardKinematics(model, data, q)
+            origins.append(np.array([data.oMf[int(f)].translation for f in self._frames]))
+        return np.linalg.norm(origins[0] - origins[1], axis=1)
+
+    def colours(self, name: str) -> np.ndarray:
+        """RGB (M, 3) of a ghost's meshes, as last sent."""
+        return self._colours[:, self.names.index(name)].copy()
+
+    def _colour_errors(self) -> None:
+        wanted = self._colours.copy()
+        wanted[:] = np.array([rgb for rgb, _ in GHOSTS.values()], dtype=np.uint8)[None]
+        if self.error_ghost is not None:
+            errors = self.link_errors_m(self.error_ghost)
+            if errors is not None:
+                wanted[:, self.names.index(self.error_ghost)] = error_colours(errors)
+        for i, handle in enumerate(self._handles):
+            if not np.array_equal(wanted[i], self._colours[i]):
+                handle.batched_colors = wanted[i].copy()
+        self._colours = wanted
 
     def forget(self, name: str) -> None:
         """Hide a ghost until it gets a pose again (e.g. a simulation that went stale)."""
@@ -132,9 +183,3 @@ class GhostsView:
     def remove(self) -> None:
         for handle in self._handles:
             handle.remove()
-
-
-def legend_markdown() -> str:
-    return "  \n".join(
-        f'<span style="color: rgb{rgb}">■</span> {text}' for rgb, text in GHOSTS.values()
-    )

@@ -202,3 +202,44 @@ def _grey_grid(image: np.ndarray, shape: tuple[int, int] = (20, 32)) -> np.ndarr
     rows = np.array_split(np.arange(grey.shape[0]), shape[0])
     cols = np.array_split(np.arange(grey.shape[1]), shape[1])
     return np.array([[grey[np.ix_(r, c)].mean() for c in cols] for r in rows])
+
+
+def test_the_replay_legend_is_in_the_page_with_colours(chromium, static_url: str):
+    """The title card and ghost legend are drawn by the page inside the viewport (they used
+    to be a 3D label that ran off the top), each ghost with a swatch of its own colour; the
+    swatches are seen in the page's own screenshot, not only in its markup."""
+    from app.core.replay.legend import ELEMENT_ID
+    from app.core.replay.scene import PREDICTED_GHOSTS
+    from app.views.ghosts_view import GHOSTS
+
+    context = chromium.new_context(viewport=VIEWPORT)
+    page = context.new_page()
+    page.set_default_timeout(60_000)
+    try:
+        page.goto(static_url)
+        wait_for("index.html to open the viewer", lambda: "playbackPath=" in page.url, 30.0)
+        card = page.locator(f"#{ELEMENT_ID}")
+        card.wait_for(state="visible")
+        box = card.bounding_box()
+        assert box is not None
+        assert box["x"] >= 0 and box["y"] >= 0
+        assert box["x"] + box["width"] <= VIEWPORT["width"]
+        assert box["y"] + box["height"] <= VIEWPORT["height"]
+        assert "servo_biped" in card.inner_text()
+        swatches = card.locator(".replay-swatch")
+        assert swatches.count() == len(PREDICTED_GHOSTS)
+        png = Image.open(io.BytesIO(page.screenshot(animations="disabled"))).convert("RGB")
+        pixels = np.asarray(png, dtype=np.int16)
+        for i, name in enumerate(PREDICTED_GHOSTS):
+            rgb, text = GHOSTS[name]
+            row = swatches.nth(i).locator("xpath=..")
+            assert text in row.inner_text()
+            swatch = swatches.nth(i).bounding_box()
+            assert swatch is not None and swatch["width"] >= 8 and swatch["height"] >= 8
+            assert swatch["y"] >= 0 and swatch["y"] + swatch["height"] <= VIEWPORT["height"]
+            # the swatch's centre pixel, as Chromium drew it
+            x = int(swatch["x"] + swatch["width"] / 2)
+            y = int(swatch["y"] + swatch["height"] / 2)
+            assert np.abs(pixels[y, x] - np.array(rgb)).max() <= 6, (name, pixels[y, x], rgb)
+    finally:
+        context.close()

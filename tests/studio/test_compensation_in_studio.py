@@ -8,6 +8,7 @@ import io
 import numpy as np
 import pytest
 
+from app.core.simulation.on_plan import on_plan_stance
 from tests.studio.conftest import compute_torques, start_studio, wait_for_signal
 
 
@@ -44,7 +45,13 @@ def test_torques_plots_and_ghosts_follow_the_motion(studio):
     assert session.plots.torques is not None and session.plots.attitude is not None
     # time, one curve per joint, the time cursor
     assert len(session.plots.torques.data) == 2 + studio.state.robot.n_actuated
-    # The ghosts stand where the prediction says at the shown sample.
+    # By default the plan and one comparison (the command); the compensated quick estimate
+    # is ticked here, and stands where the prediction says at the shown sample.
+    assert {name for name, box in session.panel.ghosts.items() if box.value} == {
+        "planned",
+        "command",
+    }
+    session.panel.ghosts["with"].value = True
     studio.playback.seek(3.0)
     k = studio.state.trajectory.index_at(3.0)
     assert_ghost_at(session.ghosts, "with", prediction.q_world_compensated[k])
@@ -163,11 +170,16 @@ def test_simulate_shows_a_verdict_ghosts_and_simulated_curves(studio):
     assert "Simulated" in session.panel.verdict.content
     # Two more curves in each attitude plot: planned, two quick estimates, two simulations.
     assert len(session.plots.roll.data) == 2 + 5 and len(session.plots.pitch.data) == 2 + 5
-    # The simulated ghost stands where the simulation put the robot at the shown sample.
+    # The simulated ghost becomes the comparison; it stands where the simulation put the
+    # robot at the shown sample, moved over the floor onto the plan's stance foot.
     robot = studio.state.robot
+    assert session.panel.ghosts["sim_with"].value and not session.panel.ghosts["command"].value
     studio.playback.seek(1.0)
-    k = studio.state.trajectory.index_at(1.0)
-    assert_ghost_at(session.ghosts, "sim_with", with_.q[k])
+    trajectory = studio.state.trajectory
+    k = trajectory.index_at(1.0)
+    shift = on_plan_stance(robot, trajectory, with_.q).q[k] - with_.q[k]
+    assert np.all(shift[2:] == 0.0) and np.linalg.norm(shift[:2]) < 0.05
+    assert_ghost_at(session.ghosts, "sim_with", with_.q[k] + shift)
     assert robot is session.ghosts.robot
     # A coefficient change marks the simulation stale, and keeps it.
     session.panel.k.value = float(session.panel.k.value) + 0.5

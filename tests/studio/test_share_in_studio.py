@@ -29,6 +29,7 @@ def test_export_records_what_is_shown_and_nothing_reaches_the_live_tabs(studio, 
     compute_torques(studio)
     ghosts = studio.compensation.panel.ghosts
     ghosts["planned"].value = True
+    ghosts["with"].value = True  # by default the plan and the command only
     ghosts["without"].value = False
     studio.playback.panel.traces.value = False
     studio.share.panel.zip.value = True
@@ -48,7 +49,10 @@ def test_export_records_what_is_shown_and_nothing_reaches_the_live_tabs(studio, 
     assert not any(n.startswith("/ghosts/without") for n in names)
     assert not any(n.startswith("/traces") for n in names)
     title = next(m["props"]["text"] for _, m in recording.messages if m.get("name") == "/title")
-    assert "com_shift" in title and "quick estimate, compensated" in title
+    assert "com_shift" in title
+    # the full card and the legend are drawn by the page (app.core.replay.legend)
+    viewer = (folder / "viewer.html").read_text(encoding="utf-8")
+    assert 'id="replay-legend"' in viewer and "quick estimate, compensated" in viewer
     trajectory = studio.state.trajectory
     assert recording.duration_s == pytest.approx(trajectory.duration, abs=0.04)
 

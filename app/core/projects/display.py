@@ -19,8 +19,9 @@ SPEEDS = (0.25, 0.5, 1.0, 2.0)
 """The playback speeds the Playback panel offers (× real time)."""
 GHOST_NAMES = ("planned", "command", "without", "with", "sim_without", "sim_with")
 """The ghosts the studio draws (app.views.ghosts_view.GHOSTS, same order)."""
-DEFAULT_GHOSTS = GHOST_NAMES[1:]
-"""Shown unless hidden: all but the planned ghost, which coincides with the robot itself."""
+DEFAULT_GHOSTS = ("planned", "command")
+"""Shown unless hidden: the plan and one comparison (the compensated servo command); five
+translucent ghosts at once overlap into a blur."""
 ALL_JOINTS = "all joints"
 """The plots' joint choice that shows every joint (else "left leg", "right leg" or a joint)."""
 MAX_CAMERA_M = 1.0e4

@@ -25,6 +25,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
+from app.core.replay.legend import with_overlay
 from app.core.replay.scene import ReplayError
 
 INDEX = "index.html"
@@ -75,9 +76,11 @@ def write_replay_folder(
     manifest: dict[str, object],
     make_zip: bool = False,
     force: bool = False,
+    overlay: str = "",
 ) -> ReplayFolder:
     """Write the replay folder at `out` (and `out.zip` beside it when asked; an existing zip
-    is replaced only with `force`)."""
+    is replaced only with `force`); `overlay` is HTML added to the viewer page
+    (app.core.replay.legend)."""
     out = check_replay_target(out, make_zip, force)
     parent = out.parent
     try:
@@ -87,7 +90,11 @@ def write_replay_folder(
         raise ReplayError(f"cannot write the replay beside {out}: {error.strerror}") from None
     try:
         staging.chmod(0o755)  # mkdtemp makes it private; a web server must read it
-        shutil.copyfile(client_html, staging / VIEWER)
+        if overlay:
+            page = Path(client_html).read_text(encoding="utf-8")
+            (staging / VIEWER).write_text(with_overlay(page, overlay), encoding="utf-8")
+        else:
+            shutil.copyfile(client_html, staging / VIEWER)
         (staging / RECORDING).write_bytes(recording)
         (staging / INDEX).write_text(index_html(title), encoding="utf-8")
         info = {"format": FORMAT, "version": FORMAT_VERSION, "title": title, **manifest}
