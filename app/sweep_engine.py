@@ -97,7 +97,10 @@ def _connect(client_class: Any, scheduler: str, security: Any) -> Any:
     return outcome[0]
 
 
-NO_HTTP_CONFIG = {"distributed.scheduler.http.routes": [], "distributed.worker.http.routes": []}
+NO_HTTP_CONFIG: dict[str, list[str]] = {
+    "distributed.scheduler.http.routes": [],
+    "distributed.worker.http.routes": [],
+}
 """Dask configuration of the local cluster: its HTTP servers serve nothing."""
 
 
