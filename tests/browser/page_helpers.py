@@ -200,3 +200,12 @@ def screen_point(camera, point_m: np.ndarray, canvas: dict) -> tuple[float, floa
     x = canvas["x"] + 0.5 * canvas["width"] + focal * float(d @ right) / depth
     y = canvas["y"] + 0.5 * canvas["height"] - focal * float(d @ up) / depth
     return x, y
+
+
+def open_studio(page, url: str):
+    """`page` on the studio at `url`, connected (its Playback folder drawn), the software-WebGL
+    notice hidden: how a module's tests start (once per module: page loads are slow)."""
+    page.goto(url)
+    folder_title(page, "Playback").wait_for(state="visible", timeout=RENDER_TIMEOUT_S * 1000)
+    dismiss_software_webgl_warning(page)
+    return page

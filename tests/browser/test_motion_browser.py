@@ -25,12 +25,11 @@ from tests.browser.page_helpers import (
     UI_TIMEOUT_S,
     changed,
     click_button,
-    dismiss_software_webgl_warning,
     expand_folder,
     folder,
-    folder_title,
     gui_row_input,
     not_blank,
+    open_studio,
     page_time_s,
     shot,
     type_number,
@@ -60,12 +59,7 @@ def lifted_left_foot(studio: Studio) -> np.ndarray:
 @pytest.fixture(scope="module")
 def page(browser_page, studio_url: str):
     """The studio page, loaded once and connected (its Playback folder is drawn)."""
-    browser_page.goto(studio_url)
-    folder_title(browser_page, "Playback").wait_for(
-        state="visible", timeout=RENDER_TIMEOUT_S * 1000
-    )
-    dismiss_software_webgl_warning(browser_page)
-    return browser_page
+    return open_studio(browser_page, studio_url)
 
 
 def test_capture_two_keyframes_and_build_a_motion(page, studio: Studio) -> None:

@@ -23,6 +23,7 @@ from tests.browser.page_helpers import (
     expand_folder,
     folder_title,
     gui_row_input,
+    open_studio,
     wait_for,
 )
 from tests.browser.test_compensation_browser import select_option
@@ -33,12 +34,7 @@ NAME = "tour"
 
 @pytest.fixture(scope="module")
 def page(browser_page, studio_url: str):
-    browser_page.goto(studio_url)
-    folder_title(browser_page, "Playback").wait_for(
-        state="visible", timeout=RENDER_TIMEOUT_S * 1000
-    )
-    dismiss_software_webgl_warning(browser_page)
-    return browser_page
+    return open_studio(browser_page, studio_url)
 
 
 def type_text(page, label: str, text: str, studio_value) -> None:
