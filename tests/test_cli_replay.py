@@ -70,11 +70,16 @@ def test_export_writes_a_self_contained_folder_and_zip(exported: Path):
     assert {p.name for p in exported.iterdir()} >= {INDEX, VIEWER, RECORDING, MANIFEST}
     index = (exported / INDEX).read_text()
     assert f"{VIEWER}?playbackPath={RECORDING}" in index
-    # The viewer is viser's own built client, byte for byte.
+    # The viewer is viser's own built client, byte for byte, with the legend card as the
+    # first thing in its body (app/core/replay/legend.py).
     import viser
 
     client = Path(viser.__file__).parent / "client" / "build" / "index.html"
-    assert (exported / VIEWER).read_bytes() == client.read_bytes()
+    viewer = (exported / VIEWER).read_text(encoding="utf-8")
+    page = client.read_text(encoding="utf-8")
+    at, added = page.index("<body>") + len("<body>"), len(viewer) - len(page)
+    assert viewer[at : at + added].startswith('\n<div id="replay-legend"')
+    assert viewer[:at] + viewer[at + added :] == page
     with zipfile.ZipFile(exported.with_name("com_shift.zip")) as archive:
         for path in exported.iterdir():
             assert archive.read(f"com_shift/{path.name}") == path.read_bytes()

@@ -171,7 +171,7 @@ def hardest_constraint(
     `g_bounds` and `x_bounds` are the (lower, upper) bounds of that solve."""
     groups = group_violations(outcome, nlp, g_bounds, x_bounds, scales, settings)
     violated = [g for g in groups if g.violation > VIOLATED][:NAMED_GROUPS]
-    context = _saturated(outcome.x, nlp, x_bounds)
+    context = _saturated(outcome.x, nlp, x_bounds, settings)
     if not violated:
         worst = max((g.violation for g in groups), default=0.0)
         return (
@@ -187,8 +187,14 @@ def hardest_constraint(
     return f"Violated at its last point, worst first: {named}.{context}"
 
 
-def _saturated(x: np.ndarray, nlp: SxNlp, x_bounds: tuple[np.ndarray, np.ndarray] | None) -> str:
-    """ " Torques at their bound on 35 % of the entries." (or speeds), or ""."""
+def _saturated(
+    x: np.ndarray,
+    nlp: SxNlp,
+    x_bounds: tuple[np.ndarray, np.ndarray] | None,
+    settings: GaitSettings,
+) -> str:
+    """ " (torques at their bound on 35 % of the entries: the joint torque bound |τ| ≤ … N·m
+    (the robot's effort limit))" (or speeds), or "": the bound named with where it is set."""
     if x_bounds is None:
         return ""
     lbx, ubx = x_bounds
@@ -203,5 +209,8 @@ def _saturated(x: np.ndarray, nlp: SxNlp, x_bounds: tuple[np.ndarray, np.ndarray
             np.abs(ubx[index] - x[index]) < 1e-3 * span
         )
         if near.mean() >= SATURATED_SHARE:
-            notes.append(f"{what} at their bound on {100 * near.mean():.0f} % of the entries")
+            notes.append(
+                f"{what} at their bound on {100 * near.mean():.0f} % of the entries: "
+                + words(group, settings)
+            )
     return f" ({'; '.join(notes)})" if notes else ""
