@@ -68,35 +68,6 @@ def local_cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
-HANDSHAKE_TIMEOUT_S = 3 * CONNECT_TIMEOUT_S
-"""How long a scheduler that accepted the connection may take to answer [s]."""
-
-
-def _connect(client_class: Any, scheduler: str, security: Any) -> Any:
-    """A client of `scheduler`, or TimeoutError when it does not answer in time: Dask's own
-    timeout covers the connection, not a peer that accepts it and stays silent (the client
-    then waits forever). The attempt runs on a daemon thread that is left behind then."""
-    outcome: list[Any] = []
-    done = threading.Event()
-
-    def attempt() -> None:
-        try:
-            outcome.append(client_class(scheduler, timeout=CONNECT_TIMEOUT_S, security=security))
-        except BaseException as error:  # handed to the caller's thread
-            outcome.append(error)
-        done.set()
-
-    threading.Thread(target=attempt, name="dask-connect", daemon=True).start()
-    if not done.wait(HANDSHAKE_TIMEOUT_S):
-        raise TimeoutError(
-            f"it accepted the connection but did not answer in {HANDSHAKE_TIMEOUT_S:.0f} s: "
-            "is it a Dask scheduler?"
-        )
-    if isinstance(outcome[0], BaseException):
-        raise outcome[0]
-    return outcome[0]
-
-
 NO_HTTP_CONFIG: dict[str, list[str]] = {
     "distributed.scheduler.http.routes": [],
     "distributed.worker.http.routes": [],
@@ -167,7 +138,7 @@ class SweepEngine:
             raise SweepEngineError(f"workers = {n_workers}: give 1 to 256")
         if scheduler is not None:
             try:
-                self.client = _connect(Client, scheduler, security)
+                self.client = Client(scheduler, timeout=CONNECT_TIMEOUT_S, security=security)
                 self.address = scheduler
                 return
             except Exception as error:  # whatever the peer made Dask's client raise: one line
