@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 import pytest
+from playwright.sync_api import expect
 
 from app.studio import Studio
 from tests.browser.page_helpers import (
@@ -92,8 +93,9 @@ def test_save_as_reload_and_open_bring_the_work_back(page, studio: Studio) -> No
     )
     print(f"Open {NAME}: shown {time.monotonic() - started:.1f} s after the click")
     assert studio.state.robot.name == robot_saved
-    assert (
-        gui_row_input(page, "Built-in", "input.mantine-Select-input").input_value() == robot_saved
+    # The dropdown follows the opened robot (Mantine syncs its text a render later: wait on it).
+    expect(gui_row_input(page, "Built-in", "input.mantine-Select-input")).to_have_value(
+        robot_saved, timeout=UI_TIMEOUT_S * 1000
     )
     assert opened.q.shape == saved.q.shape
     np.testing.assert_allclose(opened.q, saved.q, atol=1e-12)
