@@ -28,6 +28,7 @@ class DisplayPanel:
         gui: viser.GuiApi,
         on_change: Callable[[DisplayFlags], None],
         on_frame: Callable[[viser.ClientHandle | None], None],
+        on_lighting: Callable[[bool], None] = lambda _detailed: None,
     ) -> None:
         self._gui = gui
         self._quiet = Quiet()
@@ -43,6 +44,12 @@ class DisplayPanel:
                 hint="Point this tab's camera at the robot",
             )
             self.dark = gui.add_checkbox("Dark mode", defaults.dark)
+            self.detailed_lighting = gui.add_checkbox(
+                "Detailed lighting",
+                False,
+                hint="Environment map and shadows, for a computer with a graphics card (without "
+                "one the browser draws them in software, about a second per frame)",
+            )
         for handle in (self.visual, self.collision, self.frames, self.com):
             handle.on_update(
                 lambda _event: None if self._quiet.is_quiet() else on_change(self.flags())
@@ -55,6 +62,9 @@ class DisplayPanel:
                 on_change(self.flags())
 
         self.dark.on_update(on_dark)
+        self.detailed_lighting.on_update(
+            lambda _event: on_lighting(bool(self.detailed_lighting.value))
+        )
 
     def _theme(self) -> None:
         self._gui.configure_theme(

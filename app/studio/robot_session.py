@@ -28,6 +28,7 @@ from app.studio.admission import Admission, Busy
 from app.studio.notifier import Notifier, Progress
 from app.studio.signals import Signal
 from app.studio.state import Display, LoadedRobot, Pose, StudioState
+from app.views.lighting import Lighting
 from app.views.robot_view import RobotView
 from app.views.roots import AlternatingRoot
 from panels.display_panel import DisplayFlags, DisplayPanel
@@ -48,7 +49,11 @@ class RobotSession:
     ) -> None:
         self._server, self._state, self._notifier, self._config = server, state, notifier, config
         self.panel = RobotPanel(server.gui, self, config.max_upload_bytes)
-        self.display = DisplayPanel(server.gui, self._on_display, self.frame_camera)
+        self.lighting = Lighting(server.scene)
+        """Fast lighting unless the Display folder asks for the detailed one."""
+        self.display = DisplayPanel(
+            server.gui, self._on_display, self.frame_camera, self.lighting.set_detailed
+        )
         self.view: RobotView | None = None
         self.stage: Signal[str] = Signal("load_stage")
         """Emitted with each stage of a load as it starts, as the Robot panel shows it."""

@@ -209,3 +209,20 @@ def open_studio(page, url: str):
     folder_title(page, "Playback").wait_for(state="visible", timeout=RENDER_TIMEOUT_S * 1000)
     dismiss_software_webgl_warning(page)
     return page
+
+
+FRAME_INTERVAL_JS = """(seconds) => new Promise((resolve) => {
+  const start = performance.now(); let frames = 0;
+  function frame(now) {
+    frames++;
+    if (now - start < seconds * 1000) requestAnimationFrame(frame);
+    else resolve((now - start) / frames);
+  }
+  requestAnimationFrame(frame);
+})"""
+
+
+def frame_interval_ms(page, seconds: float = 3.0) -> float:
+    """The page's mean time between animation frames over `seconds` [ms] (for the log: what a
+    software renderer on a busy machine gives, never asserted)."""
+    return float(page.evaluate(FRAME_INTERVAL_JS, seconds))

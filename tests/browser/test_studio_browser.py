@@ -23,6 +23,8 @@ from tests.browser.page_helpers import (
     box_of,
     changed,
     dismiss_software_webgl_warning,
+    expand_folder,
+    frame_interval_ms,
     gui_row_input,
     not_blank,
     wait_for,
@@ -128,6 +130,39 @@ def test_robot_renders_and_a_joint_slider_moves_it(page, studio: Studio, tmp_pat
     moved = changed(after[region], before[region]).mean()
     assert moved > MIN_MOTION_FRACTION, f"only {moved:.2%} of the robot's box changed"
     Image.fromarray(after.astype(np.uint8)).save(tmp_path / "studio_moved.png")
+
+
+def test_detailed_lighting_is_one_tick_away_and_fast_lighting_comes_back(
+    page, studio: Studio
+) -> None:
+    """The studio starts with the fast lighting (no environment map, no shadows: a software
+    renderer draws it ~10x faster); the Display folder's *Detailed lighting* changes the
+    picture in the page, and unticking it brings the fast picture back."""
+    lighting = studio.robots.lighting
+    assert not lighting.detailed
+    dismiss_software_webgl_warning(page)
+    fast = wait_stable(page, "the scene in the fast lighting", not_blank)
+    fast_ms = frame_interval_ms(page)
+    checkbox = gui_row_input(page, "Detailed lighting", "input")
+    if not checkbox.is_visible():
+        expand_folder(page, "Display", "Frame robot")
+    checkbox.click()
+    wait_for("the studio to switch the lighting", lambda: lighting.detailed, UI_TIMEOUT_S)
+    detailed = wait_stable(
+        page,
+        "the scene in the detailed lighting",
+        lambda image: changed(image, fast).mean() > MIN_ROBOT_FRACTION,
+    )
+    detailed_ms = frame_interval_ms(page)
+    checkbox.click()
+    wait_for("the studio to switch back", lambda: not lighting.detailed, UI_TIMEOUT_S)
+    back = wait_stable(
+        page,
+        "the scene in the fast lighting again",
+        lambda image: changed(image, detailed).mean() > MIN_ROBOT_FRACTION,
+    )
+    assert changed(back, fast).mean() < 0.2 * changed(detailed, fast).mean()
+    print(f"page frame interval: fast lighting {fast_ms:.0f} ms, detailed {detailed_ms:.0f} ms")
 
 
 def test_opening_a_missing_path_notifies_and_keeps_the_robot(page, studio: Studio) -> None:
