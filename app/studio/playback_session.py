@@ -19,6 +19,11 @@ from app.views.traces_view import TracesView
 from panels.playback_panel import PlaybackPanel
 
 DISPLAY_RATE_HZ = 60.0
+IDLE_PER_BUSY = 1.0
+"""The player waits at least as long as its last frame took (the pose, the ghosts, the plots'
+cursor, the messages to every tab): ~11 ms of CPU per frame on servo_biped with ghosts, two
+thirds of a core at 60 Hz, which a browser drawing in software on the same 2-core machine
+needs more."""
 
 
 class PlaybackSession:
@@ -172,7 +177,8 @@ class PlaybackSession:
 
 class Player:
     """One named thread, "playback", calling `tick(elapsed_s, start_s, stop)` at display rate
-    until it returns None or `pause()` sets `stop`. `pause` never waits for the thread (it may
+    (or slower: it rests at least as long as a tick took) until it returns None or `pause()`
+    sets `stop`. `pause` never waits for the thread (it may
     be called from a state signal while the thread waits for the state's lock); `tick` checks
     `stop` under that lock, so no frame is shown after a pause."""
 
@@ -199,10 +205,14 @@ class Player:
         start_wall, start_time = time.perf_counter(), from_time_s
         period = 1.0 / DISPLAY_RATE_HZ
         while not stop.is_set():
-            restart = self._tick(time.perf_counter() - start_wall, start_time, stop)
+            tick_started = time.perf_counter()
+            restart = self._tick(tick_started - start_wall, start_time, stop)
             if restart is None:
                 stop.set()
                 return
             if restart:
                 start_wall, start_time = time.perf_counter(), 0.0
-            stop.wait(period)
+            spent = time.perf_counter() - tick_started
+            # At most half of the time in frames: on a busy machine (or a slow one) the frames
+            # come less often, the motion keeps its speed, and clicks still find the server free.
+            stop.wait(max(period - spent, spent * IDLE_PER_BUSY))

@@ -12,6 +12,7 @@ the previous one: run them together, in file order.
 from __future__ import annotations
 
 import re
+import time
 from pathlib import Path
 
 import numpy as np
@@ -304,3 +305,34 @@ def test_simulate_shows_the_verdicts_and_two_more_ghosts(
     fraction = float(changed(after, before).mean())
     assert fraction > MIN_SIMULATED_GHOSTS_FRACTION, f"only {fraction:.2%} of the view changed"
     Image.fromarray(after.astype(np.uint8)).save(tmp_path / "simulated.png")
+
+
+def test_the_page_answers_clicks_while_the_ghosts_play(page, studio: Studio) -> None:
+    """Playback with the robot, four ghosts, two simulated ghosts and the plots' cursor moving:
+    the page still answers a click (Pause), and stops where the studio stopped. The waits are
+    printed for the log (a software renderer on a busy machine sets them), not asserted."""
+    assert studio.compensation.simulation is not None, "run with the previous tests"
+    expand_folder(page, "Playback", "Play")
+    started = time.monotonic()
+    click_button(page, "Play")
+    wait_for("the player to start", lambda: studio.playback.player.playing, UI_TIMEOUT_S)
+    page.get_by_role("button", name="Pause").first.wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    print(f"Play: shown {time.monotonic() - started:.1f} s after the click")
+    # Let the animation run until the page has drawn a few different frames.
+    first = page_time_s(page)
+    wait_for("the page's time to move", lambda: page_time_s(page) != first, UI_TIMEOUT_S)
+    started = time.monotonic()
+    click_button(page, "Pause")
+    wait_for("the player to stop", lambda: not studio.playback.player.playing, UI_TIMEOUT_S)
+    page.get_by_role("button", name="Play").first.wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    print(f"Pause during playback: shown {time.monotonic() - started:.1f} s after the click")
+    stopped_at = studio.state.time_s
+    wait_for(
+        "the page's time to show where the studio stopped",
+        lambda: page_time_s(page) == pytest.approx(stopped_at, abs=0.006),
+        UI_TIMEOUT_S,
+    )

@@ -71,3 +71,33 @@ def test_following_keeps_the_view_and_its_height():
     np.testing.assert_allclose(new_look_at[:2], target[:2])
     assert new_look_at[2] == look_at[2]  # the pelvis bobs; the camera does not
     np.testing.assert_allclose(new_position - new_look_at, position - look_at)
+
+
+def test_the_player_rests_at_least_as_long_as_a_frame_took():
+    """A frame that costs more than the display period (a slow machine, many ghosts) must not
+    turn the player into a busy loop: between two frames it waits at least as long as the
+    previous one took, so the server keeps half its time for clicks."""
+    import itertools
+    import threading
+    import time
+
+    from app.studio.playback_session import IDLE_PER_BUSY, Player
+
+    spans: list[tuple[float, float]] = []
+    done = threading.Event()
+
+    def tick(_elapsed_s: float, _start_s: float, _stop: threading.Event) -> bool | None:
+        started = time.perf_counter()
+        while time.perf_counter() - started < 0.03:  # a 30 ms frame, twice the 60 Hz period
+            pass
+        spans.append((started, time.perf_counter()))
+        if len(spans) == 6:
+            done.set()
+            return None
+        return False
+
+    player = Player(tick)
+    player.play(0.0)
+    assert done.wait(60.0)
+    for (start_a, end_a), (start_b, _end_b) in itertools.pairwise(spans):
+        assert start_b - end_a >= IDLE_PER_BUSY * (end_a - start_a) * 0.99
