@@ -1,0 +1,43 @@
+"""`biped-studio servos`, run as a user runs it: a subprocess, its exit code and output."""
+
+from __future__ import annotations
+
+import json
+
+from tests.core.test_servo_catalogue import RECORD
+from tests.test_cli import run
+
+
+def test_servos_json_lists_the_catalogue_with_sources_and_stiffness():
+    result = run("servos", "--json")
+    assert result.returncode == 0, result.stderr
+    listing = json.loads(result.stdout)
+    rows = {row["key"]: row for row in listing["servos"]}
+    assert {"mx64", "mx106", "xl320", "xl330_m288"} <= set(rows)
+    mx64 = rows["mx64"]
+    assert mx64["sources"]["stall_torque_Nm"].startswith("https://emanual.robotis.com/")
+    # K = kt·vin·error_gain·kp/R with BAM's m6 fit (kt 1.6017, R 2.3164) and firmware
+    # (15 V, kp 32, error gain 0.158): ≈ 52 N·m/rad, ≈ 1.1 °/(N·m) (shared README).
+    assert abs(mx64["stiffness_Nm_per_rad"] - 52.4) < 0.1
+    assert abs(mx64["compliance_deg_per_Nm"] - 1.09) < 0.01
+    assert "feetech_sts3215_7_4V" in listing["identified_only"]
+
+
+def test_servos_table_and_a_user_file(tmp_path):
+    path = tmp_path / "mine.toml"
+    path.write_text(RECORD)
+    result = run("servos", "--servos", str(path))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert any(line.startswith("my_servo ") for line in lines)
+    assert any(line.startswith("mx64 ") and "52.4" in line for line in lines)
+
+
+def test_a_bad_user_servo_is_one_line_and_exit_1(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text(RECORD.replace("stall_torque_Nm = 3.0", "stall_torque_Nm = -3.0"))
+    result = run("servos", "--servos", str(path))
+    assert result.returncode == 1
+    assert result.stdout == ""
+    (line,) = result.stderr.strip().splitlines()
+    assert "stall_torque_Nm" in line and "Traceback" not in result.stderr
