@@ -41,3 +41,32 @@ def test_a_bad_user_servo_is_one_line_and_exit_1(tmp_path):
     assert result.stdout == ""
     (line,) = result.stderr.strip().splitlines()
     assert "stall_torque_Nm" in line and "Traceback" not in result.stderr
+
+
+def test_simulate_on_catalogue_servos_reports_stiffness_and_energy(tmp_path):
+    motion = tmp_path / "com_shift.csv"
+    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    parts = tmp_path / "servo.toml"
+    parts.write_text('servo = "mx106"\n[joints.left_knee]\nservo = "mx64"\nkp = 40\n')
+    result = run("simulate", str(motion), "--preset", "plan", "--servo", str(parts), "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    knee = next(row for row in report["servos"] if row["joint"] == "left_knee")
+    # MX-64 m1 fit (kt 1.6225, R 3.9494) at 15 V, error gain 0.158, kp 40.
+    assert (
+        abs(knee["stiffness_Nm_per_rad"] - 1.6224667906987444 * 15 * 0.158 * 40 / 3.949433673232461)
+        < 1e-6
+    )
+    assert report["energy"]["total_electrical_J"] > 0
+    assert not report["fell"]
+
+
+def test_simulate_with_a_bad_kp_is_one_line(tmp_path):
+    motion = tmp_path / "com_shift.csv"
+    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    parts = tmp_path / "servo.toml"
+    parts.write_text('servo = "mx106"\nkp = 1e9\n')
+    result = run("simulate", str(motion), "--preset", "plan", "--servo", str(parts))
+    assert result.returncode == 1
+    (line,) = result.stderr.strip().splitlines()
+    assert "kp" in line and "firmware's range" in line
