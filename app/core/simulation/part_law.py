@@ -109,7 +109,9 @@ class PartEnergy:
 
 class PartLoop(ServoLoop):
     """The part law ticking; reads the joints' speeds from `qvel[dofs]` each tick (MuJoCo's
-    array, updated in place by mj_step) and accumulates energy."""
+    array, updated in place by mj_step) and accumulates energy. Per tick, with preallocated
+    arrays: I = τ/kt − (kt/R)·q̇, P = V·I with V = τ·R/kt; the motor's work is P − I²R
+    (V = R·I + kt·q̇ by construction)."""
 
     def __init__(
         self,
@@ -122,42 +124,51 @@ class PartLoop(ServoLoop):
         super().__init__(law, dt_s, initial_command)
         self.part = law
         self.dt_s = dt_s
+        contiguous = len(dofs) > 0 and bool(np.all(np.diff(dofs) == 1))
+        self._dq_view = qvel[dofs[0] : dofs[-1] + 1] if contiguous else None
         self._qvel, self._dofs = qvel, dofs
         self._kt_limit = law.kt_Nm_per_A * law.current_limit_A
         self._limited = bool(np.any(np.isfinite(law.current_limit_A)))
+        self._inv_kt = 1.0 / law.kt_Nm_per_A
+        self._kt_over_r = law.kt_Nm_per_A / law.R_ohm
+        self._r_over_kt = law.R_ohm / law.kt_Nm_per_A
+        n = len(self.setpoint)
+        self._current, self._tmp = np.zeros(n), np.zeros(n)
         self.reset_energy()
 
     def reset_energy(self) -> None:
         n = len(self.setpoint)
-        self._electrical, self._joule, self._mechanical = np.zeros(n), np.zeros(n), np.zeros(n)
-        self._peak, self._sq = np.zeros(n), np.zeros(n)
+        self._electrical, self._peak, self._sq = np.zeros(n), np.zeros(n), np.zeros(n)
         self._ticks = 0
 
     def torque(self, q: np.ndarray) -> np.ndarray:
         tau = super().torque(q)
-        law = self.part
-        dq = self._qvel[self._dofs]
+        dq = self._qvel[self._dofs] if self._dq_view is None else self._dq_view
+        tmp, current = self._tmp, self._current
         if self._limited:  # |τ_explicit − D·q̇| ≤ kt·I_lim
-            emf = law.back_emf_Nms_per_rad * dq
+            emf = self.part.back_emf_Nms_per_rad * dq
             np.clip(tau, emf - self._kt_limit, emf + self._kt_limit, out=tau)
-        voltage = tau * law.R_ohm / law.kt_Nm_per_A
-        current = (voltage - law.kt_Nm_per_A * dq) / law.R_ohm
-        dt = self.dt_s
-        self._electrical += voltage * current * dt
-        self._joule += current**2 * law.R_ohm * dt
-        self._mechanical += law.kt_Nm_per_A * current * dq * dt
-        np.maximum(self._peak, np.abs(current), out=self._peak)
-        self._sq += current**2
+        np.multiply(tau, self._inv_kt, out=current)
+        current -= np.multiply(dq, self._kt_over_r, out=tmp)
+        np.multiply(tau, self._r_over_kt, out=tmp)  # V
+        tmp *= current
+        self._electrical += tmp
+        np.multiply(current, current, out=tmp)
+        self._sq += tmp
+        np.abs(current, out=tmp)
+        np.maximum(self._peak, tmp, out=self._peak)
         self._ticks += 1
         return tau
 
     def energy(self) -> PartEnergy:
-        ticks = max(self._ticks, 1)
+        dt, ticks = self.dt_s, max(self._ticks, 1)
+        electrical = self._electrical * dt
+        joule = self._sq * self.part.R_ohm * dt
         return PartEnergy(
-            electrical_J=self._electrical.copy(),
-            joule_J=self._joule.copy(),
-            mechanical_J=self._mechanical.copy(),
+            electrical_J=electrical,
+            joule_J=joule,
+            mechanical_J=electrical - joule,
             peak_current_A=self._peak.copy(),
             rms_current_A=np.sqrt(self._sq / ticks),
-            duration_s=self._ticks * self.dt_s,
+            duration_s=self._ticks * dt,
         )
