@@ -146,3 +146,22 @@ def test_a_user_key_already_in_the_catalogue_is_refused(tmp_path):
     path.write_text(RECORD.replace('key = "my_servo"', 'key = "mx64"'))
     with pytest.raises(ServoCatalogueError, match="already used"):
         with_user_servos(load_catalogue(), read_user_servos(path))
+
+
+def test_several_servos_in_one_file_and_hostile_files(tmp_path):
+    path = tmp_path / "two.toml"
+    second = RECORD.replace('key = "my_servo"', 'key = "my_other"')
+    tables = "".join(
+        "[[servo]]\n" + text.replace("[sources]", "[servo.sources]") for text in (RECORD, second)
+    )
+    path.write_text(tables)
+    assert [r.key for r in read_user_servos(path)] == ["my_servo", "my_other"]
+    path.write_bytes(b'key = "x" # \xff\xfe\n')
+    with pytest.raises(ServoCatalogueError, match="UTF-8|utf-8"):
+        read_user_servos(path)
+    path.write_text("a = " + "[" * 200 + "]" * 200 + "\n")
+    with pytest.raises(ServoCatalogueError, match="nested"):
+        read_user_servos(path)
+    path.write_text("[[servo]]\n" + RECORD.replace("[sources]", "[servo.sources]") + "mass = 1\n")
+    with pytest.raises(ServoCatalogueError, match="mass is not a figure's source"):
+        read_user_servos(path)

@@ -213,6 +213,13 @@ def record_from_mapping(data: dict[str, Any], where: str) -> ServoRecord:
         if name in data
     }
     sources = _table(data, "sources", where) or {}
+    sourced = (*FIGURES, *OPTIONAL_FIGURES, "firmware", "motor")
+    odd = sorted(k for k, v in sources.items() if k not in sourced or not isinstance(v, str))
+    if odd:
+        raise ServoCatalogueError(
+            f"{where}: [sources] {odd[0]} is not a figure's source; give text for any of "
+            f"{', '.join(sourced)}"
+        )
     given = [*FIGURES, *optional]
     firmware_table = _table(data, "firmware", where)
     motor_table = _table(data, "motor", where)
