@@ -36,8 +36,9 @@ from app.core import input_gate
 from app.core.errors import StudioError
 from app.core.servo import motor_law
 from app.core.servo.motor_law import Firmware, FrictionM1, FrictionM6, MotorConstants
+from robots.catalogue import ROBOTS_DIR
 
-SERVOS_DIR = Path(__file__).resolve().parents[3] / "robots" / "servos"
+SERVOS_DIR = ROBOTS_DIR / "servos"
 BAM_PARAMS_DIR = SERVOS_DIR / "bam" / "params"
 
 FIGURES = (
