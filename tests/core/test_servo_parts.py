@@ -111,7 +111,7 @@ def _pendulum(law, commands, start, gravity=True):
     data = mujoco.MjData(model)
     data.qpos[0] = start
     mujoco.mj_forward(model, data)
-    loop = PartLoop(law, model.opt.timestep, np.array([commands[0]]), data.qvel, dofs)
+    loop = PartLoop(law, model.opt.timestep, np.array([commands[0]]), model, data, dofs)
     energy0 = float(data.energy.sum())
     viscous = 0.0
     for command in commands:
@@ -196,3 +196,32 @@ def test_servo_biped_stands_on_mx106_parts_and_reports_its_energy(robot):
     assert float(energy.joule_J.sum()) > 0.0 and np.all(energy.joule_J >= 0.0)
     assert np.all(energy.peak_current_A <= VIN * MAX_PWM / 2.9649903987776804 + 1e-9)
     assert any("servo parts" in note for note in result.notes)
+
+
+def test_m6_friction_in_the_loop_follows_its_budget():
+    """Holding the arm with BAM's m6 fit: the joint's frictionloss each tick is m6's budget for
+    the motor torque kt·I and the external (gravity) torque, and the arm rests inside the band
+    that budget leaves around K·e = load."""
+    from app.core.servo.motor_law import m6_budget
+
+    parts = _one_joint(dead_band_deg=0, friction_model="m6")
+    (part,) = parts.parts
+    f = part.friction
+    law = part_servo_law(parts)
+    assert list(law.m6_joints) == [0]
+    model, data, _, _, _ = _pendulum(law, np.zeros(3000), 0.0)
+    q = float(data.qpos[0])
+    K = part.stiffness_Nm_per_rad  # the m6 fit's kt, R
+    assert abs(data.qvel[0]) < 1e-3  # MuJoCo's friction is a soft constraint: a slow creep
+    load = 0.5 * 9.81 * 0.25 * math.cos(q)  # gravity's torque pulling the arm down
+    motor = K * (-q)  # at rest the motor's torque is the P loop's spring (kt·I, I = V/R)
+    budget, _ = m6_budget(f, motor, -load, float(data.qvel[0]))
+    assert model.dof_frictionloss[0] == pytest.approx(float(budget), rel=1e-2)
+    assert load - budget - 1e-6 <= motor <= load + budget + 1e-6
+    m1 = part_servo_law(_one_joint(dead_band_deg=0))
+    assert len(m1.m6_joints) == 0
+
+
+def test_friction_model_is_checked():
+    with pytest.raises(ServoPartsError, match="friction_model is 'm9'"):
+        _one_joint(friction_model="m9")

@@ -5,6 +5,7 @@
     vin_V = 15.0                 #   record's [firmware]: BAM's constants)
     current_limit_A = 3.0
     dead_band_deg = 0.33         # default the record's published backlash, else 0
+    friction_model = "m6"        # "m1" (default: Coulomb + viscous) or "m6" where identified
     [joints.left_knee]
     servo = "mx64"
     kp = 40
@@ -30,9 +31,10 @@ from app.core.errors import StudioError
 from app.core.servo import motor_law
 from app.core.servo.catalogue import ServoRecord
 from app.core.servo.model import ServoModel
-from app.core.servo.motor_law import Firmware, FrictionM1, MotorConstants
+from app.core.servo.motor_law import Firmware, FrictionM1, FrictionM6, MotorConstants
 
 SETTINGS = ("kp", "vin_V", "current_limit_A", "dead_band_deg")
+FRICTION_MODELS = ("m1", "m6")
 KP_MAX = 16383.0
 """The largest position P gain a Dynamixel control table holds (X series, 2 bytes)."""
 MAX_DEAD_BAND_DEG = 10.0
@@ -58,7 +60,8 @@ class JointPart:
     """Catalogue key."""
     motor: MotorConstants
     firmware: Firmware
-    friction: FrictionM1
+    friction: FrictionM1 | FrictionM6
+    """BAM's m1 or m6 fit, with `motor` the same fit's kt, R, armature."""
     dead_band_deg: float
     mass_kg: float
 
@@ -102,6 +105,7 @@ class ServoParts:
                 "vin_V": p.firmware.vin_V,
                 "current_limit_A": p.firmware.current_limit_A,
                 "dead_band_deg": p.dead_band_deg,
+                "friction_model": "m6" if isinstance(p.friction, FrictionM6) else "m1",
                 "stiffness_Nm_per_rad": p.stiffness_Nm_per_rad,
                 "compliance_deg_per_Nm": p.compliance_deg_per_Nm,
                 "stall_torque_Nm": p.stall_torque_Nm,
@@ -129,24 +133,36 @@ def _setting(table: dict[str, Any], name: str, where: str) -> float | None:
     return value
 
 
+def _friction_model(table: dict[str, Any], where: str, default: str) -> str:
+    value = table.get("friction_model", default)
+    if value not in FRICTION_MODELS:
+        raise ServoPartsError(
+            f"{where}: friction_model is {value!r}; give one of {', '.join(FRICTION_MODELS)}"
+        )
+    return str(value)
+
+
 def _part(
     joint: str,
     key: str,
     settings: dict[str, float],
     catalogue: dict[str, ServoRecord],
     where: str,
+    friction_model: str = "m1",
 ) -> JointPart:
     record = catalogue.get(key)
     if record is None:
         raise ServoPartsError(
             f"{where}: servo {key!r} is not in the catalogue; known: {', '.join(sorted(catalogue))}"
         )
-    fit = record.fit("m1")
-    if record.firmware is None or fit is None or not isinstance(fit.friction, FrictionM1):
+    fit = record.fit(friction_model)
+    if record.firmware is None or record.fit("m1") is None:
         raise ServoPartsError(
             f"{where}: servo {key!r} has no identified motor model and firmware constants; the "
             "simulation needs kt, R and error_gain: give [motor] and [firmware] in a --servos file"
         )
+    if fit is None:
+        raise ServoPartsError(f"{where}: servo {key!r} has no identified {friction_model} model")
     base = record.firmware
     firmware = Firmware(
         vin_V=settings.get("vin_V", base.vin_V),
@@ -170,7 +186,7 @@ def parts_from_mapping(
     source: str,
 ) -> ServoParts:
     """Checked parts for every joint of `joint_names` (module docstring)."""
-    unknown = set(data) - {"servo", "joints", *SETTINGS}
+    unknown = set(data) - {"servo", "joints", "friction_model", *SETTINGS}
     if unknown:
         raise ServoPartsError(
             f"{source}: unknown key(s) {', '.join(sorted(unknown))}; expected servo, "
@@ -189,6 +205,7 @@ def parts_from_mapping(
     if default_servo is not None and not isinstance(default_servo, str):
         raise ServoPartsError(f"{source}: servo must be a catalogue key, as text")
     defaults = {n: v for n in SETTINGS if (v := _setting(data, n, source)) is not None}
+    default_friction = _friction_model(data, source, "m1")
     without = [
         name
         for name in joint_names
@@ -203,14 +220,16 @@ def parts_from_mapping(
     for name in joint_names:
         table = joints.get(name, {})
         where = f"{source} [joints.{name}]" if name in joints else source
-        if not isinstance(table, dict) or set(table) - {"servo", *SETTINGS}:
+        if not isinstance(table, dict) or set(table) - {"servo", "friction_model", *SETTINGS}:
             raise ServoPartsError(
-                f"{where}: a joint's table takes servo and {', '.join(SETTINGS)} only"
+                f"{where}: a joint's table takes servo, friction_model and "
+                f"{', '.join(SETTINGS)} only"
             )
         settings = dict(defaults)
         settings.update({n: v for n in SETTINGS if (v := _setting(table, n, where)) is not None})
         key = table.get("servo", default_servo)
-        parts.append(_part(name, str(key), settings, catalogue, where))
+        friction = _friction_model(table, where, default_friction)
+        parts.append(_part(name, str(key), settings, catalogue, where, friction))
     return ServoParts(tuple(parts))
 
 

@@ -180,7 +180,7 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
     commands = np.asarray(inp.q_cmd_rad, dtype=float)
     n_samples, n = commands.shape
     servo = (
-        PartLoop(law, dt, commands[0], d.qvel, av)
+        PartLoop(law, dt, commands[0], m, d, av)
         if isinstance(law, PartLaw)
         else ServoLoop(law, dt, commands[0])
     )

@@ -10,6 +10,9 @@ D = kt²/R, no set-point slew (the firmware's P loop sees the command as it come
 - the firmware current limit: |kt·(V − kt·q̇)/R| ≤ kt·I_lim, applied to the explicit part with
   the tick's q̇ (exact where q̇ is the step's);
 - m1 friction: friction_base as MuJoCo's frictionloss, friction_viscous added to the damping;
+- m6 friction (opt-in per joint): its budget recomputed every tick from the motor torque kt·I,
+  the external torque (−bias + constraint forces, less the joint's own friction force, as
+  BAM's MuJoCo controller computes it) and q̇, written into MuJoCo's frictionloss;
 - the rotor's armature as the joint's MuJoCo armature (replacing the default).
 
 Energy per joint (electrical in = I²R + motor's mechanical work), accumulated each tick from
@@ -19,14 +22,18 @@ V = τ_explicit·R/kt and I = (V − kt·q̇)/R: `PartLoop.energy`.
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from app.core.servo.motor_law import FrictionM6, m6_budget
 from app.core.simulation.servo_law import ServoLaw, ServoLoop
 
 if TYPE_CHECKING:
     from app.core.servo.parts import ServoParts
+
+
+M6 = tuple(field.name for field in dataclasses.fields(FrictionM6))
 
 
 @dataclasses.dataclass(frozen=True, eq=False, kw_only=True)
@@ -39,6 +46,10 @@ class PartLaw(ServoLaw):
     """np.inf where the firmware sets none."""
     armature_kgm2: np.ndarray
     frictionloss_Nm: np.ndarray
+    m6_joints: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=int))
+    """Indices of the joints whose friction is BAM's m6 (recomputed each tick)."""
+    m6_params: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, len(M6))))
+    """Their m6 parameters, shape (len(m6_joints), 11), columns in `M6` order."""
 
     @property
     def back_emf_Nms_per_rad(self) -> np.ndarray:
@@ -64,20 +75,42 @@ def part_servo_law(parts: ServoParts) -> PartLaw:
         [np.inf if x.firmware.current_limit_A is None else x.firmware.current_limit_A for x in p]
     )
     stall = kt * vin * max_pwm / r
+    m6 = [i for i, x in enumerate(p) if isinstance(x.friction, FrictionM6)]
+    viscous = np.array(
+        [
+            x.friction.friction_viscous
+            if isinstance(x.friction, FrictionM6)
+            else x.friction.friction_viscous_Nms
+            for x in p
+        ]
+    )
+    base = np.array(  # m6: its budget at rest, unloaded, until the first tick
+        [
+            x.friction.friction_base + x.friction.friction_stribeck
+            if isinstance(x.friction, FrictionM6)
+            else x.friction.friction_base_Nm
+            for x in p
+        ]
+    )
+    friction = f"m6 friction on {len(m6)} joint(s), m1 elsewhere" if m6 else "m1 friction"
     return PartLaw(
         stiffness_Nm_per_rad=kt * vin * gain / r,
         half_backlash_rad=np.deg2rad(0.5 * np.array([x.dead_band_deg for x in p])),
-        damping_Nms_per_rad=kt**2 / r + np.array([x.friction.friction_viscous_Nms for x in p]),
+        damping_Nms_per_rad=kt**2 / r + viscous,
         effort_Nm=np.minimum(stall, kt * limit),
         velocity_rad_s=np.full(len(p), np.inf),
         notes=(
-            "servo parts: BAM motor law (m1 friction), " + ", ".join(sorted({x.servo for x in p})),
+            f"servo parts: BAM motor law ({friction}), " + ", ".join(sorted({x.servo for x in p})),
         ),
         kt_Nm_per_A=kt,
         R_ohm=r,
         current_limit_A=limit,
         armature_kgm2=np.array([x.motor.armature_kgm2 for x in p]),
-        frictionloss_Nm=np.array([x.friction.friction_base_Nm for x in p]),
+        frictionloss_Nm=base,
+        m6_joints=np.array(m6, dtype=int),
+        m6_params=np.array(
+            [[getattr(p[i].friction, name) for name in M6] for i in m6], dtype=float
+        ).reshape(len(m6), len(M6)),
     )
 
 
@@ -108,8 +141,9 @@ class PartEnergy:
 
 
 class PartLoop(ServoLoop):
-    """The part law ticking; reads the joints' speeds from `qvel[dofs]` each tick (MuJoCo's
-    array, updated in place by mj_step) and accumulates energy. Per tick, with preallocated
+    """The part law ticking on a MuJoCo model and data (read each tick: the joints' speeds,
+    and for m6 joints the forces; written: m6 joints' frictionloss) and accumulating energy.
+    Per tick, with preallocated
     arrays: I = τ/kt − (kt/R)·q̇, P = V·I with V = τ·R/kt; the motor's work is P − I²R
     (V = R·I + kt·q̇ by construction)."""
 
@@ -118,12 +152,21 @@ class PartLoop(ServoLoop):
         law: PartLaw,
         dt_s: float,
         initial_command: np.ndarray,
-        qvel: np.ndarray,
+        model: Any,
+        data: Any,
         dofs: np.ndarray,
     ) -> None:
         super().__init__(law, dt_s, initial_command)
         self.part = law
         self.dt_s = dt_s
+        self._model, self._data = model, data
+        qvel = data.qvel
+        self._m6 = law.m6_joints
+        self._m6_dofs = np.asarray(dofs)[self._m6]
+        kwargs: dict[str, Any] = {n: law.m6_params[:, i] for i, n in enumerate(M6)}
+        self._m6_friction = FrictionM6(**kwargs)
+        self._m6_slot = np.full(model.nv, -1, dtype=int)  # dof → its row among the m6 joints
+        self._m6_slot[self._m6_dofs] = np.arange(len(self._m6))
         contiguous = len(dofs) > 0 and bool(np.all(np.diff(dofs) == 1))
         self._dq_view = qvel[dofs[0] : dofs[-1] + 1] if contiguous else None
         self._qvel, self._dofs = qvel, dofs
@@ -158,7 +201,23 @@ class PartLoop(ServoLoop):
         np.abs(current, out=tmp)
         np.maximum(self._peak, tmp, out=self._peak)
         self._ticks += 1
+        if len(self._m6):
+            self._update_m6(current, dq)
         return tau
+
+    def _update_m6(self, current: np.ndarray, dq: np.ndarray) -> None:
+        """BAM's m6 budget of the m6 joints, into MuJoCo's frictionloss for the next step."""
+        d, dofs, rows = self._data, self._m6_dofs, self._m6
+        external = d.qfrc_constraint[dofs] - d.qfrc_bias[dofs]
+        n = d.nefc
+        if n:
+            friction_rows = d.efc_type[:n] == 1  # mjCNSTR_FRICTION_DOF: id is the dof
+            slots = self._m6_slot[d.efc_id[:n][friction_rows]]
+            mine = slots >= 0
+            np.subtract.at(external, slots[mine], d.efc_force[:n][friction_rows][mine])
+        motor = self.part.kt_Nm_per_A[rows] * current[rows]
+        loss, _ = m6_budget(self._m6_friction, motor, external, dq[rows])
+        self._model.dof_frictionloss[dofs] = loss
 
     def energy(self) -> PartEnergy:
         dt, ticks = self.dt_s, max(self._ticks, 1)
