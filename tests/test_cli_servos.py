@@ -70,3 +70,20 @@ def test_simulate_with_a_bad_kp_is_one_line(tmp_path):
     assert result.returncode == 1
     (line,) = result.stderr.strip().splitlines()
     assert "kp" in line and "firmware's range" in line
+
+
+def test_compensation_from_the_parts_straightens_the_torso(tmp_path):
+    motion = tmp_path / "com_shift.csv"
+    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    parts = tmp_path / "servo.toml"
+    parts.write_text('servo = "mx106"\n')
+    result = run(
+        "simulate", str(motion), "--preset", "parts", "--baseline", "--servo", str(parts), "--json"
+    )
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    with_k, without = report, report["baseline"]
+    assert not with_k["fell"] and not without["fell"]
+    assert with_k["max_roll_error_deg"] < 0.5 * without["max_roll_error_deg"]
+    result = run("simulate", str(motion), "--preset", "parts")
+    assert result.returncode == 1 and "--servo file that names servos" in result.stderr

@@ -18,7 +18,7 @@ from app.cli.common import (
 )
 from app.core.errors import StudioError
 
-PRESETS = ("plan", "uniform", "table3", "table2")
+PRESETS = ("plan", "uniform", "table3", "table2", "parts")
 
 
 def add_parser(sub) -> None:
@@ -37,7 +37,8 @@ def add_parser(sub) -> None:
         "--preset",
         choices=PRESETS,
         help="plan: the plan as it is (no compensation); uniform: k = 1.4 °/(N·m) on the legs; "
-        "table3 / table2: the paper's coefficients",
+        "table3 / table2: the paper's coefficients; parts: k = 1/K and φ = half the dead band "
+        "of the servo parts a --servo file names (eq 23, torque sign)",
     )
     simulate.add_argument(
         "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
@@ -154,6 +155,13 @@ def run(args: argparse.Namespace) -> int:
         q_cmd, label = read_command_csv(args.cmd, robot.joint_names, traj.n_samples), "commands"
     elif args.preset == "plan":
         q_cmd, label = q_plan, "without compensation"
+    elif args.preset == "parts":
+        if parts is None:
+            raise StudioError('--preset parts needs a --servo file that names servos (servo = "…")')
+        q_cmd = compensated_command(
+            q_plan, _torques(args, robot, traj, inputs), parts.compensation()
+        )
+        label = "with compensation"
     else:
         params = (
             inputs.compensation

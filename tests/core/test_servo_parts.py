@@ -225,3 +225,21 @@ def test_m6_friction_in_the_loop_follows_its_budget():
 def test_friction_model_is_checked():
     with pytest.raises(ServoPartsError, match="friction_model is 'm9'"):
         _one_joint(friction_model="m9")
+
+
+def test_the_parts_compensation_inverts_their_quasi_static_model():
+    """eq 23 (torque sign) with k = 1/K and φ = b/2 undoes q = q_cmd − τ/K − (b/2)·sign τ."""
+    from app.core.servo.compensation import compensated_command
+    from app.core.servo.model import servo_response
+
+    parts = parts_from_mapping(
+        {"servo": "mx106", "joints": {"b": {"servo": "mx64", "kp": 20}}}, ("a", "b"), CATALOGUE, "x"
+    )
+    rng = np.random.default_rng(5)
+    q = rng.uniform(-0.5, 0.5, (30, 2))
+    tau = rng.uniform(-3.0, 3.0, (30, 2))
+    q_cmd = compensated_command(q, tau, parts.compensation())
+    np.testing.assert_allclose(servo_response(q_cmd, tau, parts.servo_model()), q, atol=1e-12)
+    K = np.array([p.stiffness_Nm_per_rad for p in parts.parts])
+    b = np.deg2rad([p.dead_band_deg for p in parts.parts])
+    np.testing.assert_allclose(q_cmd, q + tau / K + 0.5 * b * np.sign(tau), atol=1e-12)

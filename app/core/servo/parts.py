@@ -30,6 +30,7 @@ from app.core import input_gate
 from app.core.errors import StudioError
 from app.core.servo import motor_law
 from app.core.servo.catalogue import ServoRecord
+from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
 from app.core.servo.motor_law import Firmware, FrictionM1, FrictionM6, MotorConstants
 
@@ -94,6 +95,18 @@ class ServoParts:
             self.joint_names,
             np.array([p.compliance_deg_per_Nm for p in self.parts]),
             np.array([p.dead_band_deg for p in self.parts]),
+        )
+
+    def compensation(self) -> CompensationParams:
+        """Eq 23 with the torque sign, k = 1/K and φ = half the dead band: the exact inverse of
+        `servo_model` (the compensation that follows from the parts and their kp)."""
+        return CompensationParams(
+            self.joint_names,
+            np.array([p.compliance_deg_per_Nm for p in self.parts]),
+            np.array([0.5 * p.dead_band_deg for p in self.parts]),
+            np.ones(len(self.parts), dtype=bool),
+            clearance_sign="torque",
+            notes=("k = 1/K of each joint's servo part, φ = half its dead band",),
         )
 
     def to_json(self) -> list[dict[str, Any]]:
