@@ -18,8 +18,11 @@ def test_servos_json_lists_the_catalogue_with_sources_and_stiffness():
     assert mx64["sources"]["stall_torque_Nm"].startswith("https://emanual.robotis.com/")
     # K = kt·vin·error_gain·kp/R with BAM's m6 fit (kt 1.6017, R 2.3164) and firmware
     # (15 V, kp 32, error gain 0.158): ≈ 52 N·m/rad, ≈ 1.1 °/(N·m) (shared README).
-    assert abs(mx64["stiffness_Nm_per_rad"] - 52.4) < 0.1
-    assert abs(mx64["compliance_deg_per_Nm"] - 1.09) < 0.01
+    assert abs(mx64["fits"]["m6"]["stiffness_Nm_per_rad"] - 52.4) < 0.1
+    assert abs(mx64["fits"]["m6"]["compliance_deg_per_Nm"] - 1.09) < 0.01
+    # The m1 fit identifies other motor constants (kt 1.6225, R 3.9494): another K.
+    m1 = 1.6224667906987444 * 15 * 0.158 * 32 / 3.949433673232461
+    assert abs(mx64["fits"]["m1"]["stiffness_Nm_per_rad"] - m1) < 1e-9
     assert "feetech_sts3215_7_4V" in listing["identified_only"]
 
 
@@ -30,7 +33,7 @@ def test_servos_table_and_a_user_file(tmp_path):
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
     assert any(line.startswith("my_servo ") for line in lines)
-    assert any(line.startswith("mx64 ") and "52.4" in line for line in lines)
+    assert any(line.startswith("mx64 ") and "31.2 / 52.4" in line for line in lines)
 
 
 def test_a_bad_user_servo_is_one_line_and_exit_1(tmp_path):

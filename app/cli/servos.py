@@ -49,34 +49,36 @@ def run(args: argparse.Namespace) -> int:
             )
         )
         return 0
+    from app.core.servo.motor_law import compliance_deg_per_Nm, stiffness_Nm_per_rad
+
     print(
-        f"{'key':12s} {'maker / model':32s} {'V':>5s} {'stall':>7s} {'speed':>6s} {'mass':>6s} "
-        f"{'gear':>7s} {'play':>5s} {'fit':>3s} {'K':>7s} {'1/K':>7s}"
+        f"{'key':12s} {'maker / model':32s} {'V':>5s} {'stall':>6s} {'speed':>5s} {'mass':>6s} "
+        f"{'gear':>6s} {'play':>5s} {'K m1 / m6':>11s} {'1/K m1 / m6':>13s}"
     )
     print(
-        f"{'':12s} {'':32s} {'':>5s} {'N·m':>7s} {'rpm':>6s} {'g':>6s} {'':>7s} {'°':>5s} "
-        f"{'':>3s} {'N·m/rad':>7s} {'°/(N·m)':>7s}"
+        f"{'':12s} {'':32s} {'':>5s} {'N·m':>6s} {'rpm':>5s} {'g':>6s} {'':>6s} {'°':>5s} "
+        f"{'N·m/rad':>11s} {'°/(N·m)':>13s}"
     )
     for record in records.values():
-        fit = record.fit()
-        law = record.law()
-        stiffness = compliance = "-"
-        if law is not None:
-            from app.core.servo.motor_law import compliance_deg_per_Nm, stiffness_Nm_per_rad
-
-            stiffness = f"{stiffness_Nm_per_rad(*law):.1f}"
-            compliance = f"{compliance_deg_per_Nm(*law):.2f}"
+        stiffness, compliance = [], []
+        for name in ("m1", "m6"):
+            law = record.law(name)
+            stiffness.append("-" if law is None else f"{stiffness_Nm_per_rad(*law):.1f}")
+            compliance.append("-" if law is None else f"{compliance_deg_per_Nm(*law):.2f}")
+        if not record.fits:
+            stiffness = compliance = ["-"]
         play = f"{record.backlash_deg:g}" if record.backlash_deg is not None else "-"
         name = f"{record.maker} {record.model}"[:32]
         print(
             f"{record.key:12s} {name:32s} {record.supply_voltage_V:5.1f} "
-            f"{record.stall_torque_Nm:7.2f} {record.no_load_speed_rpm:6.0f} "
-            f"{record.mass_kg * 1000:6.1f} {record.gear_ratio:7.1f} {play:>5s} "
-            f"{fit.name if fit else '-':>3s} {stiffness:>7s} {compliance:>7s}"
+            f"{record.stall_torque_Nm:6.2f} {record.no_load_speed_rpm:5.0f} "
+            f"{record.mass_kg * 1000:6.1f} {record.gear_ratio:6.1f} {play:>5s} "
+            f"{' / '.join(stiffness):>11s} {' / '.join(compliance):>13s}"
         )
     print(
-        f"K and 1/K: the firmware P loop's stiffness with BAM's firmware constants (the spring "
-        f"paper's k: {TYPICAL_COMPLIANCE_DEG_PER_NM:g} °/(N·m)); sources of every figure: --json"
+        "K and 1/K: the firmware P loop's stiffness kt·vin·error_gain·kp/R with BAM's firmware "
+        "constants and its m1 or m6 fit (the simulation's parts use m1 unless friction_model = "
+        f'"m6"); the spring paper\'s k: {TYPICAL_COMPLIANCE_DEG_PER_NM:g} °/(N·m); sources: --json'
     )
     if only_identified:
         print("identified by BAM, no sourced datasheet record yet: " + ", ".join(only_identified))

@@ -152,16 +152,18 @@ class ServoRecord:
             "sources": dict(self.sources),
             "origin": self.origin,
         }
-        law = self.law()
-        if law is not None:
-            motor, firmware = law
-            out["firmware"] = dataclasses.asdict(firmware)
-            out["fit"] = self.fits[-1].name
-            out["motor"] = dataclasses.asdict(motor)
-            out["model_stall_torque_Nm"] = motor_law.stall_torque_Nm(motor, firmware)
-            out["model_no_load_speed_rad_s"] = motor_law.no_load_speed_rad_s(motor, firmware)
-            out["stiffness_Nm_per_rad"] = motor_law.stiffness_Nm_per_rad(motor, firmware)
-            out["compliance_deg_per_Nm"] = motor_law.compliance_deg_per_Nm(motor, firmware)
+        firmware = self.firmware
+        out["firmware"] = None if firmware is None else dataclasses.asdict(firmware)
+        out["fits"] = {}
+        for fit in self.fits:
+            entry: dict[str, Any] = {"motor": dataclasses.asdict(fit.motor)}
+            if firmware is not None:
+                motor = fit.motor
+                entry["model_stall_torque_Nm"] = motor_law.stall_torque_Nm(motor, firmware)
+                entry["model_no_load_speed_rad_s"] = motor_law.no_load_speed_rad_s(motor, firmware)
+                entry["stiffness_Nm_per_rad"] = motor_law.stiffness_Nm_per_rad(motor, firmware)
+                entry["compliance_deg_per_Nm"] = motor_law.compliance_deg_per_Nm(motor, firmware)
+            out["fits"][fit.name] = entry
         return out
 
 
