@@ -55,6 +55,8 @@ the fixed pinocchio workload of app.bench_report) so that the ratio carries acro
 - simulate: servo_biped's one-leg squats on MuJoCo with the default virtual servos (≥ 10× real
   time; the same steps of bare MuJoCo beside it), Roban S14's (≥ 5×), and the studio's
   Simulate click to the verdict, ghosts and plots (≤ 2 s), with the worker already started.
+- simulate_parts: the same squats on MX-106 servo parts (BAM motor law, energy) against the
+  ideal servo in the same run: ratio ≤ 1.5 (issue 27).
 - replay: a 10 s motion with four ghosts exported as a replay folder (≤ 5 s, ≤ 20 MB), beside
   the same frames shown on a live scene (app/replay_bench.py).
 """
@@ -86,6 +88,8 @@ from app.bench_report import (
 from app.config import StudioConfig
 from app.core.dynamics.wbc_bench import bench_feedforward
 from app.core.simulation.bench import bench_simulation
+from app.core.simulation.part_bench import TARGET_RATIO as PART_LAW_TARGET_RATIO
+from app.core.simulation.part_bench import bench_part_law
 from app.replay_bench import REPLAY_TARGET_MB, REPLAY_TARGET_S, bench_replay
 from app.studio import Studio
 from panels.quiet import set_value
@@ -743,6 +747,23 @@ def _entry_simulate(ctx: BenchContext) -> tuple[dict, list[Figure]]:
                 )
             )
     return sim, figures
+
+
+@bench_entry("simulate_parts")
+def _entry_simulate_parts(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = bench_part_law()
+    return row, [
+        Figure(
+            f"simulate on servo parts, one-leg squats ({row['motion_s']:.1f} s)",
+            float(row["part_wall_s"]),
+            "s",
+            f"≤ {PART_LAW_TARGET_RATIO:g}× the ideal servo's",
+            bool(row["target_met"]),
+            float(row["ideal_wall_s"]),
+            "the ideal servo's law, same run, same motion",
+            f"{row['ratio']:.2f}×",
+        )
+    ]
 
 
 @bench_entry("simulate_click")

@@ -63,6 +63,7 @@ def test_registry_holds_every_entry_in_run_order():
         "plan",
         "plan_fine",
         "simulate",
+        "simulate_parts",
         "simulate_click",
     ):
         assert name in ENTRIES

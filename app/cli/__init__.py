@@ -21,6 +21,7 @@ from app.cli import (
     replay,
     robots,
     serve,
+    servos,
     simulate,
     sweep,
 )
@@ -60,6 +61,7 @@ PARSERS: tuple[Callable[..., None], ...] = (
     limits.add_parser,
     replay.add_parser,
     sweep.add_parser,
+    servos.add_parser,
 )
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "serve": serve.run,
@@ -75,6 +77,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "limits": limits.run,
     "replay": replay.run,
     "sweep": sweep.run,
+    "servos": servos.run,
 }
 
 

@@ -18,7 +18,7 @@ from app.cli.common import (
 )
 from app.core.errors import StudioError
 
-PRESETS = ("plan", "uniform", "table3", "table2")
+PRESETS = ("plan", "uniform", "table3", "table2", "parts")
 
 
 def add_parser(sub) -> None:
@@ -37,7 +37,8 @@ def add_parser(sub) -> None:
         "--preset",
         choices=PRESETS,
         help="plan: the plan as it is (no compensation); uniform: k = 1.4 °/(N·m) on the legs; "
-        "table3 / table2: the paper's coefficients",
+        "table3 / table2: the paper's coefficients; parts: k = 1/K and φ = half the dead band "
+        "of the servo parts a --servo file names (eq 23, torque sign)",
     )
     simulate.add_argument(
         "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
@@ -49,7 +50,17 @@ def add_parser(sub) -> None:
         "--servo",
         type=Path,
         default=None,
-        help="servo.toml: true compliance and dead band (default 1.4 °/(N·m), 0.5° on the legs)",
+        help="servo.toml: true compliance and dead band (default 1.4 °/(N·m), 0.5° on the "
+        'legs), or catalogue servos per joint (servo = "mx106", kp, vin_V, current_limit_A, '
+        "dead_band_deg): the parts' motor law (see biped-studio servos)",
+    )
+    simulate.add_argument(
+        "--servos",
+        action="append",
+        default=[],
+        type=Path,
+        metavar="FILE",
+        help="a TOML file of your own servos for the catalogue (repeatable)",
     )
     simulate.add_argument(
         "--baseline", action="store_true", help="also run the plan uncompensated (in parallel)"
@@ -86,6 +97,27 @@ def _torques(args: argparse.Namespace, robot, traj, inputs: MotionInputs):
     return table.tau_Nm
 
 
+def _parts(args: argparse.Namespace, joint_names: tuple[str, ...]):
+    """The servo parts of a --servo file that names catalogue servos, else None."""
+    if args.servo is None:
+        if args.servos:
+            raise StudioError("--servos adds servos to the catalogue: name them in a --servo file")
+        return None
+    from app.core import input_gate
+    from app.core.servo.catalogue import load_catalogue, read_user_servos, with_user_servos
+    from app.core.servo.parts import ServoPartsError, is_parts_file, parts_from_mapping
+
+    data = input_gate.read_toml(args.servo, ServoPartsError)
+    if not is_parts_file(data):
+        if args.servos:
+            raise StudioError(f"--servos goes with a --servo file that names servos ({args.servo})")
+        return None
+    catalogue = load_catalogue()
+    for path in args.servos:
+        catalogue = with_user_servos(catalogue, read_user_servos(path))
+    return parts_from_mapping(data, joint_names, catalogue, str(args.servo))
+
+
 def run(args: argparse.Namespace) -> int:
     from app.core.servo.compensation import compensated_command
     from app.core.servo.model import joint_angles
@@ -102,7 +134,13 @@ def run(args: argparse.Namespace) -> int:
         raise StudioError("--clearance goes with --preset table3 (a k.toml sets phi_deg itself)")
     inputs = motion_inputs(args)
     robot, traj = inputs.robot, inputs.trajectory
-    if args.servo is not None:
+    parts = _parts(args, robot.joint_names)
+    law = None
+    if parts is not None:
+        from app.core.simulation.part_law import part_servo_law
+
+        servo, law = parts.servo_model(), part_servo_law(parts)
+    elif args.servo is not None:
         servo = read_servo_toml(args.servo, robot)
     else:
         servo = inputs.servo if inputs.servo is not None else default_servos(robot)
@@ -117,6 +155,13 @@ def run(args: argparse.Namespace) -> int:
         q_cmd, label = read_command_csv(args.cmd, robot.joint_names, traj.n_samples), "commands"
     elif args.preset == "plan":
         q_cmd, label = q_plan, "without compensation"
+    elif args.preset == "parts":
+        if parts is None:
+            raise StudioError('--preset parts needs a --servo file that names servos (servo = "…")')
+        q_cmd = compensated_command(
+            q_plan, _torques(args, robot, traj, inputs), parts.compensation()
+        )
+        label = "with compensation"
     else:
         params = (
             inputs.compensation
@@ -128,7 +173,7 @@ def run(args: argparse.Namespace) -> int:
     commands = {label: q_cmd}
     if args.baseline and args.preset != "plan":
         commands = {"without compensation": q_plan, **commands}
-    results = simulate_commands(robot, traj, commands, servo, options)
+    results = simulate_commands(robot, traj, commands, servo, options, law=law)
     main = results[label]
     if args.out is not None:
         write_simulation_csv(args.out, main)
@@ -137,6 +182,9 @@ def run(args: argparse.Namespace) -> int:
         report["out"] = None if args.out is None else str(args.out)
         if len(results) > 1:
             report["baseline"] = results["without compensation"].summary()
+        if parts is not None and main.energy is not None:
+            report["servos"] = parts.to_json()
+            report["energy"] = main.energy.to_json()
         print(json.dumps(report, indent=2))
         return 0
     for result in results.values():
@@ -146,6 +194,12 @@ def run(args: argparse.Namespace) -> int:
             f"{s['max_abs_roll_deg']:.2f}°, max |pitch| {s['max_abs_pitch_deg']:.2f}°, rms joint "
             f"error {s['rms_joint_error_deg']:.2f}°, {s['real_time_factor']:.1f}× real time"
             + (output_target(args.out) if result is main else "")
+        )
+    if main.energy is not None:
+        e = main.energy
+        print(
+            f"energy over {e.duration_s:.2f} s: {e.electrical_J.sum():.1f} J electrical, "
+            f"{e.joule_J.sum():.1f} J heat (I²R); peak current {e.peak_current_A.max():.2f} A"
         )
     for note in main.notes:
         print(f"note: {note}", file=sys.stderr)

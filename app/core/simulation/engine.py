@@ -27,6 +27,7 @@ import numpy as np
 
 from app.core.quaternions import wxyz_to_xyzw
 from app.core.simulation.errors import SimulationDiverged, SimulationInputError
+from app.core.simulation.part_law import PartEnergy, PartLaw, PartLoop
 from app.core.simulation.servo_law import ServoLaw, ServoLoop
 from app.core.simulation.sim_model import SimModel
 
@@ -83,6 +84,8 @@ class EngineRun:
     fall_reason: str
     n_simulated: int
     wall_time_s: float
+    energy: PartEnergy | None = None
+    """Per-joint energy over the recorded motion, with servo parts (`part_law`)."""
 
 
 def pin_to_qpos(sim: SimModel, q_pin: np.ndarray, qpos: np.ndarray) -> None:
@@ -141,6 +144,8 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
     begin = time.perf_counter()
     sim, law = inp.sim, inp.law
     m = mujoco.MjModel.from_xml_string(sim.xml)
+    if isinstance(law, PartLaw):  # the parts' rotor inertia, back-EMF and friction
+        law.set_joint_dynamics(m, sim.actuated_dof)
     d = mujoco.MjData(m)
     dt = float(m.opt.timestep)
     ticks = round(inp.dt_cmd_s / dt)
@@ -174,7 +179,11 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
     aq, av = sim.actuated_qpos, sim.actuated_dof
     commands = np.asarray(inp.q_cmd_rad, dtype=float)
     n_samples, n = commands.shape
-    servo = ServoLoop(law, dt, commands[0])
+    servo = (
+        PartLoop(law, dt, commands[0], m, d, av)
+        if isinstance(law, PartLaw)
+        else ServoLoop(law, dt, commands[0])
+    )
     # Contiguous actuated coordinates are read and written through views (no copies).
     qpos_view = d.qpos[aq[0] : aq[-1] + 1] if _contiguous(aq) else None
     qfrc_view = d.qfrc_applied[av[0] : av[-1] + 1] if _contiguous(av) else None
@@ -190,6 +199,8 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
     for _ in range(round(inp.settle_s / dt)):
         tick()
     _check(d, m, -inp.settle_s)
+    if isinstance(servo, PartLoop):
+        servo.reset_energy()
     nq, nv = sim.nq_pin, sim.nv_pin
     out_q, out_v = np.zeros((n_samples, nq)), np.zeros((n_samples, nv))
     out_qj, out_tau = np.zeros((n_samples, n)), np.zeros((n_samples, n))
@@ -266,6 +277,7 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
         fall_reason=reason,
         n_simulated=last + 1,
         wall_time_s=time.perf_counter() - begin,
+        energy=servo.energy() if isinstance(servo, PartLoop) else None,
     )
 
 

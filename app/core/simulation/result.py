@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 
+from app.core.simulation.part_law import PartEnergy
+
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class SimulationResult:
@@ -51,6 +53,8 @@ class SimulationResult:
     real_time_factor: float
     """Simulated time (settling included) over wall time."""
     notes: tuple[str, ...] = ()
+    energy: PartEnergy | None = None
+    """Per-joint electrical energy, with servo parts (`part_law`); None with virtual servos."""
 
     @property
     def roll_error_deg(self) -> np.ndarray:

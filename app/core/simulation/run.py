@@ -24,7 +24,7 @@ from app.core.simulation.engine import EngineInput, EngineRun, run_engine
 from app.core.simulation.errors import SimulationInputError
 from app.core.simulation.mjcf import SimOptions, build_sim_model
 from app.core.simulation.result import SimulationResult, slip_m
-from app.core.simulation.servo_law import servo_law
+from app.core.simulation.servo_law import ServoLaw, servo_law
 from app.core.simulation.sim_model import SimModel
 
 SETTLE_S = 1.0
@@ -43,9 +43,11 @@ def prepare(
     options: SimOptions | None = None,
     sim: SimModel | None = None,
     settle_s: float = SETTLE_S,
+    law: ServoLaw | None = None,
 ) -> EngineInput:
     """Check the inputs and make the step loop's (picklable) input. `sim` saves rebuilding
-    the MuJoCo model when several commands run on one robot."""
+    the MuJoCo model when several commands run on one robot; `law` replaces the virtual
+    servos' (e.g. `part_servo_law` of real servo parts)."""
     if tuple(trajectory.joint_names) != robot.joint_names:
         raise SimulationInputError(
             f"motion {trajectory.name!r} was made for other joints than {robot.name}'s; "
@@ -86,12 +88,18 @@ def prepare(
         raise SimulationInputError(f"settling time {settle_s} s; give 0 … 10 s")
     options = options or SimOptions()
     sim = sim if sim is not None else build_sim_model(robot, options)
-    law = servo_law(
-        servo,
-        robot.joint_names,
-        [joint.effort for joint in robot.joints],
-        [joint.velocity for joint in robot.joints],
-    )
+    if law is not None and len(law.stiffness_Nm_per_rad) != robot.n_actuated:
+        raise SimulationInputError(
+            f"the servo law has {len(law.stiffness_Nm_per_rad)} joint(s), {robot.name} has "
+            f"{robot.n_actuated}; give one servo per joint"
+        )
+    if law is None:
+        law = servo_law(
+            servo,
+            robot.joint_names,
+            [joint.effort for joint in robot.joints],
+            [joint.velocity for joint in robot.joints],
+        )
     roll, pitch = base_roll_pitch(trajectory.q)
     return EngineInput(
         sim=sim,
@@ -160,6 +168,7 @@ def finish(
         wall_time_s=run.wall_time_s,
         real_time_factor=simulated_s / max(run.wall_time_s, 1e-9),
         notes=inp.sim.notes + inp.law.notes,
+        energy=run.energy,
     )
 
 
@@ -186,17 +195,19 @@ def simulate_commands(
     options: SimOptions | None = None,
     parallel: bool | None = None,
     progress: Callable[[float], None] | None = None,
+    law: ServoLaw | None = None,
 ) -> dict[str, SimulationResult]:
     """Several command sequences (label → q_cmd (T, n) [rad]) on one robot and motion. With
     `parallel` each runs in a spawned process; the results are the same either way. A fresh
     process pays ~0.5 s of imports (numpy, mujoco), so the default runs in parallel only
     when there are two cores and the runs are long (`PARALLEL_MIN_SIMULATED_S` in all).
     `progress(fraction of all runs)` is called as they go (in parallel: when each ends);
-    raising from it stops a sequential run."""
+    raising from it stops a sequential run. `law` replaces the virtual servos' (servo parts)."""
     sim = build_sim_model(robot, options)
     labels = list(commands)
     inputs = [
-        prepare(robot, trajectory, commands[label], servo, options, sim=sim) for label in labels
+        prepare(robot, trajectory, commands[label], servo, options, sim=sim, law=law)
+        for label in labels
     ]
     if parallel is None:
         simulated_s = len(inputs) * (trajectory.duration + SETTLE_S)

@@ -1,0 +1,85 @@
+"""`servos`: the servo catalogue (robots/servos), with the user's own servos (--servos FILE)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
+
+
+def add_parser(sub) -> None:
+    servos = sub.add_parser(
+        "servos", help="list the servo catalogue: datasheet figures, identified models, stiffness"
+    )
+    servos.add_argument(
+        "--servos",
+        action="append",
+        default=[],
+        type=Path,
+        metavar="FILE",
+        help="a TOML file of your own servos, the catalogue's fields (repeatable)",
+    )
+    servos.add_argument("--json", action="store_true")
+
+
+def run(args: argparse.Namespace) -> int:
+    from app.core.servo.catalogue import (
+        identified_names,
+        load_catalogue,
+        read_user_servos,
+        with_user_servos,
+    )
+
+    records = load_catalogue()
+    for path in args.servos:
+        records = with_user_servos(records, read_user_servos(path))
+    used = {r.identified for r in records.values() if r.identified}
+    only_identified = [name for name in identified_names() if name not in used]
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "servos": [r.to_json() for r in records.values()],
+                    "identified_only": only_identified,
+                    "paper_compliance_deg_per_Nm": TYPICAL_COMPLIANCE_DEG_PER_NM,
+                },
+                indent=2,
+            )
+        )
+        return 0
+    from app.core.servo.motor_law import compliance_deg_per_Nm, stiffness_Nm_per_rad
+
+    print(
+        f"{'key':12s} {'maker / model':32s} {'V':>5s} {'stall':>6s} {'speed':>5s} {'mass':>6s} "
+        f"{'gear':>6s} {'play':>5s} {'K m1 / m6':>11s} {'1/K m1 / m6':>13s}"
+    )
+    print(
+        f"{'':12s} {'':32s} {'':>5s} {'N·m':>6s} {'rpm':>5s} {'g':>6s} {'':>6s} {'°':>5s} "
+        f"{'N·m/rad':>11s} {'°/(N·m)':>13s}"
+    )
+    for record in records.values():
+        stiffness, compliance = [], []
+        for name in ("m1", "m6"):
+            law = record.law(name)
+            stiffness.append("-" if law is None else f"{stiffness_Nm_per_rad(*law):.1f}")
+            compliance.append("-" if law is None else f"{compliance_deg_per_Nm(*law):.2f}")
+        if not record.fits:
+            stiffness = compliance = ["-"]
+        play = f"{record.backlash_deg:g}" if record.backlash_deg is not None else "-"
+        name = f"{record.maker} {record.model}"[:32]
+        print(
+            f"{record.key:12s} {name:32s} {record.supply_voltage_V:5.1f} "
+            f"{record.stall_torque_Nm:6.2f} {record.no_load_speed_rpm:5.0f} "
+            f"{record.mass_kg * 1000:6.1f} {record.gear_ratio:6.1f} {play:>5s} "
+            f"{' / '.join(stiffness):>11s} {' / '.join(compliance):>13s}"
+        )
+    print(
+        "K and 1/K: the firmware P loop's stiffness kt·vin·error_gain·kp/R with BAM's firmware "
+        "constants and its m1 or m6 fit (the simulation's parts use m1 unless friction_model = "
+        f'"m6"); the spring paper\'s k: {TYPICAL_COMPLIANCE_DEG_PER_NM:g} °/(N·m); sources: --json'
+    )
+    if only_identified:
+        print("identified by BAM, no sourced datasheet record yet: " + ", ".join(only_identified))
+    return 0

@@ -1,0 +1,396 @@
+"""The servo catalogue: real servos as parts, one TOML record per servo in robots/servos/.
+
+A record (the same fields for the built-in catalogue and a user's own file)::
+
+    key = "mx64"                      # the name the CLI and servo.toml use
+    maker = "ROBOTIS"
+    model = "Dynamixel MX-64AT/AR"
+    supply_voltage_V = 14.8           # the voltage the figures below are rated at
+    stall_torque_Nm = 7.3
+    no_load_speed_rpm = 78
+    mass_kg = 0.135
+    gear_ratio = 200
+    backlash_deg = 0.33               # optional: where published
+    price = 300.0                     # optional, with price_currency = "USD"
+    identified = "mx64"               # optional: a BAM-identified model (robots/servos/bam/params)
+    [firmware]                        # optional: vin_V, kp, error_gain, max_pwm, current_limit_A
+    [motor]                           # optional, the user's own m1 fit: kt_Nm_per_A, R_ohm,
+                                      #   armature_kgm2, friction_base_Nm, friction_viscous_Nms
+    [sources]                         # where every figure above comes from, one line each
+    stall_torque_Nm = "https://… (Stall Torque 7.3 N·m at 14.8 V)"
+
+A user file holds one record, or several as [[servo]] tables. Missing, negative or non-finite
+figures, and a figure without its source, are refused with one line naming the field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+from app.core import input_gate
+from app.core.errors import StudioError
+from app.core.servo import motor_law
+from app.core.servo.motor_law import Firmware, FrictionM1, FrictionM6, MotorConstants
+from robots.catalogue import ROBOTS_DIR
+
+SERVOS_DIR = ROBOTS_DIR / "servos"
+BAM_PARAMS_DIR = SERVOS_DIR / "bam" / "params"
+
+FIGURES = (
+    "supply_voltage_V",
+    "stall_torque_Nm",
+    "no_load_speed_rpm",
+    "mass_kg",
+    "gear_ratio",
+)
+"""Datasheet figures every record gives, each > 0 and with its source."""
+OPTIONAL_FIGURES = ("backlash_deg", "price")
+TEXT_FIELDS = ("key", "maker", "model")
+FIRMWARE_FIELDS = ("vin_V", "kp", "error_gain", "max_pwm", "current_limit_A")
+MOTOR_FIELDS = (
+    "kt_Nm_per_A",
+    "R_ohm",
+    "armature_kgm2",
+    "friction_base_Nm",
+    "friction_viscous_Nms",
+)
+KNOWN_KEYS = (
+    *TEXT_FIELDS,
+    *FIGURES,
+    *OPTIONAL_FIGURES,
+    "price_currency",
+    "identified",
+    "firmware",
+    "motor",
+    "sources",
+)
+M6_FIELDS = tuple(f.name for f in dataclasses.fields(FrictionM6))
+
+
+class ServoCatalogueError(StudioError):
+    """A catalogue record or a user's servo file that cannot be used."""
+
+
+@dataclasses.dataclass(frozen=True)
+class IdentifiedModel:
+    """A servo model identified on a bench (BAM): motor, m1 fit and, where identified, m6."""
+
+    name: str
+    motor: MotorConstants | None
+    """None where the fit gives no winding resistance (eRob80-100)."""
+    m1: FrictionM1
+    m6: FrictionM6 | None
+    m6_motor: MotorConstants | None
+    """kt, R, armature of the m6 fit (each fit identifies its own)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Fit:
+    """An identified motor + friction model: BAM's m1 or m6, or the user's own m1."""
+
+    name: str
+    """"m1" or "m6"."""
+    motor: MotorConstants
+    friction: FrictionM1 | FrictionM6
+
+
+@dataclasses.dataclass(frozen=True)
+class ServoRecord:
+    """One servo of the catalogue (module docstring for the fields)."""
+
+    key: str
+    maker: str
+    model: str
+    supply_voltage_V: float
+    stall_torque_Nm: float
+    no_load_speed_rpm: float
+    mass_kg: float
+    gear_ratio: float
+    sources: dict[str, str]
+    backlash_deg: float | None = None
+    price: float | None = None
+    price_currency: str | None = None
+    identified: str | None = None
+    firmware: Firmware | None = None
+    fits: tuple[Fit, ...] = ()
+    """Identified models, simplest first (m1, then m6 where identified)."""
+    origin: str = ""
+    """The file the record was read from."""
+
+    @property
+    def no_load_speed_rad_s(self) -> float:
+        return self.no_load_speed_rpm * 2.0 * math.pi / 60.0
+
+    def fit(self, name: str | None = None) -> Fit | None:
+        """The fit called `name` ("m1", "m6"), or the richest identified; None if none."""
+        for fit in reversed(self.fits):
+            if name is None or fit.name == name:
+                return fit
+        return None
+
+    def law(self, fit: str | None = None) -> tuple[MotorConstants, Firmware] | None:
+        """The motor (of `fit`, default the richest) and firmware the motor law needs, None
+        where either is unknown."""
+        chosen = self.fit(fit)
+        if self.firmware is None or chosen is None:
+            return None
+        return chosen.motor, self.firmware
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "key": self.key,
+            "maker": self.maker,
+            "model": self.model,
+            **{name: getattr(self, name) for name in (*FIGURES, *OPTIONAL_FIGURES)},
+            "price_currency": self.price_currency,
+            "identified": self.identified,
+            "sources": dict(self.sources),
+            "origin": self.origin,
+        }
+        firmware = self.firmware
+        out["firmware"] = None if firmware is None else dataclasses.asdict(firmware)
+        out["fits"] = {}
+        for fit in self.fits:
+            entry: dict[str, Any] = {"motor": dataclasses.asdict(fit.motor)}
+            if firmware is not None:
+                motor = fit.motor
+                entry["model_stall_torque_Nm"] = motor_law.stall_torque_Nm(motor, firmware)
+                entry["model_no_load_speed_rad_s"] = motor_law.no_load_speed_rad_s(motor, firmware)
+                entry["stiffness_Nm_per_rad"] = motor_law.stiffness_Nm_per_rad(motor, firmware)
+                entry["compliance_deg_per_Nm"] = motor_law.compliance_deg_per_Nm(motor, firmware)
+            out["fits"][fit.name] = entry
+        return out
+
+
+def _number(data: dict[str, Any], name: str, where: str, *, positive: bool) -> float:
+    if name not in data:
+        raise ServoCatalogueError(f"{where}: {name} is missing")
+    value = data[name]
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ServoCatalogueError(f"{where}: {name} is {value!r}; give a number")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ServoCatalogueError(f"{where}: {name} is {value}; give a finite number")
+    if value < 0.0 or (positive and value == 0.0):
+        bound = "> 0" if positive else "≥ 0"
+        raise ServoCatalogueError(f"{where}: {name} is {value:g}; it must be {bound}")
+    return value
+
+
+def _text(data: dict[str, Any], name: str, where: str) -> str:
+    value = data.get(name)
+    if not isinstance(value, str) or not value.strip():
+        raise ServoCatalogueError(f"{where}: {name} is missing; give it as text")
+    return value.strip()
+
+
+def _table(data: dict[str, Any], name: str, where: str) -> dict[str, Any] | None:
+    table = data.get(name)
+    if table is None:
+        return None
+    if not isinstance(table, dict):
+        raise ServoCatalogueError(f"{where}: {name} must be a [{name}] table")
+    return table
+
+
+def record_from_mapping(data: dict[str, Any], where: str) -> ServoRecord:
+    """A checked record: every figure present, finite, positive (backlash and price ≥ 0),
+    each with its source; unknown keys refused (a typo would silently drop a figure)."""
+    unknown = sorted(set(data) - set(KNOWN_KEYS))
+    if unknown:
+        raise ServoCatalogueError(
+            f"{where}: unknown field(s) {', '.join(unknown)}; known: {', '.join(KNOWN_KEYS)}"
+        )
+    key = _text(data, "key", where)
+    where = f"{where} [{key}]"
+    texts = {name: _text(data, name, where) for name in TEXT_FIELDS}
+    figures = {name: _number(data, name, where, positive=True) for name in FIGURES}
+    optional = {
+        name: _number(data, name, where, positive=False)
+        for name in OPTIONAL_FIGURES
+        if name in data
+    }
+    sources = _table(data, "sources", where) or {}
+    sourced = (*FIGURES, *OPTIONAL_FIGURES, "firmware", "motor")
+    odd = sorted(k for k, v in sources.items() if k not in sourced or not isinstance(v, str))
+    if odd:
+        raise ServoCatalogueError(
+            f"{where}: [sources] {odd[0]} is not a figure's source; give text for any of "
+            f"{', '.join(sourced)}"
+        )
+    given = [*FIGURES, *optional]
+    firmware_table = _table(data, "firmware", where)
+    motor_table = _table(data, "motor", where)
+    given += [name for name, t in (("firmware", firmware_table), ("motor", motor_table)) if t]
+    for name in given:
+        source = sources.get(name)
+        if not isinstance(source, str) or not source.strip():
+            raise ServoCatalogueError(
+                f'{where}: {name} has no source; add {name} = "where the figure comes from" '
+                "under [sources]"
+            )
+    currency = data.get("price_currency")
+    if "price" in optional and (not isinstance(currency, str) or not currency.strip()):
+        raise ServoCatalogueError(f"{where}: price_currency is missing; say which currency")
+    firmware = _firmware(firmware_table, f"{where} firmware") if firmware_table else None
+    identified = data.get("identified")
+    fits: list[Fit] = []
+    if identified is not None:
+        if not isinstance(identified, str):
+            raise ServoCatalogueError(f"{where}: identified must name a BAM model as text")
+        model = identified_model(identified)
+        if model.motor is not None:
+            fits.append(Fit("m1", model.motor, model.m1))
+        if model.m6 is not None and model.m6_motor is not None:
+            fits.append(Fit("m6", model.m6_motor, model.m6))
+    if motor_table is not None:
+        if fits:
+            raise ServoCatalogueError(f"{where}: give identified or a [motor] table, not both")
+        fits.append(Fit("m1", *_motor(motor_table, f"{where} motor")))
+    if firmware is not None:
+        for fit in fits:
+            try:
+                motor_law.check_law(fit.motor, firmware, f"{where} {fit.name}")
+            except motor_law.MotorLawError as error:
+                raise ServoCatalogueError(str(error)) from None
+    return ServoRecord(
+        key=key,
+        maker=texts["maker"],
+        model=texts["model"],
+        sources={str(k): str(v) for k, v in sources.items()},
+        backlash_deg=optional.get("backlash_deg"),
+        price=optional.get("price"),
+        price_currency=currency if "price" in optional else None,
+        identified=identified,
+        firmware=firmware,
+        fits=tuple(fits),
+        origin=where.split(" [")[0],
+        **figures,
+    )
+
+
+def _firmware(table: dict[str, Any], where: str) -> Firmware:
+    unknown = sorted(set(table) - set(FIRMWARE_FIELDS))
+    if unknown:
+        raise ServoCatalogueError(f"{where}: unknown field(s) {', '.join(unknown)}")
+    values = {n: _number(table, n, where, positive=True) for n in FIRMWARE_FIELDS[:4]}
+    limit = None
+    if "current_limit_A" in table:
+        limit = _number(table, "current_limit_A", where, positive=True)
+    if values["max_pwm"] > 1.0:
+        raise ServoCatalogueError(f"{where}: max_pwm is {values['max_pwm']:g}; a duty is ≤ 1")
+    return Firmware(current_limit_A=limit, **values)
+
+
+def _motor(table: dict[str, Any], where: str) -> tuple[MotorConstants, FrictionM1]:
+    unknown = sorted(set(table) - set(MOTOR_FIELDS))
+    if unknown:
+        raise ServoCatalogueError(f"{where}: unknown field(s) {', '.join(unknown)}")
+    kt, r = (_number(table, n, where, positive=True) for n in ("kt_Nm_per_A", "R_ohm"))
+    rest = {n: _number(table, n, where, positive=False) for n in MOTOR_FIELDS[2:] if n in table}
+    motor = MotorConstants(kt, r, rest.get("armature_kgm2", 0.0))
+    friction = FrictionM1(rest.get("friction_base_Nm", 0.0), rest.get("friction_viscous_Nms", 0.0))
+    return motor, friction
+
+
+def _bam_file(name: str, model: str) -> dict[str, Any] | None:
+    path = BAM_PARAMS_DIR / name / f"{model}.json"
+    if not path.is_file():
+        return None
+    data = json.loads(path.read_text())
+    if not isinstance(data, dict):
+        raise ServoCatalogueError(f"{path}: not a BAM parameter file")
+    return data
+
+
+def identified_model(name: str) -> IdentifiedModel:
+    """The BAM fits of `name` (a folder of robots/servos/bam/params), checked."""
+    available = sorted(p.name for p in BAM_PARAMS_DIR.iterdir() if p.is_dir())
+    if name not in available:
+        raise ServoCatalogueError(
+            f"identified model {name!r} is not one of BAM's: {', '.join(available)}"
+        )
+    m1 = _bam_file(name, "m1")
+    if m1 is None:
+        raise ServoCatalogueError(f"BAM model {name} has no m1 fit")
+    where = f"BAM {name} m1"
+    motor = None
+    if "R" in m1:
+        motor = MotorConstants(
+            _number(m1, "kt", where, positive=True),
+            _number(m1, "R", where, positive=True),
+            _number(m1, "armature", where, positive=False),
+        )
+    friction = FrictionM1(
+        _number(m1, "friction_base", where, positive=False),
+        _number(m1, "friction_viscous", where, positive=False),
+    )
+    m6 = _bam_file(name, "m6")
+    m6_friction, m6_motor = None, None
+    if m6 is not None:
+        where = f"BAM {name} m6"
+        m6_friction = FrictionM6(**{n: _number(m6, n, where, positive=False) for n in M6_FIELDS})
+        if "R" in m6:
+            m6_motor = MotorConstants(
+                _number(m6, "kt", where, positive=True),
+                _number(m6, "R", where, positive=True),
+                _number(m6, "armature", where, positive=False),
+            )
+    return IdentifiedModel(name, motor, friction, m6_friction, m6_motor)
+
+
+def identified_names() -> tuple[str, ...]:
+    """Every BAM model shipped (robots/servos/bam/params)."""
+    return tuple(sorted(p.name for p in BAM_PARAMS_DIR.iterdir() if p.is_dir()))
+
+
+def load_catalogue(directory: Path = SERVOS_DIR) -> dict[str, ServoRecord]:
+    """Every record of the built-in catalogue, by key (a duplicate key is refused)."""
+    records: dict[str, ServoRecord] = {}
+    for path in sorted(directory.glob("*.toml")):
+        data = input_gate.read_toml(path, ServoCatalogueError)
+        _add(records, record_from_mapping(data, path.name))
+    return records
+
+
+def read_user_servos(path: str | os.PathLike[str]) -> list[ServoRecord]:
+    """The records of a user's TOML file: one record, or several [[servo]] tables."""
+    source = os.fspath(path)
+    data = input_gate.read_toml(source, ServoCatalogueError)
+    if "servo" in data:
+        tables = data["servo"]
+        if set(data) != {"servo"} or not isinstance(tables, list) or not tables:
+            raise ServoCatalogueError(
+                f"{source}: give one record, or [[servo]] tables and nothing beside them"
+            )
+        records = []
+        for i, table in enumerate(tables):
+            if not isinstance(table, dict):
+                raise ServoCatalogueError(f"{source}: servo {i + 1} is not a table")
+            records.append(record_from_mapping(table, f"{source} servo {i + 1}"))
+        return records
+    return [record_from_mapping(data, source)]
+
+
+def with_user_servos(
+    catalogue: dict[str, ServoRecord], records: list[ServoRecord]
+) -> dict[str, ServoRecord]:
+    """The catalogue plus the user's records (a key already taken is refused)."""
+    merged = dict(catalogue)
+    for record in records:
+        _add(merged, record)
+    return merged
+
+
+def _add(records: dict[str, ServoRecord], record: ServoRecord) -> None:
+    if record.key in records:
+        raise ServoCatalogueError(
+            f"{record.origin}: key {record.key!r} is already used by "
+            f"{records[record.key].origin}; give the servo another key"
+        )
+    records[record.key] = record
