@@ -534,6 +534,8 @@ def _status_line(solve: Solve, results: GaitResults) -> str:
     assert result is not None
     waited = solve.ended_s - solve.started_s
     parts = f"IPOPT {result.solve_s:.1f} s, {result.iterations} iterations"
+    if solve.warm and not result.restarted_cold:
+        parts += ", warm start from the last gait"
     if waited > result.solve_s:
         parts += f"; worker start and NLP build {waited - result.solve_s:.1f} s"
     restart = ""
