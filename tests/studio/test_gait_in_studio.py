@@ -222,7 +222,7 @@ def test_a_cold_restart_shows_while_the_solve_runs(studio):
     import dataclasses
 
     from app.core.collocation.gait_problem import WARM_ITERATIONS_BEFORE_FALLBACK
-    from app.studio.gait_session import Solve
+    from app.studio.gait_text import Solve
 
     session = studio.gait
     settings = session.panel.settings(False)
