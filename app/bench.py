@@ -435,7 +435,7 @@ def _entry_compensation_slider_long(ctx: BenchContext) -> tuple[dict, list[Figur
 
 @bench_entry("plot_cursor")
 def _entry_plot_cursor(ctx: BenchContext) -> tuple[dict, list[Figure]]:
-    if ctx.studio.compensation.plots.torques is None:  # run alone: load the slider bench's motion
+    if ctx.studio.ghosts.plots.torques is None:  # run alone: load the slider bench's motion
         _bench_compensation_slider(ctx.studio, repeats=1)
     row = _bench_plot_cursor(ctx.studio)
     return row, [
@@ -954,7 +954,7 @@ def _bench_simulate_click(studio: Studio) -> dict:
     set_value(studio.motions.panel.motion, "one_leg_squats")
     set_value(studio.motions.panel.generate, True)
     _compute_torques(studio)
-    session = studio.compensation
+    session, panel = studio.simulation, studio.compensation.panel
     done = threading.Event()
     disconnect = session.runner.finished.connect(lambda _simulation: done.set())
     begin = time.perf_counter()
@@ -962,7 +962,7 @@ def _bench_simulate_click(studio: Studio) -> dict:
     done.wait()
     first_s = time.perf_counter() - begin
     done.clear()
-    set_value(session.panel.k, float(session.panel.k.value) + 0.1)  # the simulation is now stale
+    set_value(panel.k, float(panel.k.value) + 0.1)  # the simulation is now stale
     begin = time.perf_counter()
     session.simulate()
     done.wait()
@@ -1016,8 +1016,8 @@ def _bench_plan() -> dict:
 def _compute_torques(studio: Studio) -> None:
     """Compute the torques of the current motion and wait for them."""
     done = threading.Event()
-    disconnect = studio.compensation.torques_done.connect(lambda _result: done.set())
-    studio.compensation.compute_torques()
+    disconnect = studio.torques.done.connect(lambda _result: done.set())
+    studio.torques.compute_torques()
     done.wait()
     disconnect()
 
@@ -1050,7 +1050,7 @@ def _bench_compensation_slider_long(studio: Studio, samples: int, repeats: int =
 
     _bench_compensation_slider(studio, repeats=1)  # the 10 s motion and its τ
     session, robot = studio.compensation, studio.state.robot
-    base, feedforward = studio.state.trajectory, session.feedforward
+    base, feedforward = studio.state.trajectory, studio.state.work.torques
     assert robot is not None and base is not None and feedforward is not None
     copies = max(1, round(samples / base.n_samples))
     n = base.n_samples * copies
@@ -1074,7 +1074,7 @@ def _bench_compensation_slider_long(studio: Studio, samples: int, repeats: int =
         solver_time_s=None,
     )
     studio.state.set_motion(trajectory, "bench", robot)
-    session._accept(robot, trajectory, long_feedforward)  # τ as if computed for this motion
+    studio.state.work.set_torques(long_feedforward, trajectory)  # τ as if computed for this motion
     panel = session.panel
     cpu, wall = [], []
     for k in range(repeats):
@@ -1082,8 +1082,8 @@ def _bench_compensation_slider_long(studio: Studio, samples: int, repeats: int =
         set_value(panel.k, 1.0 + (k % 2))
         cpu.append(time.thread_time() - begin_cpu)
         wall.append(time.perf_counter() - begin)
-    params, servo = session.params, session.servo
-    assert params is not None and servo is not None
+    assert studio.state.work.coefficients is not None
+    params, servo = studio.state.work.coefficients.params, studio.state.work.coefficients.servo
     begin_cpu = time.thread_time()
     predict(robot, trajectory, np.nan_to_num(long_feedforward.tau_Nm), params, servo)
     uncached = time.thread_time() - begin_cpu
@@ -1099,7 +1099,7 @@ def _bench_compensation_slider_long(studio: Studio, samples: int, repeats: int =
 def _bench_plot_cursor(studio: Studio, repeats: int = 20) -> dict:
     """The plots' cursor moved across the motion the compensation slider bench left loaded,
     against the same data pushes without a cursor (what a data push cost before it)."""
-    plots, trajectory = studio.compensation.plots, studio.state.trajectory
+    plots, trajectory = studio.ghosts.plots, studio.state.trajectory
     assert trajectory is not None and plots.torques is not None
 
     def timed(times_s: list[float | None]) -> np.ndarray:
@@ -1384,8 +1384,8 @@ def _bench_playback_ghosts(studio: Studio, roban: Path, frames: int = 120) -> di
     set_value(studio.motions.panel.motion, "one_leg_stand")
     set_value(studio.motions.panel.generate, True)
     _compute_torques(studio)
-    session, trajectory = studio.compensation, studio.state.trajectory
-    assert trajectory is not None and session.ghosts is not None
+    session, trajectory = studio.ghosts, studio.state.trajectory
+    assert trajectory is not None and session.view is not None
     shown = ("planned", "command", "without", "with")
     for name in shown:
         set_value(session.panel.ghosts[name], True)
@@ -1403,12 +1403,12 @@ def _bench_playback_ghosts(studio: Studio, roban: Path, frames: int = 120) -> di
     for name in shown:
         set_value(session.panel.ghosts[name], False)
     robot = studio.state.robot
-    assert robot is not None and session.prediction is not None
+    assert robot is not None and studio.state.work.prediction is not None
     views = [
         RobotView(studio.server, robot, root=f"/bench_ghosts/{name}", with_collision=False)
         for name in shown
     ]
-    prediction = session.prediction
+    prediction = studio.state.work.prediction
     cpu = time.thread_time()
     for count in range(frames):
         k = count % trajectory.n_samples
