@@ -313,7 +313,7 @@ def test_the_page_answers_clicks_while_the_ghosts_play(page, studio: Studio) -> 
     """Playback with the robot, four ghosts, two simulated ghosts and the plots' cursor moving:
     the page still answers a click (Pause), and stops where the studio stopped. The waits are
     printed for the log (a software renderer on a busy machine sets them), not asserted."""
-    assert studio.compensation.simulation is not None, "run with the previous tests"
+    assert studio.state.work.simulation is not None, "run with the previous tests"
     expand_folder(page, "Playback", "Play")
     started = time.monotonic()
     click_button(page, "Play")
