@@ -129,7 +129,7 @@ def test_stiff_servos_walk_and_very_compliant_ones_sag_and_fall(swept, by_hand):
     knees = [i for i, name in enumerate(robot.joint_names) if "knee" in name]
     sag_deg = COMPLIANT * np.abs(tau[:, knees]).max()
     assert sag_deg > 20.0
-    assert stiff.fell == 0.0 and stiff.sim_status == "stays up"
+    assert stiff.fell == 0.0 and stiff.sim_status.startswith("stays up")
     assert compliant.fell == 1.0
     assert compliant.rms_joint_error_deg > stiff.rms_joint_error_deg
     assert compliant.fall_time_s < by_hand[plain[1].index][1].trajectory.duration

@@ -1,4 +1,5 @@
-"""What a simulation run gives: the motion as the physics played it, and a verdict."""
+"""What a simulation run gives: the motion as the physics played it, and a verdict
+(`verdicts.Verdict`: stays up, leans on the lifted foot, slips, falls; how far it travelled)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,8 @@ import dataclasses
 import math
 
 import numpy as np
+
+from app.core.simulation.verdicts import Verdict
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -40,6 +43,10 @@ class SimulationResult:
     slip_m: np.ndarray
     """Horizontal distance each sole has slid since it last touched down [m], shape (T, 2);
     0 while it is in the air."""
+    root_position_m: np.ndarray
+    """The root body's origin in the world [m], shape (T, 3), MuJoCo's own `xpos`."""
+    outcome: Verdict
+    """What the run did, with its numbers (`verdict()` is its one line)."""
     fell: bool
     fall_time_s: float | None
     """Time of the first sample at which the robot had fallen, None if it stays up."""
@@ -61,10 +68,9 @@ class SimulationResult:
         return np.degrees(self.pitch_rad - self.pitch_planned_rad)
 
     def verdict(self) -> str:
-        """One line: "stays up" or "falls at 3.42 s (reason)"."""
-        if not self.fell:
-            return "stays up"
-        return f"falls at {self.fall_time_s:.2f} s ({self.fall_reason})"
+        """One line: "stays up", "leans on the lifted foot: …", "slips: …" or "falls at 3.42 s
+        (reason)", then what else happened (app.core.simulation.verdicts)."""
+        return self.outcome.text
 
     def summary(self) -> dict[str, object]:
         """The numbers the CLI prints with --json."""
@@ -74,7 +80,7 @@ class SimulationResult:
             "fell": self.fell,
             "fall_time_s": self.fall_time_s,
             "fall_reason": self.fall_reason or None,
-            "verdict": self.verdict(),
+            **self.outcome.summary(),
             "max_abs_roll_deg": math.degrees(float(np.max(np.abs(self.roll_rad[shown])))),
             "max_abs_pitch_deg": math.degrees(float(np.max(np.abs(self.pitch_rad[shown])))),
             "max_roll_error_deg": float(np.max(np.abs(self.roll_error_deg[shown]))),
