@@ -314,3 +314,18 @@ def test_the_papers_43_mm_squats_lean_without_compensation_and_stand_with_eq_7(r
     assert 0.15 < without.lifted_foot_peak_load_frac < 0.35
     assert with_eq7.kind == "stays up", with_eq7.text
     assert with_eq7.lifted_foot_load_s <= LEAN_MIN_S
+
+
+@pytest.mark.parametrize("source", ["servo_biped", "hybrid_leg_biped"])
+def test_a_fall_names_the_urdf_link_each_mujoco_body_carries(source):
+    """The link named when a body touches the floor is the child link of that body's joint
+    in the URDF itself (and the root body carries the root link)."""
+    robot = load_robot(source)
+    sim = build_sim_model(robot)
+    links = dict(sim.body_links)
+    assert len(links) == robot.model.njoints - 1
+    for name, joint in robot.tree.joints.items():
+        if robot.model.existJointName(name):
+            body = f"j{robot.model.getJointId(name)}_{name}"
+            assert links[body] == joint.child
+    assert links[sim.root_body] == robot.tree.root
