@@ -153,3 +153,21 @@ def test_a_travelling_motion_reports_its_distance_and_footsteps(tmp_path):
     text = run(*args)
     assert text.returncode == 0, text.stderr
     assert f"covers {report['distance_covered_m']:.2f} m of {dx:.2f} m planned" in text.stdout
+
+
+def test_servos_too_soft_to_stand_are_told_before_the_run_and_the_run_agrees(motion):
+    """Ankle servos of 9 °/(N·m) (the others 1.4): the stiffness balance says the robot cannot
+    stand and how soft its ankles may be; the simulation of the same servos falls."""
+    folder, traj = motion
+    servo = folder / "soft_ankles.toml"
+    servo.write_text(
+        "compliance_deg_per_Nm = 1.4\nbacklash_deg = 0.0\n"
+        "[joints.left_ankle_pitch]\ncompliance_deg_per_Nm = 9.0\n"
+        "[joints.right_ankle_pitch]\ncompliance_deg_per_Nm = 9.0\n"
+    )
+    args = ["simulate", str(traj), "--preset", "plan", "--servo", str(servo)]
+    report = json.loads(run(*args, "--json").stdout)
+    assert report["stand_check"].startswith("cannot stand: needs ≤ ")
+    assert report["fell"] is True and report["verdict"].startswith("falls at")
+    text = run(*args)
+    assert text.returncode == 0 and "note: servo_biped cannot stand: needs ≤" in text.stderr
