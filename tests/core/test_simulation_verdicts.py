@@ -130,6 +130,25 @@ def test_a_walk_is_measured_along_its_planned_direction_with_each_footstep():
     assert judge(**shift).travel is None and "distance_planned_m" not in judge(**shift).summary()
 
 
+def test_a_verdict_goes_into_a_project_file_and_comes_back_equal():
+    """Projects keep simulations: the verdict record passes the project codec (JSON by the
+    declared types) unchanged, with its footsteps, scuffs and lean."""
+    import json
+
+    from app.core.projects.codec import Reader, encode
+    from app.core.simulation.verdicts import Verdict
+
+    case = _lifted_right(0.3, 60, 30)
+    case["planned_sole_xy_m"][150:, 1] = [0.2, -0.05]
+    case["planned_root_xy_m"][:, 0] = np.linspace(0.0, 0.2, T)
+    case["contact_force_N"][155:158, 0, 2] = 0.0
+    verdict = judge(**case)
+    assert verdict.lean is not None and verdict.travel is not None and verdict.travel.footsteps
+    blobs: dict = {}
+    data = json.loads(json.dumps(encode(verdict, "verdict", blobs)))
+    assert Reader(blobs.__getitem__).decode(Verdict, data, "verdict") == verdict
+
+
 # --- MuJoCo runs on servo_biped, built so that the answer is known ------------------------------
 
 

@@ -117,21 +117,22 @@ def run_paper_experiment(
     results = simulate_commands(robot, traj, commands, servo, options)
     rows = []
     for label, result in results.items():
-        summary = result.summary()
+        summary, outcome = result.summary(), result.outcome
+        assert outcome is not None  # a fresh run is always judged
         rows.append(
             {
                 "robot": robot.name,
                 "experiment": experiment.title,
                 "compensation": label,
                 "verdict": result.verdict(),
-                "verdict_kind": result.outcome.kind,
+                "verdict_kind": outcome.kind,
                 "fell": result.fell,
                 "fall_time_s": result.fall_time_s,
                 "max_roll_error_deg": summary["max_roll_error_deg"],
                 "max_pitch_error_deg": summary["max_pitch_error_deg"],
                 "rms_joint_error_deg": summary["rms_joint_error_deg"],
-                "lifted_foot_load_s": result.outcome.lifted_foot_load_s,
-                "lifted_foot_peak_load_frac": result.outcome.lifted_foot_peak_load_frac,
+                "lifted_foot_load_s": outcome.lifted_foot_load_s,
+                "lifted_foot_peak_load_frac": outcome.lifted_foot_peak_load_frac,
                 "paper": experiment.paper_without if label == "none" else experiment.paper_with,
                 "commands_clipped_to_limits": clipped[label],
             }

@@ -43,10 +43,6 @@ class SimulationResult:
     slip_m: np.ndarray
     """Horizontal distance each sole has slid since it last touched down [m], shape (T, 2);
     0 while it is in the air."""
-    root_position_m: np.ndarray
-    """The root body's origin in the world [m], shape (T, 3), MuJoCo's own `xpos`."""
-    outcome: Verdict
-    """What the run did, with its numbers (`verdict()` is its one line)."""
     fell: bool
     fall_time_s: float | None
     """Time of the first sample at which the robot had fallen, None if it stays up."""
@@ -58,6 +54,12 @@ class SimulationResult:
     real_time_factor: float
     """Simulated time (settling included) over wall time."""
     notes: tuple[str, ...] = ()
+    root_position_m: np.ndarray | None = None
+    """The root body's origin in the world [m], shape (T, 3), MuJoCo's own `xpos` (None in
+    projects saved before it was kept)."""
+    outcome: Verdict | None = None
+    """What the run did, with its numbers (`verdict()` is its one line); None in projects
+    saved before verdicts had names (`verdict()` then gives the fall test's line)."""
 
     @property
     def roll_error_deg(self) -> np.ndarray:
@@ -70,7 +72,11 @@ class SimulationResult:
     def verdict(self) -> str:
         """One line: "stays up", "leans on the lifted foot: …", "slips: …" or "falls at 3.42 s
         (reason)", then what else happened (app.core.simulation.verdicts)."""
-        return self.outcome.text
+        if self.outcome is not None:
+            return self.outcome.text
+        if not self.fell:
+            return "stays up"
+        return f"falls at {self.fall_time_s:.2f} s ({self.fall_reason})"
 
     def summary(self) -> dict[str, object]:
         """The numbers the CLI prints with --json."""
@@ -80,7 +86,7 @@ class SimulationResult:
             "fell": self.fell,
             "fall_time_s": self.fall_time_s,
             "fall_reason": self.fall_reason or None,
-            **self.outcome.summary(),
+            **({"verdict": self.verdict()} if self.outcome is None else self.outcome.summary()),
             "max_abs_roll_deg": math.degrees(float(np.max(np.abs(self.roll_rad[shown])))),
             "max_abs_pitch_deg": math.degrees(float(np.max(np.abs(self.pitch_rad[shown])))),
             "max_roll_error_deg": float(np.max(np.abs(self.roll_error_deg[shown]))),
