@@ -168,7 +168,7 @@ def judge(
     scuffs: list[Episode] = []
     for i, side in enumerate(SIDES):
         for a, b in _runs(lifted_load[:, i] > TOUCH_LOAD_FRACTION):
-            # the heavy stretches of this touch: the longest decides lean or scuff
+            # a touch with a heavy stretch longer than LEAN_MIN_S leans; any other is a scuff
             heavy_runs = [(a + c, a + d) for c, d in _runs(heavy[a:b, i])]
             long = [(c, d) for c, d in heavy_runs if (d - c) * dt > LEAN_MIN_S + 1e-9]
             if long:
