@@ -268,8 +268,9 @@ def read_npy(raw: bytes, where: str) -> np.ndarray:
     return read_npy_stream(io.BytesIO(raw), len(raw), where)
 
 
-def read_npy_stream(stream: io.BufferedIOBase, size: int, where: str) -> np.ndarray:
-    """The array of an `.npy` entry of `size` bytes read from `stream`, its header checked
+def read_npy_stream(stream: typing.Any, size: int, where: str) -> np.ndarray:
+    """The array of an `.npy` entry of `size` bytes read from `stream` (a binary file object
+    with read, readinto and tell: a zip entry, a BytesIO), its header checked
     against that size *before* anything is allocated (a header that declares a huge shape, a
     byte count that does not match, objects or a dtype that is not numbers or booleans are
     refused with one line), then read straight into the array's own memory in chunks: the
@@ -297,7 +298,7 @@ def read_npy_stream(stream: io.BufferedIOBase, size: int, where: str) -> np.ndar
             f"({count * dtype.itemsize} bytes) but the entry holds {body_bytes} bytes"
         )
     flat = np.empty(count, dtype=dtype)
-    target = memoryview(flat.view(np.uint8))
+    target = flat.view(np.uint8).data
     filled = 0
     while filled < body_bytes:
         got = stream.readinto(target[filled : filled + READ_CHUNK_BYTES])
