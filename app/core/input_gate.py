@@ -122,6 +122,15 @@ def _open_checked(name: str, kind: FileKind, error: type[StudioError]) -> int:
     return fd
 
 
+def open_binary(
+    path: str | os.PathLike[str], kind: FileKind, error: type[StudioError] = InputRefused
+) -> io.BufferedReader:
+    """The file as a binary stream, after the checks of `check_file`: for readers that take
+    only the parts they need (a zip's directory and entries) instead of the whole file."""
+    fd = _open_checked(os.fspath(path), kind, error)
+    return io.BufferedReader(io.FileIO(fd, "r"))
+
+
 def open_text(
     path: str | os.PathLike[str], kind: FileKind, error: type[StudioError] = InputRefused
 ) -> io.TextIOWrapper:
