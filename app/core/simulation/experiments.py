@@ -1,5 +1,5 @@
-"""The spring-compensation paper's experiments (section 5), simulated without and with
-compensation, for the README's table.
+"""The spring-compensation paper's experiments (section 5) and the compensations the README's
+table compares them under.
 
 Each experiment is a built-in motion with the paper's parameters; the paper's outcome on
 Roban is quoted beside it. The compensations compared: none (q_cmd = q_plan), eq 7 with
@@ -14,10 +14,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
-from app.core.simulation.mjcf import SimOptions
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,50 +82,3 @@ def compensations(servo: ServoModel) -> dict[str, CompensationParams | None]:
         "eq 23, sign(q + kτ)": CompensationParams(names, k, phi, on, "command"),
         "eq 23, sign(τ)": CompensationParams(names, k, phi, on, "torque"),
     }
-
-
-def run_paper_experiment(
-    robot: RobotModel,
-    experiment: PaperExperiment,
-    servo: ServoModel,
-    options: SimOptions | None = None,
-) -> list[dict[str, object]]:
-    """One row per compensation: verdict, fall time, largest torso roll/pitch error [°]."""
-    from app.core.dynamics.wbc import torque_feedforward
-    from app.core.motions.library import run_motion
-    from app.core.servo.compensation import compensated_command
-    from app.core.servo.model import joint_angles
-    from app.core.simulation.run import simulate_commands
-
-    traj = run_motion(robot, experiment.motion, **experiment.params).trajectory
-    tau = torque_feedforward(robot, traj).tau_Nm
-    q_plan = joint_angles(robot, traj.q)
-    commands = {
-        label: q_plan if params is None else compensated_command(q_plan, tau, params)
-        for label, params in compensations(servo.for_joints(robot.joint_names)).items()
-    }
-    lower = np.array([joint.lower for joint in robot.joints])
-    upper = np.array([joint.upper for joint in robot.joints])
-    # A servo cannot be commanded past its limits: clip, and say how often it happened.
-    clipped = {label: int(np.sum((q < lower) | (q > upper))) for label, q in commands.items()}
-    commands = {label: np.clip(q, lower, upper) for label, q in commands.items()}
-    results = simulate_commands(robot, traj, commands, servo, options)
-    rows = []
-    for label, result in results.items():
-        summary = result.summary()
-        rows.append(
-            {
-                "robot": robot.name,
-                "experiment": experiment.title,
-                "compensation": label,
-                "verdict": result.verdict(),
-                "fell": result.fell,
-                "fall_time_s": result.fall_time_s,
-                "max_roll_error_deg": summary["max_roll_error_deg"],
-                "max_pitch_error_deg": summary["max_pitch_error_deg"],
-                "rms_joint_error_deg": summary["rms_joint_error_deg"],
-                "paper": experiment.paper_without if label == "none" else experiment.paper_with,
-                "commands_clipped_to_limits": clipped[label],
-            }
-        )
-    return rows
