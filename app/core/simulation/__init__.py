@@ -4,5 +4,5 @@ mjcf: the robot as MJCF, from its pinocchio model. servo_law: the position servo
 engine: the step loop (numpy and mujoco only, runs in worker processes). run: checked inputs in,
 `SimulationResult` (result) out. files: servo.toml, command CSV in, simulation CSV out.
 worker: jobs for the studio's SolverWorker. experiments: the paper's section 5 experiments.
-bench: speed against the targets.
+Its speed against the targets: app/bench/simulation.py.
 """
