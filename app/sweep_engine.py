@@ -42,7 +42,7 @@ import struct
 import threading
 import time
 import uuid
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from concurrent.futures import CancelledError
 from typing import Any
 
@@ -283,17 +283,3 @@ class SweepRun:
                 error = future.exception()
                 yield failed_point(self.points[index], f"{type(error).__name__}: {error}")
             future.release()
-
-
-def run_sweep(
-    engine: SweepEngine,
-    points: Sequence[SweepPoint],
-    on_result: Callable[[PointResult], None] | None = None,
-) -> list[PointResult]:
-    """Every point's result (finishing order), calling `on_result` for each as it arrives."""
-    out = []
-    for result in engine.start(points).results():
-        out.append(result)
-        if on_result is not None:
-            on_result(result)
-    return out

@@ -230,8 +230,3 @@ def _check_toml_values(data: dict[str, Any], name: str, error: type[StudioError]
             raise error(f"{name}: {key} is an integer of {len(str(abs(value)))} digits; too large")
         elif isinstance(value, float) and not math.isfinite(value):
             raise error(f"{name}: {key} is {value}; give a finite number")
-
-
-def size_limits_text() -> list[str]:
-    """One line per kind of file: its name and size limit (for reports and the README)."""
-    return [f"{kind.name}: {_size_text(kind.max_bytes)}" for kind in KINDS]

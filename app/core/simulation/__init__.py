@@ -6,5 +6,5 @@ engine: the step loop (numpy and mujoco only, runs in worker processes). run: ch
 slips / falls; distance and footsteps of a motion that travels). files: servo.toml, command
 CSV in, simulation CSV out.
 worker: jobs for the studio's SolverWorker. experiments: the paper's section 5 experiments.
-bench: speed against the targets.
+Its speed against the targets: app/bench/simulation.py.
 """

@@ -39,7 +39,6 @@ NON_FOOT_CLEARANCE_M = 0.005
 POST_FALL_S = 0.5
 MAX_SPEED = 1e3
 """Any generalised speed beyond this [m/s or rad/s] is a blown-up simulation."""
-CONTACT_FORCE_MIN_N = 1e-6
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
