@@ -29,7 +29,7 @@ import dataclasses
 import logging
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from datetime import datetime
 from pathlib import Path
 from typing import Any, Protocol
@@ -103,8 +103,12 @@ class ProjectSession:
         config: StudioConfig,
         parts: Sequence[HoldsWork],
         keyframes: HoldsKeyframes,
+        dragging: Callable[[], bool] = lambda: False,
     ) -> None:
+        """dragging: whether a tab holds a drag handle now (a drag is one undo step however
+        slowly it goes: no step is taken before the handle is released)."""
         self._server, self._state, self._notifier, self._config = server, state, notifier, config
+        self._dragging = dragging
         self._parts = tuple(parts)
         self._keyframes = keyframes
         self.history = UndoHistory()
@@ -436,7 +440,7 @@ class ProjectSession:
     def _record(self, marks: Marks) -> None:
         loaded: LoadedRobot | None = marks["loaded"]
         pose: Pose | None = marks["pose"]
-        if loaded is None or pose is None:
+        if loaded is None or pose is None or self._dragging():
             return
         with self._undo_lock:
             if self._state.pose is not pose:

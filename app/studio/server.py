@@ -133,6 +133,7 @@ class Studio:
             config,
             (self.motions, ServoWork(state), self.gait, self.sweep),
             self.motions,
+            dragging=lambda: self.pose.handles is not None and bool(self.pose.handles.held),
         )
         if config.project is not None:
             if not self.project.open(config.project, trusted=True):

@@ -29,6 +29,8 @@ class DragHandles:
     ) -> None:
         """frames maps "left"/"right"/"pelvis" to the link each handle sits on."""
         self.frames = frames
+        self.held: set[str] = set()
+        """The handles a tab holds now (grabbed, not yet released)."""
         self._controls: dict[str, viser.TransformControlsHandle] = {}
         for which in HANDLES:
             control = server.scene.add_transform_controls(
@@ -37,9 +39,13 @@ class DragHandles:
             control.on_update(self._callback(which, control, on_drag))
             self._controls[which] = control
 
-    @staticmethod
-    def _callback(which: str, control: viser.TransformControlsHandle, on_drag):
-        def callback(_event: object) -> None:
+    def _callback(self, which: str, control: viser.TransformControlsHandle, on_drag):
+        def callback(event: viser.TransformControlsEvent) -> None:
+            phase = getattr(event, "phase", "update")
+            if phase == "start":
+                self.held.add(which)
+            elif phase == "end":
+                self.held.discard(which)
             on_drag(which, transform_of(np.asarray(control.position), np.asarray(control.wxyz)))
 
         return callback

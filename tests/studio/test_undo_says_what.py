@@ -59,3 +59,28 @@ def test_undo_and_redo_name_the_edit(studio):
     # Undo after a redo still names the edit (not the "button" that put the step back).
     assert project.undo()
     assert _said(studio)[0] == f"Undid: keyframe “{captured}” added"
+
+
+def test_a_slow_drag_is_one_undo_step(studio):
+    """A drag whose events come slower than the autosave's quiet period (a busy machine, a
+    hesitating hand) is still one step: none is taken while the handle is held."""
+    project, state = studio.project, studio.state
+    robot = state.robot
+    data = robot.model.createData()
+    foot = robot.feet[0].link
+    q0 = state.q.copy()
+    handles = studio.pose.handles
+    handles.held.add("left")  # a tab grabbed the left foot's handle
+    start = robot.link_placements(state.q, data)[foot].copy()
+    for k in range(1, 4):  # three moves, each followed by a still moment
+        target = start.copy()
+        target[2, 3] += 0.01 * k
+        wait_for_signal(project.autosaved, lambda t=target: studio.pose.request_drag("left", t))
+    handles.held.discard("left")  # released
+    target = start.copy()
+    target[2, 3] += 0.03
+    wait_for_signal(project.autosaved, lambda: studio.pose.request_drag("left", target))
+
+    assert project.undo()
+    assert _said(studio)[0] == "Undid: left foot drag"
+    assert np.array_equal(state.q, q0)  # the whole drag, in one step
