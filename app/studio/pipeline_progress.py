@@ -39,7 +39,7 @@ class PipelineProgress:
     ) -> None:
         """signals: "started" (str: the first stage, when the click is taken), "iteration"
         (int, a solve's progress), "solved" (the solve that ended), "torques" (FeedForward or
-        None), "simulated" (a Simulation)."""
+        None), "simulated" (a Simulation), "refused" (str: why a simulation could not start)."""
         with folder:
             self.line = gui.add_markdown("")
         self._lock = threading.Lock()
@@ -53,6 +53,7 @@ class PipelineProgress:
         signals["solved"].connect(self._on_solved)
         signals["torques"].connect(self._on_torques)
         signals["simulated"].connect(self._on_simulated)
+        signals["refused"].connect(self._on_refused)
         state.on_motion.connect(self._on_motion)
 
     # --- events ------------------------------------------------------------------------------
@@ -102,6 +103,13 @@ class PipelineProgress:
                 self._stop("simulating", error)
             else:
                 self._advance(DONE)
+
+    def _on_refused(self, why: str) -> None:
+        with self._lock:
+            # The one click's simulation starts as soon as the torques' estimate is in, which
+            # can be before the torques' own signal moves this line to "simulating".
+            if self.stage in ("torques", "simulating"):
+                self._stop("simulating", why)
 
     # --- the line ----------------------------------------------------------------------------
 

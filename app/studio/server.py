@@ -101,6 +101,7 @@ class Studio:
                 "solved": self.gait.finished,
                 "torques": self.torques.done,
                 "simulated": self.simulation.runner.finished,
+                "refused": self.simulation.refused,
             },
         )
         self.share = ShareSession(

@@ -18,6 +18,7 @@ from app.core.errors import StudioError
 from app.core.servo.model import Prediction
 from app.studio.compare_text import simulation_summary
 from app.studio.notifier import Notifier
+from app.studio.signals import Signal
 from app.studio.simulation_runner import (
     Simulation,
     SimulationRecord,
@@ -42,6 +43,8 @@ class SimulationSession:
         self.panel = SimulationPanel(folder, self)
         self.runner = SimulationRunner(self._on_progress)
         self.runner.finished.connect(self._on_simulated)
+        self.refused: Signal[str] = Signal("simulation_refused")
+        """Emitted with the reason when a simulation cannot start (the one click stops there)."""
         self._then: Motion | None = None
         """The motion that asked to be simulated (the one-click pipeline), not yet simulated."""
         state.on_motion.connect(self._on_motion)
@@ -96,6 +99,7 @@ class SimulationSession:
         except StudioError as error:
             self.panel.verdict.content = f"⚠️ {error}"
             self._notifier.error("Cannot simulate", str(error), client)
+            self.refused.emit(str(error))
             return
         self.panel.show_simulating(0.0)
         self.panel.verdict.content = (
@@ -131,3 +135,4 @@ class SimulationSession:
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
         self.panel.status.content = f"⚠️ {body}"
         self._notifier.error(title, body, client)
+        self.refused.emit(body)

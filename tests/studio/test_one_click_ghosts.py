@@ -100,3 +100,23 @@ def test_one_click_shows_its_stages_then_ghosts_stand_on_the_robot(studio):
         )
     errors = state.work.prediction.attitude_errors_deg()
     assert f"quick estimate, compensated: roll {errors['roll_compensated']:.2f}°" in quick
+
+
+def test_one_click_says_where_it_stopped_when_the_simulation_cannot_start(studio):
+    """Table 3's k (up to 1 200 °/(N·m)) pushes a walk's commands far past the joint limits,
+    so the simulation refuses to start: the one click's line must stop there and say why, not
+    show "⏳ simulating" for ever."""
+    from app.core.servo.presets import PRESETS
+    from panels.quiet import set_value
+
+    gait = studio.gait
+    set_value(studio.compensation.panel.preset, PRESETS["table3"].label)
+    stopped = wait_for_signal(
+        studio.pipeline.shown,
+        lambda: setattr(gait.panel.all_stages, "value", True),
+        accept=lambda stage: stage in ("stopped", "done"),
+    )
+    assert stopped == "stopped"
+    line = studio.pipeline.line.content
+    assert "stopped at simulating" in line and "outside the joint limits" in line
+    assert studio.simulation.runner.running is None
