@@ -10,6 +10,7 @@ from pathlib import Path
 from app.cli.common import (
     DEFAULTS,
     add_robot_argument,
+    checked_project,
     load_robot_from_args,
     parse_feet,
 )
@@ -97,10 +98,8 @@ def run(args: argparse.Namespace) -> int:
     elif args.new_token and not config.no_token:
         print("Made a new access token: links opened before no longer work.", file=sys.stderr)
     check_bind(config.host, config.access_token)
-    if args.project is not None:  # a bad file is said before anything starts
-        from app.core.projects.files import read_project
-
-        read_project(args.project)
+    if args.project is not None:  # a bad project is said before anything starts
+        checked_project(args.project, tuple(args.package_root))
     robot = load_robot_from_args(args)
     if config.no_token:
         print(
@@ -117,6 +116,8 @@ def run(args: argparse.Namespace) -> int:
     studio = Studio(config, robot)
     url = studio.web.url
     shown = studio.state.robot or robot
+    for note in studio.project.skipped_autosaves:  # newer autosaves that failed a check
+        print(f"note: {note.replace('`', '')}", file=sys.stderr)
     if studio.project.welcome:
         print(f"{studio.project.welcome} (--fresh starts without it).", flush=True)
     print(f"Biped Studio — {shown.name}. Open this link (Ctrl+C stops the studio):", flush=True)
