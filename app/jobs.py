@@ -193,10 +193,13 @@ class _Process:
 class SolverWorker:
     """One solver process, its problem cache, and callbacks for its progress and results."""
 
-    def __init__(self, factory: str | ProblemFactory) -> None:
+    def __init__(self, factory: str | ProblemFactory, again: str = "press Solve again") -> None:
+        """`again`: what the user does after a crash, said in the failure ("press Solve
+        again"; a simulation's worker says its own button)."""
         if isinstance(factory, str) and ":" not in factory:
             raise ValueError(f"a problem factory is 'module:function', not {factory!r}")
         self._factory = factory
+        self._again = again
         self._context = multiprocessing.get_context("spawn")
         self._lock = threading.Lock()
         """Guards the process, the running job, the notices and the callback lists."""
@@ -442,7 +445,7 @@ class SolverWorker:
         if job_id is None:
             log.warning("the solver process exited while idle (%s); it restarts on next solve", how)
             return
-        message = f"the solver process crashed ({how}); it was restarted — press Solve again"
+        message = f"the solver process crashed ({how}); it was restarted — {self._again}"
         self._dispatch("failed", job_id, message)
 
     def _dispatch(self, kind: str, *args: Any) -> None:
