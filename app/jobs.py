@@ -61,6 +61,7 @@ from multiprocessing.process import BaseProcess
 from typing import Any, Literal, Protocol
 
 from app.core.errors import StudioError
+from app.core.parent_watch import die_with_parent, on_spawner_thread
 from app.core.single_thread import single_thread_environment
 
 log = logging.getLogger(__name__)
@@ -94,6 +95,7 @@ class SolverStatus:
 
 def _worker_main(factory: str | ProblemFactory, requests: Connection, events: Connection) -> None:
     """The worker process: build each structure once, solve every request, report back."""
+    die_with_parent()  # killed with the studio, even mid-solve
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the studio's to handle
     build, broken = _resolve(factory)
     problems: dict[Hashable, SolvableProblem] = {}
@@ -345,7 +347,7 @@ class SolverWorker:
             daemon=True,
         )
         with single_thread_environment():  # one solve per core: BLAS threads only spin
-            process.start()
+            on_spawner_thread(process.start)  # it ends with the studio (app.core.parent_watch)
         requests_r.close()  # the worker's ends: once it dies, its pipe reads as end-of-file
         events_w.close()
         return _Process(process, requests_w, events_r)

@@ -44,6 +44,7 @@ from concurrent.futures import CancelledError
 from typing import Any
 
 from app.core.errors import StudioError
+from app.core.parent_watch import PARENT_ENV
 from app.core.sweeps.evaluate import PointResult, evaluate_point, failed_point
 from app.core.sweeps.sampling import SweepPoint
 
@@ -68,6 +69,10 @@ def local_cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
+WORKER_PRELOAD = "app.core.parent_watch"
+"""Run in every local worker process as it starts (its `dask_setup`): it ends with the studio
+even when the studio is killed with SIGKILL mid-solve (Dask's own parent watch is a thread,
+which a solve holding the GIL keeps waiting)."""
 NO_HTTP_CONFIG: dict[str, list[str]] = {
     "distributed.scheduler.http.routes": [],
     "distributed.worker.http.routes": [],
@@ -83,6 +88,7 @@ def _private_local_cluster(local_cluster: Any, n_workers: int) -> Any:
 
     env = {
         **SINGLE_THREAD_ENV,
+        PARENT_ENV: str(os.getpid()),  # the workers end with this process, however it ends
         "DASK_DISTRIBUTED__WORKER__HTTP__ROUTES": "[]",
         "DASK_DISTRIBUTED__SCHEDULER__HTTP__ROUTES": "[]",
     }
@@ -97,6 +103,7 @@ def _private_local_cluster(local_cluster: Any, n_workers: int) -> Any:
             dashboard_address="127.0.0.1:0",
             worker_dashboard_address="127.0.0.1:0",
             env=env,
+            preload=[WORKER_PRELOAD],
             silence_logs=logging.ERROR,
         )
 
