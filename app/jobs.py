@@ -445,7 +445,12 @@ class SolverWorker:
         if code is not None and -code in signal.valid_signals():
             how += f", {signal.Signals(-code).name}"
         if job_id is None:
-            log.warning("the solver process exited while idle (%s); it restarts on next solve", how)
+            # SIGINT: Ctrl+C in the terminal reached the process group as the worker started
+            # (before it could ignore it); the studio is stopping too: nothing to warn about
+            level = logging.INFO if code == -signal.SIGINT else logging.WARNING
+            log.log(
+                level, "the solver process exited while idle (%s); it restarts on next solve", how
+            )
             return
         message = f"the solver process crashed ({how}); it was restarted — {self._again}"
         self._dispatch("failed", job_id, message)

@@ -15,6 +15,7 @@ from app.cli.common import (
     parse_feet,
 )
 from app.config import StudioConfig
+from app.interrupts import stop_if_interrupted
 from app.web.access import check_bind
 
 
@@ -113,7 +114,13 @@ def run(args: argparse.Namespace) -> int:
             "link can use the studio and read robot files it can open",
             file=sys.stderr,
         )
+    stop_if_interrupted()  # Ctrl+C swallowed while the robot loaded: stop here
     studio = Studio(config, robot)
+    try:
+        stop_if_interrupted()  # or while the studio started
+    except KeyboardInterrupt:
+        studio.stop()
+        raise
     url = studio.web.url
     shown = studio.state.robot or robot
     for note in studio.project.skipped_autosaves:  # newer autosaves that failed a check

@@ -8,7 +8,7 @@ worker is deep in a solve that holds the GIL, where a watching thread could not 
 signal is tied to the parent's *thread* that started the child, so the studio starts its
 worker processes from threads that live as long as it does: `on_spawner_thread` runs the
 start on one permanent thread, "process-spawner" (Dask's nannies start their workers from
-each process's own long-lived watch thread). Elsewhere (no prctl) a daemon thread polls the
+each process's own long-lived watch thread), with Ctrl+C blocked from birth. Elsewhere (no prctl) a daemon thread polls the
 parent's pid. A worker whose parent is already gone when it starts exits at once.
 
 For Dask's worker processes this module is also a worker *preload* (`dask_setup`): the
@@ -98,6 +98,10 @@ def on_spawner_thread(start: Callable[[], T]) -> T:
 
 
 def _serve() -> None:
+    # Children inherit this thread's signal mask: Ctrl+C in the terminal reaches the whole
+    # process group, and a worker interrupted while it starts only adds tracebacks (the
+    # studio stops its workers itself; they also end with it).
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     while True:
         start, answer = _requests.get()
         try:
