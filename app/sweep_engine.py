@@ -20,7 +20,8 @@ server on every scheduler and worker even without a dashboard: it is given no ro
 to 127.0.0.1 on a free port, and stopped once the cluster is up). A `scheduler` address uses
 the caller's Dask security settings (`distributed.comm.tls.*` in the Dask configuration, or
 DASK_DISTRIBUTED__COMM__TLS__* variables): give the remote cluster TLS and mutual
-certificates there.
+certificates there. The local workers end with the studio however it ends, `kill -9` and a
+solve holding the GIL included: each runs `app.core.parent_watch` as a preload.
 
 Each point is one task, `app.core.sweeps.evaluate.evaluate_point`; the process's cache of built
 NLPs survives between tasks, so a worker builds each structure once. A worker that dies
