@@ -61,6 +61,7 @@ from multiprocessing.process import BaseProcess
 from typing import Any, Literal, Protocol
 
 from app.core.errors import StudioError
+from app.core.parent_watch import die_with_parent, on_spawner_thread
 from app.core.single_thread import single_thread_environment
 
 log = logging.getLogger(__name__)
@@ -94,6 +95,7 @@ class SolverStatus:
 
 def _worker_main(factory: str | ProblemFactory, requests: Connection, events: Connection) -> None:
     """The worker process: build each structure once, solve every request, report back."""
+    die_with_parent()  # killed with the studio, even mid-solve
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the studio's to handle
     build, broken = _resolve(factory)
     problems: dict[Hashable, SolvableProblem] = {}
@@ -193,10 +195,13 @@ class _Process:
 class SolverWorker:
     """One solver process, its problem cache, and callbacks for its progress and results."""
 
-    def __init__(self, factory: str | ProblemFactory) -> None:
+    def __init__(self, factory: str | ProblemFactory, again: str = "press Solve again") -> None:
+        """`again`: what the user does after a crash, said in the failure ("press Solve
+        again"; a simulation's worker says its own button)."""
         if isinstance(factory, str) and ":" not in factory:
             raise ValueError(f"a problem factory is 'module:function', not {factory!r}")
         self._factory = factory
+        self._again = again
         self._context = multiprocessing.get_context("spawn")
         self._lock = threading.Lock()
         """Guards the process, the running job, the notices and the callback lists."""
@@ -342,7 +347,7 @@ class SolverWorker:
             daemon=True,
         )
         with single_thread_environment():  # one solve per core: BLAS threads only spin
-            process.start()
+            on_spawner_thread(process.start)  # it ends with the studio (app.core.parent_watch)
         requests_r.close()  # the worker's ends: once it dies, its pipe reads as end-of-file
         events_w.close()
         return _Process(process, requests_w, events_r)
@@ -440,9 +445,14 @@ class SolverWorker:
         if code is not None and -code in signal.valid_signals():
             how += f", {signal.Signals(-code).name}"
         if job_id is None:
-            log.warning("the solver process exited while idle (%s); it restarts on next solve", how)
+            # SIGINT: Ctrl+C in the terminal reached the process group as the worker started
+            # (before it could ignore it); the studio is stopping too: nothing to warn about
+            level = logging.INFO if code == -signal.SIGINT else logging.WARNING
+            log.log(
+                level, "the solver process exited while idle (%s); it restarts on next solve", how
+            )
             return
-        message = f"the solver process crashed ({how}); it was restarted — press Solve again"
+        message = f"the solver process crashed ({how}); it was restarted — {self._again}"
         self._dispatch("failed", job_id, message)
 
     def _dispatch(self, kind: str, *args: Any) -> None:

@@ -24,6 +24,8 @@ certificates there.
 Before Dask's client is made for an address, the address is probed on this thread with a
 connection and a handshake time-out (app/scheduler_probe.py): Dask's own time-out covers only
 the TCP connect, so a peer that accepted and stayed silent kept the client waiting forever.
+The local workers end with the studio however it ends, `kill -9` and a
+solve holding the GIL included: each runs `app.core.parent_watch` as a preload.
 
 Each point is one task, `app.core.sweeps.evaluate.evaluate_point`; the process's cache of built
 NLPs survives between tasks, so a worker builds each structure once. A worker that dies
@@ -47,6 +49,7 @@ from concurrent.futures import CancelledError
 from typing import Any
 
 from app.core.errors import StudioError
+from app.core.parent_watch import PARENT_ENV
 from app.core.sweeps.evaluate import PointResult, evaluate_point, failed_point
 from app.core.sweeps.sampling import SweepPoint
 from app.scheduler_probe import CONNECT_TIMEOUT_S, SchedulerProbeError, probe_scheduler
@@ -70,6 +73,10 @@ def local_cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
+WORKER_PRELOAD = "app.core.parent_watch"
+"""Run in every local worker process as it starts (its `dask_setup`): it ends with the studio
+even when the studio is killed with SIGKILL mid-solve (Dask's own parent watch is a thread,
+which a solve holding the GIL keeps waiting)."""
 NO_HTTP_CONFIG: dict[str, list[str]] = {
     "distributed.scheduler.http.routes": [],
     "distributed.worker.http.routes": [],
@@ -85,6 +92,7 @@ def _private_local_cluster(local_cluster: Any, n_workers: int) -> Any:
 
     env = {
         **SINGLE_THREAD_ENV,
+        PARENT_ENV: str(os.getpid()),  # the workers end with this process, however it ends
         "DASK_DISTRIBUTED__WORKER__HTTP__ROUTES": "[]",
         "DASK_DISTRIBUTED__SCHEDULER__HTTP__ROUTES": "[]",
     }
@@ -99,6 +107,7 @@ def _private_local_cluster(local_cluster: Any, n_workers: int) -> Any:
             dashboard_address="127.0.0.1:0",
             worker_dashboard_address="127.0.0.1:0",
             env=env,
+            preload=[WORKER_PRELOAD],
             silence_logs=logging.ERROR,
         )
 

@@ -27,6 +27,7 @@ from app.cli import (
 )
 from app.cli.common import DEFAULTS
 from app.core.errors import StudioError
+from app.interrupts import interrupted
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -95,11 +96,17 @@ def main(argv: list[str] | None = None) -> int:
     except MemoryError:  # a budget this code does not know yet; still one line, no traceback
         print(f"biped-studio {command}: out of memory; the input is too large", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # Ctrl+C: whatever was under way says nothing more
+        print(f"biped-studio {command}: stopped (Ctrl+C)", file=sys.stderr)
         return 130
     except BrokenPipeError:  # output piped into `head` and the like
         sys.stderr.close()
         return 0
+    except Exception:  # a library that turned Ctrl+C into its own error (a lazy import)
+        if not interrupted():
+            raise
+        print(f"biped-studio {command}: stopped (Ctrl+C)", file=sys.stderr)
+        return 130
 
 
 def _parser() -> argparse.ArgumentParser:

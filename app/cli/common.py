@@ -15,6 +15,7 @@ from app.core.servo.compensation import CompensationParams
 if TYPE_CHECKING:
     from app.core.dynamics.wbc import FeedForward
     from app.core.motions.trajectory import Trajectory
+    from app.core.projects.project import Project
     from app.core.servo.model import ServoModel
 
 DEFAULTS = StudioConfig()
@@ -105,6 +106,19 @@ class MotionInputs:
     servo: ServoModel | None = None
 
 
+def checked_project(path: Path, package_roots: tuple[Path, ...]) -> tuple[Project, RobotModel]:
+    """The project in `path` and its robot, every value checked as the studio's *Open* checks
+    it (app.core.projects.project.check_fits); ProjectError (one line) otherwise."""
+    from app.core.projects.files import read_project
+    from app.core.projects.project import check_fits
+    from app.core.projects.robot_files import load_project_robot
+
+    project = read_project(path)
+    robot = load_project_robot(project.robot, StudioConfig().uploads_dir, package_roots)
+    check_fits(project, robot)
+    return project, robot
+
+
 def motion_inputs(args: argparse.Namespace) -> MotionInputs:
     """The robot and motion of `args.trajectory`: a motion CSV on --robot, or a project file
     (its own robot: --robot is then not used)."""
@@ -114,15 +128,7 @@ def motion_inputs(args: argparse.Namespace) -> MotionInputs:
 
         robot = load_robot_from_args(args)
         return MotionInputs(robot, read_trajectory_csv(path, robot), str(path))
-    from app.core.projects.files import read_project
-    from app.core.projects.project import check_fits
-    from app.core.projects.robot_files import load_project_robot
-
-    project = read_project(path)
-    robot = load_project_robot(
-        project.robot, StudioConfig().uploads_dir, package_roots=tuple(args.package_root)
-    )
-    check_fits(project, robot)
+    project, robot = checked_project(path, tuple(args.package_root))
     if project.motion is None:
         raise StudioError(f"{path} holds no motion: generate or plan one in the studio and save")
     feedforward = project.feedforward

@@ -10,10 +10,12 @@ from pathlib import Path
 from app.cli.common import (
     DEFAULTS,
     add_robot_argument,
+    checked_project,
     load_robot_from_args,
     parse_feet,
 )
 from app.config import StudioConfig
+from app.interrupts import stop_if_interrupted
 from app.web.access import check_bind
 
 
@@ -97,10 +99,8 @@ def run(args: argparse.Namespace) -> int:
     elif args.new_token and not config.no_token:
         print("Made a new access token: links opened before no longer work.", file=sys.stderr)
     check_bind(config.host, config.access_token)
-    if args.project is not None:  # a bad file is said before anything starts
-        from app.core.projects.files import read_project
-
-        read_project(args.project)
+    if args.project is not None:  # a bad project is said before anything starts
+        checked_project(args.project, tuple(args.package_root))
     robot = load_robot_from_args(args)
     if config.no_token:
         print(
@@ -114,9 +114,17 @@ def run(args: argparse.Namespace) -> int:
             "link can use the studio and read robot files it can open",
             file=sys.stderr,
         )
+    stop_if_interrupted()  # Ctrl+C swallowed while the robot loaded: stop here
     studio = Studio(config, robot)
+    try:
+        stop_if_interrupted()  # or while the studio started
+    except KeyboardInterrupt:
+        studio.stop()
+        raise
     url = studio.web.url
     shown = studio.state.robot or robot
+    for note in studio.project.skipped_autosaves:  # newer autosaves that failed a check
+        print(f"note: {note.replace('`', '')}", file=sys.stderr)
     if studio.project.welcome:
         print(f"{studio.project.welcome} (--fresh starts without it).", flush=True)
     print(f"Biped Studio — {shown.name}. Open this link (Ctrl+C stops the studio):", flush=True)

@@ -130,6 +130,8 @@ class ProjectSession:
         """Why the last save or open failed."""
         self.welcome = ""
         """"Restored your work from HH:MM", shown to every tab that connects, if restored."""
+        self.skipped_autosaves: tuple[str, ...] = ()
+        """Why each autosave newer than the one restored was skipped (it failed a check)."""
         self.autosaved: Signal[Path] = Signal("autosaved")
         self.autosave_failed: Signal[str] = Signal("autosave_failed")
         self._lock = threading.Lock()
@@ -289,17 +291,22 @@ class ProjectSession:
         path: Path | None,
         client: viser.ClientHandle | None = None,
         saved: bool = True,
+        announce: bool = True,
     ) -> bool:
         """Show `project` in the studio, all or nothing; False (work untouched) on failure.
-        `saved`: the project is a saved file (not dirty once open)."""
+        `saved`: the project is a saved file (not dirty once open). `announce`: a project
+        that does not fit is told to the tabs (else only `last_error` says why)."""
         try:
             robot = load_project_robot(
                 project.robot, self._config.uploads_dir, self._config.package_roots
             )
             report = robot_report(robot)
             Posing(robot).balance(robot.q_neutral)  # a robot that cannot be posed is refused
-            check_fits(project, robot)
+            check_fits(project, robot)  # and every value, as a load from the panels checks it
         except StudioError as error:
+            if not announce:
+                self.last_error = str(error)
+                return False
             return self._fail("Project not opened", str(error), client)
         except Exception as error:  # a third-party parser failed on the robot: same answer
             log.exception("opening project %s", name)
@@ -343,25 +350,38 @@ class ProjectSession:
             state.set_pose(project.q.copy(), project.stance, "load", robot)
 
     def restore_autosave(self) -> bool:
-        """Install the newest autosave that opens; say so to every tab. False if none."""
+        """Install the newest autosave that opens and passes every check; say so to every
+        tab, with a note for each newer one skipped. False if none."""
+        skipped: list[str] = []
+        self.skipped_autosaves = ()
         for path in reversed(self.autosaves.saves()):
             try:
                 project = read_project(path)
             except StudioError as error:
                 log.warning("autosave %s not restored: %s", path.name, error)
+                skipped.append(f"`{path.name}` skipped: {error}")
                 continue
             name, origin = _origin(project)
-            if self.install(project, name or RESTORED, origin, saved=False):
-                if origin is not None:  # when its file was last saved, if it still is there
-                    self.saved_at = _file_time(origin)
-                    self._show_title(self.marks())
-                when = _saved_time(project.saved_at, "%H:%M")
-                contents = _contents(project)
-                work = f"{name} ({contents})" if name else contents
-                self.welcome = f"Restored your work from {when}: {work}"
-                self.panel.show_status(f"{self.welcome} (autosave `{path.name}`)")
-                self._notifier.notify("Welcome back", self.welcome)
-                return True
+            if not self.install(project, name or RESTORED, origin, saved=False, announce=False):
+                log.warning("autosave %s not restored: %s", path.name, self.last_error)
+                skipped.append(f"`{path.name}` skipped: {self.last_error}")
+                continue
+            self.skipped_autosaves = tuple(skipped)
+            if origin is not None:  # when its file was last saved, if it still is there
+                self.saved_at = _file_time(origin)
+                self._show_title(self.marks())
+            when = _saved_time(project.saved_at, "%H:%M")
+            contents = _contents(project)
+            work = f"{name} ({contents})" if name else contents
+            self.welcome = f"Restored your work from {when}: {work}"
+            notes = "".join(f"  \n⚠️ {note}" for note in skipped)
+            self.panel.show_status(f"{self.welcome} (autosave `{path.name}`){notes}")
+            self._notifier.notify("Welcome back", self.welcome)
+            return True
+        self.skipped_autosaves = tuple(skipped)
+        if skipped:
+            notes = "  \n".join(f"⚠️ {note}" for note in skipped)
+            self.panel.show_status(f"No autosave restored; the studio starts fresh.  \n{notes}")
         return False
 
     def _greet(self, client: viser.ClientHandle) -> None:

@@ -8,8 +8,8 @@ its overlays in `app/views/`), constructed here, talking only to the state.
 from __future__ import annotations
 
 import contextlib
+import io
 import logging
-import sys
 
 from app.config import StudioConfig
 from app.core.projects.codec import ProjectError
@@ -156,5 +156,5 @@ class Studio:
         self.ghosts.close()
         self.simulation.close()
         self.torques.close()
-        with contextlib.redirect_stdout(sys.stderr):  # viser's "Server stopped" is not output
+        with contextlib.redirect_stdout(io.StringIO()):  # viser's "Server stopped": not news
             self.server.stop()

@@ -35,6 +35,8 @@ log = logging.getLogger(__name__)
 WITHOUT, WITH = "without compensation", "with compensation"
 SIMULATED = {"sim_without": WITHOUT, "sim_with": WITH}
 """Ghost name -> the simulated run it shows."""
+SIMULATE_AGAIN = "press Simulate without / with compensation again"
+"""What a crashed simulation asks of the user (the Compensation panel's button)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -103,7 +105,7 @@ class SimulationRunner:
 
     def _ensure_worker(self) -> SolverWorker:
         if self._worker is None:
-            worker = SolverWorker(build_simulation_problem)
+            worker = SolverWorker(build_simulation_problem, again=SIMULATE_AGAIN)
             worker.on_progress(lambda _job, _pct, fraction, _unused: self._on_progress(fraction))
             worker.on_done(self._on_done)
             worker.on_failed(lambda job_id, message: self._end(job_id, error=message))

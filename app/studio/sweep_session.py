@@ -39,6 +39,7 @@ import os
 import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import CancelledError
 from pathlib import Path
 from typing import Any
 
@@ -148,6 +149,11 @@ class SweepSession:
         """The loaded robot's (left, right) foot links: a swept .urdf robot's workers use them."""
         self._servos = servos
         self._prepare = prepare
+        self._prepare_lock = threading.Lock()
+        """Guards the two below: at most one "sweep-prepare" thread runs."""
+        self._preparer: threading.Thread | None = None
+        self._prepare_wanted = False
+        """A robot loaded since the preparer started its round: it goes round again."""
         self._engine_lock = threading.Lock()
         """Held while the engine is made or replaced (the runner, the preparer, the loader)."""
         self._closed = False
@@ -276,12 +282,30 @@ class SweepSession:
 
     def prepare_workers(self) -> None:
         """Start the cluster and build the swept robot's NLP (at the panel's knots) and its
-        anchor gait on every worker, on the low-priority thread "sweep-prepare"."""
-        threading.Thread(target=self._prepare_now, name="sweep-prepare", daemon=True).start()
+        anchor gait on every worker, on the low-priority thread "sweep-prepare". One preparer
+        at a time: robots loaded while it works (50 project opens in a row) are folded into
+        one more round, for the robot loaded last."""
+        with self._prepare_lock:
+            self._prepare_wanted = True
+            if self._preparer is not None:
+                return  # the running preparer goes round once more, for the latest robot
+            self._preparer = threading.Thread(
+                target=self._prepare_rounds, name="sweep-prepare", daemon=True
+            )
+            self._preparer.start()
 
-    def _prepare_now(self) -> None:
+    def _prepare_rounds(self) -> None:
         with contextlib.suppress(Exception):  # this thread only: the studio keeps its priority
             os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), WORKER_NICENESS)
+        while True:
+            with self._prepare_lock:
+                if not self._prepare_wanted or self._closed:
+                    self._preparer = None
+                    return
+                self._prepare_wanted = False
+            self._prepare_now()
+
+    def _prepare_now(self) -> None:
         try:
             if self._thread is not None and self._thread.is_alive():
                 return  # a sweep is running: its points build what they need
@@ -302,6 +326,9 @@ class SweepSession:
             point = start_point(spec, defaults)
             engine = self._engine_for(_whole(self.panel.workers.value, "workers"))
             self.prepared_s = engine.prepare(point)
+        except CancelledError as error:  # the engine was replaced or closed meanwhile
+            log.info("preparing the sweep workers was interrupted: %s", type(error).__name__)
+            return
         except Exception:  # background work: the first sweep will build what it needs
             if not self._closed:
                 log.exception("preparing the sweep workers failed")

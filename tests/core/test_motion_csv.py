@@ -51,8 +51,15 @@ def smooth_motion(robot: RobotModel, n: int = 40, dt: float = 0.01) -> Trajector
         drift = np.array([0.1 * tk, 0.02 * np.sin(5 * tk), 0.01 * np.cos(4 * tk)])
         position = robot.q_neutral[:3] + drift
         q[k, :7] = pin.SE3ToXYZQUAT(pin.SE3(rotation, position))
+    # every joint swings inside its limits (an import refuses a joint past them)
+    lower = np.array([j.lower for j in robot.joints])
+    upper = np.array([j.upper for j in robot.joints])
+    middle, amplitude = (lower + upper) / 2, np.minimum(0.3, 0.45 * (upper - lower))
     angles = np.array(
-        [0.3 * np.sin(2 * np.pi * 1.2 * t + 0.4 * i) for i in range(robot.n_actuated)]
+        [
+            middle[i] + amplitude[i] * np.sin(2 * np.pi * 1.2 * t + 0.4 * i)
+            for i in range(robot.n_actuated)
+        ]
     ).T
     q = np.array([robot.with_joint_angles(q_k, a_k) for q_k, a_k in zip(q, angles, strict=True)])
     contacts = np.stack([(t % 0.2) < 0.12, (t % 0.2) >= 0.08], axis=1)

@@ -35,6 +35,7 @@ from app.core.dynamics.wbc import (
     stack_results,
 )
 from app.core.dynamics.wbc_qp import QpSolver, WholeBodyQp
+from app.core.parent_watch import die_with_parent, on_spawner_thread
 from app.core.robot.model import RobotModel
 from app.core.single_thread import single_thread_environment
 
@@ -62,7 +63,12 @@ class FeedForwardPool:
     def __init__(self, workers: int | None = None) -> None:
         self.workers = max(1, workers or os.cpu_count() or 1)
         with single_thread_environment():  # the processes start here, inheriting it
-            self._pool: Pool = multiprocessing.get_context("spawn").Pool(self.workers)
+            # started on a thread that lives as long as the studio: they end with it
+            self._pool: Pool = on_spawner_thread(
+                lambda: multiprocessing.get_context("spawn").Pool(
+                    self.workers, initializer=die_with_parent
+                )
+            )
             self._pool.map(_warm_up, range(self.workers), chunksize=1)
         self._robot: tuple[RobotModel, str, str] | None = None
         self._folder = Path(tempfile.mkdtemp(prefix="feedforward-pool-"))

@@ -46,6 +46,7 @@ from app.core.errors import StudioError
 from app.core.file_types import TextPathOrFile
 from app.core.motions.trajectory import Trajectory, from_configurations
 from app.core.quaternions import wxyz_to_xyzw
+from app.core.robot.configurations import check_configurations, check_motion_rates
 from app.core.robot.model import RobotModel
 
 BASE_Q_COLUMNS = ("base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw")
@@ -302,7 +303,11 @@ def _read_table(
     name = Path(source).stem or "motion"
     dt = float(t[1] - t[0])
     if not has_derivatives:
-        return from_configurations(robot.model, name, robot.joint_names, dt, q, contacts)
+        return _checked(
+            robot,
+            from_configurations(robot.model, name, robot.joint_names, dt, q, contacts),
+            source,
+        )
 
     n_base_v = 6 if robot.floating_base else 0
     v = np.empty((len(values), robot.model.nv))
@@ -312,9 +317,24 @@ def _read_table(
             array[:, i] = values[:, index[f"{prefix}:{base}"]]
         for j in joints:
             array[:, j.idx_v] = values[:, index[f"{prefix}:{j.name}"]]
-    return Trajectory(
-        name=name, joint_names=robot.joint_names, t=t - t[0], q=q, v=v, a=a, contacts=contacts
+    return _checked(
+        robot,
+        Trajectory(
+            name=name, joint_names=robot.joint_names, t=t - t[0], q=q, v=v, a=a, contacts=contacts
+        ),
+        source,
     )
+
+
+def _checked(robot: RobotModel, trajectory: Trajectory, source: str) -> Trajectory:
+    """`trajectory` if every sample is a configuration of `robot` with sane rates (the check
+    a project gets: app.core.robot.configurations), else MotionFileError naming the sample."""
+    try:
+        check_configurations(robot, trajectory.q, source, t=trajectory.t)
+        check_motion_rates(trajectory.v, trajectory.a, source)
+    except StudioError as error:
+        raise MotionFileError(str(error)) from None
+    return trajectory
 
 
 def _check_times(t: np.ndarray, lines: list[int], source: str) -> None:
@@ -417,7 +437,10 @@ def read_roban_motion_csv(
         else:
             q[:, joint.idx_q] = values[:, column]
     contacts = sole_contacts(robot, q)
-    return from_configurations(robot.model, path.stem, robot.joint_names, 1.0 / fps, q, contacts)
+    trajectory = from_configurations(
+        robot.model, path.stem, robot.joint_names, 1.0 / fps, q, contacts
+    )
+    return _checked(robot, trajectory, source)
 
 
 def sole_contacts(robot: RobotModel, q: np.ndarray) -> np.ndarray:

@@ -3,7 +3,8 @@
 Only the robot's *source* is kept (a built-in name, or the URDF and its meshes packed as an
 upload archive, `RobotSource.files`); the robot is loaded again on open, and every stored value
 is then checked against it (`check_fits`): a pose, motion, torques or coefficients of another
-robot are refused, not installed.
+robot are refused, not installed, and so is a value that robot cannot take (a joint past its
+limits, a zero quaternion, a torque of 1e308: app.core.projects.values).
 """
 
 from __future__ import annotations
@@ -95,7 +96,11 @@ class Project:
 
 
 def check_fits(project: Project, robot: RobotModel) -> None:
-    """ProjectError unless every stored value belongs to `robot` (its nq, its joints)."""
+    """ProjectError unless every stored value belongs to `robot` (its nq, its joints) and is
+    one it can take (app.core.projects.values: joints within limits, unit quaternions, sane
+    magnitudes), as a load in the studio would check it."""
+    from app.core.projects.values import check_values
+
     names = robot.joint_names
 
     def need(ok: bool, message: str) -> None:
@@ -168,3 +173,4 @@ def check_fits(project: Project, robot: RobotModel) -> None:
         f"project.display.plot_joints is {project.display.plot_joints!r}, not one of its joints "
         "or legs",
     )
+    check_values(project, robot)

@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from app.core.motions.trajectory import Trajectory
+from app.core.parent_watch import die_with_parent
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams, compensated_command
 from app.core.servo.model import ServoModel, base_roll_pitch, joint_angles
@@ -255,7 +256,9 @@ def simulate_commands(
         )
     if parallel:
         context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(min(len(inputs), 4), mp_context=context) as pool:
+        with ProcessPoolExecutor(
+            min(len(inputs), 4), mp_context=context, initializer=die_with_parent
+        ) as pool:
             runs = []
             for run in pool.map(run_engine, inputs):
                 runs.append(run)

@@ -1,0 +1,97 @@
+"""Ctrl+C while `serve` starts is one line (issue 24, item 9: ~50 lines of tracebacks — a
+half-imported trimesh's TypeError, Dask's "Nanny failed to start" — and once a studio that
+went on starting). The terminal's Ctrl+C reaches the whole process group, workers included;
+the test sends SIGINT to the group the same way, at two moments found by watching the process
+(no fixed sleeps): while it imports its libraries, and once its worker processes start."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import psutil
+import pytest
+
+from tests.studio.conftest import free_port
+
+ROOT = Path(__file__).resolve().parents[1]
+GUARD_S = 300.0
+
+
+def _poll(what: str, condition, seconds: float = GUARD_S) -> None:
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < deadline, what
+        time.sleep(0.05)
+
+
+def _importing(process: psutil.Process) -> bool:
+    """The interpreter has started loading the studio's libraries (numpy is mapped)."""
+    try:
+        return any("numpy" in m.path for m in process.memory_maps())
+    except (psutil.NoSuchProcess, psutil.AccessDenied):
+        return False
+
+
+def _workers(process: psutil.Process) -> list[psutil.Process]:
+    try:
+        children = process.children(recursive=True)
+    except psutil.NoSuchProcess:
+        return []
+    found = []
+    for child in children:
+        try:
+            if "multiprocessing.spawn" in " ".join(child.cmdline()):
+                found.append(child)
+        except psutil.NoSuchProcess:
+            continue
+    return found
+
+
+def _alive(process: psutil.Process) -> bool:
+    try:
+        return process.is_running() and process.status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
+
+
+@pytest.mark.parametrize("moment", ["importing", "workers starting"])
+def test_ctrl_c_while_serve_starts_says_one_line(tmp_path, moment):
+    env = {**os.environ, "BIPED_STUDIO_DATA": str(tmp_path / "data")}
+    serve = subprocess.Popen(
+        [sys.executable, "-m", "app", "serve", "--port", str(free_port())],
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group, as a terminal's foreground job
+    )
+    process = psutil.Process(serve.pid)
+    workers: list[psutil.Process] = []
+    try:
+        if moment == "importing":
+            _poll("the studio began importing", lambda: _importing(process))
+        else:
+
+            def started() -> bool:
+                workers[:] = _workers(process)
+                return bool(workers)
+
+            _poll("the studio started a worker process", started)
+        os.killpg(serve.pid, signal.SIGINT)  # what Ctrl+C in its terminal does
+        _, stderr = serve.communicate(timeout=GUARD_S)
+    finally:
+        if serve.poll() is None:
+            os.killpg(serve.pid, signal.SIGKILL)
+            serve.wait()
+    banner = "╭│╰"  # viser's box with the address, printed by a studio that started serving
+    lines = [line for line in stderr.splitlines() if line.strip() and line[0] not in banner]
+    assert serve.returncode in (130, -signal.SIGINT), (serve.returncode, stderr)
+    assert len(lines) <= 1 and "Traceback" not in stderr, stderr
+    assert all("stopped (Ctrl+C)" in line for line in lines), stderr
+    _poll("a worker outlived the stopped studio", lambda: not any(_alive(w) for w in workers), 10)
