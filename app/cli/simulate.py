@@ -65,6 +65,12 @@ def add_parser(sub) -> None:
     simulate.add_argument(
         "--baseline", action="store_true", help="also run the plan uncompensated (in parallel)"
     )
+    simulate.add_argument(
+        "--battery-Wh",
+        type=float,
+        default=None,
+        help="with servo parts: a pack's usable energy [Wh]; prints minutes of the motion repeated",
+    )
     simulate.add_argument("--friction", type=float, default=0.6, help="floor friction μ")
     simulate.add_argument(
         "--hold",
@@ -132,9 +138,15 @@ def run(args: argparse.Namespace) -> int:
 
     if args.clearance and args.preset != "table3":
         raise StudioError("--clearance goes with --preset table3 (a k.toml sets phi_deg itself)")
+    if args.battery_Wh is not None:
+        from app.core.simulation.battery import check_pack_Wh
+
+        check_pack_Wh(args.battery_Wh)
     inputs = motion_inputs(args)
     robot, traj = inputs.robot, inputs.trajectory
     parts = _parts(args, robot.joint_names)
+    if parts is None and args.battery_Wh is not None:
+        raise StudioError("--battery-Wh needs servo parts: a --servo file that names servos")
     law = None
     if parts is not None:
         from app.core.simulation.part_law import part_servo_law
@@ -175,6 +187,9 @@ def run(args: argparse.Namespace) -> int:
         commands = {"without compensation": q_plan, **commands}
     results = simulate_commands(robot, traj, commands, servo, options, law=law)
     main = results[label]
+    figures = None
+    if parts is not None and main.energy is not None:
+        figures = _energy_figures(args, robot, traj, inputs, parts, main)
     if args.out is not None:
         write_simulation_csv(args.out, main)
     if args.json:
@@ -185,6 +200,8 @@ def run(args: argparse.Namespace) -> int:
         if parts is not None and main.energy is not None:
             report["servos"] = parts.to_json()
             report["energy"] = main.energy.to_json()
+        if figures is not None:
+            report["energy_figures"] = figures.to_json()
         print(json.dumps(report, indent=2))
         return 0
     for result in results.values():
@@ -201,6 +218,57 @@ def run(args: argparse.Namespace) -> int:
             f"energy over {e.duration_s:.2f} s: {e.electrical_J.sum():.1f} J electrical, "
             f"{e.joule_J.sum():.1f} J heat (I²R); peak current {e.peak_current_A.max():.2f} A"
         )
+    if figures is not None:
+        print(_figures_line(figures))
     for note in main.notes:
         print(f"note: {note}", file=sys.stderr)
     return 0
+
+
+def _energy_figures(args, robot, traj, inputs: MotionInputs, parts, result):
+    """Currents, SR (electrical beside planned) and the battery figure of a run on parts."""
+    import numpy as np
+
+    from app.core.simulation.battery import (
+        MIN_DISTANCE_M,
+        energy_figures,
+        horizontal_travel_m,
+        positive_work_J,
+    )
+
+    assert result.energy is not None
+    shown = result.t <= result.simulated_until_s
+    planned_xy = traj.q[:, :2]
+    work = float("nan")
+    if horizontal_travel_m(planned_xy) >= MIN_DISTANCE_M:  # SR only for a motion that travels
+        tau = _torques(args, robot, traj, inputs)
+        work = positive_work_J(tau, traj.v[:, [j.idx_v for j in robot.joints]], traj.dt)
+    return energy_figures(
+        result.energy,
+        np.array([p.firmware.vin_V for p in parts.parts]),
+        robot.mass_kg,
+        float(np.linalg.norm(robot.model.gravity.linear)),
+        result.q[shown, :2],
+        planned_xy,
+        work,
+        args.battery_Wh,
+    )
+
+
+def _figures_line(f) -> str:
+    sr = (
+        "in place: no SR"
+        if f.sr_electrical is None and f.sr_planned is None
+        else f"SR {_sr(f.sr_electrical)} electrical, {_sr(f.sr_planned)} planned work"
+    )
+    line = (
+        f"average {f.average_power_W:.1f} W, {f.average_current_A:.2f} A from the supply; "
+        f"peak {f.peak_current_A:.2f} A on one joint (pack ≤ {f.peak_current_bound_A:.2f} A); {sr}"
+    )
+    if f.battery_minutes is not None:
+        line += f"; a {f.pack_Wh:g} Wh pack lasts {f.battery_minutes:.0f} min of this motion"
+    return line
+
+
+def _sr(value: float | None) -> str:
+    return "-" if value is None else f"{value:.3g}"
