@@ -44,3 +44,22 @@ def test_a_bad_battery_is_one_line_and_exit_1(tmp_path, extra, words):
     assert result.returncode == 1
     (line,) = result.stderr.strip().splitlines()
     assert words in line and "Traceback" not in result.stderr
+
+
+def test_servo_masses_change_the_robot_the_simulation_runs(tmp_path):
+    from app.core.robot.loading import load_robot
+    from app.core.servo.catalogue import load_catalogue
+
+    motion = tmp_path / "com_shift.csv"
+    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    parts = tmp_path / "servo.toml"
+    parts.write_text('servo = "mx106"\n')
+    args = ["simulate", str(motion), "--preset", "plan", "--servo", str(parts), "--json"]
+    plain = json.loads(run(*args).stdout)
+    result = run(*args, "--servo-masses", "none")
+    assert result.returncode == 0, result.stderr
+    heavy = json.loads(result.stdout)
+    robot = load_robot("servo_biped")
+    after = robot.mass_kg + robot.n_actuated * load_catalogue()["mx106"].mass_kg
+    assert f"→ {after:.3f} kg" in heavy["servo_masses"]
+    assert heavy["rms_joint_error_deg"] != plain["rms_joint_error_deg"]  # other dynamics

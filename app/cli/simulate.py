@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -64,6 +65,14 @@ def add_parser(sub) -> None:
     )
     simulate.add_argument(
         "--baseline", action="store_true", help="also run the plan uncompensated (in parallel)"
+    )
+    simulate.add_argument(
+        "--servo-masses",
+        default=None,
+        metavar="COUNTED",
+        help="with servo parts: each joint's servo mass replaces the one its URDF link counts "
+        "(COUNTED: the catalogue servo the URDF was modelled with, or none: add the masses); "
+        "torques are then computed on the new masses",
     )
     simulate.add_argument(
         "--battery-Wh",
@@ -147,6 +156,12 @@ def run(args: argparse.Namespace) -> int:
     parts = _parts(args, robot.joint_names)
     if parts is None and args.battery_Wh is not None:
         raise StudioError("--battery-Wh needs servo parts: a --servo file that names servos")
+    mass_note = None
+    if args.servo_masses is not None:
+        if parts is None:
+            raise StudioError("--servo-masses needs servo parts: a --servo file that names servos")
+        robot, mass_note = _swap_masses(args, robot, parts)
+        inputs = dataclasses.replace(inputs, robot=robot, feedforward=None)
     law = None
     if parts is not None:
         from app.core.simulation.part_law import part_servo_law
@@ -202,6 +217,8 @@ def run(args: argparse.Namespace) -> int:
             report["energy"] = main.energy.to_json()
         if figures is not None:
             report["energy_figures"] = figures.to_json()
+        if mass_note is not None:
+            report["servo_masses"] = mass_note
         print(json.dumps(report, indent=2))
         return 0
     for result in results.values():
@@ -220,6 +237,8 @@ def run(args: argparse.Namespace) -> int:
         )
     if figures is not None:
         print(_figures_line(figures))
+    if mass_note is not None:
+        print(f"note: {mass_note}", file=sys.stderr)
     for note in main.notes:
         print(f"note: {note}", file=sys.stderr)
     return 0
@@ -272,3 +291,25 @@ def _figures_line(f) -> str:
 
 def _sr(value: float | None) -> str:
     return "-" if value is None else f"{value:.3g}"
+
+
+def _swap_masses(args: argparse.Namespace, robot, parts):
+    """The robot with each part's mass in place of the counted servo's, and the note."""
+    from app.core.servo.catalogue import load_catalogue, read_user_servos, with_user_servos
+    from app.core.servo.masses import with_servo_masses
+
+    counted = {}
+    if args.servo_masses != "none":
+        catalogue = load_catalogue()
+        for path in args.servos:
+            catalogue = with_user_servos(catalogue, read_user_servos(path))
+        record = catalogue.get(args.servo_masses)
+        if record is None:
+            raise StudioError(
+                f"--servo-masses {args.servo_masses!r}: give none or a catalogue key "
+                f"({', '.join(sorted(catalogue))})"
+            )
+        counted = {p.joint: record.mass_kg for p in parts.parts}
+    new = {p.joint: p.mass_kg for p in parts.parts}
+    robot, swap = with_servo_masses(robot, new, counted)
+    return robot, swap.note()
