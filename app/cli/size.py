@@ -6,9 +6,13 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from app.cli.common import DEFAULTS, MOTION_HELP, add_robot_options, motion_inputs
 from app.core.errors import StudioError
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 def add_parser(sub) -> None:
@@ -127,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _torques(args: argparse.Namespace, inputs) -> tuple[object, tuple[int, ...]]:
+def _torques(args: argparse.Namespace, inputs) -> tuple[np.ndarray, tuple[int, ...]]:
     """(τ (T, n) [N·m], samples without a QP solution) from --tau, the project, or the QP."""
     import numpy as np
 
