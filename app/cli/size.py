@@ -37,6 +37,13 @@ def add_parser(sub) -> None:
         help="headroom asked of every point and of the RMS torque (0.3: 30 %%)",
     )
     size.add_argument(
+        "--continuous-fraction",
+        type=float,
+        default=None,
+        help="the continuous (thermal) rating assumed where a servo publishes none, as a "
+        "fraction of its stall torque (default 0.25)",
+    )
+    size.add_argument(
         "--by", choices=("mass", "price"), default="mass", help="what to minimise (mass)"
     )
     size.add_argument(
@@ -59,9 +66,19 @@ def run(args: argparse.Namespace) -> int:
 
     from app.core.dynamics.peaks import over_speed_samples
     from app.core.servo.catalogue import load_catalogue, read_user_servos, with_user_servos
-    from app.core.servo.sizing import check_margin, size_joints
+    from app.core.servo.sizing import (
+        CONTINUOUS_FRACTION_OF_STALL,
+        check_fraction,
+        check_margin,
+        size_joints,
+    )
 
     margin = check_margin(args.margin)
+    fraction = check_fraction(
+        CONTINUOUS_FRACTION_OF_STALL
+        if args.continuous_fraction is None
+        else args.continuous_fraction
+    )
     catalogue = load_catalogue()
     for path in args.servos:
         catalogue = with_user_servos(catalogue, read_user_servos(path))
@@ -83,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
         margin,
         args.by,
         sample_index=keep,
+        continuous_fraction=fraction,
     )
     seconds = time.perf_counter() - begin
     notes = list(sizing.notes)

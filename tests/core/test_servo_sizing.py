@@ -101,8 +101,11 @@ def test_sizing_matches_a_brute_force_search(seed):
     w = rng.uniform(-1, 1, (40, n)) * scales_w
     tau = rng.uniform(-1, 1, (40, n)) * scales_tau
     margin = float(rng.choice([0.0, 0.3, 0.5]))
-    sizing = size_joints([f"j{i}" for i in range(n)], w, tau, 1.0, records, margin)
-    expected = _brute_force(w, tau, servos, margin)
+    fraction = [0.25, 0.5, 1.0][seed % 3]
+    sizing = size_joints(
+        [f"j{i}" for i in range(n)], w, tau, 1.0, records, margin, continuous_fraction=fraction
+    )
+    expected = _brute_force(w, tau, servos, margin, fraction)
     assert [j.choice for j in sizing.joints] == expected
     assert expected[-1] is None and sizing.unsized[-1] == "j4"
     assert len({c for c in expected if c is not None}) >= 2  # the search is not trivial
@@ -210,6 +213,14 @@ def test_hostile_inputs_are_one_clear_error(margin, w, tau, words):
     records, _ = _constructed_catalogue()
     with pytest.raises(SizingError, match=words):
         size_joints(["j"], w, tau, 1.0, records, margin)
+
+
+@pytest.mark.parametrize("fraction", [0.0, -0.5, 1.5, float("nan")])
+def test_a_bad_continuous_fraction_is_one_clear_error(fraction):
+    records, _ = _constructed_catalogue()
+    with pytest.raises(SizingError, match="continuous fraction"):
+        size_joints(["j"], np.zeros((2, 1)), np.ones((2, 1)), 1.0, records,
+                    continuous_fraction=fraction)  # fmt: skip
 
 
 def test_sizing_by_price_leaves_out_servos_without_one():

@@ -105,13 +105,23 @@ def envelope(record: ServoRecord) -> Envelope:
     )
 
 
-def continuous_torque_Nm(record: ServoRecord) -> tuple[float, bool]:
-    """(rating [N·m], assumed?): the published continuous torque, else the assumed fraction of
-    the envelope's stall torque."""
+def continuous_torque_Nm(
+    record: ServoRecord, fraction: float = CONTINUOUS_FRACTION_OF_STALL
+) -> tuple[float, bool]:
+    """(rating [N·m], assumed?): the published continuous torque, else `fraction` of the
+    envelope's stall torque."""
     published = record.continuous_torque_Nm
     if published is not None:
         return float(published), False
-    return CONTINUOUS_FRACTION_OF_STALL * envelope(record).stall_torque_Nm, True
+    return fraction * envelope(record).stall_torque_Nm, True
+
+
+def check_fraction(fraction: float) -> float:
+    if isinstance(fraction, bool) or not isinstance(fraction, int | float):
+        raise SizingError(f"continuous fraction is {fraction!r}; give a number in (0, 1]")
+    if not (math.isfinite(fraction) and 0.0 < fraction <= 1.0):
+        raise SizingError(f"continuous fraction is {fraction}; give a number in (0, 1] of stall")
+    return float(fraction)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -195,11 +205,12 @@ def check_joint(
     duration_s: float,
     margin: float,
     env: Envelope | None = None,
+    fraction: float = CONTINUOUS_FRACTION_OF_STALL,
 ) -> Check:
     """`record` on one joint's points, shape (T,) each; RMS over `duration_s` (samples equally
     spaced: the mean of τ²)."""
     env = envelope(record) if env is None else env
-    rating, assumed = continuous_torque_Nm(record)
+    rating, assumed = continuous_torque_Nm(record, fraction)
     if len(torque_Nm) == 0:
         return Check(record.key, math.inf, -1, 0.0, rating, assumed, margin)
     scale = env.scale(speed_rad_s, torque_Nm)
@@ -268,11 +279,14 @@ def size_joints(
     margin: float = 0.3,
     by: Criterion = "mass",
     sample_index: np.ndarray | None = None,
+    continuous_fraction: float = CONTINUOUS_FRACTION_OF_STALL,
 ) -> Sizing:
     """Per joint, the servo of least `by` that holds every point (T, n) with `margin` and the
     RMS torque; ties by key. Servos without a price are not candidates when sizing by price.
-    `sample_index` (T,) names each point's sample in the motion (default 0 … T−1)."""
+    `sample_index` (T,) names each point's sample in the motion (default 0 … T−1);
+    `continuous_fraction` of stall is the rating assumed where a record publishes none."""
     margin = check_margin(margin)
+    fraction = check_fraction(continuous_fraction)
     if by not in ("mass", "price"):
         raise SizingError(f"sizing by {by!r}; give mass or price")
     w = np.asarray(speed_rad_s, dtype=float)
@@ -293,17 +307,17 @@ def size_joints(
     if len(candidates) < len(catalogue):
         notes.append(f"{len(catalogue) - len(candidates)} servo(s) without a {by} left out")
     envelopes = {r.key: envelope(r) for r in candidates}
-    assumed = [r.key for r in candidates if continuous_torque_Nm(r)[1]]
+    assumed = [r.key for r in candidates if r.continuous_torque_Nm is None]
     if assumed:
         notes.append(
-            f"continuous rating assumed {CONTINUOUS_FRACTION_OF_STALL:g} × stall torque "
+            f"continuous rating assumed {fraction:g} × stall torque "
             f"(none published) for {', '.join(assumed)}"
         )
     ranked = sorted(candidates, key=lambda r: (_cost(r, by), r.key))
     joints = []
     for j, name in enumerate(joint_names):
         checks = tuple(
-            check_joint(r, w[:, j], tau[:, j], duration_s, margin, envelopes[r.key])
+            check_joint(r, w[:, j], tau[:, j], duration_s, margin, envelopes[r.key], fraction)
             for r in candidates
         )
         if sample_index is not None:
