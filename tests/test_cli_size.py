@@ -87,3 +87,32 @@ def test_an_empty_motion_is_one_line_and_exit_1(com_shift, tmp_path):
     assert result.returncode == 1
     (line,) = result.stderr.strip().splitlines()
     assert line.startswith("biped-studio size: ") and "Traceback" not in result.stderr
+
+
+def test_size_of_a_project_equals_that_of_its_motion_and_torques_as_files(tmp_path):
+    from app.core.dynamics.wbc import torque_feedforward
+    from app.core.motions.csv_files import write_trajectory_csv
+    from app.core.motions.library import run_motion
+    from app.core.projects.files import save_project
+    from app.core.projects.project import Project
+    from app.core.projects.robot_files import robot_source
+    from app.core.servo.files import write_torque_csv
+    from tests.test_cli_projects import run as run_in
+
+    robot = load_robot("servo_biped")
+    motion = run_motion(robot, "com_shift", dt=0.02).trajectory
+    feedforward = torque_feedforward(robot, motion)
+    project = Project(
+        robot=robot_source(robot), q=motion.q[0], motion=motion, feedforward=feedforward
+    )
+    save_project(tmp_path / "work.bstudio", project)
+    write_trajectory_csv(motion, tmp_path / "motion.csv", robot)
+    write_torque_csv(tmp_path / "tau.csv", feedforward)
+    a = run_in(tmp_path, "size", str(tmp_path / "work.bstudio"), "--json")
+    b = run_in(
+        tmp_path, "size", str(tmp_path / "motion.csv"), "--tau", str(tmp_path / "tau.csv"), "--json"
+    )
+    assert a.returncode == 0 and b.returncode == 0, a.stderr + b.stderr
+    ja, jb = json.loads(a.stdout), json.loads(b.stdout)
+    assert [r["servo"] for r in ja["joints"]] == [r["servo"] for r in jb["joints"]]
+    assert ja["n_samples"] == motion.n_samples
