@@ -9,6 +9,10 @@ import pytest
 from tests.test_cli import run
 
 
+def _refuse(name: str) -> None:
+    raise AssertionError(f"{name} in the JSON")
+
+
 def test_battery_minutes_and_currents_follow_from_the_energy(tmp_path):
     motion = tmp_path / "com_shift.csv"
     assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
@@ -19,7 +23,7 @@ def test_battery_minutes_and_currents_follow_from_the_energy(tmp_path):
         "--battery-Wh", "20", "--json",
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
-    report = json.loads(result.stdout)
+    report = json.loads(result.stdout, parse_constant=_refuse)  # strict JSON: no NaN
     energy, figures = report["energy"], report["energy_figures"]
     drawn = sum(max(e, 0.0) for e in energy["electrical_J"])
     power = drawn / energy["duration_s"]

@@ -15,6 +15,10 @@ from tests.core.test_servo_sizing import _brute_force
 from tests.test_cli import run
 
 
+def _refuse(name: str) -> None:
+    raise AssertionError(f"{name} in the JSON")
+
+
 @pytest.fixture(scope="module")
 def com_shift(tmp_path_factory):
     folder = tmp_path_factory.mktemp("size")
@@ -28,7 +32,7 @@ def test_size_json_picks_what_a_brute_force_search_picks(com_shift):
     motion, tau_csv = com_shift
     result = run("size", str(motion), "--tau", str(tau_csv), "--margin", "0.3", "--json", "--time")
     assert result.returncode == 0, result.stderr
-    report = json.loads(result.stdout)
+    report = json.loads(result.stdout, parse_constant=_refuse)  # strict JSON: no Infinity
     robot = load_robot("servo_biped")
     traj = read_trajectory_csv(motion, robot)
     tau = read_torque_csv(tau_csv, robot.joint_names).tau_Nm

@@ -260,7 +260,10 @@ class Sizing:
             "by": self.by,
             "joints": [j.to_json() for j in self.joints],
             "unsized": list(self.unsized),
-            "envelopes": {k: dataclasses.asdict(e) for k, e in self.envelopes.items()},
+            "envelopes": {
+                k: {**dataclasses.asdict(e), "torque_limit_Nm": _finite(e.torque_limit_Nm)}
+                for k, e in self.envelopes.items()
+            },
             "notes": list(self.notes),
         }
 

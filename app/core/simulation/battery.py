@@ -87,16 +87,18 @@ class EnergyFigures:
     distance_m: float
     planned_distance_m: float
     planned_work_J: float
+    """NaN where not computed (a motion in place)."""
     sr_electrical: float | None
     sr_planned: float | None
     pack_Wh: float | None = None
     battery_minutes: float | None = None
 
     def to_json(self) -> dict[str, object]:
-        out = dataclasses.asdict(self)
-        if out["battery_minutes"] is not None and math.isinf(out["battery_minutes"]):
-            out["battery_minutes"] = None
-        return out
+        """Strict JSON: a figure that is not finite (no travel, no draw) is null."""
+        return {
+            k: None if isinstance(v, float) and not math.isfinite(v) else v
+            for k, v in dataclasses.asdict(self).items()
+        }
 
 
 def energy_figures(
