@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from app.core.motions.csv_files import read_trajectory_csv
@@ -120,3 +121,47 @@ def test_size_of_a_project_equals_that_of_its_motion_and_torques_as_files(tmp_pa
     ja, jb = json.loads(a.stdout), json.loads(b.stdout)
     assert [r["servo"] for r in ja["joints"]] == [r["servo"] for r in jb["joints"]]
     assert ja["n_samples"] == motion.n_samples
+
+
+def test_size_of_a_project_holds_its_gait_too(tmp_path):
+    from app.core.collocation.dircon import GaitProblem, GaitSettings, PlanarModel
+    from app.core.collocation.sampling import sample_gait
+    from app.core.dynamics.wbc import torque_feedforward
+    from app.core.motions.library import run_motion
+    from app.core.projects.files import save_project
+    from app.core.projects.project import Project
+    from app.core.projects.robot_files import robot_source
+    from tests.test_cli_projects import run as run_in
+
+    robot = load_robot("dircon_biped")
+    motion = run_motion(robot, "com_shift", dt=0.02).trajectory
+    gait = GaitProblem(PlanarModel(robot), 12, False).solve(GaitSettings(knots=12))
+    assert gait.converged
+    project = Project(
+        robot=robot_source(robot),
+        q=motion.q[0],
+        motion=motion,
+        feedforward=torque_feedforward(robot, motion),
+        gait_symmetric=gait,
+    )
+    save_project(tmp_path / "work.bstudio", project)
+    result = run_in(tmp_path, "size", str(tmp_path / "work.bstudio"), "--margin", "0", "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["works"] == ["motion", "symmetric gait"]
+    # Each gait joint's choice holds the gait's own points (brute force, margin 0); a joint
+    # no servo holds is named with its closest servo.
+    samples = sample_gait(gait, np.arange(0.0, gait.duration_s, 0.01))
+    catalogue = load_catalogue()
+    rows = {row["joint"]: row for row in report["joints"]}
+    for i, name in enumerate(gait.joint_names):
+        row = rows[name]
+        if row["servo"] is None:
+            assert name in report["unsized"] and row["closest"]["violations"]
+            continue
+        r = catalogue[row["servo"]]
+        env = envelope(r)
+        servo = {"key": r.key, "stall": env.stall_torque_Nm, "w0": env.no_load_speed_rad_s,
+                 "mass": r.mass_kg, "limit": env.torque_limit_Nm}  # fmt: skip
+        w, tau = samples.v[:, [3 + i]], samples.u[:, [i]]
+        assert _brute_force(w, tau, [servo], 0.0)[0] == r.key, name

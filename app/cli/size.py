@@ -70,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
         CONTINUOUS_FRACTION_OF_STALL,
         check_fraction,
         check_margin,
+        combine,
         size_joints,
     )
 
@@ -90,18 +91,24 @@ def run(args: argparse.Namespace) -> int:
     if len(keep) == 0:
         raise StudioError("every sample of the motion is flagged (not solved or over speed)")
     speed = traj.v[:, [j.idx_v for j in robot.joints]]
+    works = {"motion": (speed[keep], tau[keep], keep)}
+    works.update(_project_gaits(args, robot))
     begin = time.perf_counter()
-    sizing = size_joints(
-        robot.joint_names,
-        speed[keep],
-        tau[keep],
-        float(traj.t[-1] - traj.t[0]),
-        catalogue,
-        margin,
-        args.by,
-        sample_index=keep,
-        continuous_fraction=fraction,
-    )
+    sizings = {
+        label: size_joints(
+            robot.joint_names,
+            w,
+            t,
+            float(traj.t[-1] - traj.t[0]),
+            catalogue,
+            margin,
+            args.by,
+            sample_index=index,
+            continuous_fraction=fraction,
+        )
+        for label, (w, t, index) in works.items()
+    }
+    sizing = combine(sizings, catalogue) if len(sizings) > 1 else sizings["motion"]
     seconds = time.perf_counter() - begin
     notes = list(sizing.notes)
     if flagged:
@@ -116,6 +123,7 @@ def run(args: argparse.Namespace) -> int:
             "motion": inputs.source,
             "n_samples": traj.n_samples,
             "n_servos": len(catalogue),
+            "works": list(works),
             **sizing.to_json(),
             "notes": notes,
         }
@@ -123,8 +131,11 @@ def run(args: argparse.Namespace) -> int:
             report["sizing_time_s"] = seconds
         print(json.dumps(report, indent=2))
         return 0
+    also = [label for label in works if label != "motion"]
     print(
-        f"sizing {traj.name} on {robot.name} ({traj.n_samples} samples) over {len(catalogue)} "
+        f"sizing {traj.name} on {robot.name} ({traj.n_samples} samples"
+        + (f"; and the project's {', '.join(also)}" if also else "")
+        + f") over {len(catalogue)} "
         f"servos, margin {margin:.0%}, by {args.by}: "
         f"{len(robot.joint_names) - len(sizing.unsized)} of {len(robot.joint_names)} joints sized"
     )
@@ -172,3 +183,33 @@ def _torques(args: argparse.Namespace, inputs) -> tuple[np.ndarray, tuple[int, .
 
         ff = torque_feedforward(robot, traj)
     return ff.tau_Nm, tuple(int(k) for k in ff.infeasible_samples)
+
+
+def _project_gaits(args: argparse.Namespace, robot) -> dict[str, tuple]:
+    """A project's planned gaits as (speeds, torques, sample index) on the robot's joints
+    (joints a planar gait does not move: no load), sampled every 10 ms; {} for a CSV."""
+    import numpy as np
+
+    from app.cli.common import PROJECT_SUFFIX
+
+    if Path(args.trajectory).suffix.lower() != PROJECT_SUFFIX:
+        return {}
+    from app.core.collocation.sampling import sample_gait
+    from app.core.projects.files import read_project
+
+    project = read_project(args.trajectory)
+    out = {}
+    for label, gait in (
+        ("symmetric gait", project.gait_symmetric),
+        ("baseline gait", project.gait_baseline),
+    ):
+        if gait is None or not gait.has_gait:
+            continue
+        samples = sample_gait(gait, np.arange(0.0, gait.duration_s, 0.01))
+        columns = [robot.joint_names.index(name) for name in gait.joint_names]
+        w = np.zeros((len(samples.u), robot.n_actuated))
+        tau = np.zeros_like(w)
+        w[:, columns] = samples.v[:, 3:]
+        tau[:, columns] = samples.u
+        out[label] = (w, tau, np.arange(len(w)))
+    return out

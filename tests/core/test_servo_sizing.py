@@ -232,3 +232,41 @@ def test_sizing_by_price_leaves_out_servos_without_one():
     by_price = size_joints(["j"], np.zeros_like(tau), tau, 1.0, records, by="price")
     assert by_mass.joints[0].choice == "a_small" and by_price.joints[0].choice == "priced"
     assert any("without a price" in note for note in by_price.notes)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_several_motions_need_a_servo_that_holds_every_one(seed):
+    from app.core.servo.sizing import combine
+
+    records, servos = _constructed_catalogue()
+    rng = np.random.default_rng(100 + seed)
+    names = [f"j{i}" for i in range(4)]
+    works = {}
+    for label, scale in (("squat", [0.05, 0.4, 1.0, 2.0]), ("gait", [0.3, 0.05, 1.5, 0.5])):
+        w = rng.uniform(-1, 1, (30, 4)) * 3.0
+        tau = rng.uniform(-1, 1, (30, 4)) * np.array(scale)
+        works[label] = (w, tau)
+    sizing = combine(
+        {k: size_joints(names, w, tau, 1.0, records, 0.3) for k, (w, tau) in works.items()},
+        records,
+    )
+    expected = []
+    for j in range(4):
+        passing = [
+            (s["mass"], s["key"])
+            for s in servos
+            if all(
+                _brute_force(w[:, [j]], tau[:, [j]], [s], 0.3)[0] is not None
+                for w, tau in works.values()
+            )
+        ]
+        expected.append(min(passing)[1] if passing else None)
+    assert [joint.choice for joint in sizing.joints] == expected
+    singles = [size_joints(names, w, tau, 1.0, records, 0.3) for w, tau in works.values()]
+    # Holding both is never lighter than holding either alone.
+    masses = {k: r.mass_kg for k, r in records.items()}
+    for j, joint in enumerate(sizing.joints):
+        for single in singles:
+            alone = single.joints[j].choice
+            if joint.choice is not None:
+                assert alone is not None and masses[alone] <= masses[joint.choice]

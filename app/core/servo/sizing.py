@@ -137,6 +137,10 @@ class Check:
     continuous_torque_Nm: float
     continuous_assumed: bool
     margin: float
+    work: str = ""
+    """The motion the worst point is in (several motions: `combine`)."""
+    rms_work: str = ""
+    """The motion of the largest RMS torque."""
 
     @property
     def thermal_margin(self) -> float:
@@ -160,13 +164,16 @@ class Check:
     def violations(self) -> list[str]:
         out = []
         if not self.holds_peaks:
+            where = f"{self.work} " if self.work else ""
             out.append(
-                f"peak: sample {self.worst_sample} needs {1.0 / (1.0 + self.peak_margin):.2f}× "
+                f"peak: {where}sample {self.worst_sample} needs {1.0 / (1.0 + self.peak_margin):.2f}× "
                 f"the envelope (margin {self.peak_margin:+.0%}, asked {self.margin:+.0%})"
             )
         if not self.holds_thermal:
             out.append(
-                f"thermal: RMS {self.rms_torque_Nm:.3g} N·m against "
+                f"thermal: RMS {self.rms_torque_Nm:.3g} N·m"
+                + (f" ({self.rms_work})" if self.rms_work else "")
+                + " against "
                 f"{self.continuous_torque_Nm:.3g} N·m continuous"
                 + (" (assumed)" if self.continuous_assumed else "")
             )
@@ -178,6 +185,8 @@ class Check:
             "holds": self.holds,
             "peak_margin": _finite(self.peak_margin),
             "worst_sample": self.worst_sample,
+            "work": self.work or None,
+            "rms_work": self.rms_work or None,
             "rms_torque_Nm": self.rms_torque_Nm,
             "continuous_torque_Nm": self.continuous_torque_Nm,
             "continuous_assumed": self.continuous_assumed,
@@ -334,3 +343,31 @@ def size_joints(
         choice = next((r.key for r in ranked if by_key[r.key].holds), None)
         joints.append(JointSizing(name, choice, checks))
     return Sizing(tuple(joints), margin, by, envelopes, tuple(notes))
+
+
+def combine(sizings: dict[str, Sizing], catalogue: dict[str, ServoRecord]) -> Sizing:
+    """One sizing over several motions (label → its sizing, same joints, margin and criterion):
+    per servo and joint the smallest peak margin and the largest RMS torque over the motions,
+    so a servo holds the joint when it holds every motion; the choice as in `size_joints`."""
+    if not sizings:
+        raise SizingError("no motion to size against")
+    first = next(iter(sizings.values()))
+    joints = []
+    for j, joint in enumerate(first.joints):
+        checks = []
+        for check in joint.checks:
+            per_work = [(label, s.joints[j].check(check.servo)) for label, s in sizings.items()]
+            peak_label, peak = min(per_work, key=lambda item: item[1].peak_margin)
+            rms_label, rms = max(per_work, key=lambda item: item[1].rms_torque_Nm)
+            checks.append(
+                dataclasses.replace(
+                    peak, rms_torque_Nm=rms.rms_torque_Nm, work=peak_label, rms_work=rms_label
+                )
+            )
+        ranked = sorted(
+            (c for c in checks if c.holds),
+            key=lambda c: (_cost(catalogue[c.servo], first.by), c.servo),
+        )
+        joints.append(JointSizing(joint.joint, ranked[0].servo if ranked else None, tuple(checks)))
+    notes = tuple(dict.fromkeys(n for s in sizings.values() for n in s.notes))
+    return Sizing(tuple(joints), first.margin, first.by, first.envelopes, notes)
