@@ -21,6 +21,9 @@ to 127.0.0.1 on a free port, and stopped once the cluster is up). A `scheduler` 
 the caller's Dask security settings (`distributed.comm.tls.*` in the Dask configuration, or
 DASK_DISTRIBUTED__COMM__TLS__* variables): give the remote cluster TLS and mutual
 certificates there.
+Before Dask's client is made for an address, the address is probed on this thread with a
+connection and a handshake time-out (app/scheduler_probe.py): Dask's own time-out covers only
+the TCP connect, so a peer that accepted and stayed silent kept the client waiting forever.
 
 Each point is one task, `app.core.sweeps.evaluate.evaluate_point`; the process's cache of built
 NLPs survives between tasks, so a worker builds each structure once. A worker that dies
@@ -39,20 +42,19 @@ import struct
 import threading
 import time
 import uuid
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from concurrent.futures import CancelledError
 from typing import Any
 
 from app.core.errors import StudioError
 from app.core.sweeps.evaluate import PointResult, evaluate_point, failed_point
 from app.core.sweeps.sampling import SweepPoint
+from app.scheduler_probe import CONNECT_TIMEOUT_S, SchedulerProbeError, probe_scheduler
 
 log = logging.getLogger(__name__)
 
 RETRIES = 2
 """Times a point whose task raised is run again."""
-CONNECT_TIMEOUT_S = 5.0
-"""How long to try reaching a scheduler address [s]."""
 SINGLE_THREAD_ENV = {
     name: "1"
     for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
@@ -138,6 +140,9 @@ class SweepEngine:
             raise SweepEngineError(f"workers = {n_workers}: give 1 to 256")
         if scheduler is not None:
             try:
+                # time-outs on the connection and on the greeting, on this thread (Dask's
+                # client would wait forever for a silent peer: app/scheduler_probe.py)
+                probe_scheduler(scheduler, security)
                 self.client = Client(scheduler, timeout=CONNECT_TIMEOUT_S, security=security)
                 self.address = scheduler
                 return
@@ -145,7 +150,9 @@ class SweepEngine:
                 reason = (
                     f"{type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''}"
                 )
-                if isinstance(error, (MemoryError, struct.error)):
+                if isinstance(error, SchedulerProbeError):
+                    reason = str(error)
+                elif isinstance(error, (MemoryError, struct.error)):
                     reason = "it does not speak Dask's protocol (its first frame is not one)"
                 elif isinstance(error, TypeError) and "ssl" in str(error).lower():
                     reason = (
@@ -276,17 +283,3 @@ class SweepRun:
                 error = future.exception()
                 yield failed_point(self.points[index], f"{type(error).__name__}: {error}")
             future.release()
-
-
-def run_sweep(
-    engine: SweepEngine,
-    points: Sequence[SweepPoint],
-    on_result: Callable[[PointResult], None] | None = None,
-) -> list[PointResult]:
-    """Every point's result (finishing order), calling `on_result` for each as it arrives."""
-    out = []
-    for result in engine.start(points).results():
-        out.append(result)
-        if on_result is not None:
-            on_result(result)
-    return out

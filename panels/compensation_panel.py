@@ -1,9 +1,9 @@
-"""Compensation panel: torque feed-forward, spring/clearance compensation coefficients per
-joint, the virtual servos' true compliance and backlash, and the ghosts' toggles (each in its
-ghost's colour).
+"""The coefficients' rows of the Compensation folder: the preset, the clearance sign, the
+spring/clearance compensation coefficients of the selected joint, the virtual servos' true
+compliance and backlash, *Export servo commands CSV* and the help.
 
-Moving a slider re-predicts the motion (no torque recomputation): the callbacks only say
-which value changed; the studio's compensation session recomputes.
+Moving a slider re-predicts the motion (no torque recomputation): the callbacks only say which
+value changed, as a typed edit (app.core.servo.edits); the compensation session recomputes.
 """
 
 from __future__ import annotations
@@ -15,9 +15,17 @@ import numpy as np
 import viser
 
 from app.core.servo.compensation import MAX_ABS_K_DEG_PER_NM, MAX_PHI_DEG
+from app.core.servo.edits import (
+    JointEdit,
+    SetBacklash,
+    SetCompliance,
+    SetEnabled,
+    SetK,
+    SetPhi,
+)
 from app.core.servo.presets import PRESETS
+from panels.compensation_folder import ORDER, CompensationFolder
 from panels.quiet import Quiet, set_value
-from panels.swatches import add_swatches
 
 K_SLIDER_DEG_PER_NM = 20.0
 """The k and compliance sliders span ±this [°/(N·m)]: a hand can tune values around the
@@ -25,18 +33,13 @@ paper's identifiable 1.3–1.6 at 0.01 per step; larger values (Table 3's −650
 
 
 class CompensationActions(Protocol):
-    """What the Compensation panel asks for."""
+    """What the coefficients' rows ask for."""
 
-    def compute_torques(self, client: viser.ClientHandle | None) -> None: ...
     def export_commands(self, client: viser.ClientHandle | None) -> bytes | None: ...
-    def export_torques(self, client: viser.ClientHandle | None) -> bytes | None: ...
     def apply_preset(self, key: str) -> None: ...
     def set_clearance_sign(self, sign: str) -> None: ...
     def select_joint(self, joint: str) -> None: ...
-    def edit_joint(self, joint: str, field: str, value: float) -> None: ...
-    def set_ghost_visible(self, name: str, visible: bool) -> None: ...
-    def simulate(self, client: viser.ClientHandle | None) -> None: ...
-    def cancel_simulation(self) -> None: ...
+    def edit(self, edit: JointEdit) -> None: ...
 
 
 HELP = """**q_cmd = q + k·τ** (eq. 7): each servo sags like a spring under its load τ; the command
@@ -49,123 +52,39 @@ The servo model below is the virtual robot: its true compliance and backlash."""
 
 
 class CompensationPanel:
-    """Owns the "Compensation" folder; the per-joint controls edit the selected joint."""
+    """Owns the coefficients' rows; the per-joint controls edit the selected joint."""
 
-    def __init__(
-        self,
-        gui: viser.GuiApi,
-        session: CompensationActions,
-        ghosts: dict[str, tuple[tuple[int, int, int], str]],
-        shown: tuple[str, ...],
-    ) -> None:
-        """ghosts: name -> (colour, legend text) of each ghost; shown: the ones ticked first."""
+    def __init__(self, parent: CompensationFolder, session: CompensationActions) -> None:
+        gui = parent.gui
         self._session = session
         self._quiet = Quiet()
-        with gui.add_folder("Compensation", order=4, expand_by_default=False):
-            self.compute = gui.add_button("Compute torque feed-forward", icon=viser.Icon.CALCULATOR)
-            self.progress = gui.add_progress_bar(0.0, visible=False)
-            self.status = gui.add_markdown("Generate or build a motion, then compute its torques.")
+        self.status = parent.status
+        with parent.folder:
             labels = tuple(preset.label for preset in PRESETS.values())
             self._preset_keys = {preset.label: key for key, preset in PRESETS.items()}
-            self.preset = gui.add_dropdown("Preset", labels, initial_value=labels[0])
+            self.preset = gui.add_dropdown(
+                "Preset", labels, initial_value=labels[0], order=ORDER["preset"]
+            )
             self.clearance_sign = gui.add_dropdown(
                 "Clearance sign",
                 ("q + kτ (paper)", "τ (dead-band inverse)"),
                 initial_value="q + kτ (paper)",
+                order=ORDER["clearance"],
             )
-            self.joint = gui.add_dropdown("Joint", ("—",), initial_value="—")
-            with gui.add_folder("Selected joint"):
-                self.enabled = gui.add_checkbox("Compensate", False)
-                self.k = gui.add_slider(
-                    "k [°/(N·m)]",
-                    min=-K_SLIDER_DEG_PER_NM,
-                    max=K_SLIDER_DEG_PER_NM,
-                    step=0.01,
-                    initial_value=0.0,
-                    hint="Spring compensation of eq 7: q_cmd = q + k·τ. Drag here, or type any "
-                    "value below",
-                )
-                self.k_exact = gui.add_number(
-                    "k, typed [°/(N·m)]",
-                    0.0,
-                    min=-MAX_ABS_K_DEG_PER_NM,
-                    max=MAX_ABS_K_DEG_PER_NM,
-                    step=0.001,
-                    hint="Any k (the paper's Table 3 has −650 and −1200)",
-                )
-                self.k_rad = gui.add_markdown("")
-                self.phi = gui.add_slider(
-                    "φ [°]",
-                    min=0.0,
-                    max=min(15.0, MAX_PHI_DEG),
-                    step=0.1,
-                    initial_value=0.0,
-                    hint="Clearance compensation of eq 23: + φ·sign(·) (the paper found 8°)",
-                )
-                self.compliance = gui.add_slider(
-                    "servo compliance [°/(N·m)]",
-                    min=-K_SLIDER_DEG_PER_NM,
-                    max=K_SLIDER_DEG_PER_NM,
-                    step=0.01,
-                    initial_value=0.0,
-                    hint="The virtual servo's true k: how far it sags per N·m",
-                )
-                self.backlash = gui.add_slider(
-                    "servo backlash [°]",
-                    min=0.0,
-                    max=20.0,
-                    step=0.1,
-                    initial_value=0.0,
-                    hint="Full width of the virtual servo's dead band",
-                )
-            with gui.add_folder("Simulation (MuJoCo)", expand_by_default=True):
-                self.simulate = gui.add_button(
-                    "Simulate without / with compensation",
-                    icon=viser.Icon.PLAYER_PLAY,
-                    hint="Runs the plan and the compensated commands on a physics model of this "
-                    "robot with the virtual servos below (compliance, dead band, torque and speed "
-                    "limits), each from the first pose settled on the floor",
-                )
-                self.cancel_simulation = gui.add_button(
-                    "Cancel simulation", icon=viser.Icon.PLAYER_STOP, color="red", disabled=True
-                )
-                self.simulation_progress = gui.add_progress_bar(0.0, visible=False)
-                self.verdict = gui.add_markdown(
-                    "Compute the torques, then simulate: the verdict appears here."
-                )
-            with gui.add_folder("Ghosts", expand_by_default=True):
-                # Each toggle carries its ghost's colour (panels.swatches): no separate legend.
-                self.ghosts = {
-                    name: gui.add_checkbox(text, name in shown, hint=f"Draw the {text} ghost")
-                    for name, (_rgb, text) in ghosts.items()
-                }
-                add_swatches(gui, self.ghosts, {name: rgb for name, (rgb, _) in ghosts.items()})
+            self.joint = gui.add_dropdown("Joint", ("—",), initial_value="—", order=ORDER["joint"])
+            with gui.add_folder("Selected joint", order=ORDER["selected"]):
+                self._add_joint_controls(gui)
             self.export_commands = gui.add_button(
-                "Export servo commands CSV", icon=viser.Icon.DOWNLOAD
+                "Export servo commands CSV",
+                icon=viser.Icon.DOWNLOAD,
+                order=ORDER["export_commands"],
             )
-            self.export_torques = gui.add_button("Export τ CSV", icon=viser.Icon.DOWNLOAD)
-            with gui.add_folder("Help", expand_by_default=False):
+            with gui.add_folder("Help", expand_by_default=False, order=ORDER["help"]):
                 gui.add_markdown(HELP)
-
-        @self.compute.on_click
-        def _(event: viser.GuiEvent) -> None:
-            session.compute_torques(event.client)
-
-        @self.simulate.on_click
-        def _(event: viser.GuiEvent) -> None:
-            session.simulate(event.client)
-
-        @self.cancel_simulation.on_click
-        def _(_event: viser.GuiEvent) -> None:
-            session.cancel_simulation()
 
         @self.export_commands.on_click
         def _(event: viser.GuiEvent) -> None:
             session.export_commands(event.client)
-
-        @self.export_torques.on_click
-        def _(event: viser.GuiEvent) -> None:
-            session.export_torques(event.client)
 
         self.preset.on_update(
             lambda _: (
@@ -186,28 +105,66 @@ class CompensationPanel:
         self.joint.on_update(
             lambda _: None if self._quiet.is_quiet() else session.select_joint(self.joint.value)
         )
-        for handle, field in (
-            (self.enabled, "enabled"),
-            (self.k, "k"),
-            (self.k_exact, "k"),
-            (self.phi, "phi"),
-            (self.compliance, "compliance"),
-            (self.backlash, "backlash"),
+        for handle, edit in (
+            (self.enabled, SetEnabled),
+            (self.k, SetK),
+            (self.k_exact, SetK),
+            (self.phi, SetPhi),
+            (self.compliance, SetCompliance),
+            (self.backlash, SetBacklash),
         ):
-            handle.on_update(self._edit(field, handle))
-        for name, checkbox in self.ghosts.items():
-            checkbox.on_update(self._ghost(name, checkbox))
+            handle.on_update(self._edit(edit, handle))
 
-    def _ghost(self, name: str, checkbox: viser.GuiCheckboxHandle) -> Callable[[object], None]:
-        def callback(_event: object) -> None:
-            self._session.set_ghost_visible(name, checkbox.value)
+    def _add_joint_controls(self, gui: viser.GuiApi) -> None:
+        self.enabled = gui.add_checkbox("Compensate", False)
+        self.k = gui.add_slider(
+            "k [°/(N·m)]",
+            min=-K_SLIDER_DEG_PER_NM,
+            max=K_SLIDER_DEG_PER_NM,
+            step=0.01,
+            initial_value=0.0,
+            hint="Spring compensation of eq 7: q_cmd = q + k·τ. Drag here, or type any value below",
+        )
+        self.k_exact = gui.add_number(
+            "k, typed [°/(N·m)]",
+            0.0,
+            min=-MAX_ABS_K_DEG_PER_NM,
+            max=MAX_ABS_K_DEG_PER_NM,
+            step=0.001,
+            hint="Any k (the paper's Table 3 has −650 and −1200)",
+        )
+        self.k_rad = gui.add_markdown("")
+        self.phi = gui.add_slider(
+            "φ [°]",
+            min=0.0,
+            max=min(15.0, MAX_PHI_DEG),
+            step=0.1,
+            initial_value=0.0,
+            hint="Clearance compensation of eq 23: + φ·sign(·) (the paper found 8°)",
+        )
+        self.compliance = gui.add_slider(
+            "servo compliance [°/(N·m)]",
+            min=-K_SLIDER_DEG_PER_NM,
+            max=K_SLIDER_DEG_PER_NM,
+            step=0.01,
+            initial_value=0.0,
+            hint="The virtual servo's true k: how far it sags per N·m",
+        )
+        self.backlash = gui.add_slider(
+            "servo backlash [°]",
+            min=0.0,
+            max=20.0,
+            step=0.1,
+            initial_value=0.0,
+            hint="Full width of the virtual servo's dead band",
+        )
 
-        return callback
-
-    def _edit(self, field: str, handle: viser.GuiInputHandle) -> Callable[[object], None]:
+    def _edit(
+        self, edit: type[JointEdit], handle: viser.GuiInputHandle
+    ) -> Callable[[object], None]:
         def callback(_event: object) -> None:
             if not self._quiet.is_quiet():
-                self._session.edit_joint(self.joint.value, field, handle.value)
+                self._session.edit(edit(self.joint.value, handle.value))
 
         return callback
 
@@ -234,16 +191,3 @@ class CompensationPanel:
             )
             set_value(self.backlash, float(np.clip(backlash, self.backlash.min, self.backlash.max)))
             self.k_rad.content = f"k = {np.deg2rad(k):.4g} rad/(N·m)"
-
-    def show_simulating(self, fraction: float | None) -> None:
-        """A simulation runs (fraction done), or none (None)."""
-        self.simulation_progress.visible = fraction is not None
-        self.cancel_simulation.disabled = fraction is None
-        self.simulate.disabled = fraction is not None
-        if fraction is not None:
-            set_value(self.simulation_progress, 100.0 * min(max(fraction, 0.0), 1.0))
-
-    def show_progress(self, fraction: float | None) -> None:
-        self.progress.visible = fraction is not None
-        if fraction is not None:
-            set_value(self.progress, 100.0 * fraction)

@@ -3,18 +3,20 @@ ticked box filled in the same colour, so that a toggle shows the colour of what 
 
 viser's checkbox has no colour of its own. Its page gives each checkbox input the handle's id
 and its label `for=` that id; one stylesheet (a GUI HTML element) draws the swatches on them.
-viser exposes that id only as the handle's `_impl.uuid`: read in this one place, and checked by
-a browser test (tests/browser/test_compare_browser.py) that sees the swatches in the page.
+viser exposes that id only privately: read by app.web.viser_internals.gui_input_id, and checked
+by a browser test (tests/browser/test_compare_browser.py) that sees the swatches in the page.
 """
 
 from __future__ import annotations
 
 import viser
 
+from app.web.viser_internals import gui_input_id
+
 
 def input_id(handle: viser.GuiCheckboxHandle) -> str:
     """The id of the checkbox's input element in the page."""
-    return str(handle._impl.uuid)
+    return gui_input_id(handle)
 
 
 def swatch_css(colours: dict[str, tuple[int, int, int]]) -> str:

@@ -14,7 +14,7 @@ import sys
 import pytest
 
 from app.bench import ENTRIES
-from app.bench_report import Figure, markdown_table
+from app.bench.report import Figure, markdown_table
 
 
 def run(*args: str) -> subprocess.CompletedProcess:

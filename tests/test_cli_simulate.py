@@ -42,10 +42,13 @@ def test_simulate_the_plan_writes_a_run_and_a_verdict(motion):
     report = json.loads(result.stdout)
     for key in (
         "fell", "fall_time_s", "max_abs_roll_deg", "max_abs_pitch_deg",
-        "rms_joint_error_deg", "real_time_factor",
+        "rms_joint_error_deg", "real_time_factor", "verdict", "lifted_foot_load_s",
+        "lifted_foot_peak_load_frac",
     ):  # fmt: skip
         assert key in report
     assert report["fell"] is False and report["fall_time_s"] is None
+    assert report["verdict"] == "stays up" and report["lifted_foot_load_s"] == 0.0
+    assert "distance_planned_m" not in report  # a CoM shift does not travel
     columns = _columns(out)
     n = len(columns["t [s]"])
     assert n == report["n_samples"] == 201
@@ -118,3 +121,53 @@ def test_bad_input_exits_1_with_one_line(motion, setup, message):
     assert result.returncode == 1
     assert len(result.stderr.strip().splitlines()) == 1
     assert message in result.stderr
+
+
+def test_a_travelling_motion_reports_its_distance_and_footsteps(tmp_path):
+    """Two 4 cm steps on stiff servos: the report gives the planned distance (the motion
+    file's base x from first to last row), how far the simulated robot went, and one
+    placement error per footstep (one per 0 → 1 in the file's contact columns)."""
+    traj, servo = tmp_path / "steps.csv", tmp_path / "servo.toml"
+    made = run(
+        "motion", "step_in_place", "--robot", "servo_biped", "--param", "stride_m=0.04",
+        "--param", "steps=2", "--out", str(traj),
+    )  # fmt: skip
+    assert made.returncode == 0, made.stderr
+    servo.write_text("compliance_deg_per_Nm = 0.0\nbacklash_deg = 0.0\n")
+    args = ["simulate", str(traj), "--preset", "plan", "--servo", str(servo)]
+    result = run(*args, "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    columns = _columns(traj)
+    dx = columns["base_x [m]"][-1] - columns["base_x [m]"][0]
+    dy = columns["base_y [m]"][-1] - columns["base_y [m]"][0]
+    assert report["distance_planned_m"] == pytest.approx(math.hypot(dx, dy), abs=1e-9)
+    landings = sum(
+        1
+        for name in ("contact_left [0/1]", "contact_right [0/1]")
+        for a, b in zip(columns[name], columns[name][1:], strict=False)
+        if a == 0 and b == 1
+    )
+    assert landings == 2 and len(report["footstep_errors_m"]) == landings
+    assert 0.5 * dx < report["distance_covered_m"] < 1.5 * dx
+    text = run(*args)
+    assert text.returncode == 0, text.stderr
+    assert f"covers {report['distance_covered_m']:.2f} m of {dx:.2f} m planned" in text.stdout
+
+
+def test_servos_too_soft_to_stand_are_told_before_the_run_and_the_run_agrees(motion):
+    """Ankle servos of 9 °/(N·m) (the others 1.4): the stiffness balance says the robot cannot
+    stand and how soft its ankles may be; the simulation of the same servos falls."""
+    folder, traj = motion
+    servo = folder / "soft_ankles.toml"
+    servo.write_text(
+        "compliance_deg_per_Nm = 1.4\nbacklash_deg = 0.0\n"
+        "[joints.left_ankle_pitch]\ncompliance_deg_per_Nm = 9.0\n"
+        "[joints.right_ankle_pitch]\ncompliance_deg_per_Nm = 9.0\n"
+    )
+    args = ["simulate", str(traj), "--preset", "plan", "--servo", str(servo)]
+    report = json.loads(run(*args, "--json").stdout)
+    assert report["stand_check"].startswith("cannot stand: needs ≤ ")
+    assert report["fell"] is True and report["verdict"].startswith("falls at")
+    text = run(*args)
+    assert text.returncode == 0 and "note: servo_biped cannot stand: needs ≤" in text.stderr

@@ -129,7 +129,9 @@ def test_stiff_servos_walk_and_very_compliant_ones_sag_and_fall(swept, by_hand):
     knees = [i for i, name in enumerate(robot.joint_names) if "knee" in name]
     sag_deg = COMPLIANT * np.abs(tau[:, knees]).max()
     assert sag_deg > 20.0
-    assert stiff.fell == 0.0 and stiff.sim_status == "stays up"
+    # (the verdict also says how far it went: dircon_biped's 1-step walk on rigid servos
+    # shuffles, its swing foot landing short; a walk, not a fall)
+    assert stiff.fell == 0.0 and not stiff.sim_status.startswith("falls")
     assert compliant.fell == 1.0
     assert compliant.rms_joint_error_deg > stiff.rms_joint_error_deg
     assert compliant.fall_time_s < by_hand[plain[1].index][1].trajectory.duration

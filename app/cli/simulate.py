@@ -133,6 +133,20 @@ def _parts(args: argparse.Namespace, joint_names: tuple[str, ...]):
     return parts_from_mapping(data, joint_names, catalogue, str(args.servo))
 
 
+def _stand_check(robot, traj, servo) -> str | None:
+    """The stiffness balance at the motion's first pose when it stands on both feet: its one
+    line, or None (one foot down, or legs the check does not fit)."""
+    from app.core.dynamics.stand_stiffness import StandCheckError, stand_check
+
+    if not (traj.contacts[0, 0] and traj.contacts[0, 1]):
+        return None
+    try:
+        compliance = servo.for_joints(robot.joint_names).compliance_deg_per_Nm
+        return stand_check(robot, traj.q[0], compliance).text()
+    except StandCheckError:
+        return None
+
+
 def run(args: argparse.Namespace) -> int:
     from app.core.servo.compensation import compensated_command
     from app.core.servo.model import joint_angles
@@ -200,6 +214,7 @@ def run(args: argparse.Namespace) -> int:
     commands = {label: q_cmd}
     if args.baseline and args.preset != "plan":
         commands = {"without compensation": q_plan, **commands}
+    stand = _stand_check(robot, traj, servo)
     results = simulate_commands(robot, traj, commands, servo, options, law=law)
     main = results[label]
     figures = None
@@ -210,6 +225,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
         report["out"] = None if args.out is None else str(args.out)
+        report["stand_check"] = stand
         if len(results) > 1:
             report["baseline"] = results["without compensation"].summary()
         if parts is not None and main.energy is not None:
@@ -241,6 +257,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"note: {mass_note}", file=sys.stderr)
     for note in main.notes:
         print(f"note: {note}", file=sys.stderr)
+    if stand is not None and not stand.startswith("stands"):
+        print(f"note: {robot.name} {stand}", file=sys.stderr)
     return 0
 
 

@@ -40,7 +40,18 @@ def write_bytes_atomically(
 ) -> None:
     """Write `data` to `path` whole or not at all (temporary file, fsync, rename), with the
     checks of `write_atomically`: the binary counterpart, for archives."""
-    _replace(path, lambda fd: os.fdopen(fd, "wb"), lambda file: file.write(data), error)
+    write_binary_atomically(path, lambda file: file.write(data), error)
+
+
+def write_binary_atomically(
+    path: str | os.PathLike[str],
+    write: Callable[[IO[bytes]], object],
+    error: type[StudioError] = OutputError,
+) -> None:
+    """Call write(file) on a temporary binary file beside `path` (seekable), then move it into
+    place, as `write_atomically` does: for archives written entry by entry, never whole in
+    memory."""
+    _replace(path, lambda fd: os.fdopen(fd, "w+b"), write, error)
 
 
 def _replace(

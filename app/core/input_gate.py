@@ -122,6 +122,15 @@ def _open_checked(name: str, kind: FileKind, error: type[StudioError]) -> int:
     return fd
 
 
+def open_binary(
+    path: str | os.PathLike[str], kind: FileKind, error: type[StudioError] = InputRefused
+) -> io.BufferedReader:
+    """The file as a binary stream, after the checks of `check_file`: for readers that take
+    only the parts they need (a zip's directory and entries) instead of the whole file."""
+    fd = _open_checked(os.fspath(path), kind, error)
+    return io.BufferedReader(io.FileIO(fd, "r"))
+
+
 def open_text(
     path: str | os.PathLike[str], kind: FileKind, error: type[StudioError] = InputRefused
 ) -> io.TextIOWrapper:
@@ -221,8 +230,3 @@ def _check_toml_values(data: dict[str, Any], name: str, error: type[StudioError]
             raise error(f"{name}: {key} is an integer of {len(str(abs(value)))} digits; too large")
         elif isinstance(value, float) and not math.isfinite(value):
             raise error(f"{name}: {key} is {value}; give a finite number")
-
-
-def size_limits_text() -> list[str]:
-    """One line per kind of file: its name and size limit (for reports and the README)."""
-    return [f"{kind.name}: {_size_text(kind.max_bytes)}" for kind in KINDS]

@@ -22,8 +22,18 @@ class Busy(Exception):
 
 
 class Admission:
-    def __init__(self, per_client: int = PER_CLIENT, total: int = TOTAL) -> None:
+    def __init__(
+        self,
+        per_client: int = PER_CLIENT,
+        total: int = TOTAL,
+        *,
+        busy_tab: str = "this tab already has {n} jobs running; wait for them to finish",
+        busy_studio: str = "the studio is busy with other tabs' work; try again in a moment",
+    ) -> None:
+        """`busy_tab` (formatted with n, the tab's running jobs) and `busy_studio` are the
+        refusals' messages."""
         self._per_client, self._total = per_client, total
+        self._busy_tab, self._busy_studio = busy_tab, busy_studio
         self._running: dict[int | None, int] = {}
         self._lock = threading.Lock()
 
@@ -33,9 +43,9 @@ class Admission:
         with self._lock:
             mine = self._running.get(client_id, 0)
             if mine >= self._per_client:
-                raise Busy(f"this tab already has {mine} jobs running; wait for them to finish")
+                raise Busy(self._busy_tab.format(n=mine))
             if sum(self._running.values()) >= self._total:
-                raise Busy("the studio is busy with other tabs' work; try again in a moment")
+                raise Busy(self._busy_studio)
             self._running[client_id] = mine + 1
         try:
             yield

@@ -1,16 +1,16 @@
 """The Compare panel's actions: the plan and one chosen ghost drawn (by ticking the ghosts'
 own toggles, so projects and the Compensation panel agree), and the acting tab's camera moved
-to a preset (app.core.camera_presets). A new simulation becomes the comparison."""
+to a preset (app.core.camera_presets). A simulation that just ran becomes the comparison."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import viser
 
 from app.core.camera_presets import preset_view
 from app.studio.signals import Signal
+from app.studio.simulation_runner import SimulationRecord
 from app.studio.state import StudioState
 from panels.compare_panel import NOTHING, ComparePanel
 from panels.quiet import set_value
@@ -26,12 +26,13 @@ class CompareControls:
         state: StudioState,
         boxes: dict[str, viser.GuiCheckboxHandle],
         labels: dict[str, str],
-        simulated: Signal[Any],
+        simulated: Signal[SimulationRecord],
         colour_by_error: Callable[[str | None], None],
         initial: str = "command",
     ) -> None:
         """boxes: ghost name -> its toggle; labels: ghost name -> its text; `simulated` is
-        emitted with a Simulation when one ends (its `error` empty when it ran);
+        emitted with the state's simulation when it changes (a run that just ended: fresh, of
+        origin "run");
         `colour_by_error(name)` colours that ghost's links by their error (None: stop)."""
         self._colour_by_error = colour_by_error
         self.error_ghost: str | None = None
@@ -60,8 +61,8 @@ class CompareControls:
         self.error_ghost = chosen if on else None
         self._colour_by_error(self.error_ghost)
 
-    def _on_simulated(self, simulation: object) -> None:
-        if getattr(simulation, "error", "x") == "":
+    def _on_simulated(self, record: SimulationRecord) -> None:
+        if record.origin == "run" and not record.stale:
             set_value(self.panel.choice, self._labels[SIMULATED_CHOICE])
 
     def look_from(self, which: str, client: viser.ClientHandle | None) -> None:

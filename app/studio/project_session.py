@@ -37,7 +37,7 @@ from typing import Any, Protocol
 import viser
 
 from app.config import StudioConfig
-from app.core.atomic_write import write_bytes_atomically
+from app.core.atomic_write import write_binary_atomically
 from app.core.collocation.settings import GaitSettings
 from app.core.errors import StudioError
 from app.core.file_access import FileAccess
@@ -46,7 +46,7 @@ from app.core.posing.drag import Posing
 from app.core.projects.autosave import AutosaveStore
 from app.core.projects.codec import ProjectError
 from app.core.projects.display import ALL_JOINTS, DisplaySettings, plot_choices, same_display
-from app.core.projects.files import SUFFIX, parse_project, project_bytes, read_project
+from app.core.projects.files import SUFFIX, parse_project, read_project, write_project
 from app.core.projects.project import Project, RobotSource, check_fits
 from app.core.projects.robot_files import load_project_robot, robot_source
 from app.core.robot.model import RobotModel
@@ -229,9 +229,10 @@ class ProjectSession:
         marks = self.marks()
         try:
             project = self.project(marks)
-            data = project_bytes(project)
-            with self._lock:
-                write_bytes_atomically(path, data, ProjectError)
+            with self._lock:  # streamed entry by entry: no copy of the arrays in memory
+                write_binary_atomically(
+                    path, lambda file: write_project(file, project), ProjectError
+                )
                 self._saved = marks
         except StudioError as error:
             return self._fail("Not saved", str(error), client)
@@ -413,9 +414,8 @@ class ProjectSession:
                 autosave_of="" if self.name in (UNTITLED, RESTORED) else self.name,
                 autosave_path=str(self.path) if self.path is not None else "",
             )
-            data = project_bytes(work)
             with self._lock:
-                path = self.autosaves.write(data)
+                path = self.autosaves.write(lambda file: write_project(file, work))
                 self._autosaved = marks
         except StudioError as error:
             if not self._failing:

@@ -20,6 +20,7 @@ from app.studio.camera_session import CameraSession
 from app.studio.compensation_session import CompensationSession
 from app.studio.demo_session import DemoSession
 from app.studio.gait_session import GaitSession
+from app.studio.ghosts_session import GhostsSession
 from app.studio.joints_session import JointsSession
 from app.studio.motion_session import MotionSession
 from app.studio.notifier import Notifier
@@ -28,11 +29,15 @@ from app.studio.playback_session import PlaybackSession
 from app.studio.pose_session import PoseSession
 from app.studio.project_session import ProjectSession
 from app.studio.robot_session import RobotSession, prepare
+from app.studio.servo_work import ServoWork
 from app.studio.share_session import ShareSession
+from app.studio.simulation_session import SimulationSession
 from app.studio.state import StudioState
 from app.studio.sweep_session import SweepSession
+from app.studio.torques_session import TorquesSession
 from app.web.callback_guard import guard_callbacks
 from app.web.guard import guarded_server
+from panels.compensation_folder import CompensationFolder
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +82,12 @@ class Studio:
         self.motions = MotionSession(server, state, notifier)
         self.playback = PlaybackSession(server, state)
         self.camera = CameraSession(server, state)
-        self.compensation = CompensationSession(server, state, notifier)
+        # Torques, coefficients and simulation each fill their rows of one Compensation folder.
+        folder = CompensationFolder(server.gui)
+        self.compensation = CompensationSession(state, notifier, folder)
+        self.torques = TorquesSession(state, notifier, folder)
+        self.simulation = SimulationSession(state, notifier, folder)
+        self.ghosts = GhostsSession(server, state, folder)
         self.gait = GaitSession(
             server, state, notifier, config.package_roots, prepare=config.prepare_gait
         )
@@ -89,8 +99,8 @@ class Studio:
                 "started": self.gait.pipeline_started,
                 "iteration": self.gait.progressed,
                 "solved": self.gait.finished,
-                "torques": self.compensation.torques_done,
-                "simulated": self.compensation.runner.finished,
+                "torques": self.torques.done,
+                "simulated": self.simulation.runner.finished,
             },
         )
         self.share = ShareSession(
@@ -98,7 +108,7 @@ class Studio:
             state,
             notifier,
             config.data_dir,
-            layers=lambda: self.compensation.replay_layers(self.playback.panel.traces.value),
+            layers=lambda: self.ghosts.replay_layers(self.playback.panel.traces.value),
             pause_playback=self.playback.player.pause,
         )
         self.demo = DemoSession(server, presenter_only=config.presenter_only)
@@ -121,7 +131,7 @@ class Studio:
             state,
             notifier,
             config,
-            (self.motions, self.compensation, self.gait, self.sweep),
+            (self.motions, ServoWork(state), self.gait, self.sweep),
             self.motions,
         )
         if config.project is not None:
@@ -141,6 +151,8 @@ class Studio:
         self.share.close()
         self.gait.close()
         self.sweep.close()
-        self.compensation.close()
+        self.ghosts.close()
+        self.simulation.close()
+        self.torques.close()
         with contextlib.redirect_stdout(sys.stderr):  # viser's "Server stopped" is not output
             self.server.stop()

@@ -21,6 +21,7 @@ import re
 import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import imageio.v3 as iio
@@ -33,6 +34,7 @@ from app.core.replay.scene import ReplayLayers, replay_scene, title_card
 from app.core.replay.video import VideoError, VideoPlan, VideoWriter, plan_video
 from app.core.robot.model import RobotModel
 from app.replay_recorder import RecordedReplay, export_replay
+from app.studio.admission import Admission, Busy
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.state import StudioState
@@ -41,6 +43,12 @@ from panels.share_panel import SharePanel
 log = logging.getLogger(__name__)
 
 MAX_SCREENSHOT_SIDE = 4096
+SCREENSHOT_WORKERS = 2
+"""Screenshots taken at once, all tabs together (one per tab): their own threads, so a tab
+that never returns its renders holds one of these for at most RENDER_TIMEOUT_S, never viser's
+callback threads, which every tab's clicks need."""
+RENDER_TIMEOUT_S = 20.0
+"""How long a tab may take to return a render for a screenshot [s]."""
 MAX_DOWNLOAD_BYTES = 100_000_000
 """A video larger than this is left on disk, not also sent to the tab."""
 
@@ -92,6 +100,13 @@ class ShareSession:
         self._pause_playback = pause_playback
         self._video_worker: threading.Thread | None = None
         self._video_cancel = threading.Event()
+        self._shots = ThreadPoolExecutor(SCREENSHOT_WORKERS, thread_name_prefix="screenshot")
+        self._shot_admission = Admission(
+            per_client=1,
+            total=SCREENSHOT_WORKERS,
+            busy_tab="a screenshot is already being taken for this tab",
+            busy_studio="the studio is taking other tabs' screenshots; try again in a moment",
+        )
 
     # --- replay ----------------------------------------------------------------------------
 
@@ -169,16 +184,38 @@ class ShareSession:
     # --- screenshot ------------------------------------------------------------------------
 
     def screenshot(self, client: viser.ClientHandle | None = None) -> None:
-        """Send what `client` renders now to that tab as a PNG download."""
+        """Send what `client` renders now to that tab as a PNG download, in a "screenshot"
+        thread (the click returns at once). One per tab and SCREENSHOT_WORKERS in all: a
+        click beyond that is refused in one line."""
+        if client is None:
+            self._fail("Screenshot failed", "a screenshot is taken from a browser tab", None)
+            self.screenshot_sent.emit(None)
+            return
+        admitted = self._shot_admission.admit(client.client_id)
+        try:
+            admitted.__enter__()
+        except Busy as busy:
+            self._notifier.notify("Screenshot not taken", str(busy), client, "yellow")
+            return
+
+        def take() -> None:
+            try:
+                self._take_screenshot(client)
+            finally:
+                admitted.__exit__(None, None, None)
+
+        self._shots.submit(take)
+
+    def _take_screenshot(self, client: viser.ClientHandle) -> None:
         shot: Screenshot | None = None
         try:
-            if client is None:
-                raise StudioError("a screenshot is taken from a browser tab; none asked")
             height = min(int(client.camera.image_height), MAX_SCREENSHOT_SIDE)
             width = min(int(client.camera.image_width), MAX_SCREENSHOT_SIDE)
             if height <= 0 or width <= 0:
                 raise StudioError("the tab has not drawn the scene yet")
-            image = client.get_render(height, width, transport_format="png", timeout=60.0)
+            image = client.get_render(
+                height, width, transport_format="png", timeout=RENDER_TIMEOUT_S
+            )
             png = iio.imwrite("<bytes>", on_white(image), extension=".png")
             name = self._state.trajectory.name if self._state.trajectory is not None else "pose"
             filename = f"{_slug(name)}-{time.strftime('%Y%m%d-%H%M%S')}.png"
@@ -190,7 +227,13 @@ class ShareSession:
             self._notifier.notify("Screenshot downloaded", filename, client)
         except (StudioError, OSError, TimeoutError, RuntimeError) as error:
             # RuntimeError: viser's answer when the tab closed while the render was awaited.
-            self._fail("Screenshot failed", str(error) or type(error).__name__, client)
+            reason = str(error) or type(error).__name__
+            if isinstance(error, TimeoutError):
+                reason = f"the tab did not return its view within {RENDER_TIMEOUT_S:g} s"
+            self._fail("Screenshot failed", reason, client)
+        except Exception as error:  # a bug: said in the panel, logged, and the end announced
+            log.exception("screenshot")
+            self._fail("Screenshot failed", f"{type(error).__name__}: {error}", client)
         self.screenshot_sent.emit(shot)
 
     # --- video ---------------------------------------------------------------------------------
@@ -305,6 +348,7 @@ class ShareSession:
 
     def close(self) -> None:
         self._video_cancel.set()
+        self._shots.shutdown(wait=False, cancel_futures=True)  # a render awaited ends in time
         for worker in (self._worker, self._video_worker):
             if worker is not None:
                 worker.join()

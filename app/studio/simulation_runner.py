@@ -1,7 +1,7 @@
 """The compensation feature's physics simulations: runs of the plan and of the compensated
 commands on MuJoCo (app.core.simulation) in a worker process, with progress, cancel and the
-last good results kept. Owned by the compensation session (it needs that session's commands
-and virtual servos); not a session of its own.
+last good results kept (`SimulationRecord`, in the studio state). Owned by the simulation
+session; not a session of its own.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import numpy as np
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
 from app.core.servo.model import ServoModel
+from app.core.simulation.on_plan import OnPlan, on_plan_stance
 from app.core.simulation.result import SimulationResult
 from app.core.simulation.worker import (
     SIMULATION_KEY,
@@ -32,6 +33,8 @@ from app.studio.signals import Signal
 log = logging.getLogger(__name__)
 
 WITHOUT, WITH = "without compensation", "with compensation"
+SIMULATED = {"sim_without": WITHOUT, "sim_with": WITH}
+"""Ghost name -> the simulated run it shows."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,6 +51,34 @@ class Simulation:
     """Why it failed ("cancelled", a blow-up's message, a crashed worker)."""
     waited_s: float | None = 0.0
     """Wall time of the run [s]; None for a run restored from a project that did not keep it."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class SimulationRecord:
+    """A good simulation as the state keeps it."""
+
+    run: Simulation
+    on_plan: dict[str, OnPlan]
+    """Ghost name -> its run moved over the floor onto the plan's stance feet
+    (app.core.simulation.on_plan), computed once."""
+    stale: bool = False
+    """The coefficients or servos changed since it ran."""
+    origin: str = "run"
+    """"run" (it just ended) or "project" (restored)."""
+
+    def drift_m(self) -> dict[str, float]:
+        """Per run (its label), its stance foot's largest distance from the plan's."""
+        return {label: self.on_plan[ghost].max_drift_m for ghost, label in SIMULATED.items()}
+
+
+def simulation_record(
+    simulation: Simulation, stale: bool = False, origin: str = "run"
+) -> SimulationRecord:
+    on_plan = {
+        ghost: on_plan_stance(simulation.robot, simulation.trajectory, simulation.results[label].q)
+        for ghost, label in SIMULATED.items()
+    }
+    return SimulationRecord(simulation, on_plan, stale, origin)
 
 
 class SimulationRunner:

@@ -1,7 +1,8 @@
 """StudioState: what every feature of the studio shares, and the signals that announce it.
 
-The state holds the loaded robot (and its report), the current pose, the current motion, the
-playback time and the display settings (camera, toggles: a frozen value replaced on every
+The state holds the loaded robot (and its report), the current pose, the current motion and its
+work (`work`: torques, coefficients and virtual servos, quick estimate, last good simulation;
+app.studio.work), the playback time and the display settings (camera, toggles: a frozen value replaced on every
 change, so a change is seen by identity), under one re-entrant lock: viser runs callbacks on a thread pool, so
 changes from several tabs overlap. Each setter changes the state and emits its signal while
 holding the lock, so subscribers see every change in order and never half of one.
@@ -24,6 +25,7 @@ from app.core.projects.display import CameraView, DisplaySettings
 from app.core.robot.model import RobotModel
 from app.core.robot.report import RobotReport
 from app.studio.signals import Signal
+from app.studio.work import MotionWork
 
 Stance = Literal["both", "left", "right"]
 STANCES: tuple[Stance, ...] = ("both", "left", "right")
@@ -86,6 +88,8 @@ class StudioState:
         self.motion: Motion | None = None
         self.time_s = 0.0
         self.display = Display(DisplaySettings(), "load")
+        self.work = MotionWork(self.lock, lambda: (self.robot, self.trajectory))
+        """The motion's torques, coefficients, quick estimate and simulation (app.studio.work)."""
         self._camera: CameraView | None = None
         """The newest camera a tab reported, not yet in `display` (see `note_camera`)."""
         self.on_robot: Signal[LoadedRobot] = Signal("on_robot")
@@ -121,6 +125,7 @@ class StudioState:
         with self.lock:
             self.loaded = LoadedRobot(robot, report)
             self.motion, self.time_s = None, 0.0
+            self.work.drop(coefficients=True)
             self.on_robot.emit(self.loaded)
             self.on_motion.emit(None)
             self.set_pose(robot.q_neutral.copy(), "both", "load")
@@ -162,6 +167,7 @@ class StudioState:
                     f"motion {trajectory.name!r}: its joints differ from {robot.name}'s"
                 )
             self.motion = Motion(trajectory, summary, then)
+            self.work.drop()
             self.on_motion.emit(self.motion)
             self.set_time(0.0)
 

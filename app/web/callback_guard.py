@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from typing import Any
 
 import viser
 
-from app.web.hook import ViserHookError
+from app.web.viser_internals import callback_executor
 
 log = logging.getLogger(__name__)
 
@@ -36,12 +36,7 @@ _MARK = "_biped_studio_guarded"
 def guard_callbacks(server: viser.ViserServer, report: Report) -> None:
     """From now on, an exception escaping any of `server`'s callbacks is logged with its
     traceback and reported to the tab whose action it was (`report`)."""
-    executor = getattr(server, "_thread_executor", None)
-    if not isinstance(executor, ThreadPoolExecutor):
-        raise ViserHookError(
-            "viser no longer runs callbacks on ViserServer._thread_executor: "
-            "the studio cannot report their failures"
-        )
+    executor = callback_executor(server)  # raises ViserHookError if viser moved it
     if getattr(executor, _MARK, False):
         return
     submit = executor.submit

@@ -19,11 +19,11 @@ import dataclasses
 import sys
 
 import viser
-from viser import _messages as viser_messages
 
 from app.web.access import AccessPolicy, check_bind, studio_url
 from app.web.hook import guard_requests, hooked_viser_server
 from app.web.upload_limits import MAX_UNFINISHED_UPLOADS, UploadGuard, UploadLimits
+from app.web.viser_internals import refuse_share_tunnel
 
 __all__ = ["GuardedServer", "guarded_server"]
 
@@ -70,8 +70,3 @@ def guarded_server(
     refuse_share_tunnel(server)
     uploads = UploadGuard(server, UploadLimits(max_upload_bytes, max_unfinished_uploads))
     return GuardedServer(server, policy, uploads)
-
-
-def refuse_share_tunnel(server: viser.ViserServer) -> None:
-    """Drop viser's handler that opens a public share.viser.studio tunnel on a client's request."""
-    server._websock_server.unregister_handler(viser_messages.ShareUrlRequest)

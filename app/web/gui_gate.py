@@ -21,14 +21,12 @@ from collections.abc import Callable
 from typing import Any
 
 import viser
-from viser import _messages
 
-from app.web.hook import ViserHookError
-
-_GATED = (
-    (_messages.GuiUpdateMessage, "_handle_gui_updates"),
-    (_messages.FileTransferStartUpload, "_handle_file_transfer_start"),
-    (_messages.CommandTriggerMessage, "_handle_command_trigger"),
+from app.web.viser_internals import (
+    GuiUpdateMessage,
+    gui_edit_handlers,
+    gui_input_values,
+    send_gui_values,
 )
 
 
@@ -38,25 +36,12 @@ def gate_gui_edits(
     on_refused: Callable[[int], None],
 ) -> None:
     """From now on, edits from tabs that `allowed` refuses are dropped and undone in the tab."""
-    gui: Any = server.gui
-    handlers: dict[type, list[Callable[..., Any]]] = gui._websock_interface._incoming_handlers
-    swaps = []
-    for message_cls, name in _GATED:
-        original = getattr(gui, name, None)
-        registered = handlers.get(message_cls, [])
-        if original is None or original not in registered:
-            raise ViserHookError(
-                f"viser no longer handles {message_cls.__name__} with GuiApi.{name}: "
-                "presenter-only mode cannot refuse viewers' edits"
-            )
-        swaps.append((registered, registered.index(original), original, message_cls))
-    for registered, index, original, message_cls in swaps:
-        registered[index] = _gated(server, gui, original, message_cls, allowed, on_refused)
+    for slot in gui_edit_handlers(server):  # all found, or ViserHookError before any swap
+        slot.replace(_gated(server, slot.original, slot.message_cls, allowed, on_refused))
 
 
 def _gated(
     server: viser.ViserServer,
-    gui: Any,
     original: Callable[..., Any],
     message_cls: type,
     allowed: Callable[[int], bool],
@@ -70,20 +55,16 @@ def _gated(
             if is_async:
                 await result
             return
-        if message_cls is _messages.GuiUpdateMessage:
-            _snap_back(server, gui, client_id, message)
+        if message_cls is GuiUpdateMessage:
+            _snap_back(server, client_id, message)
         on_refused(client_id)
 
     return handler
 
 
-def _snap_back(server: viser.ViserServer, gui: Any, client_id: int, message: Any) -> None:
+def _snap_back(server: viser.ViserServer, client_id: int, message: Any) -> None:
     """Send the refused tab the server's values of what it changed (its widget moved)."""
-    handle = gui._gui_input_handle_from_uuid.get(message.uuid)
     client = server.get_clients().get(client_id)
-    if handle is None or client is None:
-        return
-    state = handle._impl
-    values = {k: getattr(state, k) for k in message.updates if hasattr(state, k)}
-    if values:
-        client._websock_connection.queue_message(_messages.GuiUpdateMessage(message.uuid, values))
+    values = gui_input_values(server, message.uuid, message.updates)
+    if client is not None and values:
+        send_gui_values(client, message.uuid, values)

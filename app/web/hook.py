@@ -1,4 +1,4 @@
-"""The one place that reaches into viser: a request hook on the server it starts.
+"""A request hook on the web server viser starts (its private reaches: app.web.viser_internals).
 
 viser 1.1.1 offers no hook on its HTTP/websocket server. `viser.infra.WebsockServer`
 starts `websockets.asyncio.server.serve(..., process_request=viser_http_server)` on a
@@ -10,10 +10,11 @@ constructs the server, for one that wraps viser's `process_request`:
     process_request'(connection, request) = refusal            if the policy refuses
                                           = viser's answer + security headers otherwise
 
-The swap is scoped (the name `websockets` in `viser.infra._infra`, restored at once,
-under a lock) and checked: if viser's internals change so that the hooked `serve` is
-not called, `hooked_viser_server` stops the server and raises `ViserHookError` rather
-than serve the studio unguarded. `tests/test_web_guard.py` exercises this on every run.
+The swap is scoped (the name `websockets` as viser's server code sees it, restored at once,
+under a lock) and checked: viser must be the pinned version (`check_viser_version`), and if
+viser's internals change so that the hooked `serve` is not called, `hooked_viser_server`
+stops the server and raises `ViserHookError` rather than serve the studio unguarded.
+`tests/test_web_guard.py` exercises this on every run.
 """
 
 from __future__ import annotations
@@ -25,20 +26,21 @@ from types import ModuleType
 from typing import Any
 
 import viser
-import viser.infra._infra as viser_infra
 from websockets.asyncio.server import ServerConnection
 from websockets.datastructures import Headers
 from websockets.http11 import Request, Response
 
 from app.web.access import SECURITY_HEADERS, TOKEN_PAGE, AccessPolicy
+from app.web.viser_internals import (
+    ViserHookError,
+    check_viser_version,
+    viser_websockets,
+    websockets_seen_by_viser,
+)
 
 ProcessRequest = Callable[[ServerConnection, Request], "Response | None"]
 
 _SWAP_LOCK = threading.Lock()
-
-
-class ViserHookError(RuntimeError):
-    """viser no longer starts its server the way `app.web.hook` expects: refuse to run."""
 
 
 class _Overlay:
@@ -58,7 +60,8 @@ def hooked_viser_server(
     make: Callable[[], viser.ViserServer], wrap: Callable[[ProcessRequest | None], ProcessRequest]
 ) -> viser.ViserServer:
     """`make()` with every request to its server going through `wrap(viser's process_request)`."""
-    real = viser_infra.websockets
+    check_viser_version()
+    real = viser_websockets()
     calls: list[int] = []
 
     def serve(*args: Any, **kwargs: Any) -> Any:
@@ -69,12 +72,8 @@ def hooked_viser_server(
     overlay = _Overlay(
         real, asyncio=_Overlay(real.asyncio, server=_Overlay(real.asyncio.server, serve=serve))
     )
-    with _SWAP_LOCK:
-        viser_infra.websockets = overlay  # type: ignore[assignment]
-        try:
-            server = make()
-        finally:
-            viser_infra.websockets = real
+    with _SWAP_LOCK, websockets_seen_by_viser(overlay):
+        server = make()
     if not calls:
         server.stop()
         raise ViserHookError(

@@ -27,7 +27,13 @@ import threading
 from typing import Any
 
 import viser
-from viser import _messages as viser_messages
+
+from app.web.viser_internals import (
+    FileTransferPart,
+    FileTransferStartUpload,
+    upload_states,
+    websock_server,
+)
 
 MIN_AVERAGE_PART_BYTES = 1024
 MAX_UNFINISHED_UPLOADS = 2
@@ -73,10 +79,10 @@ class UploadGuard:
         self._lock = threading.Lock()
         # viser's per-transfer state: {transfer_uuid: {"client_id", "filename", "parts",
         # "part_count", "total_bytes", "transferred_bytes", ...}} (viser 1.1.1 `GuiApi`).
-        self._states: dict[str, dict[str, Any]] = server.gui._current_file_upload_states  # type: ignore[assignment]
-        connection = server._websock_server
-        connection.register_handler(viser_messages.FileTransferStartUpload, self._on_start)
-        connection.register_handler(viser_messages.FileTransferPart, self._on_part)
+        self._states: dict[str, dict[str, Any]] = upload_states(server)
+        connection = websock_server(server)
+        connection.register_handler(FileTransferStartUpload, self._on_start)
+        connection.register_handler(FileTransferPart, self._on_part)
 
     def held_bytes(self) -> int:
         """Bytes of unfinished uploads viser holds in memory right now."""
@@ -93,7 +99,7 @@ class UploadGuard:
     def unfinished(self, client_id: int) -> int:
         return sum(1 for state in list(self._states.values()) if state["client_id"] == client_id)
 
-    def _on_start(self, client_id: int, message: viser_messages.FileTransferStartUpload) -> None:
+    def _on_start(self, client_id: int, message: FileTransferStartUpload) -> None:
         if message.transfer_uuid not in self._states:
             return  # viser ignored it (no such upload button)
         limit = self.limits.max_bytes
@@ -120,7 +126,7 @@ class UploadGuard:
             return
         self._drop(client_id, message.transfer_uuid, reason)
 
-    def _on_part(self, client_id: int, message: viser_messages.FileTransferPart) -> None:
+    def _on_part(self, client_id: int, message: FileTransferPart) -> None:
         state = self._states.get(message.transfer_uuid)
         if state is None:
             return

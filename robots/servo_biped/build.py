@@ -29,7 +29,6 @@ ROBOT_NAME = "servo_biped"
 # Spring-compensation paper, Table 1 ("Specific parameters of Roban robot").
 TOTAL_MASS_KG = 6.6
 HEIGHT_M = 0.70
-LEG_DOF = 6
 
 # Roban leg dimensions (public, Leju-derived code; DESIGN.md "Numbers from the papers").
 HIP_HALF_WIDTH_M = 0.0466

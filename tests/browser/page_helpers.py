@@ -7,9 +7,14 @@ import contextlib
 import io
 import math
 import re
+import socket
+import subprocess
+import sys
 import threading
 import time
-from collections.abc import Callable
+import urllib.request
+from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import TypeVar
 
 import numpy as np
@@ -226,3 +231,33 @@ def frame_interval_ms(page, seconds: float = 3.0) -> float:
     """The page's mean time between animation frames over `seconds` [ms] (for the log: what a
     software renderer on a busy machine gives, never asserted)."""
     return float(page.evaluate(FRAME_INTERVAL_JS, seconds))
+
+
+@contextlib.contextmanager
+def static_server(folder: Path) -> Iterator[str]:
+    """`python -m http.server` serving `folder` (a replay plays from any static web server:
+    the studio is not involved); yields its URL."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    server = subprocess.Popen(
+        [sys.executable, "-m", "http.server", str(port), "--bind", "127.0.0.1"],
+        cwd=folder,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    url = f"http://127.0.0.1:{port}/"
+
+    def answers() -> bool:
+        try:
+            with urllib.request.urlopen(url):
+                return True
+        except OSError:
+            return False
+
+    try:
+        wait_for("the static server", answers, 30.0)
+        yield url
+    finally:
+        server.terminate()
+        server.wait()

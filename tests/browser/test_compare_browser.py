@@ -67,7 +67,7 @@ def test_each_ghost_toggle_shows_its_colour(page) -> None:
 
 
 def test_plan_vs_ticks_the_plan_and_one_ghost(page, studio: Studio) -> None:
-    boxes = studio.compensation.panel.ghosts
+    boxes = studio.ghosts.panel.ghosts
     assert {name for name, box in boxes.items() if box.value} == {"planned", "command"}
     choice = GHOSTS["with"][1]
     dropdown = gui_row_input(page, "Plan vs", "input.mantine-Select-input")

@@ -91,8 +91,8 @@ def shots() -> dict[str, np.ndarray]:
 def test_generate_a_motion_and_compute_its_torques(
     page, studio: Studio, shots: dict[str, np.ndarray], tmp_path: Path
 ) -> None:
-    session = studio.compensation
-    assert session.prediction is None and session.ghosts is None
+    session = studio.state.work
+    assert session.prediction is None and studio.ghosts.view is None
 
     # Motions: pick the motion in the dropdown, wait for its parameters, generate it.
     expand_folder(page, "Motions", "Generate")
@@ -129,8 +129,8 @@ def test_generate_a_motion_and_compute_its_torques(
         lambda: session.prediction,
         RENDER_TIMEOUT_S,
     )
-    feedforward = session.feedforward
-    assert feedforward is not None and session.ghosts is not None
+    feedforward = session.torques
+    assert feedforward is not None and studio.ghosts.view is not None
     assert feedforward.tau_Nm.shape == (trajectory.n_samples, len(prediction.joint_names))
     folder(page, "Compensation").get_by_text("max |τ|", exact=False).wait_for(
         state="visible", timeout=UI_TIMEOUT_S * 1000
@@ -151,8 +151,8 @@ def test_generate_a_motion_and_compute_its_torques(
 def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
     page, studio: Studio, shots: dict[str, np.ndarray], tmp_path: Path
 ) -> None:
-    session, panel = studio.compensation, studio.compensation.panel
-    feedforward, before = session.feedforward, session.prediction
+    session, panel = studio.state.work, studio.compensation.panel
+    feedforward, before = session.torques, session.prediction
     trajectory = studio.state.trajectory
     assert feedforward is not None and before is not None and trajectory is not None, (
         "run with the previous test: it computes the torques edited here"
@@ -169,9 +169,10 @@ def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
         lambda: panel.joint.value == JOINT,
         UI_TIMEOUT_S,
     )
-    assert session.params is not None and session.params.enabled[i], f"{JOINT} not compensated"
+    params = session.coefficients.params
+    assert params.enabled[i], f"{JOINT} not compensated"
     assert panel.enabled.value is True
-    k_before = float(session.params.k_deg_per_Nm[i])
+    k_before = float(params.k_deg_per_Nm[i])
 
     # Type a new k (the slider's step is 1 °/(N·m)) into the box beside the slider.
     k_after = float(round(k_before + TARGET_OFFSET_DEG / abs(tau[k_shown])))
@@ -180,7 +181,7 @@ def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
         f"the prediction with k = {k_after:g} °/(N·m) for {JOINT}",
         lambda: (
             (p := session.prediction) is not before
-            and session.params.k_deg_per_Nm[i] == k_after
+            and session.coefficients.params.k_deg_per_Nm[i] == k_after
             and p
         ),
         UI_TIMEOUT_S,
@@ -193,7 +194,7 @@ def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
     )
     others = np.arange(len(after.joint_names)) != i
     np.testing.assert_array_equal(after.q_cmd_rad[:, others], before.q_cmd_rad[:, others])
-    assert session.feedforward is feedforward
+    assert session.torques is feedforward
     np.testing.assert_array_equal(after.tau_Nm, before.tau_Nm)
     assert panel.k.value == k_after
 
@@ -209,7 +210,7 @@ def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
 
 
 def test_plots_show_the_torques(page, studio: Studio) -> None:
-    assert studio.compensation.plots.torques is not None, "run with the previous tests"
+    assert studio.ghosts.plots.torques is not None, "run with the previous tests"
     plots = folder(page, "Plots")
     canvas = plots.locator(".uplot canvas")
     if not canvas.first.is_visible():
@@ -277,7 +278,7 @@ than the first ghosts, still 4x the noise allowed between two "stable" shots."""
 def test_simulate_shows_the_verdicts_and_two_more_ghosts(
     page, studio: Studio, shots: dict[str, np.ndarray], tmp_path: Path
 ) -> None:
-    session = studio.compensation
+    session = studio.state.work
     assert session.prediction is not None, "run with the previous tests: they compute torques"
     expand_folder(page, "Compensation", SIMULATE)
     before = wait_stable(page, "the ghosts before simulating", not_blank)
@@ -288,8 +289,9 @@ def test_simulate_shows_the_verdicts_and_two_more_ghosts(
     compensation.get_by_text(re.compile(r"Simulated \(MuJoCo\) in")).first.wait_for(
         state="visible", timeout=SIMULATE_TIMEOUT_S * 1000
     )
-    simulation = session.simulation
-    assert simulation is not None and simulation.error == ""
+    assert session.simulation is not None
+    simulation = session.simulation.run
+    assert simulation.error == ""
     for label, run in simulation.results.items():
         line = compensation.get_by_text(f"{label}: {run.verdict()}", exact=False)
         assert line.count() >= 1, f"the page does not show the verdict of {label}"
@@ -311,7 +313,7 @@ def test_the_page_answers_clicks_while_the_ghosts_play(page, studio: Studio) -> 
     """Playback with the robot, four ghosts, two simulated ghosts and the plots' cursor moving:
     the page still answers a click (Pause), and stops where the studio stopped. The waits are
     printed for the log (a software renderer on a busy machine sets them), not asserted."""
-    assert studio.compensation.simulation is not None, "run with the previous tests"
+    assert studio.state.work.simulation is not None, "run with the previous tests"
     expand_folder(page, "Playback", "Play")
     started = time.monotonic()
     click_button(page, "Play")

@@ -5,10 +5,6 @@ from __future__ import annotations
 
 import io
 import re
-import socket
-import subprocess
-import sys
-import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -22,7 +18,13 @@ from app.core.servo.presets import preset_params
 from app.core.simulation.files import default_servos
 from app.replay_recorder import export_replay
 from tests.browser.conftest import VIEWPORT
-from tests.browser.page_helpers import RENDER_TIMEOUT_S, changed, not_blank, wait_for
+from tests.browser.page_helpers import (
+    RENDER_TIMEOUT_S,
+    changed,
+    not_blank,
+    static_server,
+    wait_for,
+)
 
 SCENE_CLIP = {"x": 0, "y": 0, "width": VIEWPORT["width"], "height": VIEWPORT["height"] - 70}
 """The 3D view above viser's playback bar (whose clock and slider move on their own)."""
@@ -42,31 +44,9 @@ def replay_folder(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def static_url(replay_folder: Path) -> Iterator[str]:
-    """`python -m http.server` serving the replay folder: the studio is not involved."""
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port = sock.getsockname()[1]
-    server = subprocess.Popen(
-        [sys.executable, "-m", "http.server", str(port), "--bind", "127.0.0.1"],
-        cwd=replay_folder,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    url = f"http://127.0.0.1:{port}/"
-
-    def answers() -> bool:
-        try:
-            with urllib.request.urlopen(url):
-                return True
-        except OSError:
-            return False
-
-    try:
-        wait_for("the static server", answers, 30.0)
+    """A static web server on the replay folder: the studio is not involved."""
+    with static_server(replay_folder) as url:
         yield url
-    finally:
-        server.terminate()
-        server.wait()
 
 
 def view(page) -> np.ndarray:

@@ -19,7 +19,7 @@ import app.core.collocation.gait_problem as gait_problem
 from app.core.collocation.defaults import default_settings
 from app.core.collocation.dircon import GaitProblem, GaitSettings, PlanarModel
 from app.core.robot.loading import load_robot
-from app.studio.gait_session import Solve, _status_line
+from app.studio.gait_text import Solve, status_line
 from tests.sole_frames import model_with_sole_edge_frames
 
 EOM_TOL = 1e-4
@@ -118,13 +118,13 @@ def test_a_warm_start_that_stalls_restarts_cold(small, monkeypatch):
     assert warm.iterations == 2 + cold.iterations
     assert warm.objective == pytest.approx(cold.objective, rel=1e-6)
     assert seen == list(range(len(seen))) and len(seen) == warm.iterations + 2
-    line = _status_line(Solve("gait-1", changed, ended_s=warm.solve_s, result=warm), _no())
+    line = status_line(Solve("gait-1", changed, ended_s=warm.solve_s, result=warm), _no())
     assert "restarted cold" in line and "did not converge in 2 iterations" in line
     problem.solve(first.settings)
 
 
 def _no():
-    from app.studio.gait_session import GaitResults
+    from app.studio.gait_text import GaitResults
 
     return GaitResults()
 

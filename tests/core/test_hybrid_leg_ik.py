@@ -1,9 +1,10 @@
 """The hybrid leg's closed-form IK against pinocchio on the hybrid_leg_biped model.
 
 FK(IK(x)) = x with FK computed independently: the actuated joints set from the IK's answer,
-the passive joints solved by app.core.loops.close_loops (walked there from the standing pose so
-that the four-bars keep their assembly branches), and the sole's placement read from pinocchio
-in the hip frame (the pelvis frame moved to the hip centre O, the hip_roll joint's origin).
+the passive joints solved by app.core.robot.loops.close_loops (walked there from the standing
+pose so that the four-bars keep their assembly branches), and the sole's placement read from
+pinocchio in the hip frame (the pelvis frame moved to the hip centre O, the hip_roll joint's
+origin).
 """
 
 from __future__ import annotations

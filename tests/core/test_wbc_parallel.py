@@ -21,9 +21,8 @@ from app.core.dynamics.parallel import (
     worth_a_pool,
 )
 from app.core.dynamics.wbc import CHUNK_SAMPLES, WbcParams, chunk_bounds, torque_feedforward
-from app.core.dynamics.wbc_bench import repeated
 from app.core.motions.library import run_motion
-from app.core.motions.trajectory import Trajectory
+from app.core.motions.trajectory import Trajectory, repeated
 from app.core.robot.loading import load_robot
 
 

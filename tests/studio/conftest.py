@@ -57,10 +57,8 @@ def wait_for_signal(signal, start: Callable[[], object], accept=lambda _value: T
 
 def compute_torques(studio: Studio):
     """Compute the torque feed-forward of the current motion from the panel; its result."""
-    session = studio.compensation
-    return wait_for_signal(
-        session.torques_done, lambda: setattr(session.panel.compute, "value", True)
-    )
+    session = studio.torques
+    return wait_for_signal(session.done, lambda: setattr(session.panel.compute, "value", True))
 
 
 def solve_gait(studio: Studio, button: str = "solve"):

@@ -22,10 +22,10 @@ def studio(tmp_path):
 
 
 def test_colour_by_error_follows_the_links_distance_from_the_plan(studio):
-    compensation = studio.compensation
-    panel, ghosts = compensation.compare.panel, compensation.ghosts
+    session = studio.ghosts
+    panel, ghosts = session.compare.panel, session.view
     panel.choice.value = GHOSTS["without"][1]
-    shown = {name for name, box in compensation.panel.ghosts.items() if box.value}
+    shown = {name for name, box in session.panel.ghosts.items() if box.value}
     assert shown == {"planned", "without"}
     trajectory = studio.state.trajectory
     single = np.flatnonzero(trajectory.contacts[:, 0] != trajectory.contacts[:, 1])
@@ -38,7 +38,7 @@ def test_colour_by_error_follows_the_links_distance_from_the_plan(studio):
     robot = studio.state.robot
     data = robot.model.createData()
     planned = robot.link_placements(trajectory.q[k], data)
-    estimate = robot.link_placements(compensation.prediction.q_world_uncompensated[k], data)
+    estimate = robot.link_placements(studio.state.work.prediction.q_world_uncompensated[k], data)
     errors = np.array(
         [np.linalg.norm(estimate[link][:3, 3] - planned[link][:3, 3]) for link in ghosts.mesh_links]
     )

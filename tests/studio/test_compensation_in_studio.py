@@ -35,8 +35,8 @@ def studio(tmp_path):
 
 
 def test_torques_plots_and_ghosts_follow_the_motion(studio):
-    session = studio.compensation
-    feedforward, prediction = session.feedforward, session.prediction
+    session = studio.ghosts
+    feedforward, prediction = studio.state.work.torques, studio.state.work.prediction
     assert feedforward is not None and prediction is not None
     assert feedforward.tau_Nm.shape == (
         studio.state.trajectory.n_samples,
@@ -54,13 +54,13 @@ def test_torques_plots_and_ghosts_follow_the_motion(studio):
     session.panel.ghosts["with"].value = True
     studio.playback.seek(3.0)
     k = studio.state.trajectory.index_at(3.0)
-    assert_ghost_at(session.ghosts, "with", prediction.q_world_compensated[k])
+    assert_ghost_at(session.view, "with", prediction.q_world_compensated[k])
 
 
 def test_the_plots_time_cursor_follows_the_timeline(studio):
     """A seek moves every plot's cursor: a vertical line at the sample shown, over curves that
     keep the prediction's torques."""
-    session = studio.compensation
+    session = studio.ghosts
     seek_to = float(studio.state.trajectory.t[studio.state.trajectory.index_at(3.0)])
     wait_for_signal(
         session.cursor_shown, lambda: studio.playback.seek(seek_to), accept=lambda t: t == seek_to
@@ -75,7 +75,7 @@ def test_the_plots_time_cursor_follows_the_timeline(studio):
     # Without the three cursor samples, the torque curves are the prediction's, at its times.
     keep = np.ones(len(x), bool)
     keep[np.flatnonzero(cursor > 1.0)[0] + np.array([-1, 0, 1])] = False
-    prediction = session.prediction
+    prediction = studio.state.work.prediction
     k = np.searchsorted(prediction.t, x[keep])
     np.testing.assert_array_equal(prediction.t[k], x[keep])
     np.testing.assert_array_equal(np.array(curves)[:, keep], prediction.tau_Nm[k].T)
@@ -86,7 +86,7 @@ def test_the_plots_time_cursor_follows_the_timeline(studio):
 
 
 def test_wide_plots_move_every_plot_into_a_window_and_back(studio):
-    plots = studio.compensation.plots
+    plots = studio.ghosts.plots
     before = {key: getattr(plots, key) for key in ("torques", "roll", "pitch", "offsets")}
     plots.wide.value = True
     assert plots.window is not None
@@ -106,7 +106,7 @@ def test_wide_plots_move_every_plot_into_a_window_and_back(studio):
 
 
 def test_compensation_reduces_the_torso_error(studio):
-    errors = studio.compensation.prediction.attitude_errors_deg()
+    errors = studio.state.work.prediction.attitude_errors_deg()
     worst_without = max(errors["roll_uncompensated"], errors["pitch_uncompensated"])
     worst_with = max(errors["roll_compensated"], errors["pitch_compensated"])
     assert worst_without > 0.05  # the compliant servos make the torso tilt
@@ -114,18 +114,18 @@ def test_compensation_reduces_the_torso_error(studio):
 
 
 def test_a_k_slider_changes_the_command_by_k_tau_without_recomputing_torques(studio):
-    session, panel = studio.compensation, studio.compensation.panel
-    feedforward = session.feedforward
+    state, panel = studio.state, studio.compensation.panel
+    feedforward = state.work.torques
     panel.joint.value = "left_hip_roll"
     i = studio.state.robot.joint_names.index("left_hip_roll")
-    before = session.prediction.q_cmd_rad[:, i].copy()
-    k_before = session.params.k_deg_per_Nm[i]
+    before = state.work.prediction.q_cmd_rad[:, i].copy()
+    k_before = state.work.coefficients.params.k_deg_per_Nm[i]
     panel.enabled.value = True
     panel.k.value = k_before + 10.0
-    after = session.prediction.q_cmd_rad[:, i]
+    after = state.work.prediction.q_cmd_rad[:, i]
     tau = feedforward.tau_Nm[:, i]
     np.testing.assert_allclose(after - before, np.deg2rad(10.0) * tau, atol=1e-12)  # eq 7
-    assert session.feedforward is feedforward
+    assert state.work.torques is feedforward
     assert "rad/(N·m)" in panel.k_rad.content
 
 
@@ -142,57 +142,58 @@ def test_export_servo_commands(studio):
     rad = float(rows[5][header.index("q_cmd:left_knee [rad]")])
     deg = float(rows[5][header.index("q_cmd:left_knee [deg]")])
     assert deg == pytest.approx(np.rad2deg(rad))
-    torques = studio.compensation.export_torques()
+    torques = studio.torques.export_torques()
     assert torques.decode().splitlines()[0].startswith("t [s],tau:")
 
 
 def test_a_new_motion_drops_the_stale_torques(studio):
     studio.motions.panel.motion.value = "com_shift"
     studio.motions.panel.generate.value = True
-    assert studio.compensation.feedforward is None and studio.compensation.prediction is None
+    assert studio.state.work.torques is None and studio.state.work.prediction is None
     result = compute_torques(studio)
-    assert result is studio.compensation.feedforward
-    assert studio.compensation.feedforward.trajectory_name == "com_shift"
+    assert result is studio.state.work.torques
+    assert studio.state.work.torques.trajectory_name == "com_shift"
 
 
 def test_simulate_shows_a_verdict_ghosts_and_simulated_curves(studio):
     """Simulate from the panel: a real worker process runs MuJoCo; the verdict, two more
     ghosts (placed where the simulation has the robot) and the simulated roll/pitch curves."""
-    session = studio.compensation
+    session, ghosts = studio.simulation, studio.ghosts
     ended = wait_for_signal(
         session.runner.finished, lambda: setattr(session.panel.simulate, "value", True)
     )
-    assert ended.error == "" and session.simulation is ended
+    assert ended.error == "" and studio.state.work.simulation.run is ended
     without, with_ = ended.results["without compensation"], ended.results["with compensation"]
     for run in (without, with_):
         assert run.verdict() in session.panel.verdict.content
         assert run.q.shape == (studio.state.trajectory.n_samples, studio.state.robot.model.nq)
     assert "Simulated" in session.panel.verdict.content
     # Two more curves in each attitude plot: planned, two quick estimates, two simulations.
-    assert len(session.plots.roll.data) == 2 + 5 and len(session.plots.pitch.data) == 2 + 5
+    assert len(ghosts.plots.roll.data) == 2 + 5 and len(ghosts.plots.pitch.data) == 2 + 5
     # The simulated ghost becomes the comparison; it stands where the simulation put the
     # robot at the shown sample, moved over the floor onto the plan's stance foot.
     robot = studio.state.robot
-    assert session.panel.ghosts["sim_with"].value and not session.panel.ghosts["command"].value
+    assert ghosts.panel.ghosts["sim_with"].value and not ghosts.panel.ghosts["command"].value
     studio.playback.seek(1.0)
     trajectory = studio.state.trajectory
     k = trajectory.index_at(1.0)
     shift = on_plan_stance(robot, trajectory, with_.q).q[k] - with_.q[k]
     assert np.all(shift[2:] == 0.0) and np.linalg.norm(shift[:2]) < 0.05
-    assert_ghost_at(session.ghosts, "sim_with", with_.q[k] + shift)
-    assert robot is session.ghosts.robot
+    assert_ghost_at(ghosts.view, "sim_with", with_.q[k] + shift)
+    assert robot is ghosts.view.robot
     # A coefficient change marks the simulation stale, and keeps it.
-    session.panel.k.value = float(session.panel.k.value) + 0.5
-    assert session.simulation_stale and "Stale" in session.panel.verdict.content
-    assert session.simulation is ended
+    k = studio.compensation.panel.k
+    k.value = float(k.value) + 0.5
+    assert studio.state.work.simulation.stale and "Stale" in session.panel.verdict.content
+    assert studio.state.work.simulation.run is ended
 
 
 def test_simulate_needs_torques(tmp_path):
     studio = start_studio(tmp_path / "data")
     try:
-        studio.compensation.simulate()
+        studio.simulation.simulate()
         assert "compute the torque feed-forward first" in studio.notifier.last_error
-        assert studio.compensation.runner.running is None
+        assert studio.simulation.runner.running is None
     finally:
         studio.stop()
 
@@ -202,17 +203,17 @@ def test_compute_torques_runs_on_the_studios_pool_and_equals_the_serial_run(stud
     in-process serial feed-forward to 1e-9 of the peak torque (as the CLI's check)."""
     from app.core.dynamics.wbc import torque_feedforward
 
-    session = studio.compensation
+    session = studio.torques
     assert studio.state.trajectory.n_samples < session.pool_min_samples
     assert session.feedforward_pool is None  # too short to pay: solved in the thread
-    in_thread = session.feedforward
+    in_thread = studio.state.work.torques
     session.pool_min_samples = 0  # this motion now goes to the pool
     assert compute_torques(studio) is not None
     pool = session.feedforward_pool
     assert pool is not None and pool.workers >= 1
     robot, trajectory = studio.state.robot, studio.state.trajectory
     serial = torque_feedforward(robot, trajectory)
-    pooled = session.feedforward
+    pooled = studio.state.work.torques
     assert pooled is not None
     peak = max(1.0, float(np.nanmax(np.abs(serial.tau_Nm))))
     assert np.nanmax(np.abs(pooled.tau_Nm - serial.tau_Nm)) <= 1e-9 * peak
@@ -230,9 +231,9 @@ def test_the_feedforward_pool_closes_with_the_studio(tmp_path):
     try:
         studio.motions.panel.motion.value = "one_leg_stand"
         studio.motions.panel.generate.value = True
-        studio.compensation.pool_min_samples = 0
+        studio.torques.pool_min_samples = 0
         assert compute_torques(studio) is not None
-        assert studio.compensation.feedforward_pool is not None
+        assert studio.torques.feedforward_pool is not None
     finally:
         studio.stop()
-    assert studio.compensation.feedforward_pool is None
+    assert studio.torques.feedforward_pool is None

@@ -95,19 +95,19 @@ def test_one_click_plans_walks_computes_torques_and_simulates(studio):
     result stays inspectable, and each belongs to the walk just planned."""
     panel = studio.gait.panel
     simulated = wait_for_signal(
-        studio.compensation.runner.finished,
+        studio.simulation.runner.finished,
         lambda: setattr(panel.all_stages, "value", True),
     )
     assert studio.gait.results.symmetric is not None and studio.gait.walk is not None
     walk = studio.gait.walk.trajectory
     assert studio.state.trajectory is walk
-    compensation = studio.compensation
-    assert compensation.feedforward is not None
-    assert compensation.feedforward.tau_Nm.shape == (walk.n_samples, studio.state.robot.n_actuated)
-    assert compensation.prediction is not None
+    state = studio.state
+    assert state.work.torques is not None
+    assert state.work.torques.tau_Nm.shape == (walk.n_samples, studio.state.robot.n_actuated)
+    assert state.work.prediction is not None
     assert simulated.error == "" and simulated.trajectory is walk
-    assert compensation.simulation is simulated
-    assert "Simulated" in compensation.panel.verdict.content
+    assert state.work.simulation.run is simulated
+    assert "Simulated" in studio.simulation.panel.verdict.content
 
 
 def test_the_loaded_robots_default_problem_is_built_ahead_of_the_first_solve(tmp_path):
@@ -222,7 +222,7 @@ def test_a_cold_restart_shows_while_the_solve_runs(studio):
     import dataclasses
 
     from app.core.collocation.gait_problem import WARM_ITERATIONS_BEFORE_FALLBACK
-    from app.studio.gait_session import Solve
+    from app.studio.gait_text import Solve
 
     session = studio.gait
     settings = session.panel.settings(False)

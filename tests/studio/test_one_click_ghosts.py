@@ -34,7 +34,7 @@ def link_origins(ghosts, name: str, link: str) -> np.ndarray:
 
 
 def test_one_click_shows_its_stages_then_ghosts_stand_on_the_robot(studio):
-    gait, compensation = studio.gait, studio.compensation
+    gait, simulation, state = studio.gait, studio.simulation, studio.state
     seen: list[tuple[str, str, bool]] = []
 
     def record(stage: str) -> None:
@@ -42,19 +42,19 @@ def test_one_click_shows_its_stages_then_ghosts_stand_on_the_robot(studio):
         really = {
             "planning": lambda: gait.running is not None,
             "torques": lambda: (
-                compensation.feedforward is None
+                state.work.torques is None
                 and gait.walk is not None
                 and studio.state.trajectory is gait.walk.trajectory
             ),
-            "simulating": lambda: compensation.runner.running is not None,
-            "done": lambda: compensation.simulation is not None,
+            "simulating": lambda: simulation.runner.running is not None,
+            "done": lambda: state.work.simulation is not None,
         }.get(stage, lambda: False)()
         if not seen or seen[-1][0] != stage:
             seen.append((stage, studio.pipeline.line.content, really))
 
     studio.pipeline.shown.connect(record)
     simulated = wait_for_signal(
-        compensation.runner.finished, lambda: setattr(gait.panel.all_stages, "value", True)
+        simulation.runner.finished, lambda: setattr(gait.panel.all_stages, "value", True)
     )
     assert simulated.error == ""
     assert [stage for stage, _, _ in seen] == ["planning", "torques", "simulating", "done"]
@@ -66,10 +66,10 @@ def test_one_click_shows_its_stages_then_ghosts_stand_on_the_robot(studio):
 
     # Every ghost drawn on the robot: the plan exactly, the others on the plan's stance foot.
     studio.playback.player.pause()
-    for box in compensation.panel.ghosts.values():
+    for box in studio.ghosts.panel.ghosts.values():
         box.value = True
     robot, trajectory = studio.state.robot, studio.state.trajectory
-    ghosts = compensation.ghosts
+    ghosts = studio.ghosts.view
     data = robot.model.createData()
     right = stance_is_right(trajectory.contacts)
     for fraction in (0.0, 0.3, 0.55, 0.8, 1.0):
@@ -90,7 +90,7 @@ def test_one_click_shows_its_stages_then_ghosts_stand_on_the_robot(studio):
             assert np.linalg.norm(offset) < MM, (name, fraction, offset)
 
     # One figure per heading: the quick estimate in Plots, the simulation in its verdict.
-    quick, verdict = compensation.plots.info.content, compensation.panel.verdict.content
+    quick, verdict = studio.ghosts.plots.info.content, simulation.panel.verdict.content
     assert "Quick estimate" in quick and "imulat" not in quick
     assert "Simulated** (MuJoCo)" in verdict and "quick estimate" not in verdict.lower()
     for label, run in simulated.results.items():
@@ -98,5 +98,5 @@ def test_one_click_shows_its_stages_then_ghosts_stand_on_the_robot(studio):
         assert f"{label}: **{run.verdict()}**; simulated largest torso error roll {roll:.2f}°" in (
             verdict
         )
-    errors = compensation.prediction.attitude_errors_deg()
+    errors = state.work.prediction.attitude_errors_deg()
     assert f"quick estimate, compensated: roll {errors['roll_compensated']:.2f}°" in quick

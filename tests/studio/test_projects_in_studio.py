@@ -18,6 +18,7 @@ import pytest
 from app.config import StudioConfig
 from app.core.projects.display import CameraView, DisplaySettings
 from app.core.projects.files import read_project
+from app.core.servo.edits import SetBacklash, SetK
 from app.studio import Studio
 from tests.same_values import assert_same
 from tests.studio.conftest import free_port, start_studio, wait_for_signal
@@ -39,10 +40,10 @@ def _set_display(a: Studio, tab: Tab) -> None:
     """Every display setting away from its default, as a user would: toggles, the camera."""
     for name, value in (("collision", True), ("frames", True), ("com", False), ("dark", True)):
         getattr(a.robots.display, name).value = value
-    a.compensation.panel.ghosts["planned"].value = True
-    a.compensation.panel.ghosts["with"].value = False
-    a.compensation.plots.joints.value = "left leg"
-    a.compensation.plots.wide.value = True
+    a.ghosts.panel.ghosts["planned"].value = True
+    a.ghosts.panel.ghosts["with"].value = False
+    a.ghosts.plots.joints.value = "left leg"
+    a.ghosts.plots.wide.value = True
     a.playback.panel.speed.value = "0.5"
     a.playback.panel.loop.value = False
     a.playback.panel.traces.value = False
@@ -60,16 +61,16 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path, 
     a = studio
     # One click: plan a gait on servo_biped, walk it, compute torques, simulate.
     simulated = wait_for_signal(
-        a.compensation.runner.finished, lambda: setattr(a.gait.panel.all_stages, "value", True)
+        a.simulation.runner.finished, lambda: setattr(a.gait.panel.all_stages, "value", True)
     )
     assert simulated.error == "" and a.gait.results.symmetric is not None
     a.motions.capture(0.8)
     a.motions.capture(1.2)
     a.motions.rename(1, "lean")
-    joint = a.compensation.params.joint_names[3]
+    joint = a.state.work.coefficients.params.joint_names[3]
     a.compensation.select_joint(joint)
-    a.compensation.edit_joint(joint, "k", 0.9)
-    a.compensation.edit_joint(joint, "backlash", 1.5)  # the simulation is now stale
+    a.compensation.edit(SetK(joint, 0.9))
+    a.compensation.edit(SetBacklash(joint, 1.5))  # the simulation is now stale
     a.gait.panel.steps.value = 5
     _set_display(a, Tab(a, loop))
     a.playback.seek(1.3)
@@ -96,20 +97,21 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path, 
         assert sb.time_s == sa.time_s == pytest.approx(1.3, abs=sa.trajectory.dt)
         assert b.playback.panel.time.value == a.playback.panel.time.value
         assert_same(tuple(b.motions.keyframes), tuple(a.motions.keyframes), "keyframes")
-        ca, cb = a.compensation, b.compensation
-        assert_same(cb.feedforward, ca.feedforward, "feedforward")
-        assert_same(cb.params, ca.params, "compensation")
-        assert_same(cb.servo, ca.servo, "servo")
+        assert_same(sb.work.torques, sa.work.torques, "feedforward")
+        assert_same(sb.work.coefficients.params, sa.work.coefficients.params, "compensation")
+        assert_same(sb.work.coefficients.servo, sa.work.coefficients.servo, "servo")
         # The prediction is recomputed from the restored inputs: the same numbers come out.
-        assert_same(cb.prediction, ca.prediction, "prediction")
-        assert cb.ghosts is not None
-        assert_same(cb.simulation.results, ca.simulation.results, "simulation")
-        assert cb.simulation_stale and ca.simulation_stale and "Stale" in cb.panel.verdict.content
+        assert_same(sb.work.prediction, sa.work.prediction, "prediction")
+        assert b.ghosts.view is not None
+        assert_same(sb.work.simulation.run.results, sa.work.simulation.run.results, "simulation")
+        verdict = b.simulation.panel.verdict.content
+        assert sb.work.simulation.stale and sa.work.simulation.stale and "Stale" in verdict
         # The wait the user saw is kept, not "0.0 s".
-        waited = ca.simulation.waited_s
-        assert waited is not None and waited > 0 and cb.simulation.waited_s == waited
-        assert f"(MuJoCo) in {waited:.1f} s" in cb.panel.verdict.content
-        cb.select_joint(joint)
+        waited = sa.work.simulation.run.waited_s
+        assert waited is not None and waited > 0 and sb.work.simulation.run.waited_s == waited
+        assert f"(MuJoCo) in {waited:.1f} s" in verdict
+        b.compensation.select_joint(joint)
+        ca, cb = a.compensation, b.compensation
         for field in ("enabled", "k", "phi", "compliance", "backlash"):
             assert getattr(cb.panel, field).value == getattr(ca.panel, field).value, field
         for name, slider in a.joints.panel.sliders.items():
@@ -127,9 +129,9 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path, 
             _crafted(path.read_bytes(), lambda m: m["project"].pop("simulation_wall_s"))
         )
         assert b.project.open(str(older)), b.project.last_error
-        assert b.compensation.simulation.waited_s is None
-        assert "(MuJoCo) restored from the project" in b.compensation.panel.verdict.content
-        assert_same(b.compensation.simulation.results, ca.simulation.results, "simulation")
+        assert sb.work.simulation.run.waited_s is None
+        assert "(MuJoCo) restored from the project" in b.simulation.panel.verdict.content
+        assert_same(sb.work.simulation.run.results, sa.work.simulation.run.results, "simulation")
     finally:
         b.stop()
 
@@ -144,13 +146,13 @@ def _assert_display_restored(a: Studio, b: Studio, tab: Tab) -> None:
     for name in ("visual", "collision", "frames", "com", "dark"):
         assert getattr(b.robots.display, name).value == getattr(a.robots.display, name).value
     assert b.robots.display.flags() == a.robots.display.flags() != type(a.robots.display.flags())()
-    for name, box in a.compensation.panel.ghosts.items():
-        assert b.compensation.panel.ghosts[name].value == box.value, name
-    assert b.compensation.ghosts is not None
-    shown = {name: b.compensation.ghosts.shown(name) for name in b.compensation.ghosts.names}
-    assert shown == {name: box.value for name, box in a.compensation.panel.ghosts.items()}
-    assert b.compensation.plots.joints.value == "left leg"
-    assert b.compensation.plots.wide.value and b.compensation.plots.window is not None
+    for name, box in a.ghosts.panel.ghosts.items():
+        assert b.ghosts.panel.ghosts[name].value == box.value, name
+    assert b.ghosts.view is not None
+    shown = {name: b.ghosts.view.shown(name) for name in b.ghosts.view.names}
+    assert shown == {name: box.value for name, box in a.ghosts.panel.ghosts.items()}
+    assert b.ghosts.plots.joints.value == "left leg"
+    assert b.ghosts.plots.wide.value and b.ghosts.plots.window is not None
     panel = b.playback.panel
     assert (panel.speed.value, panel.speed_factor, panel.loop.value) == ("0.5", 0.5, False)
     assert not panel.traces.value and b.playback.traces is not None
@@ -255,15 +257,15 @@ def test_a_refused_project_leaves_the_work_untouched(studio, tmp_path):
     good = (tmp_path / "good.bstudio").read_bytes()
     studio.joints.set_joint_angle(0, 0.1)  # unsaved work on top
     studio.playback.panel.speed.value = "2"  # unsaved display settings on top too
-    state, motions, compensation = studio.state, studio.motions, studio.compensation
-    before = (state.loaded, state.pose, state.motion, state.time_s, compensation.params)
+    state, motions = studio.state, studio.motions
+    before = (state.loaded, state.pose, state.motion, state.time_s, state.work.coefficients)
     display = state.display
     keyframes = list(motions.keyframes)
     for case, (make, message) in BAD.items():
         assert not studio.project.open_upload(f"{case}.bstudio", make(good)), case
         assert message in studio.project.last_error, (case, studio.project.last_error)
         assert "unchanged" in studio.project.panel.status.content
-        after = (state.loaded, state.pose, state.motion, state.time_s, compensation.params)
+        after = (state.loaded, state.pose, state.motion, state.time_s, state.work.coefficients)
         assert all(x is y for x, y in zip(before, after, strict=True)), case
         assert state.display is display and studio.playback.panel.speed.value == "2", case
         assert motions.keyframes == keyframes, case

@@ -27,7 +27,7 @@ def test_export_records_what_is_shown_and_nothing_reaches_the_live_tabs(studio, 
     studio.motions.panel.motion.value = "com_shift"
     studio.motions.panel.generate.value = True
     compute_torques(studio)
-    ghosts = studio.compensation.panel.ghosts
+    ghosts = studio.ghosts.panel.ghosts
     ghosts["planned"].value = True
     ghosts["with"].value = True  # by default the plan and the command only
     ghosts["without"].value = False

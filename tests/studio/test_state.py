@@ -214,3 +214,45 @@ def test_the_display_settings_know_every_ghost_the_studio_draws():
     from app.views.ghosts_view import GHOSTS
 
     assert tuple(GHOSTS) == GHOST_NAMES
+
+
+def test_the_motions_work_belongs_to_that_motion(robots):
+    """Torques, the estimate and the simulation go with the motion they were made for: a
+    result for a motion since replaced is dropped, and a new motion starts without them."""
+    from app.core.dynamics.wbc import FeedForward
+    from app.core.servo.model import Prediction
+    from app.studio.compensation_session import default_params
+
+    robot, other = robots
+    state = StudioState()
+    state.set_robot(robot, robot_report(robot))
+    first, second = _motion(robot), _motion(robot)
+    state.set_motion(first, "first", robot)
+    torques: list = []
+    state.work.on_torques.connect(torques.append)
+    result = object.__new__(FeedForward)  # only its identity matters to the state
+    assert (
+        state.work.set_torques(result, first)
+        and state.work.torques is result
+        and torques == [result]
+    )
+    params, servo = default_params(robot)
+    state.work.set_coefficients(params, servo, "robot")
+    kept = state.work.coefficients
+    prediction = object.__new__(Prediction)
+    assert state.work.set_prediction(prediction, result, kept)
+    state.work.set_coefficients(params, servo, "edit")
+    assert not state.work.set_prediction(object.__new__(Prediction), result, kept)  # stale inputs
+    assert state.work.prediction is prediction
+
+    state.set_motion(second, "second", robot)
+    assert (state.work.torques, state.work.prediction, state.work.simulation) == (None, None, None)
+    assert not state.work.set_torques(result, first)  # computed for the motion replaced
+    assert state.work.torques is None and torques == [result]
+    assert state.work.coefficients is not None  # the coefficients belong to the robot
+
+    other_params, other_servo = default_params(other)
+    with pytest.raises(StudioError, match="another robot's joints"):
+        state.work.set_coefficients(other_params, other_servo, "sweep")
+    state.set_robot(other, robot_report(other))
+    assert state.work.coefficients is None and state.work.torques is None

@@ -128,11 +128,11 @@ def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepare
         == best.index
     )
     robot = studio.state.robot
-    compensation = studio.compensation
-    assert robot is not None and compensation.servo is not None and compensation.params
+    coefficients = studio.state.work.coefficients
+    assert robot is not None and coefficients is not None
     knees = [i for i, name in enumerate(robot.joint_names) if "knee" in name]
     (compliance,) = best.values
-    servo, params = compensation.servo, compensation.params
+    servo, params = coefficients.servo, coefficients.params
     assert servo.joint_names == robot.joint_names
     assert np.allclose(servo.compliance_deg_per_Nm[knees], compliance)
     assert np.allclose(servo.backlash_deg[knees], SERVO_PARAMETERS["dead_band_deg"].default)

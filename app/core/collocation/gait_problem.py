@@ -94,7 +94,7 @@ of locally least infeasibility (tau_max 0.1 N·m: "the settings admit no gait" i
 where a cold restart spends the rest of max_iter without a verdict)."""
 REFINE_ABOVE_KNOTS = 38
 """A first solve (no warm start) of more knots than this starts from a COARSE_KNOTS solve
-interpolated onto its mesh (app.core.collocation.refine): at 160 knots a few seconds of CPU
+interpolated onto its mesh (app.core.collocation.mesh_interpolation): at 160 knots a few seconds of CPU
 instead of minutes from the guess. Building the coarse problem costs ~1.5 s of CPU now that
 the NLP's derivatives are assembled from per-knot blocks (nlp.py), so refinement pays
 whenever the mesh is finer than the coarse one."""
@@ -429,7 +429,7 @@ class GaitProblem:
         the result says what happened, and `last_good` keeps the last converged gait.
         `iteration_callback(iteration, objective, violation)` runs at every IPOPT iteration and
         may return True to stop the solve. `start_z` (nx,) is a primal starting point given
-        directly (e.g. a coarser mesh's optimum interpolated, app.core.collocation.refine)."""
+        directly (e.g. a coarser mesh's optimum interpolated, app.core.collocation.mesh_interpolation)."""
         try:
             settings.validate()
         except GaitSettingsError as error:

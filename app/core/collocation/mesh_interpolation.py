@@ -1,5 +1,12 @@
 """Interpolation of a gait NLP's point from one mesh onto another (mesh refinement).
 
+A fine mesh solved cold spends most of its time far from the answer (at 160 knots IPOPT
+regularises the Hessian to ~1e13 and refactorises MUMPS again and again). The coarse optimum,
+interpolated onto the fine grid, starts the fine solve near its own optimum (GaitProblem.solve
+does this by itself above REFINE_ABOVE_KNOTS). The start is primal only: the coarse
+multipliers scale with the mesh (a collocation row's multiplier ~ h), so IPOPT starts its
+barrier afresh.
+
 Per mode (each mode's nodes are evenly spaced in time, virtual knots included): node blocks
 (q, v, a, u, λ) linearly in the mode's phase s ∈ [0, 1] at the nodes; interval blocks (γ, λ̄)
 at the interval midpoints; the per-gait blocks (touch-down impulses, foothold slack or x1,

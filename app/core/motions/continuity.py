@@ -11,7 +11,10 @@ exceeds its limit, the whole step is scaled down uniformly:
 where v_max,j is the joint's URDF velocity limit [rad/s or m/s], or DEFAULT_SPEED_LIMIT when
 the URDF gives none. Scaling every joint (and the base) by the same α keeps the motion's
 direction: a foot that stands still at both ends moves only to second order in α·δ, where
-clipping joints one by one would drag it. The next sample is warm-started from the scaled
+clipping joints one by one would drag it. The same second-order term opens a closed kinematic
+loop (the hybrid leg's four-bars: 2e-5 m on `step_in_place`), so on a robot with loops the
+passive joints of the scaled pose are solved again (`close_loops`; actuated joints and base
+untouched, so the speed limits still hold). The next sample is warm-started from the scaled
 pose, so the IK catches up over the following samples. Every scaled sample is flagged (a
 SampleWarning starting with JUMP_PREFIX): its targets were missed on purpose, and its torques
 are excluded from peaks.
@@ -24,6 +27,7 @@ import weakref
 import numpy as np
 import pinocchio as pin
 
+from app.core.robot.loops import close_loops
 from app.core.robot.model import RobotModel
 
 DEFAULT_SPEED_LIMIT = 10.0
@@ -80,4 +84,7 @@ def limit_joint_steps(
         f"sample, its speed limit allows {limits[worst] * scale:.2g}{unit}; the step was "
         "scaled to the limit"
     )
-    return pin.integrate(robot.model, q_prev, alpha * delta), message
+    q = pin.integrate(robot.model, q_prev, alpha * delta)
+    if robot.tree.loops:
+        q = close_loops(robot, q, robot.model.createData()).q
+    return q, message

@@ -23,7 +23,7 @@ previous keyframe. `interpolate` samples the motion every dt seconds:
   corner is within CONTACT_BAND_M of the ground (z = 0);
 - no joint moves further in one sample than its speed limit allows: a larger IK step is
   scaled down and the sample flagged (app.core.motions.continuity);
-- v and a come from app.core.trajectory.from_configurations (finite differences on the
+- v and a come from app.core.motions.trajectory.from_configurations (finite differences on the
   configuration manifold, as the spring-compensation paper does, eqs. 19–22).
 
 IK shortfalls (a target out of reach, the CoM outside the support polygon) do not stop the

@@ -131,3 +131,17 @@ def from_configurations(
         a=a,
         contacts=np.asarray(contacts, dtype=bool).reshape(n, 2),
     )
+
+
+def repeated(trajectory: Trajectory, times: int) -> Trajectory:
+    """The motion played `times` over back to back (a long motion made from a short one)."""
+    n = trajectory.n_samples * times
+    return dataclasses.replace(
+        trajectory,
+        name=f"{trajectory.name} ×{times}",
+        t=np.arange(n) * trajectory.dt,
+        q=np.tile(trajectory.q, (times, 1)),
+        v=np.tile(trajectory.v, (times, 1)),
+        a=np.tile(trajectory.a, (times, 1)),
+        contacts=np.tile(trajectory.contacts, (times, 1)),
+    )

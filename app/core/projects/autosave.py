@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import contextlib
 import re
+from collections.abc import Callable
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
+from typing import IO
 
-from app.core.atomic_write import write_bytes_atomically
+from app.core.atomic_write import write_binary_atomically, write_bytes_atomically
 from app.core.projects.codec import ProjectError
 from app.core.projects.files import SUFFIX
 
@@ -38,8 +40,11 @@ class AutosaveStore:
         saves = self.saves()
         return saves[-1] if saves else None
 
-    def write(self, data: bytes, now: datetime | None = None) -> Path:
-        """Store one autosave; ProjectError (and nothing removed) if it cannot be written."""
+    def write(
+        self, data: bytes | Callable[[IO[bytes]], object], now: datetime | None = None
+    ) -> Path:
+        """Store one autosave, its bytes or what `data(file)` writes to the file;
+        ProjectError (and nothing removed) if it cannot be written."""
         stamp = (now or datetime.now(UTC)).strftime("%Y%m%dT%H%M%S-%fZ")
         path = self.folder / f"autosave-{stamp}{SUFFIX}"
         existing = self.saves()
@@ -49,7 +54,10 @@ class AutosaveStore:
             self.folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise ProjectError(f"cannot create {self.folder}: {exc.strerror or exc}") from None
-        write_bytes_atomically(path, data, ProjectError)
+        if isinstance(data, bytes):
+            write_bytes_atomically(path, data, ProjectError)
+        else:
+            write_binary_atomically(path, data, ProjectError)
         for old in self.saves()[: -self.keep]:
             with contextlib.suppress(OSError):
                 old.unlink()

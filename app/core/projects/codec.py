@@ -124,9 +124,12 @@ def _entry(where: str) -> str:
 
 @dataclasses.dataclass(frozen=True)
 class Reader:
-    """Decodes JSON by declared types; `blob(name)` returns the bytes of a zip entry."""
+    """Decodes JSON by declared types; `blob(name)` returns the bytes of a zip entry,
+    `array(name, where)` (when given) the array of an `.npy` entry read straight into its own
+    memory (else `read_npy` of its bytes)."""
 
     blob: typing.Callable[[str], bytes]
+    array: typing.Callable[[str, str], np.ndarray] | None = None
 
     def decode(self, tp: Any, data: Json, where: str, owner: str = "") -> Any:
         """A value of type `tp` from `data`; `owner` is "Class.field" for the finite check."""
@@ -236,24 +239,43 @@ class Reader:
         return data[key]
 
     def _array(self, data: Json, where: str, owner: str) -> np.ndarray:
-        raw = self.blob(self._entry_of(data, "array", where))
-        array = read_npy(raw, where)
-        if array.dtype.kind not in "fiub":
-            raise ProjectError(f"{where}: an array of numbers or booleans is needed")
-        if (
-            array.dtype.kind == "f"
-            and owner not in NONFINITE_FIELDS
-            and not np.all(np.isfinite(array))
-        ):
+        entry = self._entry_of(data, "array", where)
+        array = self.array(entry, where) if self.array else read_npy(self.blob(entry), where)
+        if array.dtype.kind == "f" and owner not in NONFINITE_FIELDS and not all_finite(array):
             raise ProjectError(f"{where} contains NaN or infinite values; give finite numbers")
         return array
 
 
+FINITE_CHECK_CHUNK = 1 << 20
+"""Values checked at a time by `all_finite` (its temporary is this many booleans)."""
+
+
+def all_finite(array: np.ndarray) -> bool:
+    """np.all(np.isfinite(array)) without a temporary of the array's size."""
+    flat = array.reshape(-1, order="A")  # a view of a contiguous array
+    return all(
+        bool(np.isfinite(flat[i : i + FINITE_CHECK_CHUNK]).all())
+        for i in range(0, flat.size, FINITE_CHECK_CHUNK)
+    )
+
+
+READ_CHUNK_BYTES = 4 << 20
+"""Bytes copied at a time from an entry into its array."""
+
+
 def read_npy(raw: bytes, where: str) -> np.ndarray:
-    """The array of an `.npy` entry, its header checked against its bytes *before* anything is
-    allocated: a header that declares a huge shape (np.load would allocate it first and fail
-    with MemoryError) or a byte count that does not match is refused with one line."""
-    stream = io.BytesIO(raw)
+    """The array of an `.npy` entry's bytes (see `read_npy_stream`)."""
+    return read_npy_stream(io.BytesIO(raw), len(raw), where)
+
+
+def read_npy_stream(stream: typing.Any, size: int, where: str) -> np.ndarray:
+    """The array of an `.npy` entry of `size` bytes read from `stream` (a binary file object
+    with read, readinto and tell: a zip entry, a BytesIO), its header checked
+    against that size *before* anything is allocated (a header that declares a huge shape, a
+    byte count that does not match, objects or a dtype that is not numbers or booleans are
+    refused with one line), then read straight into the array's own memory in chunks: the
+    array is the only copy (a Fortran-order one, which this studio never writes, is made
+    C-contiguous: one copy more)."""
     try:
         version = np.lib.format.read_magic(stream)
         if version == (1, 0):
@@ -262,19 +284,29 @@ def read_npy(raw: bytes, where: str) -> np.ndarray:
             shape, fortran, dtype = np.lib.format.read_array_header_2_0(stream)
         else:
             raise ValueError(f".npy format version {version[0]}.{version[1]} is not read")
+        body_bytes = size - stream.tell()
     except (ValueError, OSError, EOFError, SyntaxError) as error:
         raise ProjectError(f"{where}: not a readable array ({error})") from None
     if dtype.hasobject:
         raise ProjectError(f"{where}: not a readable array (it holds Python objects)")
+    if dtype.kind not in "fiub":
+        raise ProjectError(f"{where}: an array of numbers or booleans is needed")
     count = math.prod(shape)
-    body = memoryview(raw)[stream.tell() :]
-    if count * dtype.itemsize != len(body):
+    if count * dtype.itemsize != body_bytes:
         raise ProjectError(
             f"{where}: its header declares shape {tuple(shape)} of {dtype} "
-            f"({count * dtype.itemsize} bytes) but the entry holds {len(body)} bytes"
+            f"({count * dtype.itemsize} bytes) but the entry holds {body_bytes} bytes"
         )
-    flat = np.frombuffer(body, dtype=dtype, count=count)
-    return flat.reshape(shape, order="F" if fortran else "C").copy(order="C")
+    flat = np.empty(count, dtype=dtype)
+    target = flat.view(np.uint8).data
+    filled = 0
+    while filled < body_bytes:
+        got = stream.readinto(target[filled : filled + READ_CHUNK_BYTES])
+        if not got:
+            raise ProjectError(f"{where}: the entry ends before its {body_bytes} bytes")
+        filled += got
+    array = flat.reshape(shape, order="F" if fortran else "C")
+    return np.ascontiguousarray(array) if fortran and array.ndim > 1 else array
 
 
 def _show(data: Json) -> str:

@@ -8,8 +8,11 @@ named like an entry this module writes, so no path can point anywhere; no encryp
 compression; ≤ MAX_UNPACKED_BYTES unpacked); the manifest must be JSON without NaN, of this
 format, of a version this studio reads; then every value is decoded by its declared type
 (app.core.projects.codec) and every entry read is checked against the size its header states.
-Writing builds the whole archive in memory and replaces the target atomically (temporary file,
-fsync, rename), so an interrupted save leaves the previous file as it was.
+Writing streams the archive entry by entry into a temporary file beside the target and then
+replaces the target atomically (fsync, rename), so an interrupted save leaves the previous file
+as it was. Reading a file takes only the parts it needs from it (the directory, the manifest,
+each entry), and each array goes straight from its entry into its own memory: a project's
+arrays are held once, never as bytes and again as arrays.
 """
 
 from __future__ import annotations
@@ -21,13 +24,20 @@ import re
 import zipfile
 import zlib
 from datetime import UTC, datetime
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 
 from app.core import input_gate
-from app.core.atomic_write import write_bytes_atomically
-from app.core.projects.codec import Blob, JsonConstant, ProjectError, Reader, encode
+from app.core.atomic_write import write_binary_atomically
+from app.core.projects.codec import (
+    Blob,
+    JsonConstant,
+    ProjectError,
+    Reader,
+    encode,
+    read_npy_stream,
+)
 from app.core.projects.project import Project
 from app.core.robot.uploads import SUPPORTED_COMPRESSION
 
@@ -47,21 +57,27 @@ _ZIP_FAILURES = (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, EOFError,
 
 def project_bytes(project: Project) -> bytes:
     """The .bstudio archive of `project` (stamped with the time of the call)."""
+    buffer = io.BytesIO()
+    write_project(buffer, project)
+    return buffer.getvalue()
+
+
+def write_project(file: IO[bytes], project: Project) -> None:
+    """Write the .bstudio archive of `project` (stamped with the time of the call) to a
+    seekable binary `file`, entry by entry: each array goes out in numpy's chunks, so no
+    copy of it is made in memory."""
     stamped = Project(**{**_fields(project), "saved_at": datetime.now(UTC).isoformat()})
     blobs: dict[str, Blob] = {}
     manifest = {"format": FORMAT, "version": VERSION, "project": encode(stamped, "project", blobs)}
-    buffer = io.BytesIO()
-    with zipfile.ZipFile(buffer, "w") as archive:
+    with zipfile.ZipFile(file, "w") as archive:
         text = json.dumps(manifest, allow_nan=False, separators=(",", ":"))
         archive.writestr("manifest.json", text, zipfile.ZIP_DEFLATED)
         for name, blob in blobs.items():
             if isinstance(blob, bytes):
                 archive.writestr(name, blob, zipfile.ZIP_STORED)
             else:
-                npy = io.BytesIO()
-                np.save(npy, np.ascontiguousarray(blob), allow_pickle=False)
-                archive.writestr(name, npy.getbuffer(), zipfile.ZIP_STORED)
-    return buffer.getvalue()
+                with archive.open(name, "w", force_zip64=blob.nbytes > 1 << 30) as entry:
+                    np.save(entry, np.ascontiguousarray(blob), allow_pickle=False)
 
 
 def _fields(project: Project) -> dict[str, Any]:
@@ -70,13 +86,16 @@ def _fields(project: Project) -> dict[str, Any]:
 
 def save_project(path: str | os.PathLike[str], project: Project) -> None:
     """Write `project` to `path` atomically; ProjectError if it cannot be written."""
-    write_bytes_atomically(path, project_bytes(project), ProjectError)
+    write_binary_atomically(path, lambda file: write_project(file, project), ProjectError)
 
 
 def read_project(path: str | os.PathLike[str]) -> Project:
-    """The project in a .bstudio file, checked as described in the module docstring."""
-    data = input_gate.read_bytes(path, PROJECT_FILE, ProjectError)
-    return parse_project(data, os.path.basename(os.fspath(path)))
+    """The project in a .bstudio file, checked as described in the module docstring. The file
+    is not read whole: its directory, manifest and entries are read from it as they are
+    needed, each array straight into its own memory."""
+    name = os.path.basename(os.fspath(path))
+    with input_gate.open_binary(path, PROJECT_FILE, ProjectError) as file:
+        return _parse(file, name)
 
 
 def parse_project(data: bytes, name: str) -> Project:
@@ -85,8 +104,12 @@ def parse_project(data: bytes, name: str) -> Project:
         raise ProjectError(
             f"{name} is over {PROJECT_FILE.max_bytes // input_gate.MiB} MiB; refused"
         )
+    return _parse(io.BytesIO(data), name)
+
+
+def _parse(file: IO[bytes], name: str) -> Project:
     try:
-        archive = zipfile.ZipFile(io.BytesIO(data))
+        archive = zipfile.ZipFile(file)
     except _ZIP_FAILURES as error:
         raise ProjectError(
             f"{name}: not a project file (not a valid zip archive: {error})"
@@ -96,18 +119,24 @@ def parse_project(data: bytes, name: str) -> Project:
         if "manifest.json" not in entries:
             raise ProjectError(f"{name}: not a project file (no manifest.json inside)")
 
-        def blob(entry: str) -> bytes:
+        def info_of(entry: str) -> zipfile.ZipInfo:
             if entry not in entries or entry == "manifest.json":
                 raise ProjectError(
                     f"{name}: the manifest refers to {entry[:80]!r}, which is not in the file"
                 )
-            return _read_entry(name, archive, entries[entry])
+            return entries[entry]
+
+        def blob(entry: str) -> bytes:
+            return _read_entry(name, archive, info_of(entry))
+
+        def array(entry: str, where: str) -> np.ndarray:
+            return _read_array(name, archive, info_of(entry), where)
 
         manifest = _manifest(
             name, blob_of=lambda: _read_entry(name, archive, entries["manifest.json"])
         )
         try:
-            project = Reader(blob).decode(Project, manifest["project"], "project")
+            project = Reader(blob, array).decode(Project, manifest["project"], "project")
         except RecursionError:
             raise ProjectError(f"{name}: the manifest is nested too deeply") from None
     assert isinstance(project, Project)
@@ -157,6 +186,26 @@ def _read_entry(name: str, archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> b
             f"{name}: entry {info.filename!r} does not hold the size its header says; refused"
         )
     return data
+
+
+def _read_array(
+    name: str, archive: zipfile.ZipFile, info: zipfile.ZipInfo, where: str
+) -> np.ndarray:
+    """The array of an `.npy` entry, streamed from the archive into its own memory after its
+    header is checked against the entry's size (codec.read_npy_stream)."""
+    if info.file_size > MAX_UNPACKED_BYTES:
+        raise ProjectError(f"{name}: entry {info.filename!r} is too large; refused")
+    try:
+        with archive.open(info) as source:
+            array = read_npy_stream(source, info.file_size, where)
+            if source.read(1):
+                raise ProjectError(
+                    f"{name}: entry {info.filename!r} does not hold the size its header says; "
+                    "refused"
+                )
+    except _ZIP_FAILURES as error:
+        raise ProjectError(f"{name}: damaged file ({info.filename}: {error})") from None
+    return array
 
 
 def _manifest(name: str, blob_of) -> dict[str, Any]:

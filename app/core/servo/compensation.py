@@ -13,7 +13,7 @@ N·m (Tables 2 and 3) and φ in degrees (8°, found by trial); this module takes
 units and converts inside, so joint angles are always radians.
 
 The paper's coefficients (Tables 2 and 3) and its servo numbering live in
-app.core.servo.presets; coefficient and torque files in app.core.compensation_files.
+app.core.servo.presets; coefficient and torque files in app.core.servo.files.
 
 Pure numpy: no pinocchio, no GUI.
 """

@@ -173,7 +173,7 @@ def with_joint_angles(robot: RobotModel, q: np.ndarray, angles: np.ndarray) -> n
 def stance_is_right(contacts: np.ndarray) -> np.ndarray:
     """Per sample, whether the robot stands on its right foot, shape (T,) bool: only when the
     right foot alone is in contact. Double support and flight use the left foot, as
-    `app.core.stance.stance_link` does (the plan holds both feet, so either would do while
+    `app.core.posing.stance.stance_link` does (the plan holds both feet, so either would do while
     the joints are exact; with deflected joints the left foot is kept and the right one may
     float or sink by the difference)."""
     contacts = np.asarray(contacts, dtype=bool)

@@ -146,7 +146,7 @@ def paper_table2_preset(robot: RobotModel) -> CompensationParams:
     """Table 2 on the robot: the standing k of all 12 leg servos, eq 7, no clearance.
 
     Each printed k is checked against its own row, (q_des − q)/τ, allowing for the rounding of
-    the printed digits (`app.core.calibration.check_table2`); where they disagree (servo 11,
+    the printed digits (`app.core.servo.calibration.check_table2`); where they disagree (servo 11,
     printed −722.91, ten times its row's −72.29) the row's value is used and a note says so.
     """
     from app.core.servo.calibration import check_table2

@@ -10,7 +10,8 @@ can run in a worker process without pinocchio. Sequence:
    (Δt_cmd / Δt_physics servo ticks, `servo_law`), or, with `linear_hold`, ramped to
    command k + 1 (a stiff servo turns a held 100 Hz staircase into torque spikes);
 3. at every recorded sample the fall verdict is checked: a non-foot body's origin within
-   `NON_FOOT_CLEARANCE_M` of the floor or a non-sole geom touching it, the torso's roll or
+   `NON_FOOT_CLEARANCE_M` of the floor or a non-sole geom touching it (the link is named), the
+   torso's roll or
    pitch more than `FALL_TILT_DEG` away from the plan's, or the root below
    `FALL_HEIGHT_FRACTION` of its planned height. After a fall the simulation goes on for
    `POST_FALL_S` and stops; later samples repeat the last state.
@@ -38,7 +39,6 @@ NON_FOOT_CLEARANCE_M = 0.005
 POST_FALL_S = 0.5
 MAX_SPEED = 1e3
 """Any generalised speed beyond this [m/s or rad/s] is a blown-up simulation."""
-CONTACT_FORCE_MIN_N = 1e-6
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -77,6 +77,8 @@ class EngineRun:
     """Floor force on each sole, world frame (T, 2, 3)."""
     sole_position_m: np.ndarray
     """Sole centres in the world (T, 2, 3)."""
+    root_position_m: np.ndarray
+    """The root body's origin in the world (T, 3) [m], MuJoCo's `xpos`."""
     non_foot_contact: np.ndarray
     """(T,) bool."""
     fall_index: int
@@ -176,6 +178,12 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
         if int(m.geom_bodyid[g]) in side_of_body
     }
     non_foot = np.array([b for b in range(1, m.nbody) if b not in foot_bodies], dtype=int)
+    link_of = dict(sim.body_links)
+
+    def link_name(body: int) -> str:
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
+        return link_of.get(name, name)
+
     aq, av = sim.actuated_qpos, sim.actuated_dof
     commands = np.asarray(inp.q_cmd_rad, dtype=float)
     n_samples, n = commands.shape
@@ -206,6 +214,7 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
     out_qj, out_tau = np.zeros((n_samples, n)), np.zeros((n_samples, n))
     roll, pitch = np.zeros(n_samples), np.zeros(n_samples)
     forces, sole_pos = np.zeros((n_samples, 2, 3)), np.zeros((n_samples, 2, 3))
+    root_pos = np.zeros((n_samples, 3))
     touching = np.zeros(n_samples, dtype=bool)
     fall_index, reason, stop_index = -1, "", n_samples
     every = max(1, n_samples // 50)
@@ -222,6 +231,8 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
         pitch[k] = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
         for side in (0, 1):
             sole_pos[k, side] = d.site_xpos[sites[side]]
+        root_pos[k] = d.xpos[root]
+        touched = ""
         for c in range(d.ncon):
             contact = d.contact[c]
             pair = (int(contact.geom1), int(contact.geom2))
@@ -231,14 +242,16 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
             foot = side_of_geom.get(other)
             if foot is None:
                 touching[k] = True
+                touched = touched or link_name(int(m.geom_bodyid[other]))
                 continue
             mujoco.mj_contactForce(m, d, c, force6)
             world = contact.frame.reshape(3, 3).T @ force6[:3]
             forces[k, foot] += world if pair[0] == floor else -world
         if non_foot.size and d.xpos[non_foot, 2].min() < NON_FOOT_CLEARANCE_M:
             touching[k] = True
+            touched = touched or link_name(int(non_foot[np.argmin(d.xpos[non_foot, 2])]))
         if fall_index < 0 and inp.detect_falls:
-            reason = _fall_reason(inp, k, roll[k], pitch[k], d.xpos[root, 2], touching[k], sim)
+            reason = _fall_reason(inp, k, roll[k], pitch[k], d.xpos[root, 2], touched, sim)
             if reason:
                 fall_index = k
                 if k == 0:
@@ -259,7 +272,7 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
                 tick()
         out_tau[k] = servo.tau
     last = k
-    for array in (out_q, out_v, out_qj, out_tau, roll, pitch, forces, sole_pos, touching):
+    for array in (out_q, out_v, out_qj, out_tau, roll, pitch, forces, sole_pos, root_pos, touching):
         array[last + 1 :] = array[last]
     if progress is not None:
         progress(1.0)
@@ -272,6 +285,7 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
         pitch_rad=pitch,
         contact_force_N=forces,
         sole_position_m=sole_pos,
+        root_position_m=root_pos,
         non_foot_contact=touching,
         fall_index=fall_index,
         fall_reason=reason,
@@ -305,10 +319,12 @@ def _check(d, m, t_s: float) -> None:
 
 
 def _fall_reason(
-    inp: EngineInput, k: int, roll: float, pitch: float, z: float, touching: bool, sim: SimModel
+    inp: EngineInput, k: int, roll: float, pitch: float, z: float, touched: str, sim: SimModel
 ) -> str:
-    if touching:
-        return "a link other than the feet touches the floor"
+    """Why sample k has fallen ("" if it has not); `touched`: the first non-foot link found
+    on the floor at k ("" if none)."""
+    if touched:
+        return f"the link {touched} touches the floor"
     if not sim.floating_base:
         return ""
     for label, actual, planned in (

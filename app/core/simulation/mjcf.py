@@ -298,6 +298,10 @@ def _index(robot: RobotModel, xml: str, names: list[str], notes: tuple[str, ...]
         subtree(model.frames[robot.link_frame_ids[foot.link]].parentJoint) for foot in robot.feet
     )
     root_jid = 1 if robot.floating_base else 0
+    link_of_joint: dict[int, str] = {}
+    for frame in model.frames:  # a joint's child link is the first body frame it carries
+        if frame.type == pin.FrameType.BODY and frame.parentJoint not in link_of_joint:
+            link_of_joint[frame.parentJoint] = frame.name
     return SimModel(
         robot_name=robot.name,
         xml=xml,
@@ -315,4 +319,9 @@ def _index(robot: RobotModel, xml: str, names: list[str], notes: tuple[str, ...]
         foot_bodies=(feet[0], feet[1]),
         root_body=names[root_jid] if root_jid else "world",
         notes=notes,
+        body_links=tuple(
+            (names[jid], link_of_joint[jid])
+            for jid in range(1, model.njoints)
+            if jid in link_of_joint
+        ),
     )

@@ -1,4 +1,5 @@
-"""What a simulation run gives: the motion as the physics played it, and a verdict."""
+"""What a simulation run gives: the motion as the physics played it, and a verdict
+(`verdicts.Verdict`: stays up, leans on the lifted foot, slips, falls; how far it travelled)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import math
 import numpy as np
 
 from app.core.simulation.part_law import PartEnergy
+from app.core.simulation.verdicts import Verdict
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -55,6 +57,12 @@ class SimulationResult:
     notes: tuple[str, ...] = ()
     energy: PartEnergy | None = None
     """Per-joint electrical energy, with servo parts (`part_law`); None with virtual servos."""
+    root_position_m: np.ndarray | None = None
+    """The root body's origin in the world [m], shape (T, 3), MuJoCo's own `xpos` (None in
+    projects saved before it was kept)."""
+    outcome: Verdict | None = None
+    """What the run did, with its numbers (`verdict()` is its one line); None in projects
+    saved before verdicts had names (`verdict()` then gives the fall test's line)."""
 
     @property
     def roll_error_deg(self) -> np.ndarray:
@@ -65,7 +73,10 @@ class SimulationResult:
         return np.degrees(self.pitch_rad - self.pitch_planned_rad)
 
     def verdict(self) -> str:
-        """One line: "stays up" or "falls at 3.42 s (reason)"."""
+        """One line: "stays up", "leans on the lifted foot: …", "slips: …" or "falls at 3.42 s
+        (reason)", then what else happened (app.core.simulation.verdicts)."""
+        if self.outcome is not None:
+            return self.outcome.text
         if not self.fell:
             return "stays up"
         return f"falls at {self.fall_time_s:.2f} s ({self.fall_reason})"
@@ -78,7 +89,7 @@ class SimulationResult:
             "fell": self.fell,
             "fall_time_s": self.fall_time_s,
             "fall_reason": self.fall_reason or None,
-            "verdict": self.verdict(),
+            **({"verdict": self.verdict()} if self.outcome is None else self.outcome.summary()),
             "max_abs_roll_deg": math.degrees(float(np.max(np.abs(self.roll_rad[shown])))),
             "max_abs_pitch_deg": math.degrees(float(np.max(np.abs(self.pitch_rad[shown])))),
             "max_roll_error_deg": float(np.max(np.abs(self.roll_error_deg[shown]))),

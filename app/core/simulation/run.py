@@ -26,6 +26,11 @@ from app.core.simulation.mjcf import SimOptions, build_sim_model
 from app.core.simulation.result import SimulationResult, slip_m
 from app.core.simulation.servo_law import ServoLaw, servo_law
 from app.core.simulation.sim_model import SimModel
+from app.core.simulation.verdicts import judge
+
+GRAVITY_MPS2 = 9.81
+CONTACT_LOAD_FRACTION = 0.02
+"""A sole carrying more than this fraction of the weight is in contact (slip anchors)."""
 
 SETTLE_S = 1.0
 """The first command is held this long before the motion starts [s]."""
@@ -133,6 +138,21 @@ def _root_height_above_soles(robot: RobotModel, trajectory: Trajectory) -> np.nd
     return out
 
 
+def planned_sole_centres(robot: RobotModel, trajectory: Trajectory) -> np.ndarray:
+    """The plan's (left, right) sole centres in the world [m], shape (T, 2, 3): the mean of
+    each sole's corners (where the simulation's sole-centre sites are)."""
+    model, data = robot.model, robot.model.createData()
+    feet = sorted(robot.feet, key=lambda foot: foot.side != "left")
+    frames = [robot.link_frame_ids[foot.link] for foot in feet]
+    centres = [foot.sole_corners_m.mean(axis=0) for foot in feet]
+    out = np.empty((trajectory.n_samples, 2, 3))
+    for k, q in enumerate(trajectory.q):
+        pin.framesForwardKinematics(model, data, q)
+        for i, (frame, centre) in enumerate(zip(frames, centres, strict=True)):
+            out[k, i] = data.oMf[frame].act(centre)
+    return out
+
+
 def finish(
     robot: RobotModel, trajectory: Trajectory, inp: EngineInput, run: EngineRun, label: str
 ) -> SimulationResult:
@@ -140,8 +160,23 @@ def finish(
     q_plan = joint_angles(robot, trajectory.q)
     done = run.n_simulated
     error = run.q_joints_rad[:done] - q_plan[:done]
-    contact = np.linalg.norm(run.contact_force_N, axis=2) > 0.02 * robot.mass_kg * 9.81
+    weight_N = robot.mass_kg * GRAVITY_MPS2
+    contact = np.linalg.norm(run.contact_force_N, axis=2) > CONTACT_LOAD_FRACTION * weight_N
+    slips = slip_m(run.sole_position_m, contact)
     fell = run.fall_index >= 0
+    outcome = judge(
+        trajectory.t,
+        trajectory.contacts,
+        run.contact_force_N,
+        weight_N,
+        slips,
+        run.sole_position_m[:, :, :2],
+        planned_sole_centres(robot, trajectory)[:, :, :2],
+        run.root_position_m[:, :2],
+        trajectory.q[:, :2],
+        run.fall_index,
+        run.fall_reason,
+    )
     simulated_s = (done - 1) * trajectory.dt + inp.settle_s
     return SimulationResult(
         label=label,
@@ -159,7 +194,9 @@ def finish(
         pitch_planned_rad=inp.pitch_planned_rad,
         contact_force_N=run.contact_force_N,
         sole_position_m=run.sole_position_m,
-        slip_m=slip_m(run.sole_position_m, contact),
+        slip_m=slips,
+        root_position_m=run.root_position_m,
+        outcome=outcome,
         fell=fell,
         fall_time_s=float(trajectory.t[run.fall_index]) if fell else None,
         fall_reason=run.fall_reason,

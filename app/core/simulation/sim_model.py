@@ -40,3 +40,5 @@ class SimModel:
     """MuJoCo bodies that belong to the (left, right) foot (its body and what hangs below)."""
     root_body: str
     notes: tuple[str, ...] = ()
+    body_links: tuple[tuple[str, str], ...] = ()
+    """(MuJoCo body name, the URDF link it carries) pairs, to name a link on the floor."""

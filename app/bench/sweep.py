@@ -1,4 +1,5 @@
-"""`biped-studio bench --sweep`: gait points per second on 1 worker and on every local core.
+"""Bench entry of the sweep (`biped-studio bench --sweep`): gait points per second on 1 worker
+and on every local core.
 
 Both runs solve the same points on a fresh LocalCluster, in the same bench run: first one point
 per worker (each builds its NLP: the time to the first result, cluster start included), then the
@@ -29,10 +30,14 @@ import tempfile
 import threading
 import time
 from pathlib import Path
-from typing import Any
 
+from app.bench.registry import BenchContext, bench_entry, free_port
+from app.bench.report import Figure
+from app.bench.timing import stopwatch, timed
+from app.config import StudioConfig
 from app.core.sweeps.sampling import SweepPoint, sweep_points
 from app.core.sweeps.spec import SweepSpec
+from app.studio import Studio
 from app.sweep_engine import SweepEngine, local_cores
 from panels.quiet import set_value
 
@@ -125,23 +130,16 @@ def bench_sweep(points: int = 40) -> dict:
     }
 
 
-def _studio(prepare: bool, data_dir: Path) -> tuple[Any, float]:
+def _studio(prepare: bool, data_dir: Path) -> tuple[Studio, float]:
     """A studio on a free port (with or without the sweep workers prepared when its robot
     loads) and the seconds its start took."""
-    import socket
-
-    from app.config import StudioConfig
-    from app.studio import Studio
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = int(s.getsockname()[1])
-    start = time.perf_counter()
-    studio = Studio(StudioConfig(port=port, data_dir=data_dir, prepare_sweep=prepare))
-    return studio, time.perf_counter() - start
+    config = StudioConfig(port=free_port(), data_dir=data_dir, prepare_sweep=prepare)
+    with stopwatch() as lap:
+        studio = Studio(config)
+    return studio, lap.wall_s
 
 
-def _first_result_s(studio: Any) -> float:
+def _first_result_s(studio: Studio) -> float:
     """Press Run sweep on the panel's default (gait) sweep of STUDIO_SAMPLES points; seconds to
     its first result on the panel."""
     session, panel = studio.sweep, studio.sweep.panel
@@ -150,10 +148,10 @@ def _first_result_s(studio: Any) -> float:
     off = session.on_result.connect(lambda _result: first.set())
     off_done = session.on_sweep_done.connect(lambda _outcome: done.set())
     try:
-        begin = time.perf_counter()
-        set_value(panel.run_button, True)
-        first.wait()
-        seconds = time.perf_counter() - begin
+        with stopwatch() as lap:
+            set_value(panel.run_button, True)
+            first.wait()
+        seconds = lap.wall_s
         done.wait()
     finally:
         off()
@@ -171,19 +169,17 @@ def bench_studio_first_result() -> dict:
         warm.stop()
         plain, plain_start_s = _studio(False, Path(folder) / "plain")
         try:
-            begin = time.perf_counter()
-            plain.robots.load("dircon_biped")
-            plain_load_s = time.perf_counter() - begin
+            (plain_load_s,) = timed(lambda: plain.robots.load("dircon_biped"), 1)
             unprepared_s = _first_result_s(plain)
         finally:
             plain.stop()
         prepared, prepared_start_s = _studio(True, Path(folder) / "prepared")
         try:
-            begin = time.perf_counter()
-            prepared.robots.load("dircon_biped")  # while the workers start and build
-            prepared_load_s = time.perf_counter() - begin
-            prepared.sweep.prepared.wait()
-            prepare_s = time.perf_counter() - begin
+            with stopwatch() as preparing:
+                # the load runs while the workers start and build
+                (prepared_load_s,) = timed(lambda: prepared.robots.load("dircon_biped"), 1)
+                prepared.sweep.prepared.wait()
+            prepare_s = preparing.wall_s
             prepared_first_s = _first_result_s(prepared)
         finally:
             prepared.stop()
@@ -197,3 +193,48 @@ def bench_studio_first_result() -> dict:
         "load_while_preparing_s": prepared_load_s,
         "load_unprepared_s": plain_load_s,
     }
+
+
+@bench_entry("sweep")
+def _entry_sweep(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = bench_sweep()
+    row["studio"] = studio = bench_studio_first_result()
+    one, many = row["one_worker"], row["all_cores"]
+    return row, [
+        Figure(
+            f"sweep, dircon_biped gait points ({row['knots']} knots), time per point on "
+            f"{row['cores']} workers",
+            1.0 / many["points_per_s"],
+            "s",
+            f"scaling ≥ {row['scaling_target']:.1f}×",
+            row["scaling"] >= row["scaling_target"],
+            1.0 / one["points_per_s"],
+            "the same points on 1 worker",
+            f"scaling {row['scaling']:.2f}×; 200 points ≈ {row['sweep_200_estimate_s']:.0f} s "
+            f"(target ≤ {SWEEP_200_TARGET_S:.0f} s); workers got {many['busy_cores']:.2f} of "
+            f"{row['cores']} cores (CPU s / wall s), {one['busy_cores']:.2f} of 1; with a core "
+            f"each: {row['cpu_scaling']:.2f}×",
+        ),
+        ctx.beside_reference(
+            "sweep, first result after start (cluster start and NLP build included)",
+            many["first_result_s"],
+            "s",
+            f"≤ {FIRST_RESULT_TARGET_S:.0f} s",
+            many["first_result_s"] <= FIRST_RESULT_TARGET_S,
+            f"cluster start {many['cluster_start_s']:.1f} s, NLP build + anchor solve "
+            f"{many['first_build_s']:.1f} s, the point's solve {many['first_solve_s']:.1f} s",
+        ),
+        Figure(
+            "sweep in the studio, Run → first result (workers prepared when the robot loaded)",
+            studio["prepared_first_result_s"],
+            "s",
+            f"≤ {FIRST_RESULT_TARGET_S:.0f} s",
+            studio["prepared_first_result_s"] <= FIRST_RESULT_TARGET_S,
+            studio["unprepared_first_result_s"],
+            "the same Run in a studio that starts its workers on Run",
+            f"preparing took {studio['prepare_s']:.1f} s in the background; studio start "
+            f"{studio['start_s']:.2f} s vs {studio['start_unprepared_s']:.2f} s without, a robot "
+            f"load while preparing {studio['load_while_preparing_s']:.2f} s vs "
+            f"{studio['load_unprepared_s']:.2f} s",
+        ),
+    ]

@@ -1,4 +1,4 @@
-"""Speed of the torque feed-forward, for `biped-studio bench`.
+"""Bench entry of the dynamics: the torque feed-forward (whole-body QP).
 
 - per sample: wall time of one sample's QP (kinematics, the reduced QP in closed form or by
   DAQP), median and p95 over a motion, beside the same for the previous formulation (the full
@@ -13,15 +13,16 @@
 
 from __future__ import annotations
 
-import dataclasses
-import time
 from pathlib import Path
 
 import numpy as np
 
+from app.bench.registry import BenchContext, bench_entry
+from app.bench.report import Figure
+from app.bench.timing import PROCESS_CPU, stopwatch
 from app.core.dynamics.wbc import torque_feedforward
 from app.core.motions.library import run_motion
-from app.core.motions.trajectory import Trajectory
+from app.core.motions.trajectory import repeated
 from app.core.robot.loading import load_robot
 
 SAMPLE_TARGET_MS = 0.25
@@ -30,18 +31,66 @@ SCALING_TARGET = 0.7
 """Speed-up over one worker, per core, on all cores (issue 12)."""
 
 
+@bench_entry("feedforward")
+def _entry_feedforward(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    ff = bench_feedforward(ctx.roban)
+    figures = []
+    for key in ("servo_biped", "roban_s14"):
+        row = ff.get(key)
+        if row:
+            figures.append(
+                Figure(
+                    f"whole-body QP per sample, {key} {row['motion']} (median)",
+                    row["qp_median_ms"],
+                    "ms",
+                    f"median ≤ {ff['sample_target_ms']} ms",
+                    row["qp_median_ms"] <= ff["sample_target_ms"],
+                    row["full_qp_median_ms"],
+                    "the previous full QP (ProxQP, warm-started), median",
+                    f"solve alone {row['solver_median_ms']:.3f} ms",
+                )
+            )
+    row = ff["servo_biped"]
+    figures.append(
+        Figure(
+            "torque feed-forward of 10 s at 100 Hz, servo_biped, one core",
+            row["per_10s_s"],
+            "s",
+            f"≤ {ff['ten_seconds_target_s']} s",
+            row["per_10s_s"] <= ff["ten_seconds_target_s"],
+            row["full_qp_per_10s_s"],
+            "the same with the previous full QP (ProxQP)",
+            f"OSQP on the full QP {row['osqp_per_10s_s']:.2f} s",
+        )
+    )
+    par = ff["parallel"]
+    figures.append(
+        Figure(
+            f"torque feed-forward of 10 s, servo_biped, {par['cores']} worker processes",
+            par["all_cores_per_10s_s"],
+            "s",
+            f"speed-up ≥ {par['scaling_target']:.1f}× one worker",
+            par["scaling_ok"],
+            par["one_worker_per_10s_s"],
+            "the same pool code with one worker",
+            f"speed-up {par['scaling']:.2f}×; on {par['long_motion_s']:.0f} s of motion "
+            f"{par['long_scaling']:.2f}× ({par['long_all_cores_per_10s_s']:.2f} s per 10 s) "
+            f"(busy loops on the same pools: {par['busy_loop_scaling']:.2f}×)",
+        )
+    )
+    return ff, figures
+
+
 def _run(robot_source: str | Path, motion: str) -> dict:
     robot = load_robot(robot_source)
     traj = run_motion(robot, motion, dt=0.01).trajectory
-    begin, cpu = time.perf_counter(), time.process_time()
-    ff = torque_feedforward(robot, traj)
-    seconds, cpu_s = time.perf_counter() - begin, time.process_time() - cpu
-    begin = time.perf_counter()
-    full = torque_feedforward(robot, traj, solver="proxqp")
-    full_s = time.perf_counter() - begin
-    begin = time.perf_counter()
-    torque_feedforward(robot, traj, solver="osqp")
-    osqp_s = time.perf_counter() - begin
+    with stopwatch(PROCESS_CPU) as reduced:
+        ff = torque_feedforward(robot, traj)
+    with stopwatch() as proxqp:
+        full = torque_feedforward(robot, traj, solver="proxqp")
+    with stopwatch() as osqp:
+        torque_feedforward(robot, traj, solver="osqp")
+    seconds, full_s, osqp_s = reduced.wall_s, proxqp.wall_s, osqp.wall_s
     ms, full_ms = ff.qp_time_s * 1e3, full.qp_time_s * 1e3
     return {
         "robot": robot.name,
@@ -56,7 +105,7 @@ def _run(robot_source: str | Path, motion: str) -> dict:
         if ff.solver_time_s is not None
         else float("nan"),
         "seconds": seconds,
-        "cpu_s": cpu_s,
+        "cpu_s": reduced.cpu_s,
         "per_10s_s": seconds * 10.0 / traj.duration,
         "full_qp_per_10s_s": full_s * 10.0 / traj.duration,
         "osqp_per_10s_s": osqp_s * 10.0 / traj.duration,
@@ -104,10 +153,9 @@ def bench_parallel(workers: int | None = None, repeats: int = 7) -> dict:
                 torque_feedforward(robot, traj, pool=pool)
             for _ in range(repeats):
                 for n, pool in pools.items():
-                    begin = time.perf_counter()
-                    torque_feedforward(robot, traj, pool=pool)
-                    wall = time.perf_counter() - begin
-                    seconds[label, n] = min(seconds.get((label, n), wall), wall)
+                    with stopwatch() as lap:
+                        torque_feedforward(robot, traj, pool=pool)
+                    seconds[label, n] = min(seconds.get((label, n), lap.wall_s), lap.wall_s)
         busy = {n: pool.busy_wall_s(2 * cores, 0.05) for n, pool in pools.items()}
     scaling = seconds["short", 1] / seconds["short", cores]
     return {
@@ -123,17 +171,3 @@ def bench_parallel(workers: int | None = None, repeats: int = 7) -> dict:
         "scaling_target": SCALING_TARGET * cores,
         "scaling_ok": scaling >= SCALING_TARGET * cores,
     }
-
-
-def repeated(trajectory: Trajectory, times: int) -> Trajectory:
-    """A motion played `times` over back to back (a long motion for the pool's bench)."""
-    n = trajectory.n_samples * times
-    return dataclasses.replace(
-        trajectory,
-        name=f"{trajectory.name} ×{times}",
-        t=np.arange(n) * trajectory.dt,
-        q=np.tile(trajectory.q, (times, 1)),
-        v=np.tile(trajectory.v, (times, 1)),
-        a=np.tile(trajectory.a, (times, 1)),
-        contacts=np.tile(trajectory.contacts, (times, 1)),
-    )

@@ -1,17 +1,19 @@
-"""The replay's speed target for `biped-studio bench`: a 10 s motion with four ghosts exported
-(scene, recording, folder) in ≤ 5 s and ≤ 20 MB, against a baseline measured in the same run:
-the same frames shown back to back on a live scene (a viser server, no recording)."""
+"""Bench entry of the replay: a 10 s motion with four ghosts exported (scene, recording,
+folder) in ≤ 5 s and ≤ 20 MB, against a baseline measured in the same run: the same frames
+shown back to back on a live scene (a viser server, no recording)."""
 
 from __future__ import annotations
 
 import contextlib
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
+from app.bench.registry import BenchContext, bench_entry
+from app.bench.report import Figure
+from app.bench.timing import PROCESS_CPU, stopwatch
 from app.core.dynamics.wbc import torque_feedforward
 from app.core.motions.library import run_motion
 from app.core.replay.pipeline import prediction_verdicts
@@ -25,6 +27,24 @@ from app.replay_recorder import draw_scene, export_replay, private_server
 REPLAY_TARGET_S = 5.0
 REPLAY_TARGET_MB = 20.0
 MOTION_S = 10.0
+
+
+@bench_entry("replay")
+def _entry_replay(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = bench_replay()
+    return row, [
+        Figure(
+            f"replay export, {row['robot']} {row['motion_s']:.1f} s with {row['ghosts']} ghosts "
+            f"({row['total_mb']:.1f} MB, target ≤ {REPLAY_TARGET_MB:.0f} MB)",
+            row["export_s"],
+            "s",
+            f"≤ {REPLAY_TARGET_S:.0f} s",
+            row["export_s"] <= REPLAY_TARGET_S and row["total_mb"] <= REPLAY_TARGET_MB,
+            row["baseline_playback_s"],
+            "the same frames shown on a live scene",
+            f"CPU {row['export_cpu_s']:.1f} s vs {row['baseline_playback_cpu_s']:.1f} s",
+        )
+    ]
 
 
 def bench_replay(robot_name: str = "servo_biped") -> dict:
@@ -43,18 +63,17 @@ def bench_replay(robot_name: str = "servo_biped") -> dict:
         robot.name, trajectory.name, trajectory.duration, {}, prediction_verdicts(prediction)
     )
     with tempfile.TemporaryDirectory() as folder:
-        begin, cpu = time.perf_counter(), time.process_time()
-        scene = replay_scene(robot, trajectory, title, prediction, ghosts=PREDICTED_GHOSTS)
-        result = export_replay(robot, scene, Path(folder) / "replay")
-        export_s, export_cpu_s = time.perf_counter() - begin, time.process_time() - cpu
+        with stopwatch(PROCESS_CPU) as export:
+            scene = replay_scene(robot, trajectory, title, prediction, ghosts=PREDICTED_GHOSTS)
+            result = export_replay(robot, scene, Path(folder) / "replay")
+        export_s, export_cpu_s = export.wall_s, export.cpu_s
         total_mb = result.folder.total_bytes / 1e6
         recording_mb = result.folder.recording_bytes / 1e6
     server = private_server()
     try:
-        begin, cpu = time.perf_counter(), time.process_time()
-        with server.atomic():
+        with stopwatch(PROCESS_CPU) as playback, server.atomic():
             draw_scene(server, robot, scene, None)
-        playback_s, playback_cpu_s = time.perf_counter() - begin, time.process_time() - cpu
+        playback_s, playback_cpu_s = playback.wall_s, playback.cpu_s
     finally:
         with contextlib.redirect_stdout(sys.stderr):
             server.stop()

@@ -14,11 +14,11 @@ import datetime
 import os
 import platform
 import statistics
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+
+from app.bench.timing import timed
 
 REFERENCE_WHAT = "machine reference: 300 × (RNEA + CRBA + Jacobians) on servo_biped"
 
@@ -82,25 +82,14 @@ def reference_s(runs: int = 5) -> float:
     rng = np.random.default_rng(0)
     qs = [pin.randomConfiguration(model) for _ in range(300)]
     v = rng.normal(size=model.nv)
-    times = []
-    for _ in range(runs):
-        begin = time.perf_counter()
+
+    def workload() -> None:
         for q in qs:
             pin.rnea(model, data, q, v, v)
             pin.crba(model, data, q)
             pin.computeJointJacobians(model, data, q)
-        times.append(time.perf_counter() - begin)
-    return statistics.median(times)
 
-
-def timed(function: Callable[[], object], runs: int) -> list[float]:
-    """Wall times of `runs` calls [s]."""
-    times = []
-    for _ in range(runs):
-        begin = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - begin)
-    return times
+    return statistics.median(timed(workload, runs))
 
 
 def _number(value: float | None) -> str:

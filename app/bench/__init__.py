@@ -1,0 +1,109 @@
+"""`biped-studio bench`: the studio's speed targets, measured on fixed work, server side.
+
+Laid out like app/cli: one module per stage holds its entries (posing: load, slider, drag;
+playback; motions: interpolate; dynamics: feedforward; compensation: the k slider, long
+motions, the plots' cursor; projects; replay; sweep; gait: plan, plan_fine, plan_first_click,
+plan_servo_biped; simulation: simulate, simulate_parts, simulate_click), each registered with
+`@bench_entry(name)` (app.bench.registry); they run stage by stage in STAGES' order. An entry returns its raw
+results and its Figures (app.bench.report), each beside a baseline measured in the same run
+(placo's bare IK beside a drag, bare MuJoCo beside a simulation, the core alone beside the
+studio's load, else the fixed pinocchio workload of `report.reference_s`) so that the ratio
+carries across machines. Every time is taken through app.bench.timing. `--only a,b` runs some
+entries; `--json` prints everything, `--markdown` the README's table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+from pathlib import Path
+
+from app.bench import (
+    compensation,
+    dynamics,
+    gait,
+    motions,
+    playback,
+    posing,
+    projects,
+    registry,
+    replay,
+    simulation,
+    sweep,
+)
+from app.bench.registry import OPT_IN, ROBAN_CANDIDATES, BenchContext, BenchEntry, free_port
+from app.bench.report import (
+    REFERENCE_WHAT,
+    Figure,
+    machine,
+    markdown_table,
+    reference_s,
+    text_lines,
+)
+from app.config import StudioConfig
+from app.studio import Studio
+
+__all__ = ["ENTRIES", "run_bench"]
+
+STAGES = (
+    posing,
+    playback,
+    motions,
+    dynamics,
+    compensation,
+    projects,
+    replay,
+    sweep,
+    gait,
+    simulation,
+)
+"""The stages' modules in the order their entries run."""
+ENTRIES: dict[str, BenchEntry] = {
+    name: entry
+    for stage in STAGES
+    for name, entry in registry.ENTRIES.items()
+    if entry.__module__ == stage.__name__
+}
+"""Every entry by name, in the order they run (a stage's in the order it registers them)."""
+
+
+def run_bench(args: argparse.Namespace) -> int:
+    roban = next((p for p in ROBAN_CANDIDATES if p.exists()), None)
+    robot = args.robot or (str(roban) if roban else "servo_biped")
+    only = [name.strip() for name in (getattr(args, "only", None) or "").split(",") if name.strip()]
+    unknown = [name for name in only if name not in ENTRIES]
+    if unknown:
+        raise SystemExit(f"bench: unknown entries {unknown}; known: {', '.join(ENTRIES)}")
+    where = machine()
+    results: dict = {"machine": where}
+    figures: list[Figure] = []
+    with tempfile.TemporaryDirectory() as data_dir:
+        studio = Studio(StudioConfig(port=free_port(), data_dir=Path(data_dir)))
+        try:
+            reference = reference_s()
+            results["reference_s"] = reference
+            results["reference_what"] = REFERENCE_WHAT
+            context = BenchContext(studio, robot, roban, args.repeats, reference)
+            for name, entry in ENTRIES.items():
+                if only and name not in only:
+                    continue
+                if name in OPT_IN and not (getattr(args, name, False) or name in only):
+                    continue
+                raw, entry_figures = entry(context)
+                results[name] = raw
+                figures += entry_figures
+        finally:
+            studio.stop()
+    results["figures"] = [figure.as_dict() for figure in figures]
+    if args.json:
+        print(json.dumps(results, indent=2))
+    elif getattr(args, "markdown", False):
+        print(markdown_table(figures, where))
+    else:
+        print(
+            f"{where['cpu']}, {where['cores']} cores, load {where['load_1min']:.1f}, "
+            f"{where['date_utc']} UTC; reference {reference * 1e3:.1f} ms ({REFERENCE_WHAT})"
+        )
+        print("\n".join(text_lines(figures)))
+    return 0

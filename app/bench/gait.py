@@ -1,0 +1,250 @@
+"""Bench entries of the gait planner (DIRCON, IPOPT).
+
+- plan: the gait paper's case (38 knots) built and solved cold, target ≤ 10 s (the paper:
+  65 s – 5 min with SNOPT); a warm re-solve after one slider change, target ≤ 1 s, beside the
+  same re-solve without its multipliers.
+- plan_fine: the paper's case at the finest mesh the settings allow (MAX_KNOTS), cold: the fine
+  NLP's build plus its first solve by mesh refinement (38 knots built and solved, interpolated,
+  the fine mesh warm-started), CPU target ≤ 20 s in total (issue 12), build and solve shown
+  apart; baseline: the 38-knot cold solve.
+- plan_first_click: the first Solve click → result in a studio that built the problem when the
+  robot loaded (`serve`), ≤ 3 s, beside the same click in one that builds on the click.
+- plan_servo_biped: the same on servo_biped with its scaled defaults, and a 10-step walk of the
+  cycle to torques, ≤ 5 s.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from app.bench.registry import BenchContext, bench_entry, free_port
+from app.bench.report import Figure
+from app.bench.timing import PROCESS_CPU, stopwatch
+from app.config import StudioConfig
+from app.studio import Studio
+from panels.quiet import set_value
+
+PLAN_COLD_TARGET_S = 10.0
+PLAN_WARM_TARGET_S = 1.0
+PLAN_FINE_TARGET_S = 20.0
+WALK_TARGET_S = 5.0
+PLAN_FIRST_CLICK_TARGET_S = 3.0
+
+
+@bench_entry("plan")
+def _entry_plan(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = _bench_plan()
+    return row, [
+        ctx.beside_reference(
+            "gait plan, the paper's case, build + cold solve",
+            row["cold_s"],
+            "s",
+            f"≤ {PLAN_COLD_TARGET_S:.0f} s",
+            row["cold_s"] <= PLAN_COLD_TARGET_S,
+            f"{row['cold_iterations']} IPOPT iterations",
+        ),
+        Figure(
+            "gait plan, warm re-solve after one slider",
+            row["warm_s"],
+            "s",
+            f"≤ {PLAN_WARM_TARGET_S:.0f} s",
+            row["warm_s"] <= PLAN_WARM_TARGET_S,
+            row["primal_warm_s"],
+            "the same re-solve from the same point without its multipliers",
+            f"{row['warm_iterations']} iterations vs {row['primal_warm_iterations']}",
+        ),
+    ]
+
+
+def _bench_plan() -> dict:
+    """The paper's case built and solved cold, then re-solved warm after K0 changes."""
+    import dataclasses
+
+    from app.core.collocation.dircon import GaitProblem, GaitSettings
+
+    settings = GaitSettings()
+    with stopwatch() as cold_lap:  # build and solve
+        with stopwatch() as build:
+            problem = GaitProblem()
+        cold = problem.solve(settings)
+    changed = dataclasses.replace(settings, K0=5.0)
+    with stopwatch() as warm_lap:
+        warm = problem.solve(changed, warm_start=cold)
+    # The baseline: the same re-solve from the same point without its multipliers (primal only).
+    primal_only = dataclasses.replace(cold, lam_x=np.zeros(0), lam_g=np.zeros(0))
+    with stopwatch() as primal_lap:
+        primal = problem.solve(changed, warm_start=primal_only)
+    return {
+        "primal_warm_s": primal_lap.wall_s,
+        "primal_warm_iterations": primal.iterations,
+        "build_s": build.wall_s,
+        "cold_solve_s": cold.solve_s,
+        "cold_s": cold_lap.wall_s,
+        "cold_iterations": cold.iterations,
+        "cold_status": cold.status,
+        "warm_s": warm_lap.wall_s,
+        "warm_iterations": warm.iterations,
+        "warm_status": warm.status,
+        "max_abs_tau_Nm": cold.max_abs_tau_Nm,
+        "sr": cold.sr,
+    }
+
+
+@bench_entry("plan_fine")
+def _entry_plan_fine(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = _bench_plan_fine()
+    return row, [
+        Figure(
+            f"gait plan at {row['knots']} knots cold: build + refined solve (CPU)",
+            row["total_cpu_s"],
+            "s",
+            f"≤ {PLAN_FINE_TARGET_S:.0f} s",
+            row["converged"] and row["total_cpu_s"] <= PLAN_FINE_TARGET_S,
+            row["coarse_cpu_s"],
+            "the 38-knot cold solve alone (CPU)",
+            f"fine build {row['fine_build_cpu_s']:.1f} s + solve {row['refined_cpu_s']:.1f} s "
+            f"(38-knot build and solve, interpolation, {row['fine_iterations']} fine "
+            "iterations)",
+        )
+    ]
+
+
+def _bench_plan_fine() -> dict:
+    """The paper's case at MAX_KNOTS, cold, as a first solve does it (CPU): the fine NLP's
+    build, then its solve, which builds and solves the 38-knot problem, interpolates and
+    warm-starts the fine mesh (GaitProblem.solve above REFINE_ABOVE_KNOTS)."""
+    from app.core.collocation.gait_problem import GaitProblem
+    from app.core.collocation.settings import MAX_KNOTS, GaitSettings
+
+    coarse = GaitProblem()
+    with stopwatch(PROCESS_CPU) as coarse_lap:
+        coarse.solve(GaitSettings(), cold=True)
+    with stopwatch(PROCESS_CPU) as build:
+        fine = GaitProblem(knots=MAX_KNOTS)
+    with stopwatch(PROCESS_CPU) as refine:
+        fine_result = fine.solve(GaitSettings(knots=MAX_KNOTS))
+    coarse_s, build_s, refined_s = coarse_lap.cpu_s, build.cpu_s, refine.cpu_s
+    return {
+        "knots": MAX_KNOTS,
+        "fine_build_cpu_s": build_s,
+        "coarse_cpu_s": coarse_s,
+        "refined_cpu_s": refined_s,
+        "total_cpu_s": build_s + refined_s,
+        "fine_iterations": fine_result.iterations,
+        "converged": fine_result.converged,
+        "status": fine_result.status,
+    }
+
+
+@bench_entry("plan_first_click")
+def _entry_plan_first_click(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    """The paper's case: robot loaded, first *Solve* click → result shown, in a studio that
+    built the problem when the robot loaded (what `serve` does) and in one that did not."""
+    with tempfile.TemporaryDirectory() as data_dir:
+        config = StudioConfig(port=free_port(), data_dir=Path(data_dir), prepare_gait=True)
+        prepared = Studio(config)
+        try:
+            ready = threading.Event()
+            disconnect = prepared.gait.prepared.connect(
+                lambda key: ready.set() if "dircon_biped" in str(key) else None
+            )
+            prepared.robots.load("dircon_biped")
+            ready.wait()
+            disconnect()
+            with_prepare_s = _first_click_s(prepared)
+        finally:
+            prepared.stop()
+    ctx.studio.robots.load("dircon_biped")
+    without_s = _first_click_s(ctx.studio)
+    ctx.studio.gait.close()
+    row = {"with_prepare_s": with_prepare_s, "without_prepare_s": without_s}
+    return row, [
+        Figure(
+            "gait plan, first Solve click → result (problem built when the robot loaded)",
+            with_prepare_s,
+            "s",
+            f"≤ {PLAN_FIRST_CLICK_TARGET_S:.0f} s",
+            with_prepare_s <= PLAN_FIRST_CLICK_TARGET_S,
+            without_s,
+            "the same click in a studio that builds on the click (worker start, build, solve)",
+        )
+    ]
+
+
+def _first_click_s(studio: Studio) -> float:
+    done = threading.Event()
+    disconnect = studio.gait.finished.connect(lambda _solve: done.set())
+    with stopwatch() as lap:
+        set_value(studio.gait.panel.solve, True)
+        done.wait()
+    disconnect()
+    return lap.wall_s
+
+
+@bench_entry("plan_servo_biped")
+def _entry_plan_servo_biped(ctx: BenchContext) -> tuple[dict, list[Figure]]:
+    row = _bench_plan_robot("servo_biped")
+    return row, [
+        ctx.beside_reference(
+            "gait plan on servo_biped, cold",
+            row["cold_s"],
+            "s",
+            f"≤ {PLAN_COLD_TARGET_S:.0f} s",
+            row["cold_s"] <= PLAN_COLD_TARGET_S,
+        ),
+        ctx.beside_reference(
+            "gait plan on servo_biped, warm",
+            row["warm_s"],
+            "s",
+            f"≤ {PLAN_WARM_TARGET_S:.0f} s",
+            row["warm_s"] <= PLAN_WARM_TARGET_S,
+        ),
+        ctx.beside_reference(
+            "10-step walk → torques, servo_biped",
+            row["walk_to_torques_s"],
+            "s",
+            f"≤ {WALK_TARGET_S:.0f} s",
+            row["walk_to_torques_s"] <= WALK_TARGET_S,
+            f"the QP follows {100 * row['qp_follow_rate']:.0f} % of the samples",
+        ),
+    ]
+
+
+def _bench_plan_robot(name: str) -> dict:
+    """A robot's own cycle (scaled defaults) cold, warm after K0 changes, and 10 steps of it
+    walked and sent through the torque feed-forward."""
+    import dataclasses
+
+    from app.core.collocation.defaults import robot_gait_defaults
+    from app.core.collocation.gait_problem import GaitProblem
+    from app.core.collocation.planar_model import PlanarModel
+    from app.core.dynamics.wbc import torque_feedforward
+    from app.core.robot.loading import load_robot
+    from app.core.walking.walk import build_walk
+
+    robot = load_robot(name)
+    planar = PlanarModel(robot)
+    settings = robot_gait_defaults(planar).settings
+    with stopwatch() as cold_lap:  # build and solve
+        problem = GaitProblem(planar, settings.knots, settings.baseline)
+        cold = problem.solve(settings)
+    with stopwatch() as warm_lap:
+        problem.solve(dataclasses.replace(settings, K0=0.9 * settings.K0), warm_start=cold)
+    with stopwatch() as walk_lap:
+        walk = build_walk(planar, cold, steps=10)
+        feedforward = torque_feedforward(robot, walk.trajectory)
+    cold_s, warm_s, walk_s = cold_lap.wall_s, warm_lap.wall_s, walk_lap.wall_s
+    follow = 1.0 - len(feedforward.infeasible_samples) / walk.trajectory.n_samples
+    return {
+        "robot": name,
+        "cold_s": cold_s,
+        "cold_status": cold.status,
+        "warm_s": warm_s,
+        "walk_to_torques_s": walk_s,
+        "walk_samples": walk.trajectory.n_samples,
+        "qp_follow_rate": follow,
+    }

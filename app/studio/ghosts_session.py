@@ -1,0 +1,255 @@
+"""The comparison overlays: the ghosts (the plan, the command, the quick estimates and the
+simulated runs, drawn at the playback time), the Plots panel (torques, torso roll and pitch,
+command offsets, with a time cursor) and the Compare panel. They draw what the state holds (its
+prediction and its simulation) and keep no copy of it; their toggles are display settings kept
+in projects.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import viser
+
+from app.core.projects.display import DEFAULT_GHOSTS
+from app.core.replay.pipeline import prediction_verdicts
+from app.core.replay.scene import ReplayLayers
+from app.core.servo.model import Prediction
+from app.core.thinning import thin_minmax
+from app.studio.compare_controls import CompareControls
+from app.studio.compare_text import quick_estimate_summary
+from app.studio.ghost_poses import ghost_poses
+from app.studio.signals import Signal
+from app.studio.simulation_runner import WITH, WITHOUT, SimulationRecord
+from app.studio.state import Display, Motion, StudioState
+from app.studio.throttle import Throttle
+from app.views.ghosts_view import GHOSTS, GhostsView
+from app.views.roots import AlternatingRoot
+from panels.compensation_folder import CompensationFolder
+from panels.ghosts_panel import GhostsPanel
+from panels.plots_panel import ATTITUDE_SERIES, SIMULATED_SERIES, PlotsPanel
+from panels.quiet import set_value
+
+log = logging.getLogger(__name__)
+
+CURSOR_PERIOD_S = 0.25
+"""The plots' time cursor moves at most this often during playback (each move resends the
+plots' data)."""
+
+
+class GhostsSession:
+    """Owns the Ghosts sub-folder, the Plots and Compare panels, and the ghosts."""
+
+    def __init__(
+        self, server: viser.ViserServer, state: StudioState, folder: CompensationFolder
+    ) -> None:
+        self._server, self._state = server, state
+        self.panel = GhostsPanel(folder, self, GHOSTS, DEFAULT_GHOSTS)
+        self.plots = PlotsPanel(server.gui)
+        self.view: GhostsView | None = None
+        """The ghosts of the current motion, drawn once it has a quick estimate."""
+        labels = {name: text for name, (_, text) in GHOSTS.items()}
+        self.compare = CompareControls(
+            server, state, self.panel.ghosts, labels, state.work.on_simulation, self.colour_by_error
+        )
+        self._roots = AlternatingRoot("/ghosts")
+        self._cursor: Throttle[float] = Throttle(
+            CURSOR_PERIOD_S, self._show_cursor, name="plot-cursor"
+        )
+        self.cursor_shown: Signal[float] = Signal("cursor_shown")
+        """Emitted when the plots' time cursor has moved to a time [s]."""
+        self._mirroring = False
+        """A project's display settings are being shown: the widgets' echoes are not edits."""
+        state.on_motion.connect(self._on_motion)
+        state.work.on_prediction.connect(lambda _prediction: self.redraw())
+        state.work.on_simulation.connect(lambda _record: self.redraw())
+        state.on_time.connect(self._on_time)
+        state.on_display.connect(self._on_display)
+        self.plots.joints.on_update(lambda _: self._note_display())
+        self.plots.wide.on_update(lambda _: self._note_display())
+
+    # --- state changes ---------------------------------------------------------------------------
+
+    def _on_motion(self, _motion: Motion | None) -> None:
+        with self._state.lock:
+            if self.view is not None:
+                self.view.remove()
+            self.view = None
+        self._cursor.cancel()
+        self.plots.clear()
+
+    def _on_time(self, time_s: float) -> None:
+        trajectory = self._state.trajectory
+        if trajectory is not None:
+            self.show_sample(trajectory.index_at(time_s))
+            self._cursor.submit(time_s)
+
+    def _show_cursor(self, time_s: float) -> None:
+        self.plots.show_time(time_s)
+        self.cursor_shown.emit(time_s)
+
+    # --- drawing ---------------------------------------------------------------------------------
+
+    def redraw(self) -> None:
+        """The plots and the ghosts from the state's quick estimate and simulation."""
+        with self._state.lock:
+            prediction, simulation = self._state.work.prediction, self._state.work.simulation
+            trajectory, robot = self._state.trajectory, self._state.robot
+            if prediction is None or trajectory is None or robot is None:
+                return
+            if self.view is None:
+                self.view = self._new_view()
+            self._plot(prediction, simulation if _of(simulation, trajectory) else None)
+            self.show_sample(trajectory.index_at(self._state.time_s))
+
+    def _plot(self, prediction: Prediction, simulation: SimulationRecord | None) -> None:
+        deg = np.rad2deg
+        t = prediction.t
+        self.plots.info.content = quick_estimate_summary(prediction)
+        keep = thin_minmax(t, prediction.tau_Nm.T)  # plots get ≤ 2000 points, every peak kept
+        self.plots.show_torques(t[keep], prediction.joint_names, prediction.tau_Nm[keep])
+        attitude = np.stack(
+            [
+                deg(prediction.roll_planned_rad),
+                deg(prediction.pitch_planned_rad),
+                deg(prediction.roll_uncompensated_rad),
+                deg(prediction.pitch_uncompensated_rad),
+                deg(prediction.roll_compensated_rad),
+                deg(prediction.pitch_compensated_rad),
+            ]
+        )
+        labels: tuple[tuple[str, str, tuple[float, ...]], ...] = ATTITUDE_SERIES
+        if simulation is not None:
+            runs = [simulation.run.results[WITHOUT], simulation.run.results[WITH]]
+            simulated = [deg(a) for run in runs for a in (run.roll_rad, run.pitch_rad)]
+            attitude = np.concatenate([attitude, np.stack(simulated)])
+            labels = ATTITUDE_SERIES + SIMULATED_SERIES
+        keep = thin_minmax(t, attitude)
+        self.plots.show_attitude(
+            t[keep], list(attitude[0::2, keep]), list(attitude[1::2, keep]), labels
+        )
+        offsets = deg(prediction.q_cmd_rad - prediction.q_plan_rad)
+        keep = thin_minmax(t, offsets.T)
+        self.plots.show_offsets(t[keep], prediction.joint_names, offsets[keep])
+
+    def show_sample(self, k: int) -> None:
+        """Place the ghosts at sample k of the current motion."""
+        with self._state.lock:
+            state, view = self._state, self.view
+            prediction, robot, trajectory = state.work.prediction, state.robot, state.trajectory
+            if prediction is None or view is None or robot is None or trajectory is None:
+                return
+            poses = ghost_poses(robot, trajectory, prediction, state.work.simulation, k)
+            with self._server.atomic():
+                view.update(poses)
+
+    def _new_view(self) -> GhostsView:
+        robot = self._state.robot
+        assert robot is not None
+        view = GhostsView(self._server, robot, root=self._roots.next())
+        for name, checkbox in self.panel.ghosts.items():
+            view.set_visible(name, checkbox.value)
+        view.colour_by_error(self.compare.error_ghost)
+        return view
+
+    # --- toggles (GhostsActions) -----------------------------------------------------------------
+
+    def colour_by_error(self, name: str | None) -> None:
+        """Colour ghost `name`'s links by their error from the plan (None: own colours)."""
+        with self._state.lock:
+            if self.view is not None:
+                self.view.colour_by_error(name)
+
+    def set_ghost_visible(self, name: str, visible: bool) -> None:
+        with self._state.lock:
+            if self.view is not None and name in GHOSTS:
+                self.view.set_visible(name, bool(visible))
+        self._note_display()
+
+    # --- display settings (kept in projects) -----------------------------------------------------
+
+    def _note_display(self) -> None:
+        """The ghosts shown and the plots' choices into the state's display settings."""
+        with self._state.lock:
+            if self._mirroring:
+                return
+            self._state.set_display(
+                "panel",
+                ghosts=tuple(name for name, box in self.panel.ghosts.items() if box.value),
+                plot_joints=str(self.plots.joints.value),
+                wide_plots=bool(self.plots.wide.value),
+            )
+
+    def _on_display(self, display: Display) -> None:
+        """An opened project's ghosts and plot choices: the checkboxes, ghosts and plots follow."""
+        if display.origin != "project":
+            return
+        settings = display.settings
+        with self._state.lock:
+            self._mirroring = True
+            try:
+                for name, box in self.panel.ghosts.items():
+                    set_value(box, name in settings.ghosts)  # the ghosts follow their box
+                shown = settings.plot_joints in self.plots.joints.options
+                if shown:
+                    set_value(self.plots.joints, settings.plot_joints)
+                set_value(self.plots.wide, settings.wide_plots)
+            finally:
+                self._mirroring = False
+            if not shown:  # no torques yet to offer that choice: keep what the panel shows
+                self._note_display()
+
+    # --- replays ---------------------------------------------------------------------------------
+
+    def replay_layers(self, traces: bool) -> ReplayLayers:
+        """The ghosts shown now (checkbox on and poses to show), the key parameters and the
+        verdicts, for a replay recorded as the studio shows it."""
+        with self._state.lock:
+            state = self._state
+            prediction, coefficients = state.work.prediction, state.work.coefficients
+            simulation = (
+                state.work.simulation if _of(state.work.simulation, state.trajectory) else None
+            )
+            extra = (
+                {ghost: on_plan.q for ghost, on_plan in simulation.on_plan.items()}
+                if simulation is not None
+                else {}
+            )
+            shown = tuple(
+                name
+                for name, checkbox in self.panel.ghosts.items()
+                if checkbox.value
+                and (
+                    name in extra
+                    or (prediction is not None and name not in ("sim_without", "sim_with"))
+                )
+            )
+        parameters: dict[str, str] = {}
+        params = coefficients.params if coefficients is not None else None
+        if params is not None and np.any(params.enabled):
+            k = np.asarray(params.k_deg_per_Nm)[params.enabled]
+            parameters["k"] = (
+                f"{k.min():.2f}…{k.max():.2f} °/(N·m) on {int(np.sum(params.enabled))} joints"
+            )
+            phi = np.asarray(params.phi_deg)[params.enabled]
+            if np.any(phi):
+                parameters["φ"] = f"{phi.max():.1f}° ({params.clearance_sign})"
+        servo = coefficients.servo if coefficients is not None else None
+        if servo is not None and np.any(servo.compliance_deg_per_Nm):
+            parameters["servo compliance"] = f"{np.max(servo.compliance_deg_per_Nm):.2f} °/(N·m)"
+        verdicts = prediction_verdicts(prediction) if prediction is not None else ()
+        if extra and simulation is not None:
+            verdicts += tuple(
+                f"simulated {label}: {simulation.run.results[label].verdict()}"
+                for label in (WITHOUT, WITH)
+            )
+        return ReplayLayers(prediction, shown, extra, traces, parameters, verdicts)
+
+    def close(self) -> None:
+        self._cursor.cancel()
+
+
+def _of(simulation: SimulationRecord | None, trajectory: object) -> bool:
+    """The simulation is of that motion."""
+    return simulation is not None and simulation.run.trajectory is trajectory

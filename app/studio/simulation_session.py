@@ -1,0 +1,133 @@
+"""Simulation in the studio: the plan and the compensated commands run on MuJoCo in a worker
+process (app.studio.simulation_runner), with progress and cancel; the last good run goes to the
+state (`StudioState.set_simulation`) with its verdicts, and is marked stale when the
+coefficients or servos change after it.
+
+The one-click pipeline's last stage: a motion that asks for "simulate" is simulated as soon as
+its quick estimate exists.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import viser
+
+from app.core.dynamics.wbc import FeedForward
+from app.core.errors import StudioError
+from app.core.servo.model import Prediction
+from app.studio.compare_text import simulation_summary
+from app.studio.notifier import Notifier
+from app.studio.simulation_runner import (
+    Simulation,
+    SimulationRecord,
+    SimulationRunner,
+    simulation_record,
+)
+from app.studio.state import Motion, StudioState
+from app.studio.work import Coefficients
+from panels.compensation_folder import CompensationFolder
+from panels.simulation_panel import NO_VERDICT, SimulationPanel
+
+log = logging.getLogger(__name__)
+
+STALE = "⚠️ Stale: the coefficients or servos changed since this simulation; simulate again.  \n"
+
+
+class SimulationSession:
+    """Owns the Simulation sub-folder of the Compensation folder and the simulation worker."""
+
+    def __init__(self, state: StudioState, notifier: Notifier, folder: CompensationFolder) -> None:
+        self._state, self._notifier = state, notifier
+        self.panel = SimulationPanel(folder, self)
+        self.runner = SimulationRunner(self._on_progress)
+        self.runner.finished.connect(self._on_simulated)
+        self._then: Motion | None = None
+        """The motion that asked to be simulated (the one-click pipeline), not yet simulated."""
+        state.on_motion.connect(self._on_motion)
+        state.work.on_torques.connect(self._on_torques)
+        state.work.on_prediction.connect(self._on_prediction)
+        state.work.on_coefficients.connect(self._on_coefficients)
+        state.work.on_simulation.connect(self._on_simulation)
+
+    # --- state changes ---------------------------------------------------------------------------
+
+    def _on_motion(self, motion: Motion | None) -> None:
+        self.panel.verdict.content = NO_VERDICT
+        self._then = motion if motion is not None and "simulate" in motion.then else None
+
+    def _on_torques(self, _torques: FeedForward) -> None:
+        if self._then is None:
+            self.runner.warm_up()  # a Simulate click next should not wait for a process to spawn
+
+    def _on_prediction(self, _prediction: Prediction) -> None:
+        if self._then is not None and self._then is self._state.motion:
+            self._then = None
+            self.simulate()
+
+    def _on_coefficients(self, coefficients: Coefficients) -> None:
+        if coefficients.origin != "project":
+            self._state.work.mark_simulation_stale()
+
+    def _on_simulation(self, record: SimulationRecord) -> None:
+        text = simulation_summary(record.run, record.drift_m())
+        self.panel.verdict.content = STALE + text if record.stale else text
+
+    # --- running (SimulationActions) -------------------------------------------------------------
+
+    def simulate(self, client: viser.ClientHandle | None = None) -> None:
+        """Simulate the plan and the compensated commands on MuJoCo in the worker process;
+        the end is announced by `runner.finished`."""
+        with self._state.lock:
+            state = self._state
+            robot, trajectory, prediction = state.robot, state.trajectory, state.work.prediction
+            coefficients = state.work.coefficients
+        if robot is None or trajectory is None or prediction is None or coefficients is None:
+            self._fail("Nothing to simulate", "compute the torque feed-forward first", client)
+            return
+        if self.runner.running is not None:
+            return
+        servo = coefficients.servo
+        try:
+            self.runner.start(robot, trajectory, prediction.q_plan_rad, prediction.q_cmd_rad, servo)
+        except (OSError, RuntimeError) as error:  # the worker process could not start
+            self._fail("Cannot simulate", f"the simulation worker did not start: {error}", client)
+            return
+        except StudioError as error:
+            self.panel.verdict.content = f"⚠️ {error}"
+            self._notifier.error("Cannot simulate", str(error), client)
+            return
+        self.panel.show_simulating(0.0)
+        self.panel.verdict.content = (
+            f"Simulating **{trajectory.name}** without and with compensation "
+            f"({trajectory.duration:.1f} s each)…"
+        )
+
+    def cancel_simulation(self) -> None:
+        self.runner.cancel()
+
+    def _on_progress(self, fraction: float) -> None:
+        if self.runner.running is not None:
+            self.panel.show_simulating(fraction)
+
+    def _on_simulated(self, simulation: Simulation) -> None:
+        self.panel.show_simulating(None)
+        kept = (
+            " The last good simulation is kept." if self._state.work.simulation is not None else ""
+        )
+        if simulation.error == "cancelled":
+            self.panel.verdict.content = "Simulation cancelled." + kept
+            return
+        if simulation.error:
+            self.panel.verdict.content = f"⚠️ Simulation failed: {simulation.error}.{kept}"
+            self._notifier.error("Simulation failed", simulation.error)
+            return
+        record = simulation_record(simulation)  # outside the lock: a second for long motions
+        self._state.work.set_simulation(record)  # dropped if the motion changed meanwhile
+
+    def close(self) -> None:
+        self.runner.close()
+
+    def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
+        self.panel.status.content = f"⚠️ {body}"
+        self._notifier.error(title, body, client)

@@ -1,0 +1,114 @@
+"""The current motion's work, part of the studio state (`StudioState.work`): its torque
+feed-forward, the compensation coefficients and virtual servos, the quick estimate, and the
+last good simulation, each with its signal.
+
+Every value is replaced, never changed in place, under the state's lock, and announced while
+the lock is held, as the state's own setters do. A value made for a motion or robot that is no
+longer the current one is dropped (the setter returns False); a new motion drops the old one's
+torques, estimate and simulation silently (on_motion says so), a new robot its coefficients too.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from app.core.dynamics.wbc import FeedForward
+from app.core.errors import StudioError
+from app.core.motions.trajectory import Trajectory
+from app.core.robot.model import RobotModel
+from app.core.servo.compensation import CompensationParams
+from app.core.servo.model import Prediction, ServoModel
+from app.studio.signals import Signal
+
+if TYPE_CHECKING:
+    from app.studio.simulation_runner import SimulationRecord
+
+
+@dataclasses.dataclass(frozen=True)
+class Coefficients:
+    """The compensation coefficients (eq 7, eq 23) and the virtual servos they are tried on, and
+    who set them: "robot" (the defaults of a loaded robot), "preset", "edit", "sweep" or
+    "project"."""
+
+    params: CompensationParams
+    servo: ServoModel
+    origin: str
+
+
+class MotionWork:
+    """See the module docstring."""
+
+    def __init__(
+        self,
+        lock: threading.RLock,
+        current: Callable[[], tuple[RobotModel | None, Trajectory | None]],
+    ) -> None:
+        """lock: the state's; current(): the loaded robot and the current motion."""
+        self._lock, self._current = lock, current
+        self.torques: FeedForward | None = None
+        self.coefficients: Coefficients | None = None
+        self.prediction: Prediction | None = None
+        """The quick estimate of the current motion with its torques and coefficients."""
+        self.simulation: SimulationRecord | None = None
+        """The last good simulation of the current motion, and whether it is stale."""
+        self.on_torques: Signal[FeedForward] = Signal("on_torques")
+        self.on_coefficients: Signal[Coefficients] = Signal("on_coefficients")
+        self.on_prediction: Signal[Prediction] = Signal("on_prediction")
+        self.on_simulation: Signal[SimulationRecord] = Signal("on_simulation")
+        """A simulation ended, was restored, or went stale."""
+
+    def drop(self, coefficients: bool = False) -> None:
+        """Forget the motion's work (and the robot's coefficients), silently."""
+        with self._lock:
+            self.torques, self.prediction, self.simulation = None, None, None
+            if coefficients:
+                self.coefficients = None
+
+    def set_torques(self, feedforward: FeedForward, trajectory: Trajectory) -> bool:
+        """The torques of `trajectory`, if it is still the current motion (False: dropped)."""
+        with self._lock:
+            if trajectory is not self._current()[1]:
+                return False
+            self.torques = feedforward
+            self.on_torques.emit(feedforward)
+            return True
+
+    def set_coefficients(self, params: CompensationParams, servo: ServoModel, origin: str) -> None:
+        """New coefficients and virtual servos; raises StudioError for another robot's joints."""
+        with self._lock:
+            robot = self._current()[0]
+            if robot is None or not robot.joint_names == params.joint_names == servo.joint_names:
+                raise StudioError("they are for another robot's joints")
+            self.coefficients = Coefficients(params, servo, origin)
+            self.on_coefficients.emit(self.coefficients)
+
+    def set_prediction(
+        self, prediction: Prediction, torques: FeedForward, coefficients: Coefficients
+    ) -> bool:
+        """The quick estimate made from `torques` and `coefficients`, if they are still the
+        current ones (False: dropped, a newer estimate follows)."""
+        with self._lock:
+            if torques is not self.torques or coefficients is not self.coefficients:
+                return False
+            self.prediction = prediction
+            self.on_prediction.emit(prediction)
+            return True
+
+    def set_simulation(self, record: SimulationRecord) -> bool:
+        """A simulation of the current motion (False: of another motion, dropped)."""
+        with self._lock:
+            if record.run.trajectory is not self._current()[1]:
+                return False
+            self.simulation = record
+            self.on_simulation.emit(record)
+            return True
+
+    def mark_simulation_stale(self) -> None:
+        """The coefficients or servos changed since the simulation ran."""
+        with self._lock:
+            if self.simulation is not None and not self.simulation.stale:
+                self.simulation = dataclasses.replace(self.simulation, stale=True)
+                self.on_simulation.emit(self.simulation)

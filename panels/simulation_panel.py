@@ -1,0 +1,61 @@
+"""The "Simulation (MuJoCo)" sub-folder of the Compensation folder: *Simulate without / with
+compensation*, *Cancel simulation*, a progress bar and the verdict."""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import viser
+
+from panels.compensation_folder import ORDER, CompensationFolder
+from panels.quiet import set_value
+
+NO_VERDICT = "Compute the torques, then simulate: the verdict appears here."
+
+
+class SimulationActions(Protocol):
+    """What the Simulation rows ask for."""
+
+    def simulate(self, client: viser.ClientHandle | None) -> None: ...
+    def cancel_simulation(self) -> None: ...
+
+
+class SimulationPanel:
+    def __init__(self, parent: CompensationFolder, session: SimulationActions) -> None:
+        gui = parent.gui
+        self.status = parent.status
+        """The Compensation folder's status line."""
+        with (
+            parent.folder,
+            gui.add_folder(
+                "Simulation (MuJoCo)", expand_by_default=True, order=ORDER["simulation"]
+            ),
+        ):
+            self.simulate = gui.add_button(
+                "Simulate without / with compensation",
+                icon=viser.Icon.PLAYER_PLAY,
+                hint="Runs the plan and the compensated commands on a physics model of this "
+                "robot with the virtual servos below (compliance, dead band, torque and speed "
+                "limits), each from the first pose settled on the floor",
+            )
+            self.cancel_simulation = gui.add_button(
+                "Cancel simulation", icon=viser.Icon.PLAYER_STOP, color="red", disabled=True
+            )
+            self.progress = gui.add_progress_bar(0.0, visible=False)
+            self.verdict = gui.add_markdown(NO_VERDICT)
+
+        @self.simulate.on_click
+        def _(event: viser.GuiEvent) -> None:
+            session.simulate(event.client)
+
+        @self.cancel_simulation.on_click
+        def _(_event: viser.GuiEvent) -> None:
+            session.cancel_simulation()
+
+    def show_simulating(self, fraction: float | None) -> None:
+        """A simulation runs (fraction done), or none (None)."""
+        self.progress.visible = fraction is not None
+        self.cancel_simulation.disabled = fraction is None
+        self.simulate.disabled = fraction is not None
+        if fraction is not None:
+            set_value(self.progress, 100.0 * min(max(fraction, 0.0), 1.0))

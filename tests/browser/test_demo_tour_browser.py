@@ -1,0 +1,299 @@
+"""The README's tour in one Chromium tab, as a user clicks it (issue 23): drag the pelvis and
+Undo; generate a motion, compute its torques, pick the paper's Table 3 preset, simulate; solve
+a gait, move a slider and solve again warm; the one click, watched in the page; export a
+replay from the tab and play it from a static web server.
+
+The tour's other stops have their own modules, each walked the same way: every load path
+(test_load_browser), the foot drag (test_foot_drag_browser), a sweep and a click on its Pareto
+board (test_sweep_browser), Save as / reload / Open (test_project_browser), Undo's words and
+the restart (test_session_ux_browser), the screenshot download (test_replay_browser).
+
+The page is loaded once for the module and each test continues from the previous one: run
+them together, in file order. The studio's log must stay free of tracebacks (tests/conftest.py
+fails a test during which one is logged). Waits that a user would feel are printed.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.core.servo.presets import PRESETS
+from app.studio import Studio
+from tests.browser.conftest import VIEWPORT
+from tests.browser.page_helpers import (
+    RENDER_TIMEOUT_S,
+    UI_TIMEOUT_S,
+    changed,
+    click_button,
+    expand_folder,
+    folder,
+    not_blank,
+    open_studio,
+    scene_canvas_box,
+    screen_point,
+    static_server,
+    type_number,
+    wait_for,
+    wait_stable,
+)
+from tests.browser.test_compensation_browser import SIMULATE, SIMULATE_TIMEOUT_S, select_option
+from tests.browser.test_replay_browser import MOVED_FRACTION, view
+
+MOTION = "com_shift"
+PAPER_TABLE3_K = {2: -4.0, 3: -650.0, 8: 20.0, 9: -1200.0}
+"""The spring-compensation paper's Table 3 (servo number: k [°/(N·m)]), typed from the paper."""
+GAIT = "Gait (DIRCON)"
+SOLVE_TIMEOUT_S = 300.0
+ONE_CLICK = "Plan → walk → torques → simulate"
+ONE_CLICK_TIMEOUT_S = 600.0
+"""Walk, the walk's torques on every sample, two MuJoCo runs: minutes on a busy machine."""
+PELVIS_DRAG_PX = 30
+ON_ARROW = 0.7
+"""Where along the pelvis gizmo's z arrow the mouse takes it (a fraction of its scale)."""
+
+# Records, on the page's clock, when each text first appears in the page (the one click's
+# stages can pass faster than a poll).
+RECORDER_JS = """
+(markers) => {
+  const rec = [];
+  window.__tourRecorder = rec;
+  const present = {};
+  const check = () => {
+    const text = document.body.textContent || "";
+    for (const marker of markers) {
+      const now = text.includes(marker);
+      if (now && !present[marker]) rec.push({ marker, t: performance.now() });
+      present[marker] = now;
+    }
+  };
+  check();
+  new MutationObserver(check).observe(document.body, {
+    subtree: true, childList: true, characterData: true,
+  });
+}
+"""
+STAGE_MARKERS = ("stage 2 of 4", "stage 3 of 4", "stage 4 of 4", "One click ✅")
+
+
+@pytest.fixture(scope="module")
+def page(browser_page, studio_url: str):
+    page = open_studio(browser_page, studio_url)
+    page.evaluate(RECORDER_JS, list(STAGE_MARKERS))
+    return page
+
+
+def test_drag_the_pelvis_down_then_undo(page, studio: Studio) -> None:
+    robot = studio.state.robot
+    assert robot is not None and studio.pose.handles is not None
+    wait_stable(page, "the studio's first render", not_blank)
+    (client,) = studio.server.get_clients().values()
+    # From straight legs the pelvis cannot go down: bend the knees first, as the README says.
+    q_straight = studio.state.q.copy()
+    expand_folder(page, "Pose (drag the feet)", "Ready pose (knees bent)")
+    click_button(page, "Ready pose (knees bent)")
+    wait_for(
+        "the ready pose",
+        lambda: not np.allclose(studio.state.q, q_straight) and studio.state.q.copy(),
+        UI_TIMEOUT_S,
+    )
+    q_before = studio.state.q.copy()
+    history = studio.project.history
+    # Undo steps are still moments (a pause in the work): wait for the ready pose to be one.
+    wait_for(
+        "the ready pose to be an undo step",
+        lambda: history.past and np.array_equal(history.past[-1].pose.q, q_before),
+        UI_TIMEOUT_S,
+    )
+    data = robot.model.createData()
+    root = robot.tree.root
+    feet = [studio.pose.handles.frames[side] for side in ("left", "right")]
+    before = robot.link_placements(q_before, data)
+    pelvis = before[root][:3, 3].copy()
+    soles = [before[foot][:3, 3].copy() for foot in feet]
+
+    scale = float(studio.pose.handles.handle("pelvis").scale)
+    grab = screen_point(
+        client.camera, pelvis + np.array([0.0, 0.0, ON_ARROW * scale]), scene_canvas_box(page)
+    )
+    page.mouse.move(*grab)
+    page.mouse.down()
+    for k in range(1, 11):
+        page.mouse.move(grab[0], grab[1] + PELVIS_DRAG_PX * k / 10)
+    page.mouse.up()
+    wait_for(
+        "the pelvis drag to reach the studio",
+        lambda: (pose := studio.state.pose) is not None and pose.origin == "drag:pelvis",
+        UI_TIMEOUT_S,
+    )
+    after = robot.link_placements(studio.state.q, data)
+    assert after[root][2, 3] < pelvis[2] - 0.005, "the pelvis did not go down"
+    for foot, sole in zip(feet, soles, strict=True):  # both feet stay where they stood
+        assert np.linalg.norm(after[foot][:3, 3] - sole) < 1e-3
+
+    wait_for(
+        "the drag to be an undo step",
+        lambda: history.past[-1].pose.origin == "drag:pelvis",
+        UI_TIMEOUT_S,
+    )
+    expand_folder(page, "Project", "Undo")
+    click_button(page, "Undo")
+    try:
+        wait_for(
+            "Undo to put the pose back",
+            lambda: np.allclose(studio.state.q, q_before, atol=1e-9),
+            UI_TIMEOUT_S,
+        )
+    except BaseException:
+        print(
+            "DEBUG",
+            np.abs(studio.state.q - q_before).max(),
+            np.abs(studio.state.q - q_straight).max(),
+            studio.state.pose.origin,
+            [st.pose.origin for st in history.past],
+            [st.edit for st in history.past],
+            page.locator(".mantine-Notification-root").all_inner_texts(),
+        )
+        raise
+    page.locator(".mantine-Notification-root", has_text="Undid: pelvis drag").first.wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+
+
+def test_torques_then_the_paper_table3_preset_then_simulate(page, studio: Studio) -> None:
+    work = studio.state.work
+    expand_folder(page, "Motions", "Generate")
+    select_option(page, "Motion", MOTION)
+    click_button(page, "Generate")
+    wait_for(
+        f"the generated {MOTION}",
+        lambda: (t := studio.state.trajectory) is not None and t.name == MOTION,
+        UI_TIMEOUT_S,
+    )
+    expand_folder(page, "Compensation", "Compute torque feed-forward")
+    click_button(page, "Compute torque feed-forward")
+    wait_for("the torques and the prediction", lambda: work.prediction, RENDER_TIMEOUT_S)
+
+    select_option(page, "Preset", PRESETS["table3"].label)
+    params = wait_for(
+        "the Table 3 preset in the studio",
+        lambda: (c := work.coefficients) is not None and c.params.enabled.sum() == 4 and c.params,
+        UI_TIMEOUT_S,
+    )
+    # Table 3's four servos, possibly scaled down together to keep the commands within the
+    # joint limits: the same ratios as the paper's numbers, in the paper's servo order.
+    k = params.k_deg_per_Nm[params.enabled]
+    paper = np.array(list(PAPER_TABLE3_K.values()))
+    assert sorted(k / np.max(np.abs(k))) == pytest.approx(sorted(paper / np.max(np.abs(paper))))
+
+    started = time.monotonic()
+    click_button(page, SIMULATE)
+    compensation = folder(page, "Compensation")
+    compensation.get_by_text(re.compile(r"Simulated \(MuJoCo\) in")).first.wait_for(
+        state="visible", timeout=SIMULATE_TIMEOUT_S * 1000
+    )
+    print(f"Simulate: verdict shown {time.monotonic() - started:.1f} s after the click")
+    record = work.simulation
+    assert record is not None
+    simulation = record.run
+    assert simulation.error == ""
+    for label, run in simulation.results.items():
+        assert compensation.get_by_text(f"{label}: {run.verdict()}", exact=False).count() >= 1
+
+
+def test_solve_a_gait_move_a_slider_and_solve_again_warm(page, studio: Studio) -> None:
+    gait = studio.gait
+    expand_folder(page, GAIT, "Solve")
+    started = time.monotonic()
+    click_button(page, "Solve")
+    first = wait_for(
+        "the first gait",
+        lambda: (r := gait.results.symmetric) is not None and gait.running is None and r,
+        SOLVE_TIMEOUT_S,
+    )
+    folder(page, GAIT).get_by_text("Solved in", exact=False).first.wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    print(f"Solve (cold): shown {time.monotonic() - started:.1f} s after the click")
+    assert first.converged
+
+    k0 = round(float(gait.panel.sliders["K0"].value) - 0.5, 1)
+    type_number(page, "K0 energy", k0)
+    wait_for("the studio to take K0", lambda: gait.panel.sliders["K0"].value == k0, UI_TIMEOUT_S)
+    started = time.monotonic()
+    click_button(page, "Solve")
+    second = wait_for(
+        "the re-solve",
+        lambda: (r := gait.results.symmetric) is not first and gait.running is None and r,
+        SOLVE_TIMEOUT_S,
+    )
+    folder(page, GAIT).get_by_text("warm start from the last gait", exact=False).first.wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    print(f"Solve (warm): shown {time.monotonic() - started:.1f} s after the click")
+    assert second is not None and second.converged
+    assert pytest.approx(k0) == second.settings.K0
+    # Warm from a neighbouring optimum: fewer IPOPT iterations than the cold solve took.
+    assert second.iterations < first.iterations
+
+
+def test_the_one_click_walks_computes_and_simulates_in_the_page(page, studio: Studio) -> None:
+    gait = studio.gait
+    assert gait.results.symmetric is not None, "run with the previous test: it solves"
+    clicked = float(page.evaluate("() => performance.now()"))
+    started = time.monotonic()
+    click_button(page, ONE_CLICK)
+    folder(page, GAIT).get_by_text("One click ✅", exact=False).first.wait_for(
+        state="visible", timeout=ONE_CLICK_TIMEOUT_S * 1000
+    )
+    print(f"One click: done in the page {time.monotonic() - started:.1f} s after the click")
+    seen = {
+        e["marker"]: e["t"]
+        for e in page.evaluate("() => window.__tourRecorder")
+        if e["t"] >= clicked
+    }
+    # The sliders still fit the last gait: the one click starts at the walk (stage 2).
+    shown = [seen.get(marker) for marker in STAGE_MARKERS]
+    assert None not in shown, f"the page did not show every stage: {seen}"
+    assert shown == sorted(shown), f"the stages appeared out of order: {seen}"
+    trajectory = studio.state.trajectory
+    record = studio.state.work.simulation
+    assert trajectory is not None and gait.walk is not None
+    assert trajectory is gait.walk.trajectory
+    assert record is not None and record.run.trajectory is trajectory
+
+
+def test_export_a_replay_from_the_tab_and_play_it_from_a_static_server(
+    page, studio: Studio, chromium
+) -> None:
+    expand_folder(page, "Share", "Export replay")
+    click_button(page, "Export replay")
+    share = folder(page, "Share")
+    status = share.get_by_text("Replay of", exact=False).first
+    status.wait_for(state="visible", timeout=RENDER_TIMEOUT_S * 1000)
+    match = re.search(r"in (/\S+?)\.\s", status.inner_text() + " ")
+    assert match is not None, status.inner_text()
+    replay = Path(match.group(1))
+    assert (replay / "index.html").is_file()
+
+    context = chromium.new_context(viewport=VIEWPORT)
+    viewer = context.new_page()
+    try:
+        with static_server(replay) as url:
+            viewer.goto(url)
+            first = wait_for(
+                "the replay's first render",
+                lambda: (lambda image: image if not_blank(image) else None)(view(viewer)),
+                RENDER_TIMEOUT_S,
+            )
+            wait_for(
+                "the replay to play",
+                lambda: changed(view(viewer), first).mean() > MOVED_FRACTION,
+                RENDER_TIMEOUT_S,
+            )
+    finally:
+        context.close()
