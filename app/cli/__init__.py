@@ -23,6 +23,7 @@ from app.cli import (
     serve,
     servos,
     simulate,
+    size,
     sweep,
 )
 from app.cli.common import DEFAULTS
@@ -63,6 +64,7 @@ PARSERS: tuple[Callable[..., None], ...] = (
     replay.add_parser,
     sweep.add_parser,
     servos.add_parser,
+    size.add_parser,
 )
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "serve": serve.run,
@@ -79,6 +81,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "replay": replay.run,
     "sweep": sweep.run,
     "servos": servos.run,
+    "size": size.run,
 }
 
 

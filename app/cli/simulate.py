@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -64,6 +65,20 @@ def add_parser(sub) -> None:
     )
     simulate.add_argument(
         "--baseline", action="store_true", help="also run the plan uncompensated (in parallel)"
+    )
+    simulate.add_argument(
+        "--servo-masses",
+        default=None,
+        metavar="COUNTED",
+        help="with servo parts: each joint's servo mass replaces the one its URDF link counts "
+        "(COUNTED: the catalogue servo the URDF was modelled with, or none: add the masses); "
+        "torques are then computed on the new masses",
+    )
+    simulate.add_argument(
+        "--battery-Wh",
+        type=float,
+        default=None,
+        help="with servo parts: a pack's usable energy [Wh]; prints minutes of the motion repeated",
     )
     simulate.add_argument("--friction", type=float, default=0.6, help="floor friction μ")
     simulate.add_argument(
@@ -146,9 +161,21 @@ def run(args: argparse.Namespace) -> int:
 
     if args.clearance and args.preset != "table3":
         raise StudioError("--clearance goes with --preset table3 (a k.toml sets phi_deg itself)")
+    if args.battery_Wh is not None:
+        from app.core.simulation.battery import check_pack_Wh
+
+        check_pack_Wh(args.battery_Wh)
     inputs = motion_inputs(args)
     robot, traj = inputs.robot, inputs.trajectory
     parts = _parts(args, robot.joint_names)
+    if parts is None and args.battery_Wh is not None:
+        raise StudioError("--battery-Wh needs servo parts: a --servo file that names servos")
+    mass_note = None
+    if args.servo_masses is not None:
+        if parts is None:
+            raise StudioError("--servo-masses needs servo parts: a --servo file that names servos")
+        robot, mass_note = _swap_masses(args, robot, parts)
+        inputs = dataclasses.replace(inputs, robot=robot, feedforward=None)
     law = None
     if parts is not None:
         from app.core.simulation.part_law import part_servo_law
@@ -190,6 +217,9 @@ def run(args: argparse.Namespace) -> int:
     stand = _stand_check(robot, traj, servo)
     results = simulate_commands(robot, traj, commands, servo, options, law=law)
     main = results[label]
+    figures = None
+    if parts is not None and main.energy is not None:
+        figures = _energy_figures(args, robot, traj, inputs, parts, main)
     if args.out is not None:
         write_simulation_csv(args.out, main)
     if args.json:
@@ -201,6 +231,10 @@ def run(args: argparse.Namespace) -> int:
         if parts is not None and main.energy is not None:
             report["servos"] = parts.to_json()
             report["energy"] = main.energy.to_json()
+        if figures is not None:
+            report["energy_figures"] = figures.to_json()
+        if mass_note is not None:
+            report["servo_masses"] = mass_note
         print(json.dumps(report, indent=2))
         return 0
     for result in results.values():
@@ -217,8 +251,83 @@ def run(args: argparse.Namespace) -> int:
             f"energy over {e.duration_s:.2f} s: {e.electrical_J.sum():.1f} J electrical, "
             f"{e.joule_J.sum():.1f} J heat (I²R); peak current {e.peak_current_A.max():.2f} A"
         )
+    if figures is not None:
+        print(_figures_line(figures))
+    if mass_note is not None:
+        print(f"note: {mass_note}", file=sys.stderr)
     for note in main.notes:
         print(f"note: {note}", file=sys.stderr)
     if stand is not None and not stand.startswith("stands"):
         print(f"note: {robot.name} {stand}", file=sys.stderr)
     return 0
+
+
+def _energy_figures(args, robot, traj, inputs: MotionInputs, parts, result):
+    """Currents, SR (electrical beside planned) and the battery figure of a run on parts."""
+    import numpy as np
+
+    from app.core.simulation.battery import (
+        MIN_DISTANCE_M,
+        energy_figures,
+        horizontal_travel_m,
+        positive_work_J,
+    )
+
+    assert result.energy is not None
+    shown = result.t <= result.simulated_until_s
+    planned_xy = traj.q[:, :2]
+    work = float("nan")
+    if horizontal_travel_m(planned_xy) >= MIN_DISTANCE_M:  # SR only for a motion that travels
+        tau = _torques(args, robot, traj, inputs)
+        work = positive_work_J(tau, traj.v[:, [j.idx_v for j in robot.joints]], traj.dt)
+    return energy_figures(
+        result.energy,
+        np.array([p.firmware.vin_V for p in parts.parts]),
+        robot.mass_kg,
+        float(np.linalg.norm(robot.model.gravity.linear)),
+        result.q[shown, :2],
+        planned_xy,
+        work,
+        args.battery_Wh,
+    )
+
+
+def _figures_line(f) -> str:
+    sr = (
+        "in place: no SR"
+        if f.sr_electrical is None and f.sr_planned is None
+        else f"SR {_sr(f.sr_electrical)} electrical, {_sr(f.sr_planned)} planned work"
+    )
+    line = (
+        f"average {f.average_power_W:.1f} W, {f.average_current_A:.2f} A from the supply; "
+        f"peak {f.peak_current_A:.2f} A on one joint (pack ≤ {f.peak_current_bound_A:.2f} A); {sr}"
+    )
+    if f.battery_minutes is not None:
+        line += f"; a {f.pack_Wh:g} Wh pack lasts {f.battery_minutes:.0f} min of this motion"
+    return line
+
+
+def _sr(value: float | None) -> str:
+    return "-" if value is None else f"{value:.3g}"
+
+
+def _swap_masses(args: argparse.Namespace, robot, parts):
+    """The robot with each part's mass in place of the counted servo's, and the note."""
+    from app.core.servo.catalogue import load_catalogue, read_user_servos, with_user_servos
+    from app.core.servo.masses import with_servo_masses
+
+    counted = {}
+    if args.servo_masses != "none":
+        catalogue = load_catalogue()
+        for path in args.servos:
+            catalogue = with_user_servos(catalogue, read_user_servos(path))
+        record = catalogue.get(args.servo_masses)
+        if record is None:
+            raise StudioError(
+                f"--servo-masses {args.servo_masses!r}: give none or a catalogue key "
+                f"({', '.join(sorted(catalogue))})"
+            )
+        counted = {p.joint: record.mass_kg for p in parts.parts}
+    new = {p.joint: p.mass_kg for p in parts.parts}
+    robot, swap = with_servo_masses(robot, new, counted)
+    return robot, swap.note()

@@ -12,6 +12,7 @@ A record (the same fields for the built-in catalogue and a user's own file)::
     gear_ratio = 200
     backlash_deg = 0.33               # optional: where published
     price = 300.0                     # optional, with price_currency = "USD"
+    continuous_torque_Nm = 1.5        # optional: the continuous (thermal) rating, where published
     identified = "mx64"               # optional: a BAM-identified model (robots/servos/bam/params)
     [firmware]                        # optional: vin_V, kp, error_gain, max_pwm, current_limit_A
     [motor]                           # optional, the user's own m1 fit: kt_Nm_per_A, R_ohm,
@@ -49,7 +50,7 @@ FIGURES = (
     "gear_ratio",
 )
 """Datasheet figures every record gives, each > 0 and with its source."""
-OPTIONAL_FIGURES = ("backlash_deg", "price")
+OPTIONAL_FIGURES = ("backlash_deg", "price", "continuous_torque_Nm")
 TEXT_FIELDS = ("key", "maker", "model")
 FIRMWARE_FIELDS = ("vin_V", "kp", "error_gain", "max_pwm", "current_limit_A")
 MOTOR_FIELDS = (
@@ -115,6 +116,9 @@ class ServoRecord:
     backlash_deg: float | None = None
     price: float | None = None
     price_currency: str | None = None
+    continuous_torque_Nm: float | None = None
+    """The continuous (thermal) torque rating, where published (sizing assumes a fraction of
+    stall otherwise: app.core.servo.sizing)."""
     identified: str | None = None
     firmware: Firmware | None = None
     fits: tuple[Fit, ...] = ()
@@ -265,6 +269,7 @@ def record_from_mapping(data: dict[str, Any], where: str) -> ServoRecord:
         sources={str(k): str(v) for k, v in sources.items()},
         backlash_deg=optional.get("backlash_deg"),
         price=optional.get("price"),
+        continuous_torque_Nm=optional.get("continuous_torque_Nm"),
         price_currency=currency if "price" in optional else None,
         identified=identified,
         firmware=firmware,

@@ -1,0 +1,215 @@
+"""`size`: per joint, the lightest (or cheapest) catalogue servo that holds a motion's work."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from app.cli.common import DEFAULTS, MOTION_HELP, add_robot_options, motion_inputs
+from app.core.errors import StudioError
+
+if TYPE_CHECKING:
+    import numpy as np
+
+
+def add_parser(sub) -> None:
+    size = sub.add_parser(
+        "size",
+        help="pick per joint the lightest (or cheapest) catalogue servo whose torque–speed "
+        "envelope holds a motion's planned torques with a margin",
+    )
+    size.add_argument("trajectory", type=Path, help=MOTION_HELP)
+    size.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
+    size.add_argument(
+        "--tau",
+        type=Path,
+        default=None,
+        help="torque CSV (biped-studio feedforward --out; default: a project's torques, else "
+        "computed by the whole-body QP)",
+    )
+    size.add_argument(
+        "--margin",
+        type=float,
+        default=0.3,
+        help="headroom asked of every point and of the RMS torque (0.3: 30 %%)",
+    )
+    size.add_argument(
+        "--continuous-fraction",
+        type=float,
+        default=None,
+        help="the continuous (thermal) rating assumed where a servo publishes none, as a "
+        "fraction of its stall torque (default 0.25)",
+    )
+    size.add_argument(
+        "--by", choices=("mass", "price"), default="mass", help="what to minimise (mass)"
+    )
+    size.add_argument(
+        "--servos",
+        action="append",
+        default=[],
+        type=Path,
+        metavar="FILE",
+        help="a TOML file of your own servos for the catalogue (repeatable)",
+    )
+    size.add_argument(
+        "--time", action="store_true", help="print how long the sizing itself took (not torques)"
+    )
+    size.add_argument("--json", action="store_true")
+    add_robot_options(size)
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from app.core.dynamics.peaks import over_speed_samples
+    from app.core.servo.catalogue import load_catalogue, read_user_servos, with_user_servos
+    from app.core.servo.sizing import (
+        CONTINUOUS_FRACTION_OF_STALL,
+        check_fraction,
+        check_margin,
+        combine,
+        size_joints,
+    )
+
+    margin = check_margin(args.margin)
+    fraction = check_fraction(
+        CONTINUOUS_FRACTION_OF_STALL
+        if args.continuous_fraction is None
+        else args.continuous_fraction
+    )
+    catalogue = load_catalogue()
+    for path in args.servos:
+        catalogue = with_user_servos(catalogue, read_user_servos(path))
+    inputs = motion_inputs(args)
+    robot, traj = inputs.robot, inputs.trajectory
+    tau, infeasible = _torques(args, inputs)
+    flagged = sorted({*infeasible, *over_speed_samples(robot, traj)})
+    keep = np.setdiff1d(np.arange(traj.n_samples), np.array(flagged, dtype=int))
+    if len(keep) == 0:
+        raise StudioError("every sample of the motion is flagged (not solved or over speed)")
+    speed = traj.v[:, [j.idx_v for j in robot.joints]]
+    works = {"motion": (speed[keep], tau[keep], keep)}
+    works.update(_project_gaits(args, robot))
+    begin = time.perf_counter()
+    sizings = {
+        label: size_joints(
+            robot.joint_names,
+            w,
+            t,
+            float(traj.t[-1] - traj.t[0]),
+            catalogue,
+            margin,
+            args.by,
+            sample_index=index,
+            continuous_fraction=fraction,
+        )
+        for label, (w, t, index) in works.items()
+    }
+    sizing = combine(sizings, catalogue) if len(sizings) > 1 else sizings["motion"]
+    seconds = time.perf_counter() - begin
+    notes = list(sizing.notes)
+    if flagged:
+        notes.append(
+            f"{len(flagged)} flagged sample(s) left out (not solved, or a joint over its speed "
+            "limit: torques there are artefacts)"
+        )
+    if args.json:
+        report = {
+            "ok": True,
+            "robot": robot.name,
+            "motion": inputs.source,
+            "n_samples": traj.n_samples,
+            "n_servos": len(catalogue),
+            "works": list(works),
+            **sizing.to_json(),
+            "notes": notes,
+        }
+        if args.time:
+            report["sizing_time_s"] = seconds
+        print(json.dumps(report, indent=2))
+        return 0
+    also = [label for label in works if label != "motion"]
+    print(
+        f"sizing {traj.name} on {robot.name} ({traj.n_samples} samples"
+        + (f"; and the project's {', '.join(also)}" if also else "")
+        + f") over {len(catalogue)} "
+        f"servos, margin {margin:.0%}, by {args.by}: "
+        f"{len(robot.joint_names) - len(sizing.unsized)} of {len(robot.joint_names)} joints sized"
+    )
+    for joint in sizing.joints:
+        if joint.choice is not None:
+            c = joint.check(joint.choice)
+            rating = "assumed" if c.continuous_assumed else "rated"
+            print(
+                f"  {joint.joint:20s} {c.servo:12s} peak margin {c.peak_margin:+6.0%}  "
+                f"RMS {c.rms_torque_Nm:6.3f} N·m of {c.continuous_torque_Nm:.3g} ({rating})"
+            )
+        else:
+            best = max(joint.checks, key=lambda c: min(c.peak_margin, c.thermal_margin))
+            print(
+                f"  {joint.joint:20s} NO SERVO holds it; closest {best.servo}: "
+                + "; ".join(best.violations())
+            )
+    for note in notes:
+        print(f"note: {note}")
+    if args.time:
+        print(f"sizing took {seconds * 1e3:.1f} ms (torques excluded)")
+    return 0
+
+
+def _torques(args: argparse.Namespace, inputs) -> tuple[np.ndarray, tuple[int, ...]]:
+    """(τ (T, n) [N·m], samples without a QP solution) from --tau, the project, or the QP."""
+    import numpy as np
+
+    robot, traj = inputs.robot, inputs.trajectory
+    if args.tau is not None:
+        from app.core.servo.files import read_torque_csv
+
+        table = read_torque_csv(args.tau, robot.joint_names)
+        if len(table.t) != traj.n_samples or not np.allclose(
+            table.t - table.t[0], traj.t, atol=1e-3 * traj.dt
+        ):
+            raise StudioError(
+                f"{args.tau} does not have the motion's {traj.n_samples} sample times"
+            )
+        bad = tuple(k for k, s in enumerate(table.status) if s not in ("", "solved"))
+        return table.tau_Nm, bad
+    ff = inputs.feedforward
+    if ff is None:
+        from app.core.dynamics.wbc import torque_feedforward
+
+        ff = torque_feedforward(robot, traj)
+    return ff.tau_Nm, tuple(int(k) for k in ff.infeasible_samples)
+
+
+def _project_gaits(args: argparse.Namespace, robot) -> dict[str, tuple]:
+    """A project's planned gaits as (speeds, torques, sample index) on the robot's joints
+    (joints a planar gait does not move: no load), sampled every 10 ms; {} for a CSV."""
+    import numpy as np
+
+    from app.cli.common import PROJECT_SUFFIX
+
+    if Path(args.trajectory).suffix.lower() != PROJECT_SUFFIX:
+        return {}
+    from app.core.collocation.sampling import sample_gait
+    from app.core.projects.files import read_project
+
+    project = read_project(args.trajectory)
+    out = {}
+    for label, gait in (
+        ("symmetric gait", project.gait_symmetric),
+        ("baseline gait", project.gait_baseline),
+    ):
+        if gait is None or not gait.has_gait:
+            continue
+        samples = sample_gait(gait, np.arange(0.0, gait.duration_s, 0.01))
+        columns = [robot.joint_names.index(name) for name in gait.joint_names]
+        w = np.zeros((len(samples.u), robot.n_actuated))
+        tau = np.zeros_like(w)
+        w[:, columns] = samples.v[:, 3:]
+        tau[:, columns] = samples.u
+        out[label] = (w, tau, np.arange(len(w)))
+    return out
