@@ -201,37 +201,37 @@ def test_torques_then_the_paper_table3_preset_then_simulate(page, studio: Studio
     )
 
 
+def solve_in_page(page, studio: Studio, previous, shows: str, what: str):
+    """Click Solve, wait for a new gait in the studio and for `shows` in the Gait folder; the
+    gait. The wait the user felt is printed."""
+    gait = studio.gait
+    started = time.monotonic()
+    click_button(page, "Solve")
+    result = wait_for(
+        what,
+        lambda: (r := gait.results.symmetric) is not previous and gait.running is None and r,
+        SOLVE_TIMEOUT_S,
+    )
+    folder(page, GAIT).get_by_text(shows, exact=False).first.wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    print(f"{what}: shown {time.monotonic() - started:.1f} s after the click")
+    return result
+
+
 def test_solve_a_gait_move_a_slider_and_solve_again_warm(page, studio: Studio) -> None:
     gait = studio.gait
     expand_folder(page, GAIT, "Solve")
-    started = time.monotonic()
-    click_button(page, "Solve")
-    first = wait_for(
-        "the first gait",
-        lambda: (r := gait.results.symmetric) is not None and gait.running is None and r,
-        SOLVE_TIMEOUT_S,
-    )
-    folder(page, GAIT).get_by_text("Solved in", exact=False).first.wait_for(
-        state="visible", timeout=UI_TIMEOUT_S * 1000
-    )
-    print(f"Solve (cold): shown {time.monotonic() - started:.1f} s after the click")
+    first = solve_in_page(page, studio, None, "Solved in", "the first (cold) solve")
     assert first.converged
 
     k0 = round(float(gait.panel.sliders["K0"].value) - 0.5, 1)
     type_number(page, "K0 energy", k0)
     wait_for("the studio to take K0", lambda: gait.panel.sliders["K0"].value == k0, UI_TIMEOUT_S)
-    started = time.monotonic()
-    click_button(page, "Solve")
-    second = wait_for(
-        "the re-solve",
-        lambda: (r := gait.results.symmetric) is not first and gait.running is None and r,
-        SOLVE_TIMEOUT_S,
+    second = solve_in_page(
+        page, studio, first, "warm start from the last gait", "the warm re-solve"
     )
-    folder(page, GAIT).get_by_text("warm start from the last gait", exact=False).first.wait_for(
-        state="visible", timeout=UI_TIMEOUT_S * 1000
-    )
-    print(f"Solve (warm): shown {time.monotonic() - started:.1f} s after the click")
-    assert second is not None and second.converged
+    assert second.converged
     assert pytest.approx(k0) == second.settings.K0
     # Warm from a neighbouring optimum: fewer IPOPT iterations than the cold solve took.
     assert second.iterations < first.iterations
