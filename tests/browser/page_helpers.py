@@ -261,3 +261,17 @@ def static_server(folder: Path) -> Iterator[str]:
     finally:
         server.terminate()
         server.wait()
+
+
+STATIC = Path(__file__).resolve().parents[2] / "static"
+"""The README's pictures."""
+
+
+def publish(page, name: str) -> None:
+    """With BIPED_STUDIO_SCREENSHOT=1, write the page as the README's picture static/`name`:
+    the pictures are what the tests' pages show, made anew by one run."""
+    import os
+
+    if os.environ.get("BIPED_STUDIO_SCREENSHOT") == "1":
+        STATIC.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(STATIC / name))

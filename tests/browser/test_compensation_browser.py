@@ -33,6 +33,7 @@ from tests.browser.page_helpers import (
     not_blank,
     open_studio,
     page_time_s,
+    publish,
     type_number,
     wait_for,
     wait_stable,
@@ -120,6 +121,7 @@ def test_generate_a_motion_and_compute_its_torques(
     )
     assert page_time_s(page) == pytest.approx(t_show)
     plain = wait_stable(page, f"the robot at {t_show} s, without ghosts", not_blank)
+    publish(page, "motion.png")
 
     # Compensation: compute τ (in a worker thread) and wait for the prediction.
     expand_folder(page, "Compensation", "Compute torque feed-forward")
@@ -307,6 +309,7 @@ def test_simulate_shows_the_verdicts_and_two_more_ghosts(
     fraction = float(changed(after, before).mean())
     assert fraction > MIN_SIMULATED_GHOSTS_FRACTION, f"only {fraction:.2%} of the view changed"
     Image.fromarray(after.astype(np.uint8)).save(tmp_path / "simulated.png")
+    publish(page, "compensation.png")
 
 
 def test_the_page_answers_clicks_while_the_ghosts_play(page, studio: Studio) -> None:

@@ -31,6 +31,7 @@ from tests.browser.page_helpers import (
     folder,
     folder_title,
     not_blank,
+    publish,
     type_number,
     wait_for,
     wait_stable,
@@ -179,6 +180,7 @@ def test_walk_this_gait_on_the_loaded_robot(page, studio: Studio, tmp_path: Path
     fraction = float(changed(after, before).mean())
     assert fraction > MIN_FOOTPRINTS_CHANGE_FRACTION, f"only {fraction:.2%} of the view changed"
     Image.fromarray(after.astype(np.uint8)).save(tmp_path / "walk.png")
+    publish(page, "walk.png")
 
 
 def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio, studio_url) -> None:

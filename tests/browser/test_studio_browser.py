@@ -7,8 +7,6 @@ the studio's state; nothing sleeps for a fixed time beyond a short polling inter
 
 from __future__ import annotations
 
-import os
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -27,12 +25,10 @@ from tests.browser.page_helpers import (
     frame_interval_ms,
     gui_row_input,
     not_blank,
+    publish,
     wait_for,
     wait_stable,
 )
-
-REPO = Path(__file__).resolve().parents[2]
-README_SCREENSHOT = REPO / "static" / "studio.png"
 
 # Robot pixels (shot vs. the same view with the robot hidden), as a fraction of the view.
 MIN_ROBOT_FRACTION = 0.005
@@ -97,9 +93,7 @@ def test_robot_renders_and_a_joint_slider_moves_it(page, studio: Studio, tmp_pat
 
     screenshot = tmp_path / "studio.png"
     page.screenshot(path=str(screenshot))
-    if os.environ.get("BIPED_STUDIO_SCREENSHOT") == "1":
-        README_SCREENSHOT.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(screenshot, README_SCREENSHOT)
+    publish(page, "studio.png")
     assert not_blank(np.asarray(Image.open(screenshot).convert("RGB"), dtype=np.int16))
 
     # 2. Type a new angle into the number box next to the joint's slider, as a user would.
