@@ -70,3 +70,18 @@ def test_the_predicted_leg_compliance_is_the_simulations_stand_fall_boundary(sou
     assert check.stands == (c_star >= 1.4)
     if source != "servo_biped":
         assert not check.stands and check.gravity_Nm_per_rad == pytest.approx(144.0, rel=0.03)
+
+
+def test_straight_legs_are_refused_in_one_line_not_a_linear_algebra_error():
+    """At the neutral pose the knees are straight: the leg IK map is singular there, so the
+    check must say so as a StandCheckError (the CLI then skips its note), not raise numpy's."""
+    import pytest
+
+    from app.core.dynamics.stand_stiffness import StandCheckError, stand_check
+    from app.core.robot.loading import load_robot
+    from app.core.simulation.files import default_servos
+
+    robot = load_robot("servo_biped")
+    compliance = default_servos(robot).for_joints(robot.joint_names).compliance_deg_per_Nm
+    with pytest.raises(StandCheckError, match="singular"):
+        stand_check(robot, robot.q_neutral, compliance)

@@ -140,7 +140,18 @@ class _Legs:
 def stand_check(robot: RobotModel, q: np.ndarray, compliance_deg_per_Nm: np.ndarray) -> StandCheck:
     """The stiffness balance (module docstring) at the standing pose q (both feet flat on the
     floor) with the servos' compliance [°/(N·m)] per actuated joint (robot.joints order;
-    0 = rigid)."""
+    0 = rigid). StandCheckError where the legs do not fit, or are straight (the leg IK is
+    singular there: the balance needs bent knees)."""
+    try:
+        return _stand_check(robot, q, compliance_deg_per_Nm)
+    except np.linalg.LinAlgError as error:
+        raise StandCheckError(
+            f"the legs are singular at this pose ({error}): straight knees have no balance to "
+            "linearise; bend them (the ready pose) first"
+        ) from error
+
+
+def _stand_check(robot: RobotModel, q: np.ndarray, compliance_deg_per_Nm: np.ndarray) -> StandCheck:
     legs = _Legs(robot, q)
     model = robot.model
     weight = robot.mass_kg * GRAVITY_MPS2
