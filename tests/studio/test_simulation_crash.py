@@ -16,7 +16,7 @@ from app.core.servo.model import joint_angles
 from app.core.simulation.files import default_servos
 from app.studio.simulation_runner import SimulationRunner
 
-PANEL = Path(__file__).resolve().parents[2] / "panels" / "compensation_panel.py"
+PANEL = Path(__file__).resolve().parents[2] / "panels" / "simulation_panel.py"
 GUARD_S = 300.0
 
 
