@@ -98,9 +98,10 @@ def on_spawner_thread(start: Callable[[], T]) -> T:
 
 
 def _serve() -> None:
-    # Children inherit this thread's signal mask: Ctrl+C in the terminal reaches the whole
-    # process group, and a worker interrupted while it starts only adds tracebacks (the
-    # studio stops its workers itself; they also end with it).
+    # Ctrl+C is the main thread's to handle, never this one's. (Blocking it here does not
+    # reach the children: multiprocessing's spawn resets the signal mask in the child, so a
+    # worker hit by a terminal Ctrl+C inside Python's own start-up can still print; the
+    # workers ignore SIGINT from their first line of Python on, and end with the studio.)
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     while True:
         start, answer = _requests.get()

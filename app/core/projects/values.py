@@ -20,7 +20,7 @@ A value that fails raises ProjectError naming its field (`project.motion.q, samp
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -35,9 +35,6 @@ from app.core.robot.configurations import (
 )
 from app.core.robot.model import RobotModel
 
-if TYPE_CHECKING:
-    from app.core.projects.project import Project
-
 MAX_TORQUE_NM = 1.0e6
 """Largest joint torque a project may hold [N·m] (or force [N] on a prismatic joint)."""
 MAX_FORCE_N = 1.0e7
@@ -46,7 +43,7 @@ MAX_SWING_M = 10.0
 """Highest swing apex of a keyframe [m]."""
 
 
-def check_values(project: Project, robot: RobotModel) -> None:
+def check_values(project: Any, robot: RobotModel) -> None:  # a Project (project.py calls us)
     """ProjectError naming the first value of `project` that `robot` cannot take."""
     try:
         _check(project, robot)
@@ -56,7 +53,7 @@ def check_values(project: Project, robot: RobotModel) -> None:
         raise ProjectError(str(error)) from None
 
 
-def _check(project: Project, robot: RobotModel) -> None:
+def _check(project: Any, robot: RobotModel) -> None:
     check_configurations(robot, project.q, "project.q (the pose)")
     for i, keyframe in enumerate(project.keyframes):
         _keyframe(robot, keyframe, f"project.keyframes[{i}]")
