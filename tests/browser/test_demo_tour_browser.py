@@ -252,9 +252,12 @@ def test_the_one_click_walks_computes_and_simulates_in_the_page(page, studio: St
         for e in page.evaluate("() => window.__tourRecorder")
         if e["t"] >= clicked
     }
-    # The sliders still fit the last gait: the one click starts at the walk (stage 2).
-    shown = [seen.get(marker) for marker in STAGE_MARKERS]
-    assert None not in shown, f"the page did not show every stage: {seen}"
+    # The sliders still fit the last gait: the one click starts at the walk (stage 2). The page
+    # may draw two quick stages in one render, so a stage can be missing from the record; the
+    # ones it shows must come in order, before the end.
+    shown = [t for marker in STAGE_MARKERS if (t := seen.get(marker)) is not None]
+    assert "One click ✅" in seen, f"the page never showed the end: {seen}"
+    assert len(shown) >= 2, f"the page showed no stage before the end: {seen}"
     assert shown == sorted(shown), f"the stages appeared out of order: {seen}"
     trajectory = studio.state.trajectory
     record = studio.state.work.simulation
