@@ -18,8 +18,10 @@ from app.core.errors import StudioError
 from app.core.servo.model import Prediction
 from app.studio.compare_text import simulation_summary
 from app.studio.notifier import Notifier
+from app.studio.servo_parts import energy_line, simulation_law
 from app.studio.signals import Signal
 from app.studio.simulation_runner import (
+    WITH,
     Simulation,
     SimulationRecord,
     SimulationRunner,
@@ -74,6 +76,7 @@ class SimulationSession:
 
     def _on_simulation(self, record: SimulationRecord) -> None:
         text = simulation_summary(record.run, record.drift_m())
+        text += _energy(record, self._state)
         self.panel.verdict.content = STALE + text if record.stale else text
 
     # --- running (SimulationActions) -------------------------------------------------------------
@@ -92,7 +95,10 @@ class SimulationSession:
             return
         servo = coefficients.servo
         try:
-            self.runner.start(robot, trajectory, prediction.q_plan_rad, prediction.q_cmd_rad, servo)
+            law = simulation_law(robot, servo, self._state.work.parts)  # the servo parts' hook
+            self.runner.start(
+                robot, trajectory, prediction.q_plan_rad, prediction.q_cmd_rad, servo, law
+            )
         except (OSError, RuntimeError) as error:  # the worker process could not start
             self._fail("Cannot simulate", f"the simulation worker did not start: {error}", client)
             return
@@ -136,3 +142,12 @@ class SimulationSession:
         self.panel.status.content = f"⚠️ {body}"
         self._notifier.error(title, body, client)
         self.refused.emit(body)
+
+
+def _energy(record: SimulationRecord, state: StudioState) -> str:
+    """The compensated run's energy line when it ran on servo parts (app.studio.servo_parts)."""
+    run = record.run
+    line = energy_line(
+        run.results[WITH], run.robot, run.trajectory, state.work.parts, state.work.torques
+    )
+    return f"  \n{line}" if line else ""
