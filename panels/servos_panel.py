@@ -51,7 +51,7 @@ class ServosPanel:
                 "Each joint runs the **ideal servo** (the Compensation panel's virtual one) "
                 "until you pick a catalogue servo or press *Size servos*."
             )
-            self.joint = gui.add_dropdown("Joint", ("—",), initial_value="—")
+            self.joint = gui.add_dropdown("Servo of joint", ("—",), initial_value="—")
             self.servo = gui.add_dropdown("Servo", (IDEAL_LABEL,), initial_value=IDEAL_LABEL)
             self.settings = {
                 name: gui.add_number(label, 0.0, min=0.0, step=0.01, disabled=True)

@@ -73,6 +73,7 @@ class ServosSession:
         state.on_robot.connect(self._on_robot)
         state.on_motion.connect(lambda _motion: self._forget_sizing())
         state.work.on_coefficients.connect(self._on_coefficients)
+        state.work.on_parts.connect(lambda _choice: self._show_selected())
 
     # --- state ----------------------------------------------------------------------------
 
@@ -119,7 +120,7 @@ class ServosSession:
         joint = choice.joint(self._selected)
         if joint.servo == IDEAL:
             return
-        changed = dataclasses.replace(joint, **{name: float(value)})
+        changed = dataclasses.replace(joint, **{name: float(value)})  # type: ignore[arg-type]
         self._apply(choice.with_joint(self._selected, changed), "parts")
 
     def set_battery(self, pack_Wh: float) -> None:
@@ -275,12 +276,15 @@ class ServosSession:
         try:
             if trajectory is not None and torques is not None:
                 works[trajectory.name] = motion_work(
-                    robot, trajectory, np.nan_to_num(torques.tau_Nm), torques.infeasible_samples
+                    robot,
+                    trajectory,
+                    np.nan_to_num(torques.tau_Nm),
+                    [int(k) for k in torques.infeasible_samples],
                 )
                 duration = trajectory.duration
             for label, gait in self._gaits().items():
                 work = None if gait is None else gait_work(robot, gait)
-                if work is not None:
+                if work is not None and gait is not None:
                     works[label] = work
                     duration = duration or gait.duration_s
             sizing = size_works(robot.joint_names, works, max(duration, 1e-3), self.records, margin)

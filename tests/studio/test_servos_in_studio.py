@@ -60,6 +60,7 @@ def test_a_part_sets_k_and_the_virtual_servo_to_its_compliance(studio):
     pick(studio, joint, "mx64")
     coefficients, parts = studio.state.work.coefficients, studio.state.work.parts
     assert parts is not None and parts.joint(joint).servo == "mx64"
+    assert session.panel.servo.value.startswith("mx64 ")  # the panel shows the part
     expected = closed_form_compliance_deg_per_Nm("mx64")
     assert coefficients.servo.compliance_deg_per_Nm[i] == pytest.approx(expected, rel=1e-12)
     assert coefficients.params.k_deg_per_Nm[i] == pytest.approx(expected, rel=1e-12)
