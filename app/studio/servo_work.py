@@ -28,7 +28,7 @@ class ServoWork:
                 "feedforward": state.work.torques,
                 "compensation": coefficients.params if coefficients is not None else None,
                 "servo": coefficients.servo if coefficients is not None else None,
-                "servo_parts": state.work.parts if state.work.parts is not None else None,
+                "servo_parts": state.work.parts,
                 "simulation": runs,
                 "simulation_stale": record.stale if runs and record is not None else False,
                 "simulation_wall_s": record.run.waited_s if runs and record is not None else None,

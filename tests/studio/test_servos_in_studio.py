@@ -102,6 +102,21 @@ def test_size_servos_picks_the_lightest_that_holds_as_a_brute_force_does(studio)
             assert f"{name}: **{expected}**" in session.panel.sizing.content
         else:
             assert f"{name}: **no servo holds it**" in session.panel.sizing.content
+    # The torque–speed plot of a sized joint: every planned point, over its servo's envelope,
+    # whose drive line meets ω = 0 at the stall torque kt·vin·max_pwm/R (capped by kt·I_lim).
+    j, name = next((j, n) for j, n in enumerate(robot.joint_names) if parts.joint(n).servo)
+    session.panel.joint.value = name
+    x, drive, brake, points = session.panel.plot.data
+    record = session.records[parts.joint(name).servo]
+    fit, firmware = record.fit("m1"), record.firmware
+    stall = fit.motor.kt_Nm_per_A * firmware.vin_V * firmware.max_pwm / fit.motor.R_ohm
+    if firmware.current_limit_A is not None:
+        stall = min(stall, fit.motor.kt_Nm_per_A * firmware.current_limit_A)
+    at_zero = np.flatnonzero((x == 0.0) & np.isfinite(drive))
+    assert drive[at_zero[0]] == pytest.approx(stall) and brake[at_zero[0]] == pytest.approx(-stall)
+    shown = np.isfinite(points)
+    np.testing.assert_array_equal(np.sort(points[shown]), np.sort(work.torque_Nm[:, j]))
+    np.testing.assert_array_equal(np.sort(x[shown]), np.sort(work.speed_rad_s[:, j]))
 
 
 def test_the_simulation_runs_the_parts_and_says_their_energy(studio):
@@ -173,6 +188,6 @@ def test_undo_takes_a_part_change_back(studio):
     assert studio.project.undo()
     assert studio.state.work.parts.joint(joint).servo == ""
     assert studio.state.work.coefficients.servo.compliance_deg_per_Nm[i] == before
-    assert "servo" in studio.project.panel.status.content
+    assert f"Undid: servo {joint} mx106" in studio.project.panel.status.content
     assert studio.project.redo()
     assert studio.state.work.parts.joint(joint).servo == "mx106"
