@@ -159,9 +159,15 @@ class ServosSession:
             robot, current = self._state.robot, self._state.work.coefficients
             if robot is None or current is None:
                 return False
+            now = self.choice()
+            changed = [
+                name
+                for name, a, b in zip(choice.joint_names, choice.joints, now.joints, strict=True)
+                if a != b
+            ] if now is not None else None  # fmt: skip
             try:
                 parts = choice_parts(choice, robot.joint_names, catalogue())
-                params, servo = with_parts(current.params, current.servo, parts)
+                params, servo = with_parts(current.params, current.servo, parts, changed)
                 self._state.work.set_parts(choice, params, servo, origin)
             except StudioError as error:
                 self._fail("Servo refused", str(error), None)

@@ -14,6 +14,7 @@ from app.core.projects.codec import ProjectError
 from app.core.projects.files import read_project, write_project
 from app.core.projects.project import check_fits
 from app.core.servo.choice import JointServo
+from app.core.servo.edits import SetK
 from app.core.servo.sizing import check_joint
 from app.core.simulation.part_law import PartLaw
 from app.studio.servo_parts import catalogue
@@ -75,6 +76,13 @@ def test_a_part_sets_k_and_the_virtual_servo_to_its_compliance(studio):
     assert studio.state.work.coefficients.params.k_deg_per_Nm[i] == pytest.approx(
         closed_form_compliance_deg_per_Nm("mx64", catalogue()["mx64"].firmware.kp / 2)
     )
+    # k edited on this part's joint stays when another joint gets a part (only the joints
+    # whose servo changed take k = 1/K).
+    studio.compensation.edit(SetK(joint, 2.5))
+    pick(studio, robot.joint_names[5], "mx106")
+    assert studio.state.work.coefficients.params.k_deg_per_Nm[i] == 2.5
+    session.panel.joint.value = joint
+    assert "eq 7's k is 2.5" in session.panel.stiffness.content
     # A kp outside the firmware's range: one line, the last good choice kept.
     good = studio.state.work.parts
     session.panel.settings["kp"].value = 1.0e6

@@ -109,13 +109,22 @@ def choice_parts(
 
 
 def with_parts(
-    params: CompensationParams, servo: ServoModel, parts: ServoParts | None
+    params: CompensationParams,
+    servo: ServoModel,
+    parts: ServoParts | None,
+    joints: Sequence[str] | None = None,
 ) -> tuple[CompensationParams, ServoModel]:
-    """The coefficients and virtual servos that follow from the parts on their joints: the
-    servo's true compliance 1/K and dead band (the quick estimate's), eq 7's k = 1/K and the
-    joint compensated; φ, the clearance sign and every other joint as they are."""
+    """The coefficients and virtual servos that follow from the parts on their joints (those
+    of `joints` only, when given: the joints whose servo just changed, so that a k edited on
+    another part's joint stays): the servo's true compliance 1/K and dead band (the quick
+    estimate's), eq 7's k = 1/K and the joint compensated; φ, the clearance sign and every
+    other joint as they are."""
     if parts is None:
         return params, servo
+    if joints is not None:
+        parts = ServoParts(tuple(p for p in parts.parts if p.joint in joints))
+        if not parts.parts:
+            return params, servo
     names = params.joint_names
     where = [names.index(name) for name in parts.joint_names]
     compliance = np.array(servo.compliance_deg_per_Nm, dtype=float)
