@@ -8,7 +8,7 @@ Environment:
   BIPED_STUDIO_SKIP_BROWSER=1     skip these tests when Chromium is missing (else they fail)
   BIPED_STUDIO_CHROMIUM=...       another Chromium binary (default /usr/bin/chromium)
   BIPED_STUDIO_BROWSER_ROBOT=...  robot the studio opens (built-in name or URDF path)
-  BIPED_STUDIO_SCREENSHOT=1       also write the README's pictures (static/*.png) from the pages
+  BIPED_STUDIO_SCREENSHOT=1       also write the docs' pictures (static/*.png) from the pages
                                   the tests show (page_helpers.publish)
 """
 

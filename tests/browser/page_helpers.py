@@ -264,11 +264,11 @@ def static_server(folder: Path) -> Iterator[str]:
 
 
 STATIC = Path(__file__).resolve().parents[2] / "static"
-"""The README's pictures."""
+"""The pictures of the README and docs/."""
 
 
 def publish(page, name: str) -> None:
-    """With BIPED_STUDIO_SCREENSHOT=1, write the page as the README's picture static/`name`:
+    """With BIPED_STUDIO_SCREENSHOT=1, write the page as the docs' picture static/`name`:
     the pictures are what the tests' pages show, made anew by one run."""
     import os
 
