@@ -45,6 +45,13 @@ def add_parser(sub) -> None:
         "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
     )
     simulate.add_argument(
+        "--drive-torque",
+        action="store_true",
+        help="compensate the servo's whole drive torque τ + D·q̇ + J·q̈ (its back-EMF damping "
+        "and rotor inertia, as simulated), not τ alone: a fast motion (a walk) lags its plan "
+        "otherwise; same as eq 7 for a slow one",
+    )
+    simulate.add_argument(
         "--tau", type=Path, default=None, help="torque CSV (default: computed by the whole-body QP)"
     )
     simulate.add_argument(
@@ -110,6 +117,25 @@ def _torques(args: argparse.Namespace, robot, traj, inputs: MotionInputs):
     ):
         raise StudioError(f"{args.tau} does not have the motion's {traj.n_samples} sample times")
     return table.tau_Nm
+
+
+def _drive_torque(robot, traj, tau, servo, law, options):
+    """τ + D·q̇ + J·q̈ with the D and J the simulation gives each joint (`drive_torque_Nm`)."""
+    from app.core.servo.compensation import drive_torque_Nm
+    from app.core.simulation.servo_law import servo_law
+
+    if law is None:
+        law = servo_law(
+            servo,
+            robot.joint_names,
+            [joint.effort for joint in robot.joints],
+            [joint.velocity for joint in robot.joints],
+        )
+    columns = [joint.idx_v for joint in robot.joints]
+    rotor = getattr(law, "armature_kgm2", options.armature_kgm2)
+    return drive_torque_Nm(
+        tau, traj.v[:, columns], traj.a[:, columns], law.damping_Nms_per_rad, rotor
+    )
 
 
 def _parts(args: argparse.Namespace, joint_names: tuple[str, ...]):
@@ -192,6 +218,13 @@ def run(args: argparse.Namespace) -> int:
         )
     options = SimOptions(friction=args.friction, hulls=args.hulls, command_hold=args.hold)
     q_plan = joint_angles(robot, traj.q)
+    if args.drive_torque and (args.cmd is not None or args.preset == "plan"):
+        raise StudioError("--drive-torque goes with a compensation (--preset, --compensation)")
+
+    def load():
+        tau = _torques(args, robot, traj, inputs)
+        return _drive_torque(robot, traj, tau, servo, law, options) if args.drive_torque else tau
+
     if args.cmd is not None:
         q_cmd, label = read_command_csv(args.cmd, robot.joint_names, traj.n_samples), "commands"
     elif args.preset == "plan":
@@ -199,18 +232,16 @@ def run(args: argparse.Namespace) -> int:
     elif args.preset == "parts":
         if parts is None:
             raise StudioError('--preset parts needs a --servo file that names servos (servo = "…")')
-        q_cmd = compensated_command(
-            q_plan, _torques(args, robot, traj, inputs), parts.compensation()
-        )
-        label = "with compensation"
+        q_cmd = compensated_command(q_plan, load(), parts.compensation())
+        label = "with compensation" + (" (drive torque)" if args.drive_torque else "")
     else:
         params = (
             inputs.compensation
             if from_project and inputs.compensation is not None
             else coefficients_from_args(robot, args.preset, args.clearance, args.compensation)
         )
-        q_cmd = compensated_command(q_plan, _torques(args, robot, traj, inputs), params)
-        label = "with compensation"
+        q_cmd = compensated_command(q_plan, load(), params)
+        label = "with compensation" + (" (drive torque)" if args.drive_torque else "")
     commands = {label: q_cmd}
     if args.baseline and args.preset != "plan":
         commands = {"without compensation": q_plan, **commands}
