@@ -37,7 +37,8 @@ def add_parser(sub) -> None:
     source.add_argument(
         "--preset",
         choices=PRESETS,
-        help="plan: the plan as it is (no compensation); uniform: k = 1.4 °/(N·m) on the legs; "
+        help="plan: the plan as it is (no compensation); uniform: k = the servos' compliance "
+        "on the legs (1.4 °/(N·m) on the paper's robot, sized to the robot by m·g·h); "
         "table3 / table2: the paper's coefficients; parts: k = 1/K and φ = half the dead band "
         "of the servo parts a --servo file names (eq 23, torque sign)",
     )
@@ -51,8 +52,9 @@ def add_parser(sub) -> None:
         "--servo",
         type=Path,
         default=None,
-        help="servo.toml: true compliance and dead band (default 1.4 °/(N·m), 0.5° on the "
-        'legs), or catalogue servos per joint (servo = "mx106", kp, vin_V, current_limit_A, '
+        help="servo.toml: true compliance and dead band (default: the paper's 1.4 °/(N·m), 0.5° "
+        "and 6 N·m sized to the robot by m·g·h, on the legs; torque where the URDF gives none), "
+        'or catalogue servos per joint (servo = "mx106", kp, vin_V, current_limit_A, '
         "dead_band_deg): the parts' motor law (see biped-studio servos)",
     )
     simulate.add_argument(
@@ -150,8 +152,8 @@ def _stand_check(robot, traj, servo) -> str | None:
 def run(args: argparse.Namespace) -> int:
     from app.core.servo.compensation import compensated_command
     from app.core.servo.model import joint_angles
+    from app.core.servo.scaling import scaled_servo_model
     from app.core.simulation.files import (
-        default_servos,
         read_command_csv,
         read_servo_toml,
         write_simulation_csv,
@@ -184,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
     elif args.servo is not None:
         servo = read_servo_toml(args.servo, robot)
     else:
-        servo = inputs.servo if inputs.servo is not None else default_servos(robot)
+        servo = inputs.servo if inputs.servo is not None else scaled_servo_model(robot)
     from_project = args.cmd is None and args.preset is None and args.compensation is None
     if from_project and inputs.compensation is None:
         raise StudioError(
