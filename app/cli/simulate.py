@@ -152,10 +152,10 @@ def _stand_check(robot, traj, servo) -> str | None:
 def run(args: argparse.Namespace) -> int:
     from app.core.servo.compensation import compensated_command
     from app.core.servo.model import joint_angles
-    from app.core.servo.scaling import scaled_servo_model
     from app.core.simulation.files import (
         read_command_csv,
         read_servo_toml,
+        sized_servos,
         write_simulation_csv,
     )
     from app.core.simulation.mjcf import SimOptions
@@ -186,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
     elif args.servo is not None:
         servo = read_servo_toml(args.servo, robot)
     else:
-        servo = inputs.servo if inputs.servo is not None else scaled_servo_model(robot)
+        servo = inputs.servo if inputs.servo is not None else sized_servos(robot)
     from_project = args.cmd is None and args.preset is None and args.compensation is None
     if from_project and inputs.compensation is None:
         raise StudioError(

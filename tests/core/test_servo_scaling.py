@@ -19,8 +19,8 @@ from app.core.servo.scaling import (
     PAPER_MASS_KG,
     PAPER_TORQUE_LIMIT_NM,
     scaled_ideal_servo,
-    scaled_servo_model,
 )
+from app.core.simulation.files import sized_servos
 from robots.catalogue import BUILTIN_ROBOTS
 from tests.conftest import ROBAN_URDF, SIGMABAN_URDF
 
@@ -68,7 +68,7 @@ def test_the_sized_servo_stands_where_the_stand_check_fits(source):
     """Every built-in and vendored robot whose legs the stand check fits stands, at its ready
     (bent-knee) pose, on its sized leg servos, with a margin (the paper's robot has 3×)."""
     robot = load_robot(source)
-    servo = scaled_servo_model(robot)
+    servo = sized_servos(robot)
     try:
         check = stand_check(robot, ready_pose(robot).q, servo.compliance_deg_per_Nm)
     except StandCheckError as error:
@@ -82,7 +82,7 @@ def test_the_sized_servo_stands_where_the_stand_check_fits(source):
 def test_roban_s14_falls_on_the_papers_servo_and_stands_on_its_own():
     robot = load_robot(str(ROBAN_URDF))
     q = ready_pose(robot).q
-    sized = scaled_servo_model(robot)
+    sized = sized_servos(robot)
     legs = sized.compliance_deg_per_Nm > 0.0
     paper = np.where(legs, TYPICAL_COMPLIANCE_DEG_PER_NM, 0.0)
     assert not stand_check(robot, q, paper).stands
@@ -92,5 +92,5 @@ def test_roban_s14_falls_on_the_papers_servo_and_stands_on_its_own():
 def test_the_uniform_preset_compensates_the_sized_servo():
     robot = load_robot(str(ROBAN_URDF))
     params = preset_params("uniform", robot)
-    sized = scaled_servo_model(robot)
+    sized = sized_servos(robot)
     np.testing.assert_array_equal(params.k_deg_per_Nm, sized.compliance_deg_per_Nm)

@@ -109,13 +109,11 @@ def _figures(value: float) -> float:
     return float(f"{value:.3g}")
 
 
-def scaled_servo_model(robot: RobotModel, joints: np.ndarray | None = None) -> ServoModel:
+def scaled_servo_model(robot: RobotModel, joints: np.ndarray) -> ServoModel:
     """Virtual servos of the scaled compliance and dead band on `joints` (bool per actuated
-    joint; default: the leg joints), the others rigid."""
-    from app.core.servo.presets import uniform_preset
-
+    joint; `simulation.files.sized_servos`: on the leg joints), the others rigid."""
     scaled = scaled_ideal_servo(robot)
-    on = uniform_preset(robot).enabled if joints is None else np.asarray(joints, dtype=bool)
+    on = np.asarray(joints, dtype=bool)
     return ServoModel(
         robot.joint_names,
         np.where(on, scaled.compliance_deg_per_Nm, 0.0),

@@ -54,6 +54,13 @@ def default_servos(
     )
 
 
+def sized_servos(robot: RobotModel) -> ServoModel:
+    """The default virtual servos of a robot without servo data: the paper's servo sized to
+    the robot by m·g·h (`app.core.servo.scaling`) on every leg joint, the others rigid."""
+    scaled = scaled_ideal_servo(robot)
+    return default_servos(robot, scaled.compliance_deg_per_Nm, scaled.dead_band_deg)
+
+
 def read_servo_toml(path: str | os.PathLike[str], robot: RobotModel) -> ServoModel:
     """Virtual servos from a servo.toml (module docstring), laid out on the robot's joints."""
     import tomllib
