@@ -172,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
     parts = _parts(args, robot.joint_names)
     if parts is None and args.battery_Wh is not None:
         raise StudioError("--battery-Wh needs servo parts: a --servo file that names servos")
-    mass_note = None
+    mass_note, sized = None, None
     if args.servo_masses is not None:
         if parts is None:
             raise StudioError("--servo-masses needs servo parts: a --servo file that names servos")
@@ -187,6 +187,10 @@ def run(args: argparse.Namespace) -> int:
         servo = read_servo_toml(args.servo, robot)
     else:
         servo = inputs.servo if inputs.servo is not None else sized_servos(robot)
+        if inputs.servo is None:
+            from app.core.servo.scaling import scaled_ideal_servo
+
+            sized = scaled_ideal_servo(robot).text()
     from_project = args.cmd is None and args.preset is None and args.compensation is None
     if from_project and inputs.compensation is None:
         raise StudioError(
@@ -228,6 +232,7 @@ def run(args: argparse.Namespace) -> int:
         report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
         report["out"] = None if args.out is None else str(args.out)
         report["stand_check"] = stand
+        report["servo_default"] = sized
         if len(results) > 1:
             report["baseline"] = results["without compensation"].summary()
         if parts is not None and main.energy is not None:
@@ -257,6 +262,8 @@ def run(args: argparse.Namespace) -> int:
         print(_figures_line(figures))
     if mass_note is not None:
         print(f"note: {mass_note}", file=sys.stderr)
+    if sized is not None:
+        print(f"note: {sized}", file=sys.stderr)
     for note in main.notes:
         print(f"note: {note}", file=sys.stderr)
     if stand is not None and not stand.startswith("stands"):

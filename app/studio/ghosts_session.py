@@ -176,6 +176,7 @@ class GhostsSession:
             for ghost, label in (("sim_without", WITHOUT), ("sim_with", WITH))
             if (result := simulation.run.results[label]).outcome is not None
             and result.outcome.travel is not None
+            and result.outcome.travel.footsteps  # a run that fell before landing has none
         ]
         if runs:
             self.landings = LandingsView(self._server, runs, self._landing_roots.next())

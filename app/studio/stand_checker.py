@@ -5,6 +5,7 @@ A check takes 0.1–1.5 s (a robot's ready pose once, then the Hessian's leg IK 
 runs on one named worker thread, never on viser's callback threads: `request` shows
 "checking…" at once and returns; the newest request wins (an older one still queued is
 skipped, an older result arriving late is dropped). `checked` is emitted with each line shown.
+The line ends with the robot's default servo (the paper's, sized to it: app.core.servo.scaling).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from app.core.errors import StudioError
 from app.core.posing.ready_pose import ready_pose
 from app.core.robot.model import RobotModel
 from app.core.servo.model import ServoModel
+from app.core.servo.scaling import scaled_ideal_servo
 from app.studio.signals import Signal
 
 log = logging.getLogger(__name__)
@@ -88,12 +90,13 @@ class StandChecker:
             except StudioError as error:
                 self._ready = (robot, str(error))
         q = self._ready[1]
+        default = f"  \nDefault {scaled_ideal_servo(robot).text()}."
         if isinstance(q, str):
-            return f"**Stand check**: not for {robot.name} ({q})"
+            return f"**Stand check**: not for {robot.name} ({q}){default}"
         try:
-            return stand_line(robot, q, servo)
+            return stand_line(robot, q, servo) + default
         except StudioError as error:
-            return f"**Stand check**: not for {robot.name} ({error})"
+            return f"**Stand check**: not for {robot.name} ({error}){default}"
 
     def close(self) -> None:
         with self._lock:

@@ -94,3 +94,26 @@ def test_the_uniform_preset_compensates_the_sized_servo():
     params = preset_params("uniform", robot)
     sized = sized_servos(robot)
     np.testing.assert_array_equal(params.k_deg_per_Nm, sized.compliance_deg_per_Nm)
+
+
+def test_roban_s14_stands_in_the_simulation_on_its_sized_servos():
+    """3 s standing still at the ready pose in MuJoCo (dead band included): on the paper's
+    servo Roban S14 falls (m·g·h ≈ 150 N·m/rad against 82 from its ankles); on its sized
+    servo it stays up, and the URDF's missing torque limits are the sized 57 N·m."""
+    from app.core.motions.trajectory import from_configurations
+    from app.core.servo.model import joint_angles
+    from app.core.simulation.files import default_servos
+    from app.core.simulation.run import simulate
+
+    robot = load_robot(str(ROBAN_URDF))
+    q = ready_pose(robot).q
+    n = 301
+    stand = from_configurations(
+        robot.model, "stand", robot.joint_names, 0.01, np.tile(q, (n, 1)), np.ones((n, 2), bool)
+    )
+    q_plan = joint_angles(robot, stand.q)
+    paper = simulate(robot, stand, q_plan, default_servos(robot))
+    sized = simulate(robot, stand, q_plan, sized_servos(robot))
+    assert paper.outcome.kind == "falls", paper.verdict()
+    assert sized.outcome.kind == "stays up", sized.verdict()
+    assert any("56.8 N·m" in note for note in sized.notes), sized.notes
