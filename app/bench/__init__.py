@@ -9,7 +9,7 @@ results and its Figures (app.bench.report), each beside a baseline measured in t
 (placo's bare IK beside a drag, bare MuJoCo beside a simulation, the core alone beside the
 studio's load, else the fixed pinocchio workload of `report.reference_s`) so that the ratio
 carries across machines. Every time is taken through app.bench.timing. `--only a,b` runs some
-entries; `--json` prints everything, `--markdown` the README's table.
+entries; `--json` prints everything, `--markdown` the table of docs/speed.md.
 """
 
 from __future__ import annotations

@@ -143,7 +143,7 @@ def with_parts(
             enabled=enabled,
             notes=(*(n for n in params.notes if not n.startswith("k = 1/K")), note),
         ),
-        ServoModel(servo.joint_names, compliance, backlash),
+        dataclasses.replace(servo, compliance_deg_per_Nm=compliance, backlash_deg=backlash),
     )
 
 
@@ -166,5 +166,5 @@ def take_joints(
         compliance, backlash = np.array(servo.compliance_deg_per_Nm), np.array(servo.backlash_deg)
         compliance[where] = old_servo.compliance_deg_per_Nm[where]
         backlash[where] = old_servo.backlash_deg[where]
-        servo = ServoModel(servo.joint_names, compliance, backlash)
+        servo = dataclasses.replace(servo, compliance_deg_per_Nm=compliance, backlash_deg=backlash)
     return params, servo

@@ -1,5 +1,5 @@
-"""The spring-compensation paper's experiments (section 5) and the compensations the README's
-table compares them under.
+"""The spring-compensation paper's experiments (section 5) and the compensations the table of
+docs/simulation.md compares them under.
 
 Each experiment is a built-in motion with the paper's parameters; the paper's outcome on
 Roban is quoted beside it. The compensations compared: none (q_cmd = q_plan), eq 7 with
