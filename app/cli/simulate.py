@@ -37,7 +37,8 @@ def add_parser(sub) -> None:
     source.add_argument(
         "--preset",
         choices=PRESETS,
-        help="plan: the plan as it is (no compensation); uniform: k = 1.4 °/(N·m) on the legs; "
+        help="plan: the plan as it is (no compensation); uniform: k = the servos' compliance "
+        "on the legs (1.4 °/(N·m) on the paper's robot, sized to the robot by m·g·h); "
         "table3 / table2: the paper's coefficients; parts: k = 1/K and φ = half the dead band "
         "of the servo parts a --servo file names (eq 23, torque sign)",
     )
@@ -58,8 +59,9 @@ def add_parser(sub) -> None:
         "--servo",
         type=Path,
         default=None,
-        help="servo.toml: true compliance and dead band (default 1.4 °/(N·m), 0.5° on the "
-        'legs), or catalogue servos per joint (servo = "mx106", kp, vin_V, current_limit_A, '
+        help="servo.toml: true compliance and dead band (default: the paper's 1.4 °/(N·m), 0.5° "
+        "and 6 N·m sized to the robot by m·g·h, on the legs; torque where the URDF gives none), "
+        'or catalogue servos per joint (servo = "mx106", kp, vin_V, current_limit_A, '
         "dead_band_deg): the parts' motor law (see biped-studio servos)",
     )
     simulate.add_argument(
@@ -177,9 +179,9 @@ def run(args: argparse.Namespace) -> int:
     from app.core.servo.compensation import compensated_command
     from app.core.servo.model import joint_angles
     from app.core.simulation.files import (
-        default_servos,
         read_command_csv,
         read_servo_toml,
+        sized_servos,
         write_simulation_csv,
     )
     from app.core.simulation.mjcf import SimOptions
@@ -196,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
     parts = _parts(args, robot.joint_names)
     if parts is None and args.battery_Wh is not None:
         raise StudioError("--battery-Wh needs servo parts: a --servo file that names servos")
-    mass_note = None
+    mass_note, sized = None, None
     if args.servo_masses is not None:
         if parts is None:
             raise StudioError("--servo-masses needs servo parts: a --servo file that names servos")
@@ -210,7 +212,11 @@ def run(args: argparse.Namespace) -> int:
     elif args.servo is not None:
         servo = read_servo_toml(args.servo, robot)
     else:
-        servo = inputs.servo if inputs.servo is not None else default_servos(robot)
+        servo = inputs.servo if inputs.servo is not None else sized_servos(robot)
+        if inputs.servo is None:
+            from app.core.servo.scaling import scaled_ideal_servo
+
+            sized = scaled_ideal_servo(robot).text()
     from_project = args.cmd is None and args.preset is None and args.compensation is None
     if from_project and inputs.compensation is None:
         raise StudioError(
@@ -257,6 +263,7 @@ def run(args: argparse.Namespace) -> int:
         report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
         report["out"] = None if args.out is None else str(args.out)
         report["stand_check"] = stand
+        report["servo_default"] = sized
         if len(results) > 1:
             report["baseline"] = results["without compensation"].summary()
         if parts is not None and main.energy is not None:
@@ -286,6 +293,8 @@ def run(args: argparse.Namespace) -> int:
         print(_figures_line(figures))
     if mass_note is not None:
         print(f"note: {mass_note}", file=sys.stderr)
+    if sized is not None:
+        print(f"note: {sized}", file=sys.stderr)
     for note in main.notes:
         print(f"note: {note}", file=sys.stderr)
     if stand is not None and not stand.startswith("stands"):
