@@ -81,3 +81,22 @@ def test_squats_hold_the_joints_outside_the_legs(robots, squats, shift, params):
     per_sample_bound = 0.01 * 1.0 * DT * params.get("speed", 1.0) / SQUAT_HALF_S
     assert np.abs(np.diff(angles, axis=0)).max() < per_sample_bound
     assert np.abs(angles - angles[0]).max() < np.deg2rad(0.1)
+
+
+def test_roban_cannot_stand_on_one_foot_at_the_papers_shift_even_on_rigid_servos(robots):
+    """At 4.3 cm the CoM of Roban S14 stays short of its stance sole (checked above with the
+    sole's corners): no servo can hold it on that foot, since a body standing on one foot has
+    its CoM over that foot. The simulation, on near-rigid servos, must then see the robot
+    fall or put its lifted foot down (carry weight on it)."""
+    from app.core.servo.model import ServoModel
+    from app.core.simulation.experiments import PAPER_EXPERIMENTS, run_paper_experiment
+
+    robot = robots["roban"]
+    experiment = next(e for e in PAPER_EXPERIMENTS if e.key == "squats_4.3cm")
+    [row] = run_paper_experiment(
+        robot, experiment, ServoModel.rigid(robot.joint_names), only=("none",)
+    )
+    assert any("cannot stand on that foot" in note for note in row["motion_notes"])
+    assert row["verdict_kind"] in ("falls", "leans on the lifted foot"), row["verdict"]
+    if row["verdict_kind"] == "leans on the lifted foot":
+        assert row["lifted_foot_peak_load_frac"] > 0.05
