@@ -191,14 +191,19 @@ def interpolate(
     n = math.ceil(float(ends[-1]) / dt - 1e-9) + 1
     first = keyframes[0]
     q = first.q if first.q is not None else ready_pose(robot, ik).q
-    joints = {joint.name: joint for joint in robot.joints}
-    ik.hold_joints({name: float(q[joints[name].idx_q]) for name in held_joints})
-    try:
+    if not held_joints:
         qs, contacts, warnings = _sample(
             robot, ik, keyframes, q, dt, n, ends, com_in_support, data, scratch
         )
-    finally:
-        ik.hold_joints({})
+    else:
+        joints = {joint.name: joint for joint in robot.joints}
+        ik.hold_joints({name: float(q[joints[name].idx_q]) for name in held_joints})
+        try:
+            qs, contacts, warnings = _sample(
+                robot, ik, keyframes, q, dt, n, ends, com_in_support, data, scratch
+            )
+        finally:
+            ik.hold_joints({})
     trajectory = from_configurations(robot.model, name, robot.joint_names, dt, qs, contacts)
     return MotionResult(trajectory, tuple(warnings))
 
