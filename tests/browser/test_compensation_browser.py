@@ -132,7 +132,9 @@ def test_generate_a_motion_and_compute_its_torques(
         RENDER_TIMEOUT_S,
     )
     feedforward = session.torques
-    assert feedforward is not None and studio.ghosts.view is not None
+    assert feedforward is not None
+    # The ghosts session draws on the prediction's signal, after the prediction is stored.
+    wait_for("the ghosts view", lambda: studio.ghosts.view, UI_TIMEOUT_S)
     assert feedforward.tau_Nm.shape == (trajectory.n_samples, len(prediction.joint_names))
     folder(page, "Compensation").get_by_text("max |τ|", exact=False).wait_for(
         state="visible", timeout=UI_TIMEOUT_S * 1000
