@@ -133,11 +133,7 @@ def test_law_in_mujoco_gives_the_python_laws_trajectories(squats, case):
     np.testing.assert_allclose(new.q, old.q, atol=1e-6)
     np.testing.assert_allclose(new.v, old.v, atol=1e-4)
     np.testing.assert_allclose(new.tau_Nm, old.tau_Nm, atol=1e-4)
-    # The sole forces are read after a forward pass at each sample: MuJoCo's actuators give
-    # the torque at the sample's own angles there, the Python law the one of the tick before
-    # (left in qfrc_applied), so they agree to a servo's torque change over one 1 ms tick.
-    weight = np.abs(old.contact_force_N[..., 2].sum(axis=1)).max()
-    np.testing.assert_allclose(new.contact_force_N, old.contact_force_N, atol=0.01 * weight)
+    np.testing.assert_allclose(new.contact_force_N, old.contact_force_N, atol=1e-3)
 
 
 def test_rigid_servos_on_roban_too():
@@ -155,3 +151,4 @@ def test_rigid_servos_on_roban_too():
     assert new.fall_index == old.fall_index
     np.testing.assert_allclose(new.q, old.q, atol=1e-6)
     np.testing.assert_allclose(new.tau_Nm, old.tau_Nm, atol=1e-3)
+    np.testing.assert_allclose(new.contact_force_N, old.contact_force_N, atol=1e-2)

@@ -264,10 +264,17 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
     fall_index, reason, stop_index = -1, "", n_samples
     every = max(1, n_samples // 50)
     force6 = np.zeros(6)
+    actuation_off = int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
     k = 0
     for k in range(n_samples):
         _check(d, m, k * inp.dt_cmd_s)
+        if in_mujoco:  # the servo torque of the last step, as the Python law leaves it
+            d.qfrc_applied[:] = d.qfrc_actuator
+            m.opt.disableflags |= actuation_off
         mujoco.mj_forward(m, d)  # after mj_step, positions and contacts lag qpos by a step
+        if in_mujoco:
+            m.opt.disableflags &= ~actuation_off
+            d.qfrc_applied[:] = 0.0
         R = d.xmat[root].reshape(3, 3) if sim.floating_base else np.eye(3)
         qpos_to_pin(sim, d.qpos, out_q[k])
         qvel_to_pin(sim, d.qvel, R, out_v[k])
