@@ -17,7 +17,7 @@ import numpy as np
 
 from app.bench.timing import PROCESS_CPU, stopwatch
 
-QUIET = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False}
+QUIET: dict[str, Any] = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False}
 """Output off: not a solver option (IPOPT's defaults otherwise, max_iter 3000 included)."""
 
 

@@ -14,6 +14,7 @@ import os
 import statistics
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -130,7 +131,7 @@ def project_file_times(project: Project, path: Path, runs: int = 5) -> tuple[lis
 
     blobs: dict = {}
     encode(project, "project", blobs)
-    arrays = {
+    arrays: dict[str, Any] = {
         f"a{i}": a if isinstance(a, np.ndarray) else np.frombuffer(a, dtype=np.uint8)
         for i, a in enumerate(blobs.values())
     }
