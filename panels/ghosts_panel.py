@@ -1,5 +1,5 @@
 """The "Ghosts" sub-folder of the Compensation folder: one toggle per ghost, each in its
-ghost's colour (panels.swatches: no separate legend)."""
+ghost's colour (panels.swatches: no separate legend), and the simulated walk's landings."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from panels.swatches import add_swatches
 
 class GhostsActions(Protocol):
     def set_ghost_visible(self, name: str, visible: bool) -> None: ...
+    def show_landings(self, visible: bool) -> None: ...
 
 
 class GhostsPanel:
@@ -33,8 +34,15 @@ class GhostsPanel:
                 for name, (_rgb, text) in ghosts.items()
             }
             add_swatches(gui, self.ghosts, {name: rgb for name, (rgb, _) in ghosts.items()})
+            self.landings = gui.add_checkbox(
+                "simulated footsteps vs planned",
+                initial_value=True,
+                hint="For a simulated walk: where each foot landed (small spheres in the "
+                "simulated ghost's colour) against where the plan put it (white), joined by a line",
+            )
         for name, checkbox in self.ghosts.items():
             checkbox.on_update(self._ghost(name, checkbox))
+        self.landings.on_update(lambda _event: session.show_landings(bool(self.landings.value)))
 
     def _ghost(self, name: str, checkbox: viser.GuiCheckboxHandle) -> Callable[[object], None]:
         def callback(_event: object) -> None:

@@ -1,5 +1,7 @@
 """Plots panel: joint torques over time (the paper's Figs. 8 and 13), torso roll and pitch
-planned / without / with compensation (Figs. 6, 10, 12, …), and the command offsets q_cmd − q.
+planned / without / with compensation (Figs. 6, 10, 12, …), the command offsets q_cmd − q, and
+after a simulation the load on the feet the plan has in the air (the verdict's "leans on the
+lifted foot" and swing-foot scuffs, against the lean threshold).
 
 A dropdown picks which joints the torque and offset plots show (a whole leg, or one joint):
 twelve lines in one small plot cannot be read. Roll and pitch get a plot each, one colour per
@@ -49,6 +51,8 @@ SIMULATED_SERIES = (
     ("comp. (simulated)", "#14aaaa", ()),
 )
 """Added after ATTITUDE_SERIES when a simulation of the motion exists."""
+THRESHOLD_SERIES = ("lean threshold", "#777777", (2.0, 3.0))
+"""The lifted-foot load plot's dashed line at the verdict's lean threshold."""
 ALL = ALL_JOINTS
 HINT = "Hover a plot and click its ⤢ button (top right) to see it large."
 WIDE_PX = 600
@@ -169,6 +173,32 @@ class PlotsPanel:
         series = tuple((label, colour, 1.5, dash) for label, colour, dash in labels)
         for which, curves in (("roll", roll_deg), ("pitch", pitch_deg)):
             self._draw(which, f"Torso {which} [°]", t, series, np.vstack(curves))
+
+    # --- the simulation's lifted-foot load ----------------------------------------------------
+
+    def show_lifted_load(
+        self, t: np.ndarray, load_percent: list[np.ndarray], threshold_percent: float, title: str
+    ) -> None:
+        """Load on the feet planned in the air [% of the weight] of each simulated run
+        (SIMULATED_SERIES order) and the lean threshold; `title` names the lean spans."""
+        series = tuple(
+            (label, colour, 1.5, dash)
+            for label, colour, dash in (*SIMULATED_SERIES, THRESHOLD_SERIES)
+        )
+        threshold = np.full(len(t), threshold_percent)
+        self._draw("lifted", title, t, series, np.vstack([*load_percent, threshold]))
+
+    @property
+    def lifted(self) -> viser.GuiUplotHandle | None:
+        return self._handles.get("lifted")
+
+    def drop(self, key: str) -> None:
+        """Remove plot `key` (e.g. the lifted-foot load when no simulation is of the motion)."""
+        with self._lock:
+            self._curves.pop(key, None)
+            handle = self._handles.pop(key, None)
+            if handle is not None:
+                handle.remove()
 
     # --- where the plots are ------------------------------------------------------------------
 

@@ -1,5 +1,6 @@
-"""The "Simulation (MuJoCo)" sub-folder of the Compensation folder: *Simulate without / with
-compensation*, *Cancel simulation*, a progress bar and the verdict."""
+"""The "Simulation (MuJoCo)" sub-folder of the Compensation folder: the stand check (can the
+robot stand on these servos, before any motion), *Simulate without / with compensation*,
+*Cancel simulation*, a progress bar and the verdict with how far a walk went."""
 
 from __future__ import annotations
 
@@ -31,6 +32,8 @@ class SimulationPanel:
                 "Simulation (MuJoCo)", expand_by_default=True, order=ORDER["simulation"]
             ),
         ):
+            self.stand = gui.add_markdown("")
+            """The stand check's line (app.studio.stand_checker)."""
             self.simulate = gui.add_button(
                 "Simulate without / with compensation",
                 icon=viser.Icon.PLAYER_PLAY,

@@ -93,6 +93,15 @@ studio's own log and the user through the sweep engine."""
 
 
 @pytest.fixture(autouse=True)
+def own_data_folder(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch):
+    """Each test's studio keeps its token, uploads, projects and autosaves in a folder of its
+    own (`$BIPED_STUDIO_DATA`, inherited by the CLI processes a test starts): no test reads
+    another's autosave or writes into the user's ~/.local/share, and tests can run side by
+    side. A test that sets the variable or passes `data_dir` itself still wins."""
+    monkeypatch.setenv("BIPED_STUDIO_DATA", str(tmp_path_factory.mktemp("data")))
+
+
+@pytest.fixture(autouse=True)
 def no_traceback_in_the_log(request: pytest.FixtureRequest) -> Iterator[None]:
     """Fail a test during which the studio logged a traceback (a callback that raised, a
     signal subscriber that failed, a thread that died), unless the test expects it from a

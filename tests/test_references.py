@@ -1,5 +1,5 @@
-"""Every module path the prose names exists: README.md, ARCHITECTURE.md, and the docstrings and
-comments of our Python files. Three forms are checked:
+"""Every module path the prose names exists: README.md, ARCHITECTURE.md, docs/*.md, and the
+docstrings and comments of our Python files. Three forms are checked:
 
 - file paths `app/core/motions/trajectory.py`, `nlp.py` (a file of that name or path tail in the
   repo, or in an installed package for `viser/infra/_infra.py`), and folders `app/core/servo/`;
@@ -22,7 +22,11 @@ from pathlib import Path
 
 from tests.conftest import REPO
 
-DOCUMENTS = ("README.md", "ARCHITECTURE.md")
+DOCUMENTS = (
+    "README.md",
+    "ARCHITECTURE.md",
+    *sorted(p.relative_to(REPO).as_posix() for p in (REPO / "docs").glob("*.md")),
+)
 SOURCE_FOLDERS = ("app", "panels", "robots", "tests", "examples", "scripts")
 TOP_FOLDERS = ("app", "panels", "robots", "tests", "examples", "scripts", "docs", "static")
 

@@ -11,7 +11,7 @@ OSQP on the same QP, bare MuJoCo stepping the same torques beside a simulation, 
 np.load beside a project file, IPOPT's defaults on the same NLP beside the gait, the core alone
 beside the studio's load). The fixed pinocchio workload of `report.reference_s` runs before and
 after, only to show the machine's speed held. Every time is taken through app.bench.timing.
-`--only a,b` runs some entries; `--json` prints everything, `--markdown` the README's table.
+`--only a,b` runs some entries; `--json` prints everything, `--markdown` the table of docs/speed.md.
 """
 
 from __future__ import annotations

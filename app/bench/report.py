@@ -117,7 +117,7 @@ def text_lines(figures: list[Figure]) -> list[str]:
 
 
 def markdown_table(figures: list[Figure], where: dict) -> str:
-    """The README's speed table: figure, target, baseline, ratio; machine and date below."""
+    """The speed table of docs/speed.md: figure, target, baseline, ratio; machine and date below."""
     rows = [
         "| what | target | now | baseline (same run) | now / baseline |",
         "|---|---|---|---|---|",

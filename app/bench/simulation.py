@@ -209,7 +209,7 @@ def bench_simulation(roban_urdf: str | Path | None = None) -> dict[str, float | 
         out[label] = lap.wall_s
     if roban_urdf is not None:
         roban = load_robot(roban_urdf)
-        # Rigid servos: on 1.4 °/(N·m) leg servos Roban falls while settling (README), and a
+        # Rigid servos: on 1.4 °/(N·m) leg servos Roban falls while settling (docs/simulation.md), and a
         # run that stops after a fall would time 0.5 s of it.
         traj = run_motion(roban, "one_leg_squats").trajectory
         out.update(_time_one("roban_s14", roban, traj, ServoModel.rigid(roban.joint_names)))

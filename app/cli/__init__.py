@@ -44,7 +44,7 @@ def _add_bench_parser(sub) -> None:
     )
     bench.add_argument("--repeats", type=int, default=200)
     bench.add_argument("--json", action="store_true")
-    bench.add_argument("--markdown", action="store_true", help="print the README's speed table")
+    bench.add_argument("--markdown", action="store_true", help="print docs/speed.md's table")
     bench.add_argument("--only", default="", help="comma-separated entries, e.g. drag,feedforward")
     bench.add_argument(
         "--sweep", action="store_true", help="also time a gait sweep on 1 worker and all cores"

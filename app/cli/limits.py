@@ -1,4 +1,4 @@
-"""`limits`: every limit the studio enforces on its inputs (the README's Safety section)."""
+"""`limits`: every limit the studio enforces on its inputs (docs/safety.md lists them)."""
 
 from __future__ import annotations
 

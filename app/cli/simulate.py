@@ -37,12 +37,20 @@ def add_parser(sub) -> None:
     source.add_argument(
         "--preset",
         choices=PRESETS,
-        help="plan: the plan as it is (no compensation); uniform: k = 1.4 °/(N·m) on the legs; "
+        help="plan: the plan as it is (no compensation); uniform: k = the servos' compliance "
+        "on the legs (1.4 °/(N·m) on the paper's robot, sized to the robot by m·g·h); "
         "table3 / table2: the paper's coefficients; parts: k = 1/K and φ = half the dead band "
         "of the servo parts a --servo file names (eq 23, torque sign)",
     )
     simulate.add_argument(
         "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
+    )
+    simulate.add_argument(
+        "--drive-torque",
+        action="store_true",
+        help="compensate the servo's whole drive torque τ + D·q̇ + J·q̈ (its back-EMF damping "
+        "and rotor inertia, as simulated), not τ alone: a fast motion (a walk) lags its plan "
+        "otherwise; same as eq 7 for a slow one",
     )
     simulate.add_argument(
         "--tau", type=Path, default=None, help="torque CSV (default: computed by the whole-body QP)"
@@ -51,8 +59,9 @@ def add_parser(sub) -> None:
         "--servo",
         type=Path,
         default=None,
-        help="servo.toml: true compliance and dead band (default 1.4 °/(N·m), 0.5° on the "
-        'legs), or catalogue servos per joint (servo = "mx106", kp, vin_V, current_limit_A, '
+        help="servo.toml: true compliance and dead band (default: the paper's 1.4 °/(N·m), 0.5° "
+        "and 6 N·m sized to the robot by m·g·h, on the legs; torque where the URDF gives none), "
+        'or catalogue servos per joint (servo = "mx106", kp, vin_V, current_limit_A, '
         "dead_band_deg): the parts' motor law (see biped-studio servos)",
     )
     simulate.add_argument(
@@ -112,6 +121,25 @@ def _torques(args: argparse.Namespace, robot, traj, inputs: MotionInputs):
     return table.tau_Nm
 
 
+def _drive_torque(robot, traj, tau, servo, law, options):
+    """τ + D·q̇ + J·q̈ with the D and J the simulation gives each joint (`drive_torque_Nm`)."""
+    from app.core.servo.compensation import drive_torque_Nm
+    from app.core.simulation.servo_law import servo_law
+
+    if law is None:
+        law = servo_law(
+            servo,
+            robot.joint_names,
+            [joint.effort for joint in robot.joints],
+            [joint.velocity for joint in robot.joints],
+        )
+    columns = [joint.idx_v for joint in robot.joints]
+    rotor = getattr(law, "armature_kgm2", options.armature_kgm2)
+    return drive_torque_Nm(
+        tau, traj.v[:, columns], traj.a[:, columns], law.damping_Nms_per_rad, rotor
+    )
+
+
 def _parts(args: argparse.Namespace, joint_names: tuple[str, ...]):
     """The servo parts of a --servo file that names catalogue servos, else None."""
     if args.servo is None:
@@ -151,9 +179,9 @@ def run(args: argparse.Namespace) -> int:
     from app.core.servo.compensation import compensated_command
     from app.core.servo.model import joint_angles
     from app.core.simulation.files import (
-        default_servos,
         read_command_csv,
         read_servo_toml,
+        sized_servos,
         write_simulation_csv,
     )
     from app.core.simulation.mjcf import SimOptions
@@ -170,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
     parts = _parts(args, robot.joint_names)
     if parts is None and args.battery_Wh is not None:
         raise StudioError("--battery-Wh needs servo parts: a --servo file that names servos")
-    mass_note = None
+    mass_note, sized = None, None
     if args.servo_masses is not None:
         if parts is None:
             raise StudioError("--servo-masses needs servo parts: a --servo file that names servos")
@@ -184,7 +212,11 @@ def run(args: argparse.Namespace) -> int:
     elif args.servo is not None:
         servo = read_servo_toml(args.servo, robot)
     else:
-        servo = inputs.servo if inputs.servo is not None else default_servos(robot)
+        servo = inputs.servo if inputs.servo is not None else sized_servos(robot)
+        if inputs.servo is None:
+            from app.core.servo.scaling import scaled_ideal_servo
+
+            sized = scaled_ideal_servo(robot).text()
     from_project = args.cmd is None and args.preset is None and args.compensation is None
     if from_project and inputs.compensation is None:
         raise StudioError(
@@ -192,6 +224,13 @@ def run(args: argparse.Namespace) -> int:
         )
     options = SimOptions(friction=args.friction, hulls=args.hulls, command_hold=args.hold)
     q_plan = joint_angles(robot, traj.q)
+    if args.drive_torque and (args.cmd is not None or args.preset == "plan"):
+        raise StudioError("--drive-torque goes with a compensation (--preset, --compensation)")
+
+    def load():
+        tau = _torques(args, robot, traj, inputs)
+        return _drive_torque(robot, traj, tau, servo, law, options) if args.drive_torque else tau
+
     if args.cmd is not None:
         q_cmd, label = read_command_csv(args.cmd, robot.joint_names, traj.n_samples), "commands"
     elif args.preset == "plan":
@@ -199,18 +238,16 @@ def run(args: argparse.Namespace) -> int:
     elif args.preset == "parts":
         if parts is None:
             raise StudioError('--preset parts needs a --servo file that names servos (servo = "…")')
-        q_cmd = compensated_command(
-            q_plan, _torques(args, robot, traj, inputs), parts.compensation()
-        )
-        label = "with compensation"
+        q_cmd = compensated_command(q_plan, load(), parts.compensation())
+        label = "with compensation" + (" (drive torque)" if args.drive_torque else "")
     else:
         params = (
             inputs.compensation
             if from_project and inputs.compensation is not None
             else coefficients_from_args(robot, args.preset, args.clearance, args.compensation)
         )
-        q_cmd = compensated_command(q_plan, _torques(args, robot, traj, inputs), params)
-        label = "with compensation"
+        q_cmd = compensated_command(q_plan, load(), params)
+        label = "with compensation" + (" (drive torque)" if args.drive_torque else "")
     commands = {label: q_cmd}
     if args.baseline and args.preset != "plan":
         commands = {"without compensation": q_plan, **commands}
@@ -226,6 +263,7 @@ def run(args: argparse.Namespace) -> int:
         report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
         report["out"] = None if args.out is None else str(args.out)
         report["stand_check"] = stand
+        report["servo_default"] = sized
         if len(results) > 1:
             report["baseline"] = results["without compensation"].summary()
         if parts is not None and main.energy is not None:
@@ -255,6 +293,8 @@ def run(args: argparse.Namespace) -> int:
         print(_figures_line(figures))
     if mass_note is not None:
         print(f"note: {mass_note}", file=sys.stderr)
+    if sized is not None:
+        print(f"note: {sized}", file=sys.stderr)
     for note in main.notes:
         print(f"note: {note}", file=sys.stderr)
     if stand is not None and not stand.startswith("stands"):

@@ -62,17 +62,10 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import numpy as np
 
-    from app.core.dynamics.peaks import over_speed_samples
     from app.core.servo.catalogue import load_catalogue, read_user_servos, with_user_servos
-    from app.core.servo.sizing import (
-        CONTINUOUS_FRACTION_OF_STALL,
-        check_fraction,
-        check_margin,
-        combine,
-        size_joints,
-    )
+    from app.core.servo.sizing import CONTINUOUS_FRACTION_OF_STALL, check_fraction, check_margin
+    from app.core.servo.sizing_work import motion_work, size_works
 
     margin = check_margin(args.margin)
     fraction = check_fraction(
@@ -86,29 +79,19 @@ def run(args: argparse.Namespace) -> int:
     inputs = motion_inputs(args)
     robot, traj = inputs.robot, inputs.trajectory
     tau, infeasible = _torques(args, inputs)
-    flagged = sorted({*infeasible, *over_speed_samples(robot, traj)})
-    keep = np.setdiff1d(np.arange(traj.n_samples), np.array(flagged, dtype=int))
-    if len(keep) == 0:
-        raise StudioError("every sample of the motion is flagged (not solved or over speed)")
-    speed = traj.v[:, [j.idx_v for j in robot.joints]]
-    works = {"motion": (speed[keep], tau[keep], keep)}
-    works.update(_project_gaits(args, robot))
+    motion = motion_work(robot, traj, tau, infeasible)
+    flagged = motion.flagged
+    works = {"motion": motion, **_project_gaits(args, robot)}
     begin = time.perf_counter()
-    sizings = {
-        label: size_joints(
-            robot.joint_names,
-            w,
-            t,
-            float(traj.t[-1] - traj.t[0]),
-            catalogue,
-            margin,
-            args.by,
-            sample_index=index,
-            continuous_fraction=fraction,
-        )
-        for label, (w, t, index) in works.items()
-    }
-    sizing = combine(sizings, catalogue) if len(sizings) > 1 else sizings["motion"]
+    sizing = size_works(
+        robot.joint_names,
+        works,
+        float(traj.t[-1] - traj.t[0]),
+        catalogue,
+        margin,
+        args.by,
+        continuous_fraction=fraction,
+    )
     seconds = time.perf_counter() - begin
     notes = list(sizing.notes)
     if flagged:
@@ -185,17 +168,15 @@ def _torques(args: argparse.Namespace, inputs) -> tuple[np.ndarray, tuple[int, .
     return ff.tau_Nm, tuple(int(k) for k in ff.infeasible_samples)
 
 
-def _project_gaits(args: argparse.Namespace, robot) -> dict[str, tuple]:
-    """A project's planned gaits as (speeds, torques, sample index) on the robot's joints
-    (joints a planar gait does not move: no load), sampled every 10 ms; {} for a CSV."""
-    import numpy as np
-
+def _project_gaits(args: argparse.Namespace, robot) -> dict:
+    """A project's planned gaits as works on the robot's joints (app.core.servo.sizing_work);
+    {} for a CSV."""
     from app.cli.common import PROJECT_SUFFIX
 
     if Path(args.trajectory).suffix.lower() != PROJECT_SUFFIX:
         return {}
-    from app.core.collocation.sampling import sample_gait
     from app.core.projects.files import read_project
+    from app.core.servo.sizing_work import gait_work
 
     project = read_project(args.trajectory)
     out = {}
@@ -203,13 +184,7 @@ def _project_gaits(args: argparse.Namespace, robot) -> dict[str, tuple]:
         ("symmetric gait", project.gait_symmetric),
         ("baseline gait", project.gait_baseline),
     ):
-        if gait is None or not gait.has_gait:
-            continue
-        samples = sample_gait(gait, np.arange(0.0, gait.duration_s, 0.01))
-        columns = [robot.joint_names.index(name) for name in gait.joint_names]
-        w = np.zeros((len(samples.u), robot.n_actuated))
-        tau = np.zeros_like(w)
-        w[:, columns] = samples.v[:, 3:]
-        tau[:, columns] = samples.u
-        out[label] = (w, tau, np.arange(len(w)))
+        work = None if gait is None else gait_work(robot, gait)
+        if work is not None:
+            out[label] = work
     return out

@@ -7,7 +7,7 @@ directory is not a file) no larger than its kind's limit. The file is then opene
 O_NONBLOCK (so even a FIFO swapped in after the check cannot block), checked again with fstat,
 and read up to the limit only.
 
-Limits, one per kind of file (the README's Safety section lists them):
+Limits, one per kind of file (docs/safety.md lists them):
 
     URDF                      20 MiB
     mesh (STL, DAE, PLY, GLB, OFF)  64 MiB; binary STL ≤ 1 000 000 triangles (header checked

@@ -1,4 +1,4 @@
-"""Every limit the studio enforces on its inputs, in one table (README Safety, `limits`).
+"""Every limit the studio enforces on its inputs, in one table (docs/safety.md, `limits`).
 
 Each row names the limit, its value with its unit, and the module that enforces it; the
 values are read from those modules, so the table cannot drift from the code.

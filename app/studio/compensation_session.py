@@ -19,7 +19,6 @@ import viser
 
 from app.core.dynamics.wbc import FeedForward
 from app.core.errors import StudioError
-from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CLEARANCE_SIGNS, CompensationParams, disabled_params
 from app.core.servo.edits import JointEdit
@@ -27,7 +26,7 @@ from app.core.servo.files import write_command_csv
 from app.core.servo.model import Predictor, ServoModel, joint_angles
 from app.core.servo.preset_safety import implausible_prediction, scaled_to_limits
 from app.core.servo.presets import PRESETS, preset_params
-from app.core.simulation.files import DEFAULT_BACKLASH_DEG
+from app.core.servo.scaling import scaled_servo_model
 from app.studio.coalesce import Coalescer
 from app.studio.notifier import Notifier
 from app.studio.state import LoadedRobot, StudioState
@@ -207,19 +206,13 @@ class CompensationSession:
 
 def default_params(robot: RobotModel) -> tuple[CompensationParams, ServoModel]:
     """The default preset on the robot (no compensation where it does not fit), and virtual
-    servos as compliant as the paper's identifiable servos with a small dead band on the
-    compensated joints, so that compensation has work to do."""
+    servos on the compensated joints: the paper's servo sized to the robot (compliance and dead
+    band, `app.core.servo.scaling`), so that compensation has work to do."""
     try:
         params = preset_params(DEFAULT_PRESET, robot)
     except StudioError:
         params = disabled_params(robot.joint_names)
-    legs = params.enabled
-    servo = ServoModel(
-        robot.joint_names,
-        np.where(legs, TYPICAL_COMPLIANCE_DEG_PER_NM, 0.0),
-        np.where(legs, DEFAULT_BACKLASH_DEG, 0.0),
-    )
-    return params, servo
+    return params, scaled_servo_model(robot, params.enabled)
 
 
 def _first_enabled(params: CompensationParams) -> str:

@@ -1,6 +1,7 @@
 """The comparison overlays: the ghosts (the plan, the command, the quick estimates and the
-simulated runs, drawn at the playback time), the Plots panel (torques, torso roll and pitch,
-command offsets, with a time cursor) and the Compare panel. They draw what the state holds (its
+simulated runs, drawn at the playback time), a simulated walk's landings against the plan's
+(app.views.landings_view), the Plots panel (torques, torso roll and pitch, command offsets,
+the simulated lifted-foot load, with a time cursor) and the Compare panel. They draw what the state holds (its
 prediction and its simulation) and keep no copy of it; their toggles are display settings kept
 in projects.
 """
@@ -16,6 +17,8 @@ from app.core.projects.display import DEFAULT_GHOSTS
 from app.core.replay.pipeline import prediction_verdicts
 from app.core.replay.scene import ReplayLayers
 from app.core.servo.model import Prediction
+from app.core.simulation.result import SimulationResult
+from app.core.simulation.verdicts import LEAN_LOAD_FRACTION
 from app.core.thinning import thin_minmax
 from app.studio.compare_controls import CompareControls
 from app.studio.compare_text import quick_estimate_summary
@@ -25,6 +28,7 @@ from app.studio.simulation_runner import WITH, WITHOUT, SimulationRecord
 from app.studio.state import Display, Motion, StudioState
 from app.studio.throttle import Throttle
 from app.views.ghosts_view import GHOSTS, GhostsView
+from app.views.landings_view import LandingsView
 from app.views.roots import AlternatingRoot
 from panels.compensation_folder import CompensationFolder
 from panels.ghosts_panel import GhostsPanel
@@ -33,6 +37,7 @@ from panels.quiet import set_value
 
 log = logging.getLogger(__name__)
 
+GRAVITY_MPS2 = 9.81
 CURSOR_PERIOD_S = 0.25
 """The plots' time cursor moves at most this often during playback (each move resends the
 plots' data)."""
@@ -49,6 +54,10 @@ class GhostsSession:
         self.plots = PlotsPanel(server.gui)
         self.view: GhostsView | None = None
         """The ghosts of the current motion, drawn once it has a quick estimate."""
+        self.landings: LandingsView | None = None
+        """The simulated walk's landings against the plan's (None: no walk simulated)."""
+        self._landings_of: SimulationRecord | None = None
+        self._landing_roots = AlternatingRoot("/landings")
         labels = {name: text for name, (_, text) in GHOSTS.items()}
         self.compare = CompareControls(
             server, state, self.panel.ghosts, labels, state.work.on_simulation, self.colour_by_error
@@ -76,6 +85,7 @@ class GhostsSession:
             if self.view is not None:
                 self.view.remove()
             self.view = None
+            self._show_landings_of(None)
         self._cursor.cancel()
         self.plots.clear()
 
@@ -100,7 +110,10 @@ class GhostsSession:
                 return
             if self.view is None:
                 self.view = self._new_view()
-            self._plot(prediction, simulation if _of(simulation, trajectory) else None)
+            simulated = simulation if _of(simulation, trajectory) else None
+            self._plot(prediction, simulated)
+            self._plot_lifted_load(simulated, trajectory.contacts, robot.mass_kg)
+            self._show_landings_of(simulated)
             self.show_sample(trajectory.index_at(self._state.time_s))
 
     def _plot(self, prediction: Prediction, simulation: SimulationRecord | None) -> None:
@@ -132,6 +145,47 @@ class GhostsSession:
         offsets = deg(prediction.q_cmd_rad - prediction.q_plan_rad)
         keep = thin_minmax(t, offsets.T)
         self.plots.show_offsets(t[keep], prediction.joint_names, offsets[keep])
+
+    def _plot_lifted_load(
+        self, simulation: SimulationRecord | None, contacts: np.ndarray, mass_kg: float
+    ) -> None:
+        """The load on the feet the plan has in the air, per simulated run [% of the weight]."""
+        if simulation is None:
+            self.plots.drop("lifted")
+            return
+        runs = [simulation.run.results[WITHOUT], simulation.run.results[WITH]]
+        loads = np.stack([lifted_load_percent(run, contacts, mass_kg) for run in runs])
+        t = runs[0].t
+        keep = thin_minmax(t, loads)
+        self.plots.show_lifted_load(
+            t[keep], list(loads[:, keep]), 100 * LEAN_LOAD_FRACTION, _lean_title(runs)
+        )
+
+    def _show_landings_of(self, simulation: SimulationRecord | None) -> None:
+        """The landings of `simulation`'s runs that travel (drawn once per simulation)."""
+        if simulation is self._landings_of:
+            return
+        if self.landings is not None:
+            self.landings.remove()
+            self.landings = None
+        self._landings_of = simulation
+        if simulation is None:
+            return
+        runs = [
+            (GHOSTS[ghost][0], result.outcome.travel.footsteps)
+            for ghost, label in (("sim_without", WITHOUT), ("sim_with", WITH))
+            if (result := simulation.run.results[label]).outcome is not None
+            and result.outcome.travel is not None
+            and result.outcome.travel.footsteps  # a run that fell before landing has none
+        ]
+        if runs:
+            self.landings = LandingsView(self._server, runs, self._landing_roots.next())
+            self.landings.set_visible(bool(self.panel.landings.value))
+
+    def show_landings(self, visible: bool) -> None:
+        with self._state.lock:
+            if self.landings is not None:
+                self.landings.set_visible(visible)
 
     def show_sample(self, k: int) -> None:
         """Place the ghosts at sample k of the current motion."""
@@ -248,6 +302,36 @@ class GhostsSession:
 
     def close(self) -> None:
         self._cursor.cancel()
+
+
+def lifted_load_percent(run: SimulationResult, contacts: np.ndarray, mass_kg: float) -> np.ndarray:
+    """Largest vertical floor force on a sole the plan has in the air, over the weight [%],
+    shape (T,) (the verdict's lean measure, app.core.simulation.verdicts)."""
+    load = run.contact_force_N[:, :, 2] / (mass_kg * GRAVITY_MPS2)
+    return 100.0 * np.where(np.asarray(contacts, dtype=bool), 0.0, load).max(axis=1)
+
+
+def _lean_title(runs: list[SimulationResult]) -> str:
+    """The lifted-foot load plot's title: when each run leaned, or its scuffs."""
+    parts = []
+    for name, run in zip(("no comp.", "comp."), runs, strict=True):
+        verdict = run.outcome
+        if verdict is None:
+            continue
+        if verdict.lean is not None:
+            parts.append(
+                f"{name} leans from {verdict.lean.start_s:.2f} s "
+                f"({verdict.lifted_foot_load_s:.2f} s in all)"
+            )
+        elif verdict.scuffs:
+            count = len(verdict.scuffs)
+            parts.append(
+                f"{name} {count} scuff{'s' if count > 1 else ''} from "
+                f"{verdict.scuffs[0].start_s:.2f} s"
+            )
+        else:
+            parts.append(f"{name} no lean")
+    return "Lifted-foot load [% of weight]" + (f": {'; '.join(parts)}" if parts else "")
 
 
 def _of(simulation: SimulationRecord | None, trajectory: object) -> bool:

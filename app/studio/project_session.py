@@ -76,6 +76,12 @@ class HoldsKeyframes(Protocol):
     def set_keyframes(self, keyframes: tuple[Keyframe, ...]) -> None: ...
 
 
+class HoldsServoParts(Protocol):
+    """The session holding the servo parts (undo and redo put a choice back)."""
+
+    def restore_parts(self, choice: Any, coefficients: tuple[Any, Any]) -> None: ...
+
+
 class HoldsWork(Protocol):
     """A session holding user state that a project keeps."""
 
@@ -104,6 +110,7 @@ class ProjectSession:
         parts: Sequence[HoldsWork],
         keyframes: HoldsKeyframes,
         dragging: Callable[[], bool] = lambda: False,
+        servos: HoldsServoParts | None = None,
     ) -> None:
         """dragging: whether a tab holds a drag handle now (a drag is one undo step however
         slowly it goes: no step is taken before the handle is released)."""
@@ -111,6 +118,7 @@ class ProjectSession:
         self._dragging = dragging
         self._parts = tuple(parts)
         self._keyframes = keyframes
+        self._servos = servos
         self.history = UndoHistory()
         self._undo_lock = threading.Lock()
         """Taking a step and going to one never interleave."""
@@ -465,7 +473,7 @@ class ProjectSession:
         with self._undo_lock:
             if self._state.pose is not pose:
                 return  # it changed meanwhile (an undo): the next look takes it
-            taken = self.history.record(Step(loaded, pose, tuple(marks.get("keyframes", ()))))
+            taken = self.history.record(_step(loaded, pose, marks))
         if taken:
             self.panel.show_undo(self.history.can_undo, self.history.can_redo)
 
@@ -491,11 +499,13 @@ class ProjectSession:
             with self._undo_lock, state.lock, self._server.atomic():
                 if state.loaded is step.loaded:
                     self._keyframes.set_keyframes(step.keyframes)
+                    if self._servos is not None and step.servo_parts is not state.work.parts:
+                        self._servos.restore_parts(step.servo_parts, step.coefficients)
                     state.set_pose(
                         step.pose.q.copy(), step.pose.stance, "button", step.loaded.robot
                     )
                     assert state.loaded is not None and state.pose is not None
-                    self.history.replace_current(Step(state.loaded, state.pose, step.keyframes))
+                    self.history.replace_current(_step(state.loaded, state.pose, self.marks()))
                     applied = True
         self.panel.show_undo(self.history.can_undo, self.history.can_redo)
         if move is None or not applied:
@@ -522,6 +532,17 @@ class ProjectSession:
         self.panel.show_status(f"⚠️ {body} — your current work is unchanged.")
         self._notifier.error(title, f"{body} — your current work is unchanged.", client)
         return False
+
+
+def _step(loaded: LoadedRobot, pose: Pose, marks: Marks) -> Step:
+    """The undo step of the work in `marks`: pose, keyframes, servo parts (and coefficients)."""
+    return Step(
+        loaded,
+        pose,
+        tuple(marks.get("keyframes", ())),
+        servo_parts=marks.get("servo_parts"),
+        coefficients=(marks.get("compensation"), marks.get("servo")),
+    )
 
 
 def _same(a: Marks | None, b: Marks) -> bool:

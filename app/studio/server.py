@@ -30,6 +30,7 @@ from app.studio.pose_session import PoseSession
 from app.studio.project_session import ProjectSession
 from app.studio.robot_session import RobotSession, prepare
 from app.studio.servo_work import ServoWork
+from app.studio.servos_session import ServosSession
 from app.studio.share_session import ShareSession
 from app.studio.simulation_session import SimulationSession
 from app.studio.state import StudioState
@@ -91,6 +92,15 @@ class Studio:
         self.gait = GaitSession(
             server, state, notifier, config.package_roots, prepare=config.prepare_gait
         )
+        self.servos = ServosSession(
+            server,
+            state,
+            notifier,
+            gaits=lambda: {
+                "symmetric gait": self.gait.results.symmetric,
+                "baseline gait": self.gait.results.baseline,
+            },
+        )
         self.pipeline = PipelineProgress(
             server.gui,
             self.gait.panel.folder,
@@ -135,6 +145,7 @@ class Studio:
             (self.motions, ServoWork(state), self.gait, self.sweep),
             self.motions,
             dragging=lambda: self.pose.handles is not None and bool(self.pose.handles.held),
+            servos=self.servos,
         )
         if config.project is not None:
             if not self.project.open(config.project, trusted=True):

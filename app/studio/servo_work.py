@@ -1,5 +1,5 @@
-"""The motion's work as a project keeps it: torques, coefficients and virtual servos, and the
-last simulation, read from and restored into the state (the project session's `HoldsWork`
+"""The motion's work as a project keeps it: torques, coefficients and virtual servos, the
+servo parts per joint, and the last simulation, read from and restored into the state (the project session's `HoldsWork`
 part; the sessions that show them follow the state's signals)."""
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ class ServoWork:
                 "feedforward": state.work.torques,
                 "compensation": coefficients.params if coefficients is not None else None,
                 "servo": coefficients.servo if coefficients is not None else None,
+                "servo_parts": state.work.parts,
                 "simulation": runs,
                 "simulation_stale": record.stale if runs and record is not None else False,
                 "simulation_wall_s": record.run.waited_s if runs and record is not None else None,
@@ -39,7 +40,15 @@ class ServoWork:
         with self._state.lock:
             state = self._state
             robot, trajectory, current = state.robot, state.trajectory, state.work.coefficients
-            if current is not None and (
+            parts = project.servo_parts
+            if current is not None and parts is not None:
+                state.work.set_parts(
+                    parts,
+                    project.compensation or current.params,
+                    project.servo or current.servo,
+                    "project",
+                )
+            elif current is not None and (
                 project.compensation is not None or project.servo is not None
             ):
                 state.work.set_coefficients(

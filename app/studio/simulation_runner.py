@@ -20,6 +20,7 @@ from app.core.robot.model import RobotModel
 from app.core.servo.model import ServoModel
 from app.core.simulation.on_plan import OnPlan, on_plan_stance
 from app.core.simulation.result import SimulationResult
+from app.core.simulation.servo_law import ServoLaw
 from app.core.simulation.worker import (
     SIMULATION_KEY,
     SimulationJob,
@@ -120,9 +121,13 @@ class SimulationRunner:
         q_plan_rad: np.ndarray,
         q_cmd_rad: np.ndarray,
         servo: ServoModel,
+        law: ServoLaw | None = None,
     ) -> Simulation:
-        """Check the runs here (SimulationInputError at once) and start them in the worker."""
-        job = simulation_job(robot, trajectory, {WITHOUT: q_plan_rad, WITH: q_cmd_rad}, servo)
+        """Check the runs here (SimulationInputError at once) and start them in the worker;
+        `law` replaces the virtual servos' (servo parts)."""
+        job = simulation_job(
+            robot, trajectory, {WITHOUT: q_plan_rad, WITH: q_cmd_rad}, servo, law=law
+        )
         simulation = Simulation(
             f"simulation-{next(self._ids)}", robot, trajectory, job, time.monotonic()
         )

@@ -1,7 +1,9 @@
 """Simulation in the studio: the plan and the compensated commands run on MuJoCo in a worker
 process (app.studio.simulation_runner), with progress and cancel; the last good run goes to the
-state (`StudioState.set_simulation`) with its verdicts, and is marked stale when the
-coefficients or servos change after it.
+state (`StudioState.set_simulation`) with its verdicts (for a walk, how far it went and how far
+each footstep landed from the plan's), and is marked stale when the coefficients or servos
+change after it. Before any motion, the panel says whether the robot can stand on its virtual
+servos (app.studio.stand_checker, off the UI thread), again whenever the servos change.
 
 The one-click pipeline's last stage: a motion that asks for "simulate" is simulated as soon as
 its quick estimate exists.
@@ -18,13 +20,16 @@ from app.core.errors import StudioError
 from app.core.servo.model import Prediction
 from app.studio.compare_text import simulation_summary
 from app.studio.notifier import Notifier
+from app.studio.servo_parts import energy_line, simulation_law
 from app.studio.signals import Signal
 from app.studio.simulation_runner import (
+    WITH,
     Simulation,
     SimulationRecord,
     SimulationRunner,
     simulation_record,
 )
+from app.studio.stand_checker import StandChecker
 from app.studio.state import Motion, StudioState
 from app.studio.work import Coefficients
 from panels.compensation_folder import CompensationFolder
@@ -45,6 +50,8 @@ class SimulationSession:
         self.runner.finished.connect(self._on_simulated)
         self.refused: Signal[str] = Signal("simulation_refused")
         """Emitted with the reason when a simulation cannot start (the one click stops there)."""
+        self.stand = StandChecker(self._show_stand)
+        """The stand check of the robot on the current virtual servos."""
         self._then: Motion | None = None
         """The motion that asked to be simulated (the one-click pipeline), not yet simulated."""
         state.on_motion.connect(self._on_motion)
@@ -71,9 +78,19 @@ class SimulationSession:
     def _on_coefficients(self, coefficients: Coefficients) -> None:
         if coefficients.origin != "project":
             self._state.work.mark_simulation_stale()
+        robot = self._state.robot
+        if robot is not None and robot.joint_names == coefficients.servo.joint_names:
+            self.stand.request(robot, coefficients.servo)
+
+    def _show_stand(self, text: str) -> None:
+        self.panel.stand.content = text
 
     def _on_simulation(self, record: SimulationRecord) -> None:
         text = simulation_summary(record.run, record.drift_m())
+        travel = travel_lines(record.run)
+        if travel:
+            text += "  \n" + travel
+        text += _energy(record, self._state)
         self.panel.verdict.content = STALE + text if record.stale else text
 
     # --- running (SimulationActions) -------------------------------------------------------------
@@ -92,7 +109,10 @@ class SimulationSession:
             return
         servo = coefficients.servo
         try:
-            self.runner.start(robot, trajectory, prediction.q_plan_rad, prediction.q_cmd_rad, servo)
+            law = simulation_law(robot, servo, self._state.work.parts)  # the servo parts' hook
+            self.runner.start(
+                robot, trajectory, prediction.q_plan_rad, prediction.q_cmd_rad, servo, law
+            )
         except (OSError, RuntimeError) as error:  # the worker process could not start
             self._fail("Cannot simulate", f"the simulation worker did not start: {error}", client)
             return
@@ -131,8 +151,44 @@ class SimulationSession:
 
     def close(self) -> None:
         self.runner.close()
+        self.stand.close()
 
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
         self.panel.status.content = f"⚠️ {body}"
         self._notifier.error(title, body, client)
         self.refused.emit(body)
+
+
+def _energy(record: SimulationRecord, state: StudioState) -> str:
+    """The compensated run's energy line when it ran on servo parts (app.studio.servo_parts)."""
+    run = record.run
+    line = energy_line(
+        run.results[WITH], run.robot, run.trajectory, state.work.parts, state.work.torques
+    )
+    return f"  \n{line}" if line else ""
+
+
+def travel_lines(simulation: Simulation) -> str:
+    """For a motion that travels, per run: "walked X of Y m (Z %)", its footsteps' placement
+    errors and swing-foot scuffs (app.core.simulation.verdicts.Travel); "" otherwise."""
+    lines = []
+    for label, result in simulation.results.items():
+        verdict = result.outcome
+        if verdict is None or verdict.travel is None:
+            continue
+        travel = verdict.travel
+        line = (
+            f"{label}: walked **{travel.distance_covered_m:.2f} of {travel.distance_planned_m:.2f}"
+            f" m ({100 * travel.fraction:.0f} %)**"
+        )
+        errors = [100 * step.error_m for step in travel.footsteps]
+        if errors:
+            line += (
+                f"; {len(errors)} footstep{'s' if len(errors) > 1 else ''} landed "
+                f"{min(errors):.1f}–{max(errors):.1f} cm from the plan's (mean "
+                f"{sum(errors) / len(errors):.1f} cm)"
+            )
+        count = len(verdict.scuffs)
+        line += f"; {count} swing-foot scuff{'' if count == 1 else 's'}"
+        lines.append(line)
+    return "  \n".join(lines)

@@ -1,4 +1,4 @@
-"""Undo / redo of pose and keyframe edits: a history of still moments.
+"""Undo / redo of pose, keyframe and servo part edits: a history of still moments.
 
 A step is taken whenever the work has been still for a moment (the autosave thread's quiet
 period), so a whole drag or a burst of slider moves is one step. Only edits count: a pose set
@@ -19,6 +19,7 @@ import threading
 import numpy as np
 
 from app.core.motions.keyframes import Keyframe
+from app.core.servo.choice import JointServo, ServoChoice
 from app.studio.state import LoadedRobot, Pose
 
 MAX_STEPS = 100
@@ -37,13 +38,15 @@ class Step:
     keyframes: tuple[Keyframe, ...]
     edit: str = ""
     """The edit that made this step from the one before, in words (set when it is taken)."""
+    servo_parts: ServoChoice | None = None
+    """The servo per joint (`StudioState.work.parts`), compared by identity."""
+    coefficients: tuple[object, object] = (None, None)
+    """The compensation coefficients and virtual servos with it: a part change taken back puts
+    its joints' values back too."""
 
     def same_as(self, other: Step) -> bool:
-        return (
-            self.loaded is other.loaded
-            and self.pose is other.pose
-            and len(self.keyframes) == len(other.keyframes)
-            and all(a is b for a, b in zip(self.keyframes, other.keyframes, strict=True))
+        return _same_keyframes(self, other) and (
+            self.loaded is other.loaded and self.pose is other.pose
         )
 
 
@@ -118,14 +121,21 @@ class UndoHistory:
 
 
 def _same_keyframes(a: Step, b: Step) -> bool:
-    return len(a.keyframes) == len(b.keyframes) and all(
-        x is y for x, y in zip(a.keyframes, b.keyframes, strict=True)
+    """The same keyframes and servo parts (what playback never changes)."""
+    return (
+        a.servo_parts is b.servo_parts
+        and len(a.keyframes) == len(b.keyframes)
+        and all(x is y for x, y in zip(a.keyframes, b.keyframes, strict=True))
     )
 
 
 def describe(before: Step, after: Step) -> str:
     """The edit that took the work from `before` to `after`, in a few words."""
-    parts = [_keyframe_edit(before.keyframes, after.keyframes), _pose_edit(before, after)]
+    parts = [
+        _keyframe_edit(before.keyframes, after.keyframes),
+        _parts_edit(before.servo_parts, after.servo_parts),
+        _pose_edit(before, after),
+    ]
     return "; ".join(part for part in parts if part) or "no visible change"
 
 
@@ -141,6 +151,22 @@ def _keyframe_edit(before: tuple[Keyframe, ...], after: tuple[Keyframe, ...]) ->
     if not added and not removed:
         return "keyframes reordered"
     return f"{_keyframes(added)} changed"
+
+
+def _parts_edit(before: ServoChoice | None, after: ServoChoice | None) -> str:
+    if before is after or after is None:
+        return ""
+    old = before.joints if before is not None else (None,) * len(after.joints)
+    changed = [
+        f"{name} {servo.servo or 'ideal servo'}"
+        for name, servo, was in zip(after.joint_names, after.joints, old, strict=True)
+        if servo != (was if was is not None else JointServo())
+    ]
+    if not changed:
+        return "battery" if before is None or before.battery_Wh != after.battery_Wh else ""
+    if len(changed) > NAMED_JOINTS:
+        return f"servos of {len(changed)} joints"
+    return "servo " + ", ".join(changed)
 
 
 def _keyframes(keyframes: list[Keyframe]) -> str:

@@ -1,6 +1,6 @@
 """The current motion's work, part of the studio state (`StudioState.work`): its torque
-feed-forward, the compensation coefficients and virtual servos, the quick estimate, and the
-last good simulation, each with its signal.
+feed-forward, the compensation coefficients and virtual servos, the servo parts per joint, the
+quick estimate, and the last good simulation, each with its signal.
 
 Every value is replaced, never changed in place, under the state's lock, and announced while
 the lock is held, as the state's own setters do. A value made for a motion or robot that is no
@@ -19,6 +19,7 @@ from app.core.dynamics.wbc import FeedForward
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
+from app.core.servo.choice import ServoChoice
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import Prediction, ServoModel
 from app.studio.signals import Signal
@@ -59,13 +60,17 @@ class MotionWork:
         self.on_prediction: Signal[Prediction] = Signal("on_prediction")
         self.on_simulation: Signal[SimulationRecord] = Signal("on_simulation")
         """A simulation ended, was restored, or went stale."""
+        self.parts: ServoChoice | None = None
+        """The servo of each joint (ideal or a catalogue part; app.core.servo.choice), the
+        robot's like the coefficients; None until the Servos panel has one."""
+        self.on_parts: Signal[ServoChoice] = Signal("on_parts")
 
     def drop(self, coefficients: bool = False) -> None:
         """Forget the motion's work (and the robot's coefficients), silently."""
         with self._lock:
             self.torques, self.prediction, self.simulation = None, None, None
             if coefficients:
-                self.coefficients = None
+                self.coefficients, self.parts = None, None
 
     def set_torques(self, feedforward: FeedForward, trajectory: Trajectory) -> bool:
         """The torques of `trajectory`, if it is still the current motion (False: dropped)."""
@@ -84,6 +89,20 @@ class MotionWork:
                 raise StudioError("they are for another robot's joints")
             self.coefficients = Coefficients(params, servo, origin)
             self.on_coefficients.emit(self.coefficients)
+
+    def set_parts(
+        self, choice: ServoChoice, params: CompensationParams, servo: ServoModel, origin: str
+    ) -> None:
+        """A new servo per joint with the coefficients and virtual servos that follow from it
+        (k = 1/K, the part's dead band), installed together; raises StudioError for another
+        robot's joints. on_coefficients, then on_parts."""
+        with self._lock:
+            robot = self._current()[0]
+            if robot is None or choice.joint_names != robot.joint_names:
+                raise StudioError("the servo parts are for another robot's joints")
+            self.set_coefficients(params, servo, origin)
+            self.parts = choice
+            self.on_parts.emit(choice)
 
     def set_prediction(
         self, prediction: Prediction, torques: FeedForward, coefficients: Coefficients

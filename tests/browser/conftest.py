@@ -8,7 +8,7 @@ Environment:
   BIPED_STUDIO_SKIP_BROWSER=1     skip these tests when Chromium is missing (else they fail)
   BIPED_STUDIO_CHROMIUM=...       another Chromium binary (default /usr/bin/chromium)
   BIPED_STUDIO_BROWSER_ROBOT=...  robot the studio opens (built-in name or URDF path)
-  BIPED_STUDIO_SCREENSHOT=1       also write the README's pictures (static/*.png) from the pages
+  BIPED_STUDIO_SCREENSHOT=1       also write the docs' pictures (static/*.png) from the pages
                                   the tests show (page_helpers.publish)
 """
 
@@ -24,7 +24,7 @@ import pytest
 
 from app.config import StudioConfig
 from app.studio import Studio
-from tests.browser.page_helpers import HIDE_WEBGL_NOTICE_SCRIPT
+from tests.browser.page_helpers import studio_context
 
 HERE = Path(__file__).resolve().parent
 CHROMIUM = Path(os.environ.get("BIPED_STUDIO_CHROMIUM", "/usr/bin/chromium"))
@@ -115,8 +115,7 @@ def chromium() -> Iterator[object]:
 @pytest.fixture(scope="module")
 def browser_page(chromium) -> Iterator[object]:
     """A fresh 1280x800 page, shared by the tests of a module (page loads are slow)."""
-    context = chromium.new_context(viewport=VIEWPORT)
-    context.add_init_script(HIDE_WEBGL_NOTICE_SCRIPT)
+    context = studio_context(chromium, viewport=VIEWPORT)
     page = context.new_page()
     page.set_default_timeout(120_000)  # bounds a hang; busy machines are slow
     try:

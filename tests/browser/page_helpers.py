@@ -95,6 +95,54 @@ HIDE_WEBGL_NOTICE_SCRIPT = (
 """Installed on every page of the browser fixtures (context.add_init_script)."""
 
 
+NOTIFICATION_RECORDER_SCRIPT = """
+document.addEventListener("DOMContentLoaded", () => {
+  const notices = [];
+  const seen = new Set();
+  window.__notices = notices;
+  const check = () => {
+    for (const root of document.querySelectorAll(".mantine-Notification-root")) {
+      const text = root.textContent || "";
+      if (!seen.has(text)) { seen.add(text); notices.push({ text, t: performance.now() }); }
+    }
+  };
+  new MutationObserver(check).observe(document.body, {
+    subtree: true, childList: true, characterData: true,
+  });
+});
+"""
+"""Installed on every page of the browser fixtures: records each notification's text (every
+version of it) when it appears, so one that closes itself before a busy machine's poll sees it
+is still read (notifications_seen)."""
+
+
+def studio_context(chromium, **options):
+    """A new browser context whose pages hide the software-WebGL notice and record their
+    notifications (as the browser_page fixture's do). Its waits (a screenshot waits for the
+    next frame) are bounded by RENDER_TIMEOUT_S, not Playwright's 30 s: a software-WebGL frame
+    of a replay's detailed lighting was seen to take longer on a busy machine."""
+    context = chromium.new_context(**options)
+    context.set_default_timeout(RENDER_TIMEOUT_S * 1000)
+    context.add_init_script(HIDE_WEBGL_NOTICE_SCRIPT)
+    context.add_init_script(NOTIFICATION_RECORDER_SCRIPT)
+    return context
+
+
+def notifications_seen(page) -> list[str]:
+    """Every notification text the page has shown since it loaded, in order of appearance."""
+    return [e["text"] for e in page.evaluate("() => window.__notices || []")]
+
+
+def wait_notified(page, title: str, text: str, timeout_s: float) -> None:
+    """Wait until the page has shown a notification titled `title` containing `text`,
+    including one that already closed itself."""
+    wait_for(
+        f"the notification {title!r} ({text})",
+        lambda: any(title in n and text in n for n in notifications_seen(page)) or None,
+        timeout_s,
+    )
+
+
 def dismiss_software_webgl_warning(page) -> None:
     """viser warns about SwiftShader with a sticky notification; hide it for a clean picture.
     Cosmetic: a style sheet, no click and no wait, so it can never fail or slow a test (on a
@@ -207,6 +255,41 @@ def screen_point(camera, point_m: np.ndarray, canvas: dict) -> tuple[float, floa
     return x, y
 
 
+# Records, on the page's clock (performance.now(), ms), when each text first appears in the
+# page: a notification that closes itself, or a stage that passes faster than a poll, is
+# still seen.
+TEXT_RECORDER_JS = """
+([name, markers]) => {
+  const rec = [];
+  window["__texts_" + name] = rec;
+  const present = {};
+  const check = () => {
+    const text = document.body.textContent || "";
+    for (const marker of markers) {
+      const now = text.includes(marker);
+      if (now && !present[marker]) rec.push({ marker, t: performance.now() });
+      present[marker] = now;
+    }
+  };
+  check();
+  new MutationObserver(check).observe(document.body, {
+    subtree: true, childList: true, characterData: true,
+  });
+}
+"""
+
+
+def record_texts(page, name: str, markers: tuple[str, ...]) -> None:
+    """Start recording when each of `markers` first appears in the page (see texts_seen)."""
+    page.evaluate(TEXT_RECORDER_JS, [name, list(markers)])
+
+
+def texts_seen(page, name: str) -> list[tuple[str, float]]:
+    """(marker, page time in ms) for each appearance recorded by record_texts, in order."""
+    events = page.evaluate("(name) => window['__texts_' + name] || []", name)
+    return [(e["marker"], float(e["t"])) for e in events]
+
+
 def open_studio(page, url: str):
     """`page` on the studio at `url`, connected (its Playback folder drawn), the software-WebGL
     notice hidden: how a module's tests start (once per module: page loads are slow)."""
@@ -264,11 +347,11 @@ def static_server(folder: Path) -> Iterator[str]:
 
 
 STATIC = Path(__file__).resolve().parents[2] / "static"
-"""The README's pictures."""
+"""The pictures of the README and docs/."""
 
 
 def publish(page, name: str) -> None:
-    """With BIPED_STUDIO_SCREENSHOT=1, write the page as the README's picture static/`name`:
+    """With BIPED_STUDIO_SCREENSHOT=1, write the page as the docs' picture static/`name`:
     the pictures are what the tests' pages show, made anew by one run."""
     import os
 

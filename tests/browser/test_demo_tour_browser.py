@@ -34,11 +34,15 @@ from tests.browser.page_helpers import (
     folder,
     not_blank,
     open_studio,
+    record_texts,
     scene_canvas_box,
     screen_point,
     static_server,
+    studio_context,
+    texts_seen,
     type_number,
     wait_for,
+    wait_notified,
     wait_stable,
 )
 from tests.browser.test_compensation_browser import SIMULATE, SIMULATE_TIMEOUT_S, select_option
@@ -56,34 +60,13 @@ PELVIS_DRAG_PX = 30
 ON_ARROW = 0.7
 """Where along the pelvis gizmo's z arrow the mouse takes it (a fraction of its scale)."""
 
-# Records, on the page's clock, when each text first appears in the page (the one click's
-# stages can pass faster than a poll).
-RECORDER_JS = """
-(markers) => {
-  const rec = [];
-  window.__tourRecorder = rec;
-  const present = {};
-  const check = () => {
-    const text = document.body.textContent || "";
-    for (const marker of markers) {
-      const now = text.includes(marker);
-      if (now && !present[marker]) rec.push({ marker, t: performance.now() });
-      present[marker] = now;
-    }
-  };
-  check();
-  new MutationObserver(check).observe(document.body, {
-    subtree: true, childList: true, characterData: true,
-  });
-}
-"""
 STAGE_MARKERS = ("stage 2 of 4", "stage 3 of 4", "stage 4 of 4", "One click ✅")
 
 
 @pytest.fixture(scope="module")
 def page(browser_page, studio_url: str):
     page = open_studio(browser_page, studio_url)
-    page.evaluate(RECORDER_JS, list(STAGE_MARKERS))
+    record_texts(page, "stages", STAGE_MARKERS)
     return page
 
 
@@ -92,7 +75,7 @@ def test_drag_the_pelvis_down_then_undo(page, studio: Studio) -> None:
     assert robot is not None and studio.pose.handles is not None
     wait_stable(page, "the studio's first render", not_blank)
     (client,) = studio.server.get_clients().values()
-    # From straight legs the pelvis cannot go down: bend the knees first, as the README says.
+    # From straight legs the pelvis cannot go down: bend the knees first, as docs/pose.md says.
     q_straight = studio.state.q.copy()
     expand_folder(page, "Pose (drag the feet)", "Ready pose (knees bent)")
     click_button(page, "Ready pose (knees bent)")
@@ -147,9 +130,7 @@ def test_drag_the_pelvis_down_then_undo(page, studio: Studio) -> None:
         lambda: np.allclose(studio.state.q, q_before, atol=1e-9),
         UI_TIMEOUT_S,
     )
-    page.locator(".mantine-Notification-root", has_text="Undid: pelvis drag").first.wait_for(
-        state="visible", timeout=UI_TIMEOUT_S * 1000
-    )
+    wait_notified(page, "Undid: pelvis drag", "", UI_TIMEOUT_S)
 
 
 def test_torques_then_the_paper_table3_preset_then_simulate(page, studio: Studio) -> None:
@@ -247,11 +228,7 @@ def test_the_one_click_walks_computes_and_simulates_in_the_page(page, studio: St
         state="visible", timeout=ONE_CLICK_TIMEOUT_S * 1000
     )
     print(f"One click: done in the page {time.monotonic() - started:.1f} s after the click")
-    seen = {
-        e["marker"]: e["t"]
-        for e in page.evaluate("() => window.__tourRecorder")
-        if e["t"] >= clicked
-    }
+    seen = {marker: t for marker, t in texts_seen(page, "stages") if t >= clicked}
     # The sliders still fit the last gait: the one click starts at the walk (stage 2). The page
     # may draw two quick stages in one render, so a stage can be missing from the record; the
     # ones it shows must come in order, before the end.
@@ -279,7 +256,7 @@ def test_export_a_replay_from_the_tab_and_play_it_from_a_static_server(
     replay = Path(match.group(1))
     assert (replay / "index.html").is_file()
 
-    context = chromium.new_context(viewport=VIEWPORT)
+    context = studio_context(chromium, viewport=VIEWPORT)
     viewer = context.new_page()
     try:
         with static_server(replay) as url:

@@ -18,6 +18,7 @@ from tests.browser.page_helpers import (
     changed,
     dismiss_software_webgl_warning,
     not_blank,
+    studio_context,
     wait_for,
     wait_stable,
 )
@@ -28,7 +29,7 @@ SIDE = CameraView(position=(0.05, -1.3, 0.4), look_at=(0.0, 0.0, 0.28), fov_deg=
 
 def test_an_opened_project_puts_its_camera_in_the_tab(chromium, tmp_path):
     studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path / "data"))
-    context = chromium.new_context(viewport=VIEWPORT)
+    context = studio_context(chromium, viewport=VIEWPORT)
     try:
         work = studio.project.project()
         path = tmp_path / "side.bstudio"

@@ -26,6 +26,7 @@ from tests.browser.page_helpers import (
     gui_row_input,
     open_studio,
     wait_for,
+    wait_notified,
 )
 from tests.browser.test_compensation_browser import select_option
 
@@ -73,9 +74,7 @@ def test_save_as_reload_and_open_bring_the_work_back(page, studio: Studio) -> No
     # Other work replaces it: another robot (one tab, so no confirmation).
     select_option(page, "Built-in", "dircon_biped")
     click_button(page, "Load built-in")
-    page.locator(".mantine-Notification-root", has_text="Robot loaded").filter(
-        has_text="dircon_biped"
-    ).first.wait_for(state="visible", timeout=RENDER_TIMEOUT_S * 1000)
+    wait_notified(page, "Robot loaded", "dircon_biped", RENDER_TIMEOUT_S)
     assert studio.state.trajectory is None
 
     page.reload()

@@ -23,6 +23,7 @@ from tests.browser.page_helpers import (
     changed,
     not_blank,
     static_server,
+    studio_context,
     wait_for,
 )
 
@@ -60,7 +61,7 @@ def view(page) -> np.ndarray:
 
 
 def test_the_replay_plays_from_a_static_server(chromium, static_url: str):
-    context = chromium.new_context(viewport=VIEWPORT)
+    context = studio_context(chromium, viewport=VIEWPORT)
     page = context.new_page()
     page.set_default_timeout(60_000)
     requested: list[str] = []
@@ -121,7 +122,7 @@ def test_screenshot_and_follow_presenter(chromium, tmp_path):
     )
 
     studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path / "data"))
-    context = chromium.new_context(viewport=VIEWPORT, accept_downloads=True)
+    context = studio_context(chromium, viewport=VIEWPORT, accept_downloads=True)
     try:
         page = open_share_page(context, studio.web.url, "Screenshot")
         with page.expect_download(timeout=RENDER_TIMEOUT_S * 1000) as download:
@@ -192,7 +193,7 @@ def test_the_replay_legend_is_in_the_page_with_colours(chromium, static_url: str
     from app.core.replay.scene import PREDICTED_GHOSTS
     from app.views.ghosts_view import GHOSTS
 
-    context = chromium.new_context(viewport=VIEWPORT)
+    context = studio_context(chromium, viewport=VIEWPORT)
     page = context.new_page()
     page.set_default_timeout(60_000)
     try:

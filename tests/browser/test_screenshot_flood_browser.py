@@ -20,13 +20,13 @@ import pytest
 from app.studio import Studio, share_session
 from tests.browser.conftest import VIEWPORT
 from tests.browser.page_helpers import (
-    HIDE_WEBGL_NOTICE_SCRIPT,
     UI_TIMEOUT_S,
     click_button,
     collect,
     expand_folder,
     folder,
     open_share_page,
+    studio_context,
     wait_for,
 )
 
@@ -54,10 +54,9 @@ def test_a_tab_flooding_screenshot_does_not_stall_another_tabs_capture(
     studio: Studio, chromium, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(share_session, "RENDER_TIMEOUT_S", 600.0)
-    hung = chromium.new_context(viewport=VIEWPORT)
+    hung = studio_context(chromium, viewport=VIEWPORT)
     hung.add_init_script(DROP_RENDERS_SCRIPT)
-    other = chromium.new_context(viewport=VIEWPORT)
-    other.add_init_script(HIDE_WEBGL_NOTICE_SCRIPT)
+    other = studio_context(chromium, viewport=VIEWPORT)
     try:
         a = open_share_page(hung, studio.web.url, "Screenshot")
         b = open_share_page(other, studio.web.url, "Screenshot")

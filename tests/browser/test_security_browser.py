@@ -17,7 +17,7 @@ import pytest
 
 from app.web.access import new_token
 from app.web.guard import GuardedServer, guarded_server
-from tests.browser.page_helpers import UI_TIMEOUT_S, wait_for
+from tests.browser.page_helpers import UI_TIMEOUT_S, studio_context, wait_for
 
 LIMIT = 1_000_000
 BUTTON = "Guarded button"
@@ -47,7 +47,7 @@ def web() -> Iterator[GuardedServer]:
 @pytest.fixture(scope="module")
 def context(chromium) -> Iterator[object]:
     """One browser profile for the module: the cookie the tokened page sets stays in it."""
-    ctx = chromium.new_context(viewport={"width": 1280, "height": 800})
+    ctx = studio_context(chromium, viewport={"width": 1280, "height": 800})
     try:
         yield ctx
     finally:

@@ -17,21 +17,19 @@ from tests.browser.page_helpers import (
     click_button,
     dismiss_software_webgl_warning,
     expand_folder,
+    studio_context,
+    wait_notified,
 )
 from tests.studio.conftest import wait_for_signal
 
 NOTICE = "needs its access link"
 
 
-def _notification(page, text: str):
-    return page.locator(".mantine-Notification-root", has_text=text)
-
-
 def test_an_open_tab_survives_a_restart_and_the_project_keeps_its_name(chromium, tmp_path):
     data, port = tmp_path / "data", _free_port()
     first = Studio(StudioConfig(port=port, data_dir=data))
     second: Studio | None = None
-    context = chromium.new_context(viewport=VIEWPORT)
+    context = studio_context(chromium, viewport=VIEWPORT)
     try:
         assert first.project.save_as("walker")
         wait_for_signal(first.project.autosaved, lambda: first.joints.set_joint_angle(1, 0.2))
@@ -47,8 +45,7 @@ def test_an_open_tab_survives_a_restart_and_the_project_keeps_its_name(chromium,
         second = Studio(StudioConfig(port=port, data_dir=data, restore_autosave=True))
         page.bring_to_front()  # viser's client retries its connection while the page has focus
         # Only the new studio greets a tab with the work it restored: the tab is connected to it.
-        _notification(page, "Restored your work from").wait_for(timeout=RENDER_TIMEOUT_S * 1000)
-        assert "walker" in _notification(page, "Restored your work from").first.inner_text()
+        wait_notified(page, "Restored your work from", "walker", RENDER_TIMEOUT_S)
         title.wait_for()  # the restored project under its own name
         assert len(second.server.get_clients()) == 1
 
@@ -75,8 +72,7 @@ def test_undo_after_a_click_says_what_it_undid(studio, studio_url, browser_page)
     captured = studio.motions.keyframes[0].name
     undo.click()
     said = f"Undid: keyframe “{captured}” added"
-    _notification(page, said).wait_for(timeout=UI_TIMEOUT_S * 1000)
-    expect(page.get_by_text(said).first).to_be_visible()
+    wait_notified(page, said, "", UI_TIMEOUT_S)
     assert studio.motions.keyframes == []
     # Nothing left: the button is disabled again (a click could not reach the server).
     expect(undo).to_be_disabled(timeout=UI_TIMEOUT_S * 1000)

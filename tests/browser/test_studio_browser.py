@@ -27,6 +27,7 @@ from tests.browser.page_helpers import (
     not_blank,
     publish,
     wait_for,
+    wait_notified,
     wait_stable,
 )
 
@@ -177,9 +178,7 @@ def test_opening_a_missing_path_notifies_and_keeps_the_robot(page, studio: Studi
     )
     page.get_by_role("button", name="Open path").click()
 
-    notification = page.locator(".mantine-Notification-root", has_text="Could not load the robot")
-    notification.wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
-    assert missing in notification.inner_text()
+    wait_notified(page, "Could not load the robot", missing, UI_TIMEOUT_S)
     assert studio.state.robot is robot_before
     assert studio.robots.view is view_before
     assert missing in studio.notifier.last_error

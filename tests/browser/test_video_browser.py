@@ -19,6 +19,7 @@ from tests.browser.page_helpers import (
     click_button,
     collect,
     open_share_page,
+    studio_context,
     type_number,
     wait_for,
 )
@@ -38,7 +39,7 @@ def _decode(path: Path) -> list[np.ndarray]:
 
 def test_export_video_films_the_motion_from_the_tab(chromium, tmp_path):
     studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path / "data"))
-    context = chromium.new_context(viewport=VIEWPORT)
+    context = studio_context(chromium, viewport=VIEWPORT)
     saved, done = collect(studio.share.video_saved)
     try:
         assert studio.motions.generate("com_shift", {})

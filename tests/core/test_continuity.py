@@ -44,7 +44,8 @@ def test_a_fast_step_is_scaled_to_the_slowest_limit(servo) -> None:
 
 def test_roban_squats_never_move_a_joint_faster_than_its_limit() -> None:
     """Issue 15: the IK swung Roban's arms 40–68° in one 10 ms sample; now every step is
-    within v_max·dt, and the samples where the IK wanted more are flagged."""
+    within v_max·dt, and the samples where the IK wanted more are flagged (since issue 26 the
+    built-in motions hold the arms, and the IK may want no such jump at all)."""
     robot = load_robot(ROBAN_URDF)
     dt = 0.01
     result = run_motion(robot, "one_leg_squats", dt=dt)
@@ -52,7 +53,6 @@ def test_roban_squats_never_move_a_joint_faster_than_its_limit() -> None:
     steps = np.array([pin.difference(robot.model, q[k], q[k + 1]) for k in range(len(q) - 1)])
     idx_v = [j.idx_v for j in robot.joints]
     assert np.all(np.abs(steps[:, idx_v]) <= speed_limits(robot) * dt * (1 + 1e-9) + 1e-12)
-    assert result.jump_samples, "the IK still wants jumps here: they must be flagged"
     flagged = {w.index for w in result.warnings if w.message.startswith("jump:")}
     assert set(result.jump_samples) == flagged
     assert over_speed_samples(robot, result.trajectory) == ()

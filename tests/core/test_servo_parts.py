@@ -243,3 +243,46 @@ def test_the_parts_compensation_inverts_their_quasi_static_model():
     K = np.array([p.stiffness_Nm_per_rad for p in parts.parts])
     b = np.deg2rad([p.dead_band_deg for p in parts.parts])
     np.testing.assert_allclose(q_cmd, q + tau / K + 0.5 * b * np.sign(tau), atol=1e-12)
+
+
+def test_a_robot_partly_on_parts_runs_each_joint_on_its_own_law(robot):
+    """MX-64 parts on the legs' pitch joints, the ideal servo elsewhere: the parts' K is the
+    closed form kt·vin·error_gain·kp/R from BAM's constants typed above, the other joints keep
+    the virtual servo's law and MuJoCo's own armature, and only the parts draw energy."""
+    from app.core.servo.model import ServoModel
+    from app.core.simulation.mjcf import SimOptions, build_sim_model
+    from app.core.simulation.part_law import law_with_parts
+    from app.core.simulation.servo_law import servo_law
+
+    chosen = tuple(n for n in robot.joint_names if "pitch" in n or "knee" in n)
+    assert 0 < len(chosen) < robot.n_actuated
+    parts = parts_from_mapping({"servo": "mx64"}, chosen, CATALOGUE, "test")
+    servo = ServoModel(
+        robot.joint_names, np.full(robot.n_actuated, 1.4), np.full(robot.n_actuated, 0.5)
+    )
+    law = law_with_parts(robot, servo, parts)
+    ideal = servo_law(
+        servo,
+        robot.joint_names,
+        [j.effort for j in robot.joints],
+        [j.velocity for j in robot.joints],
+    )
+    mine = np.array([n in chosen for n in robot.joint_names])
+    np.testing.assert_allclose(law.stiffness_Nm_per_rad[mine], KT * VIN * GAIN * KP / R)
+    np.testing.assert_allclose(law.damping_Nms_per_rad[mine], KT**2 / R + VISCOUS)
+    for name in ("stiffness_Nm_per_rad", "half_backlash_rad", "damping_Nms_per_rad", "effort_Nm"):
+        np.testing.assert_array_equal(getattr(law, name)[~mine], getattr(ideal, name)[~mine])
+    sim = build_sim_model(robot, SimOptions())
+    model = mujoco.MjModel.from_xml_string(sim.xml)
+    law.set_joint_dynamics(model, sim.actuated_dof)
+    armature = model.dof_armature[sim.actuated_dof]
+    np.testing.assert_allclose(armature[mine], ARMATURE)
+    np.testing.assert_allclose(armature[~mine], SimOptions().armature_kgm2)
+    traj = run_motion(robot, "com_shift").trajectory
+    (result,) = simulate_commands(
+        robot, traj, {"plan": joint_angles(robot, traj.q)}, servo, parallel=False, law=law
+    ).values()
+    energy = result.energy
+    assert energy is not None and not result.fell
+    assert np.all(energy.electrical_J[~mine] == 0.0) and np.all(energy.joule_J[~mine] == 0.0)
+    assert float(energy.joule_J[mine].sum()) > 0.0

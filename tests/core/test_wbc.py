@@ -178,8 +178,14 @@ def test_value_function_gives_the_lqr_law(robots):
 # --- static poses ------------------------------------------------------------------------------
 
 
+ONE_LEG_SHIFT_M = {"biped_s13": 0.0925}
+"""A CoM shift that puts the CoM over the stance sole (Roban S14's hips are 23.5 cm apart:
+the paper's 5 cm leaves its CoM off the sole)."""
+
+
 def one_leg_pose(robot):
-    traj = run_motion(robot, "one_leg_stand", dt=0.05).trajectory
+    shift = {"shift_m": ONE_LEG_SHIFT_M[robot.name]} if robot.name in ONE_LEG_SHIFT_M else {}
+    traj = run_motion(robot, "one_leg_stand", dt=0.05, **shift).trajectory
     assert tuple(traj.contacts[-1]) == (True, False)
     return traj.q[-1]
 

@@ -11,6 +11,7 @@ set side by side.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 from app.core.collocation.result import GaitResult
 from app.core.papers import TABLE4
@@ -21,6 +22,20 @@ WHAT_IS_COMPARED = (
     "gaits and SR from the real robot's measured motor energy — compare the ratios, not the "
     "absolute values"
 )
+
+
+BINDS_FRACTION = 0.999
+"""A gait's torque bound binds when its largest planned |τ| reaches this fraction of it."""
+LIFTED_BOUND_FACTOR = 10.0
+"""The baseline is solved again with its torque bound this many times larger, to read the peak
+it would plan without it."""
+
+
+def bound_binds(result: GaitResult) -> bool:
+    """Whether the gait's largest planned |τ| sits on its torque bound (the peak is the bound,
+    not what the gait needs)."""
+    bound = result.settings.tau_max_Nm
+    return math.isfinite(result.max_abs_tau_Nm) and result.max_abs_tau_Nm >= BINDS_FRACTION * bound
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,9 +65,26 @@ def table4_rows(symmetric: GaitResult, baseline: GaitResult) -> tuple[Table4Row,
     )  # fmt: skip
 
 
-def table4_comparison(symmetric: GaitResult, baseline: GaitResult) -> dict[str, object]:
-    """The comparison as JSON-able values."""
+def table4_comparison(
+    symmetric: GaitResult, baseline: GaitResult, unbounded: GaitResult | None = None
+) -> dict[str, object]:
+    """The comparison as JSON-able values. `unbounded`: the baseline solved again with its
+    torque bound lifted (`LIFTED_BOUND_FACTOR`), when its bound binds: its own peak |τ| and
+    the symmetric/baseline ratio on it."""
+    lifted = None
+    if unbounded is not None:
+        lifted = {
+            "converged": unbounded.converged,
+            "torque_bound_Nm": unbounded.settings.tau_max_Nm,
+            "max_abs_tau_Nm": unbounded.max_abs_tau_Nm,
+            "binds": bound_binds(unbounded),
+            "ratio": symmetric.max_abs_tau_Nm / unbounded.max_abs_tau_Nm,
+            "sr_incl_impacts": unbounded.sr_incl_impacts,
+        }
     return {
+        "torque_bound_Nm": [symmetric.settings.tau_max_Nm, baseline.settings.tau_max_Nm],
+        "bound_binds": [bound_binds(symmetric), bound_binds(baseline)],
+        "baseline_bound_lifted": lifted,
         "what": WHAT_IS_COMPARED,
         "rows": [
             {

@@ -162,6 +162,7 @@ def interpolate(
     ik: WholeBodyIK | None = None,
     com_in_support: bool = True,
     name: str = "keyframes",
+    held_joints: Sequence[str] = (),
 ) -> MotionResult:
     """Sample the keyframed motion every dt [s], solving IK at every sample (module docstring).
 
@@ -170,7 +171,8 @@ def interpolate(
     (app.core.posing.ready_pose: from straight legs the IK cannot lower the pelvis). The last
     keyframe is reached at t = Σ durations; samples are at k·dt up to it, and one more
     holding the final targets when the total is not a multiple of dt. Pass `ik` to reuse a
-    solver (its own posture weight is then used; see MOTION_POSTURE_WEIGHT).
+    solver (its own posture weight is then used; see MOTION_POSTURE_WEIGHT). `held_joints`
+    stay at their angles of the first sample (a built-in motion's arms: see Plan.held_joints).
 
     Returns the trajectory with one SampleWarning per IK shortfall per sample.
     """
@@ -187,9 +189,40 @@ def interpolate(
     scratch = robot.model.createData()  # for the stance-slide checks, reused every sample
     ends = np.cumsum([0.0] + [kf.duration_s for kf in keyframes[1:]])
     n = math.ceil(float(ends[-1]) / dt - 1e-9) + 1
-    warnings: list[SampleWarning] = []
     first = keyframes[0]
     q = first.q if first.q is not None else ready_pose(robot, ik).q
+    if not held_joints:
+        qs, contacts, warnings = _sample(
+            robot, ik, keyframes, q, dt, n, ends, com_in_support, data, scratch
+        )
+    else:
+        joints = {joint.name: joint for joint in robot.joints}
+        ik.hold_joints({name: float(q[joints[name].idx_q]) for name in held_joints})
+        try:
+            qs, contacts, warnings = _sample(
+                robot, ik, keyframes, q, dt, n, ends, com_in_support, data, scratch
+            )
+        finally:
+            ik.hold_joints({})
+    trajectory = from_configurations(robot.model, name, robot.joint_names, dt, qs, contacts)
+    return MotionResult(trajectory, tuple(warnings))
+
+
+def _sample(
+    robot: RobotModel,
+    ik: WholeBodyIK,
+    keyframes: Sequence[Keyframe],
+    q: np.ndarray,
+    dt: float,
+    n: int,
+    ends: np.ndarray,
+    com_in_support: bool,
+    data: pin.Data,
+    scratch: pin.Data,
+) -> tuple[np.ndarray, np.ndarray, list[SampleWarning]]:
+    """The samples of `interpolate`: configurations, contacts, warnings."""
+    warnings: list[SampleWarning] = []
+    first = keyframes[0]
     qs = np.empty((n, robot.model.nq))
     contacts = np.zeros((n, 2), dtype=bool)
     segment, started = 0, -1
@@ -236,8 +269,7 @@ def interpolate(
             messages.append(f"CoM {-result.com_margin_m * 1000:.1f} mm outside the support polygon")
         warnings += [SampleWarning(k, t, after.name if k else first.name, m) for m in messages]
         qs[k] = q
-    trajectory = from_configurations(robot.model, name, robot.joint_names, dt, qs, contacts)
-    return MotionResult(trajectory, tuple(warnings))
+    return qs, contacts, warnings
 
 
 def _foot(kf: Keyframe, side: str) -> np.ndarray:

@@ -88,6 +88,7 @@ def pose_with_com(
     pelvis_z: float | None = None,
     left: np.ndarray | None = None,
     right: np.ndarray | None = None,
+    com_in_support: bool = True,
 ) -> tuple[np.ndarray, tuple[str, ...]]:
     """Solve a pose: feet at their targets (stance feet held), pelvis upright (at pelvis_z if
     given), CoM's ground projection at com_xy if given. Returns (q, warnings)."""
@@ -100,7 +101,9 @@ def pose_with_com(
     best: tuple[float, np.ndarray, tuple[str, ...]] | None = None
     for _ in range(12):
         targets = IkTargets(left, right, T_pelvis.copy(), None, stance)
-        result = ctx.ik.solve(q_start, targets, max_iterations=POSE_ITERATIONS)
+        result = ctx.ik.solve(
+            q_start, targets, com_in_support=com_in_support, max_iterations=POSE_ITERATIONS
+        )
         if com_xy is None:
             return result.q, result.warnings
         miss = np.asarray(com_xy) - ctx.com(result.q)[:2]
@@ -124,6 +127,24 @@ class Plan:
 
     keyframes: tuple[Keyframe, ...]
     notes: tuple[str, ...] = ()
+    held_joints: tuple[str, ...] = ()
+    """Joints the interpolation holds at their first keyframe's angles (the arms, waist and
+    head of a built-in motion)."""
+    com_in_support: bool = True
+    """False when the motion asks for a CoM outside its support (the paper's shift wider than
+    the sole): the IK then lets the CoM go where it is asked instead of holding it inside."""
+
+
+LEGS = ("Left leg", "Right leg")
+
+
+def non_leg_joints(robot: RobotModel) -> tuple[str, ...]:
+    """The actuated joints outside the legs (arms, waist, head...)."""
+    return tuple(
+        joint.name
+        for joint in robot.joints
+        if joint.limb not in LEGS and joint.kind != "continuous"
+    )
 
 
 class KeyframeSequence:
@@ -137,6 +158,12 @@ class KeyframeSequence:
         self.robot, self.speed, self.q = robot, speed, self.ctx.q_ready
         self.keyframes = [capture_keyframe(robot, self.q, "both", "ready", 0.0)]
         self.notes: list[str] = []
+        self.held = non_leg_joints(robot)
+        ready = robot.joint_angles(self.q)
+        index = {name: i for i, name in enumerate(robot.joint_names)}
+        self.ctx.ik.hold_joints({name: float(ready[index[name]]) for name in self.held})
+        self.com_in_support = True
+        """Set to False by a motion that asks for its CoM outside the support."""
 
     def add(
         self,
@@ -160,6 +187,7 @@ class KeyframeSequence:
             pelvis_z=pelvis_z,
             left=feet.get("left"),
             right=feet.get("right"),
+            com_in_support=self.com_in_support,
         )
         held = ("left", "right") if stance == "both" else (stance,)
         slid = max(
@@ -191,4 +219,4 @@ class KeyframeSequence:
         return T
 
     def plan(self) -> Plan:
-        return Plan(tuple(self.keyframes), tuple(self.notes))
+        return Plan(tuple(self.keyframes), tuple(self.notes), self.held, self.com_in_support)

@@ -49,6 +49,9 @@ infeasible), a CoM task this much heavier than the moving foot pulls it in; once
 polygon is a hard constraint."""
 LOOP_WEIGHT = 1e7
 COM_TARGET_WEIGHT = 10.0
+HOLD_WEIGHT = 10.0
+"""Weight of the task that holds chosen joints (a built-in motion's arms, waist, head) at their
+start angles: far above the posture's, so the IK does not swing an arm to move the CoM."""
 DAMPING_MIN = 1e-6
 FLOOR_TOLERANCE_M = 1e-4
 """A sole this little below the floor is rounding, not a request to dig in."""
@@ -218,6 +221,8 @@ class WholeBodyIK:
         self._posture_angles = b""
         """The posture task's target angles, as bytes (a cheap exact comparison)."""
         self._set_posture(robot.q_neutral)
+        self._held: placo.JointsTask | None = None
+        """The hold on chosen joints while one is set (hold_joints)."""
         self._damping = self._solver.add_regularization_task(DAMPING_MIN)
         self._polygon = self._solver.add_com_polygon_constraint([np.zeros(2)] * 3, com_margin_m)
         self._polygon.configure("com polygon", "hard", 1.0)
@@ -280,6 +285,17 @@ class WholeBodyIK:
             return  # already the posture task's target (a motion's samples: the standing pose)
         self._posture_angles = exact
         self._posture.set_joints(dict(zip(self._bounded_names, angles.tolist(), strict=True)))
+
+    def hold_joints(self, angles: dict[str, float], weight: float = HOLD_WEIGHT) -> None:
+        """Hold these joints at these angles [rad] in every solve until called again (a soft
+        joints task of `weight`); an empty dict releases the hold."""
+        if self._held is not None:
+            self._solver.remove_task(self._held)
+            self._held = None
+        if angles:
+            self._held = self._solver.add_joints_task()
+            self._held.configure("held joints", "soft", weight)
+            self._held.set_joints(dict(angles))
 
     def support_polygon(self, q: np.ndarray, stance: Stance) -> np.ndarray:
         """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q.

@@ -22,6 +22,7 @@ from app.core.posing.ik import Stance
 from app.core.projects.codec import ProjectError
 from app.core.projects.display import DisplaySettings, plot_choices
 from app.core.robot.model import RobotModel
+from app.core.servo.choice import ServoChoice
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
 from app.core.simulation.result import SimulationResult
@@ -66,6 +67,10 @@ class Project:
     compensation: CompensationParams | None = None
     servo: ServoModel | None = None
     """The virtual servos' compliance and dead band."""
+    servo_parts: ServoChoice | None = None
+    """The servo of each joint (ideal, or a catalogue servo and its firmware settings); None
+    in files saved before parts were kept (every joint ideal). `compensation` and `servo`
+    already hold what follows from it (k = 1/K, the part's dead band)."""
     gait_settings: GaitSettings | None = None
     """The gait panel's settings."""
     gait_steps: int = 0
@@ -149,8 +154,16 @@ def check_fits(project: Project, robot: RobotModel) -> None:
             "the torques do not match the motion's samples",
         )
         need(len(ff.status) == motion.n_samples, "the torques' status does not match the motion")
-    for label, part in (("compensation", project.compensation), ("servo", project.servo)):
+    for label, part in (
+        ("compensation", project.compensation),
+        ("servo", project.servo),
+        ("servo_parts", project.servo_parts),
+    ):
         need(part is None or part.joint_names == names, f"the {label} joints differ")
+    need(
+        project.servo_parts is None or len(project.servo_parts.joints) == len(names),
+        "the servo_parts do not give one servo per joint",
+    )
     need(
         project.simulation_wall_s is None or project.simulation_wall_s >= 0.0,
         f"the simulation's wall time is {project.simulation_wall_s} s",

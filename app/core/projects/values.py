@@ -11,7 +11,10 @@ restored on every start.
 - torques and contact forces below MAX_TORQUE_NM and MAX_FORCE_N;
 - a walk: its motion as above, footprints whose contact starts before it ends;
 - simulation runs: their configurations (joint limits aside: the physics may press past them),
-  times increasing from 0, a fall time and simulated span inside the run.
+  times increasing from 0, a fall time and simulated span inside the run;
+- servo parts: catalogue servos the simulation can run, firmware settings in their ranges
+  (kp within the firmware's, positive voltage and current limit, a dead band of 0 … 10°) and a
+  positive battery figure, as a servo.toml is checked (app.core.servo.choice).
 
 A value that fails raises ProjectError naming its field (`project.motion.q, sample 17 (t =
 0.170 s): joint left_knee is at 3.1, beyond its limits [0, 2.3]`).
@@ -85,6 +88,13 @@ def _check(project: Any, robot: RobotModel) -> None:
             )
     for i, run in enumerate(project.simulation):
         _simulation(robot, run, f"project.simulation[{i}] ({run.label!r})")
+    if project.servo_parts is not None:
+        from app.core.servo.catalogue import load_catalogue
+        from app.core.servo.choice import choice_parts
+
+        choice_parts(
+            project.servo_parts, robot.joint_names, load_catalogue(), "project.servo_parts"
+        )
 
 
 def check_trajectory(robot: RobotModel, motion: Trajectory, where: str) -> None:

@@ -207,6 +207,38 @@ def compensated_command(
     return np.where(params.enabled, command, q)
 
 
+def drive_torque_Nm(
+    tau_Nm: np.ndarray,
+    qd_rad_s: np.ndarray,
+    qdd_rad_s2: np.ndarray,
+    damping_Nms_per_rad: np.ndarray,
+    rotor_inertia_kgm2: np.ndarray | float,
+) -> np.ndarray:
+    """The torque a servo's spring must deliver to follow a planned path [N·m], shape (T, n):
+
+        τ_drive = τ + D·q̇ + J·q̈
+
+    τ the load torque of the planned motion (the feed-forward, what eq 7 takes), D the motor's
+    back-EMF damping [N·m·s/rad] and J its reflected rotor inertia [kg·m²], both per joint
+    (the simulation's `ServoLaw` / `PartLaw` and armature). With the servo law
+    τ_spring = K·(q_cmd − q) − D·q̇ on a rotor of inertia J, the joint follows q only if
+    K·(q_cmd − q) = τ_drive, so eq 7 on τ_drive, q_cmd = q + k·τ_drive, is the command that
+    keeps it on the plan; on τ alone a moving joint lags by c·D·q̇ (a first-order lag of time
+    constant c·D: servo_biped's 1.4 °/(N·m) and 1 N·m·s/rad give 24 ms, a tenth of a walking
+    step). For a slow motion (the paper's squats, q̇ ≈ 0) it is eq 7 as the paper writes it."""
+    tau = np.asarray(tau_Nm, dtype=float)
+    qd = np.asarray(qd_rad_s, dtype=float)
+    qdd = np.asarray(qdd_rad_s2, dtype=float)
+    if not (tau.shape == qd.shape == qdd.shape) or tau.ndim != 2:
+        raise CompensationError(
+            f"torques {tau.shape}, speeds {qd.shape} and accelerations {qdd.shape} must all be "
+            "(T, n): one value per sample and joint"
+        )
+    damping = np.broadcast_to(np.asarray(damping_Nms_per_rad, dtype=float), tau.shape[1:])
+    inertia = np.broadcast_to(np.asarray(rotor_inertia_kgm2, dtype=float), tau.shape[1:])
+    return tau + damping * qd + inertia * qdd
+
+
 def command_limit_violations(
     params: CompensationParams, q_cmd_rad: np.ndarray, lower: np.ndarray, upper: np.ndarray
 ) -> list[str]:

@@ -25,6 +25,7 @@ from app.core.servo.compensation import (
     CompensationParams,
     disabled_params,
 )
+from app.core.servo.scaling import scaled_ideal_servo
 
 LEG_ROLES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
 """The paper's servo order within a leg; servo i (1–12) is LEG_ROLES[(i - 1) % 6] of the left
@@ -185,7 +186,14 @@ def uniform_preset(
         np.zeros(len(names)),
         np.array([name in legs for name in names]),
         "command",
-        (f"k = {k_deg_per_Nm:g} °/(N·m) on every leg joint (Table 2's identifiable servos)",),
+        (
+            f"k = {k_deg_per_Nm:g} °/(N·m) on every leg joint ("
+            + (
+                "Table 2's identifiable servos)"
+                if k_deg_per_Nm == TYPICAL_COMPLIANCE_DEG_PER_NM
+                else "the paper's servo sized to the robot by m·g·h)"
+            ),
+        ),
     )
 
 
@@ -205,8 +213,9 @@ PRESETS: dict[str, Preset] = {
     for preset in (
         Preset(
             "uniform",
-            f"uniform k = {TYPICAL_COMPLIANCE_DEG_PER_NM} °/(N·m) (Table 2's identifiable servos)",
-            lambda robot: uniform_preset(robot),
+            f"uniform k = the servos' compliance ({TYPICAL_COMPLIANCE_DEG_PER_NM} °/(N·m) on the "
+            "paper's robot, sized to the robot by m·g·h)",
+            lambda robot: uniform_preset(robot, scaled_ideal_servo(robot).compliance_deg_per_Nm),
         ),
         Preset("table3", "paper Table 3 (servos 2, 3, 8, 9)", paper_table3_preset),
         Preset(

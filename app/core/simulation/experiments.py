@@ -1,5 +1,5 @@
-"""The spring-compensation paper's experiments (section 5) and the compensations the README's
-table compares them under.
+"""The spring-compensation paper's experiments (section 5) and the compensations the table of
+docs/simulation.md compares them under.
 
 Each experiment is a built-in motion with the paper's parameters; the paper's outcome on
 Roban is quoted beside it. The compensations compared: none (q_cmd = q_plan), eq 7 with
@@ -10,7 +10,7 @@ k equal to the servos' true compliance, and eq 23 with φ = b/2 in both sign con
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -18,6 +18,10 @@ from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
 from app.core.simulation.mjcf import SimOptions
+from app.core.simulation.servo_law import ServoLaw
+
+LIMIT_TOLERANCE_RAD = 1e-9
+"""A command this far past a joint limit is on it (rounding), not clipped."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,28 +97,40 @@ def run_paper_experiment(
     experiment: PaperExperiment,
     servo: ServoModel,
     options: SimOptions | None = None,
+    law: ServoLaw | None = None,
+    only: Sequence[str] | None = None,
 ) -> list[dict[str, object]]:
-    """One row per compensation: verdict (its text and kind), fall time, largest torso
-    roll/pitch error [°], the lifted foot's load (time above 5 % of the weight, peak)."""
+    """One row per compensation (those named in `only`, else all): verdict (its text and
+    kind), fall time, largest torso roll/pitch error [°], the lifted foot's load (time above
+    5 % of the weight, peak), the motion's notes (e.g. a shift that leaves the CoM off the
+    sole). `law` replaces the servo law made from `servo` and the URDF's limits (a servo sized
+    to the robot: its torque limit)."""
     from app.core.dynamics.wbc import torque_feedforward
     from app.core.motions.library import run_motion
     from app.core.servo.compensation import compensated_command
     from app.core.servo.model import joint_angles
     from app.core.simulation.run import simulate_commands
 
-    traj = run_motion(robot, experiment.motion, **experiment.params).trajectory
+    motion = run_motion(robot, experiment.motion, **experiment.params)
+    traj = motion.trajectory
     tau = torque_feedforward(robot, traj).tau_Nm
     q_plan = joint_angles(robot, traj.q)
     commands = {
         label: q_plan if params is None else compensated_command(q_plan, tau, params)
         for label, params in compensations(servo.for_joints(robot.joint_names)).items()
+        if only is None or label in only
     }
     lower = np.array([joint.lower for joint in robot.joints])
     upper = np.array([joint.upper for joint in robot.joints])
-    # A servo cannot be commanded past its limits: clip, and say how often it happened.
-    clipped = {label: int(np.sum((q < lower) | (q > upper))) for label, q in commands.items()}
+    # A servo cannot be commanded past its limits: clip, and say how often it happened (beyond
+    # LIMIT_TOLERANCE_RAD: a planned joint resting on its limit, e.g. Roban S14's elbows at
+    # their ready angle, is off it by rounding only).
+    clipped = {
+        label: int(np.sum((q < lower - LIMIT_TOLERANCE_RAD) | (q > upper + LIMIT_TOLERANCE_RAD)))
+        for label, q in commands.items()
+    }
     commands = {label: np.clip(q, lower, upper) for label, q in commands.items()}
-    results = simulate_commands(robot, traj, commands, servo, options)
+    results = simulate_commands(robot, traj, commands, servo, options, law=law)
     rows = []
     for label, result in results.items():
         summary, outcome = result.summary(), result.outcome
@@ -135,6 +151,7 @@ def run_paper_experiment(
                 "lifted_foot_peak_load_frac": outcome.lifted_foot_peak_load_frac,
                 "paper": experiment.paper_without if label == "none" else experiment.paper_with,
                 "commands_clipped_to_limits": clipped[label],
+                "motion_notes": list(motion.notes),
             }
         )
     return rows

@@ -9,8 +9,10 @@ servo.toml (every key optional; per-joint tables override the defaults at the to
     compliance_deg_per_Nm = 1.55
     backlash_deg = 0.5
 
-Without a file the studio's default virtual servos apply: 1.4 °/(N·m) (Table 2's identifiable
-servos) and a 0.5° dead band on every leg joint, other joints rigid.
+Without a file (or where a file leaves the top keys out) the studio's default virtual servos
+apply: the paper's servo sized to the robot (`app.core.servo.scaling`: 1.4 °/(N·m), Table 2's
+identifiable servos, divided by the robot's m·g·h over the paper robot's) and a 0.5° dead band
+on every leg joint, other joints rigid.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from app.core.errors import finite_float
 from app.core.robot.model import RobotModel
 from app.core.servo.model import ServoModel
 from app.core.servo.presets import TYPICAL_COMPLIANCE_DEG_PER_NM, uniform_preset
+from app.core.servo.scaling import scaled_ideal_servo
 from app.core.simulation.errors import SimulationInputError
 from app.core.simulation.result import SimulationResult
 
@@ -51,6 +54,13 @@ def default_servos(
     )
 
 
+def sized_servos(robot: RobotModel) -> ServoModel:
+    """The default virtual servos of a robot without servo data: the paper's servo sized to
+    the robot by m·g·h (`app.core.servo.scaling`) on every leg joint, the others rigid."""
+    scaled = scaled_ideal_servo(robot)
+    return default_servos(robot, scaled.compliance_deg_per_Nm, scaled.dead_band_deg)
+
+
 def read_servo_toml(path: str | os.PathLike[str], robot: RobotModel) -> ServoModel:
     """Virtual servos from a servo.toml (module docstring), laid out on the robot's joints."""
     import tomllib
@@ -71,7 +81,9 @@ def read_servo_toml(path: str | os.PathLike[str], robot: RobotModel) -> ServoMod
         )
     defaults = default_servos(
         robot,
-        _number(data, "compliance_deg_per_Nm", source, TYPICAL_COMPLIANCE_DEG_PER_NM),
+        _number(
+            data, "compliance_deg_per_Nm", source, scaled_ideal_servo(robot).compliance_deg_per_Nm
+        ),
         _number(data, "backlash_deg", source, DEFAULT_BACKLASH_DEG),
         bool(data.get("legs_only", True)),
     )

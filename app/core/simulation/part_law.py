@@ -22,6 +22,7 @@ V = τ_explicit·R/kt and I = (V − kt·q̇)/R: `PartLoop.energy`.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -30,6 +31,8 @@ from app.core.servo.motor_law import FrictionM6, m6_budget
 from app.core.simulation.servo_law import ServoLaw, ServoLoop
 
 if TYPE_CHECKING:
+    from app.core.robot.model import RobotModel
+    from app.core.servo.model import ServoModel
     from app.core.servo.parts import ServoParts
 
 
@@ -50,6 +53,10 @@ class PartLaw(ServoLaw):
     """Indices of the joints whose friction is BAM's m6 (recomputed each tick)."""
     m6_params: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, len(M6))))
     """Their m6 parameters, shape (len(m6_joints), 11), columns in `M6` order."""
+    has_part: np.ndarray | None = None
+    """(n,) bool: the joints with a servo part (`mixed_servo_law`); None: every joint. The
+    others tick the ideal servo's law, keep the model's own armature, damping and friction,
+    and draw no energy."""
 
     @property
     def back_emf_Nms_per_rad(self) -> np.ndarray:
@@ -58,9 +65,11 @@ class PartLaw(ServoLaw):
     def set_joint_dynamics(self, model, dofs: np.ndarray) -> None:
         """Write the parts' armature, damping (back-EMF + viscous) and friction into a MuJoCo
         model's actuated dofs."""
-        model.dof_armature[dofs] = self.armature_kgm2
-        model.dof_damping[dofs] = self.damping_Nms_per_rad
-        model.dof_frictionloss[dofs] = self.frictionloss_Nm
+        mine = slice(None) if self.has_part is None else self.has_part
+        dofs = np.asarray(dofs)[mine]
+        model.dof_armature[dofs] = self.armature_kgm2[mine]
+        model.dof_damping[dofs] = self.damping_Nms_per_rad[mine]
+        model.dof_frictionloss[dofs] = self.frictionloss_Nm[mine]
 
 
 def part_servo_law(parts: ServoParts) -> PartLaw:
@@ -112,6 +121,67 @@ def part_servo_law(parts: ServoParts) -> PartLaw:
             [[getattr(p[i].friction, name) for name in M6] for i in m6], dtype=float
         ).reshape(len(m6), len(M6)),
     )
+
+
+def mixed_servo_law(ideal: ServoLaw, parts: ServoParts, joint_names: Sequence[str]) -> PartLaw:
+    """The parts' law on their joints (`part_servo_law`) and the ideal servo's law (`ideal`,
+    in `joint_names` order) on the others: a robot partly fitted with real servos."""
+    names = tuple(joint_names)
+    law = part_servo_law(parts)
+    where = np.array([names.index(name) for name in parts.joint_names], dtype=int)
+    has_part = np.zeros(len(names), dtype=bool)
+    has_part[where] = True
+
+    def merged(part: np.ndarray, other: np.ndarray | float) -> np.ndarray:
+        out = np.array(np.broadcast_to(other, len(names)), dtype=float)
+        out[where] = part
+        return out
+
+    return PartLaw(
+        stiffness_Nm_per_rad=merged(law.stiffness_Nm_per_rad, ideal.stiffness_Nm_per_rad),
+        half_backlash_rad=merged(law.half_backlash_rad, ideal.half_backlash_rad),
+        damping_Nms_per_rad=merged(law.damping_Nms_per_rad, ideal.damping_Nms_per_rad),
+        effort_Nm=merged(law.effort_Nm, ideal.effort_Nm),
+        velocity_rad_s=merged(law.velocity_rad_s, ideal.velocity_rad_s),
+        notes=(
+            *ideal.notes,
+            *law.notes,
+            *(
+                (f"{int((~has_part).sum())} joint(s) on the ideal servo (no energy counted)",)
+                if not has_part.all()
+                else ()
+            ),
+        ),
+        kt_Nm_per_A=merged(law.kt_Nm_per_A, 1.0),  # placeholders: no current on ideal joints
+        R_ohm=merged(law.R_ohm, 1.0),
+        current_limit_A=merged(law.current_limit_A, np.inf),
+        armature_kgm2=merged(law.armature_kgm2, 0.0),
+        frictionloss_Nm=merged(law.frictionloss_Nm, 0.0),
+        m6_joints=where[law.m6_joints],
+        m6_params=law.m6_params,
+        has_part=has_part,
+    )
+
+
+def law_with_parts(
+    robot: RobotModel, servo: ServoModel, parts: ServoParts | None
+) -> PartLaw | None:
+    """The servo law a simulation of `robot` runs with `parts` on their joints and the virtual
+    servos `servo` elsewhere; None without parts (the simulation then builds the virtual
+    servos' law itself)."""
+    if parts is None:
+        return None
+    from app.core.simulation.servo_law import servo_law
+
+    if parts.joint_names == robot.joint_names:
+        return part_servo_law(parts)
+    ideal = servo_law(
+        servo,
+        robot.joint_names,
+        [joint.effort for joint in robot.joints],
+        [joint.velocity for joint in robot.joints],
+    )
+    return mixed_servo_law(ideal, parts, robot.joint_names)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -221,13 +291,14 @@ class PartLoop(ServoLoop):
 
     def energy(self) -> PartEnergy:
         dt, ticks = self.dt_s, max(self._ticks, 1)
-        electrical = self._electrical * dt
-        joule = self._sq * self.part.R_ohm * dt
+        mask = 1.0 if self.part.has_part is None else self.part.has_part.astype(float)
+        electrical = self._electrical * dt * mask
+        joule = self._sq * self.part.R_ohm * dt * mask
         return PartEnergy(
             electrical_J=electrical,
             joule_J=joule,
             mechanical_J=electrical - joule,
-            peak_current_A=self._peak.copy(),
-            rms_current_A=np.sqrt(self._sq / ticks),
+            peak_current_A=self._peak * mask,
+            rms_current_A=np.sqrt(self._sq / ticks) * mask,
             duration_s=self._ticks * dt,
         )

@@ -21,6 +21,7 @@ from app.core.parent_watch import die_with_parent
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams, compensated_command
 from app.core.servo.model import ServoModel, base_roll_pitch, joint_angles
+from app.core.servo.scaling import scaled_ideal_servo
 from app.core.simulation.engine import EngineInput, EngineRun, run_engine
 from app.core.simulation.errors import SimulationInputError
 from app.core.simulation.mjcf import SimOptions, build_sim_model
@@ -105,6 +106,7 @@ def prepare(
             robot.joint_names,
             [joint.effort for joint in robot.joints],
             [joint.velocity for joint in robot.joints],
+            scaled_ideal_servo(robot).torque_limit_Nm,  # where the URDF gives no effort
         )
     roll, pitch = base_roll_pitch(trajectory.q)
     return EngineInput(

@@ -109,8 +109,11 @@ def servo_law(
     joint_names: tuple[str, ...],
     effort_Nm: list[float | None],
     velocity_rad_s: list[float | None],
+    default_effort_Nm: float = DEFAULT_EFFORT_NM,
 ) -> ServoLaw:
-    """The servo law of each joint from the virtual servos and the URDF's limits."""
+    """The servo law of each joint from the virtual servos and the URDF's limits;
+    default_effort_Nm [N·m] where the URDF gives no effort (the simulation passes the servo
+    sized to the robot, `app.core.servo.scaling`)."""
     servos = servo.for_joints(joint_names)
     compliance = np.array(servos.compliance_deg_per_Nm, dtype=float)
     if np.any(compliance < 0.0):
@@ -125,9 +128,9 @@ def servo_law(
     if missing:
         notes.append(
             f"{len(missing)} joint(s) without URDF effort/velocity limits simulated with "
-            f"{DEFAULT_EFFORT_NM:g} N·m and {DEFAULT_VELOCITY_RAD_S:g} rad/s"
+            f"{default_effort_Nm:.3g} N·m and {DEFAULT_VELOCITY_RAD_S:g} rad/s"
         )
-    effort = np.array([e if e else DEFAULT_EFFORT_NM for e in effort_Nm], dtype=float)
+    effort = np.array([e if e else default_effort_Nm for e in effort_Nm], dtype=float)
     velocity = np.array([v if v else DEFAULT_VELOCITY_RAD_S for v in velocity_rad_s], dtype=float)
     compliance_rad = np.deg2rad(np.where(compliance > 0.0, compliance, RIGID_COMPLIANCE_DEG_PER_NM))
     return ServoLaw(

@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from app.core.servo.model import ServoModel
     from app.core.simulation.mjcf import SimOptions
     from app.core.simulation.result import SimulationResult
+    from app.core.simulation.servo_law import ServoLaw
 
 SIMULATION_KEY = "simulation"
 """The structure key of simulation jobs (nothing is cached between them)."""
@@ -76,15 +77,18 @@ def simulation_job(
     commands: dict[str, np.ndarray],
     servo: ServoModel,
     options: SimOptions | None = None,
+    law: ServoLaw | None = None,
 ) -> SimulationJob:
-    """Checked, picklable runs (raises SimulationInputError in the caller, not the worker)."""
+    """Checked, picklable runs (raises SimulationInputError in the caller, not the worker);
+    `law` replaces the virtual servos' (servo parts: `part_law.law_with_parts`)."""
     from app.core.simulation.mjcf import build_sim_model
     from app.core.simulation.run import prepare
 
     sim = build_sim_model(robot, options)
     labels = tuple(commands)
     inputs = tuple(
-        prepare(robot, trajectory, commands[label], servo, options, sim=sim) for label in labels
+        prepare(robot, trajectory, commands[label], servo, options, sim=sim, law=law)
+        for label in labels
     )
     return SimulationJob(labels, inputs)
 

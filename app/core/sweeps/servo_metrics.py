@@ -118,7 +118,7 @@ def not_simulated(reason: str, seconds: float = 0.0) -> SimulationMetrics:
 SIMULATION_S_BASE, SIMULATION_S_PER_STEP = 0.2, 0.4
 """What a point's simulation costs on top of its gait solve, roughly [s]: a fixed part (torques
 set-up, MuJoCo model) and a part per walk step (walk, QP, simulation); about 1 s with 2 steps on
-dircon_biped here (the README's Design sweeps)."""
+dircon_biped here (docs/sweeps.md)."""
 
 
 def simulation_cost_s(walk_steps: int) -> float:

@@ -39,6 +39,13 @@ from app.core.walking.sway import lateral_sway, smoothstep
 EPS_S = 1e-3
 """Finite-difference step [s]."""
 MAX_STEPS = 100
+STOP_BALANCE = 0.5
+"""Where the walk comes to rest, between the end of a steady deceleration from the gait's
+speed (0: x + ẋ·T/2, the CoM near the front foot's toe) and the CoM over the middle of the two
+soles (1). Measured on servo_biped's 6-step walk with eq 7 on the drive torque and 1 s held
+after it: at 0 the robot tips over forward 0.4 s after the walk; at 1 the stop reverses the
+base harder than the whole-body QP can follow (10 samples infeasible: the ZMP leaves the
+soles); at 0.5 every sample is feasible and the robot stands after the walk."""
 REACH_TOLERANCE_M = 1e-6
 """Largest sole-point error of a double-support posture that still counts as reached [m]."""
 
@@ -137,7 +144,8 @@ class _PlanarWalk:
         # At rest as far behind (ahead) as a steady acceleration from (to) the gait's speed
         # travels: x_rest = x ∓ ẋ T / 2, so that x(t) moves one way only.
         self.rest_start = self._rest(self.start_state, -start_s)
-        self.rest_end = self._rest(self.end_state, stop_s)
+        plain = self._rest(self.end_state, stop_s)
+        self.rest_end = plain + STOP_BALANCE * (self._balanced(self.end_state[0], plain) - plain)
         self.match_speed = {"start": True, "stop": True}
         self.notes: list[str] = []
         for seg in (segments[0], segments[-1]):
@@ -174,6 +182,19 @@ class _PlanarWalk:
         """Base (x, z, pitch) at rest before (duration < 0) or after a touch-down state."""
         q, v = state[0], state[1]
         return np.array([q[0] + 0.5 * v[0] * duration_s, q[1], q[2]])
+
+    def _balanced(self, stance: np.ndarray, rest: np.ndarray, rounds: int = 4) -> np.ndarray:
+        """The rest base (x, z, pitch) moved along x until the whole-body CoM is over the middle
+        of the two soles (the mean of their contact points); `STOP_BALANCE` says how far
+        towards it the stop goes."""
+        points = evaluate(self.planar.contact_positions, stance).reshape(4, 2)
+        middle = float(points[:, 0].mean())
+        feet = {side: (x, 0.0) for side, x in self.feet_x(stance).items()}
+        base = rest.copy()
+        for _ in range(rounds):  # the legs' CoM moves with the base: a few fixed-point rounds
+            q = self.posture.solve(base, feet, warm=stance)
+            base[0] += middle - float(evaluate(self.planar.com, q)[0])
+        return base
 
     def _reachable(self, segment: _Segment, samples: int = 12) -> bool:
         """Whether both soles stay flat on their footholds through a double-support segment."""

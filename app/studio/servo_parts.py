@@ -1,0 +1,99 @@
+"""What the simulation takes from the servo parts in the state (`StudioState.work.parts`): the
+servo law to run (`simulation_law`, the CLI's `part_law` functions) and the energy line of a
+run on parts (`energy_line`). Not a session: the simulation session calls these two hooks.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from app.core.dynamics.wbc import FeedForward
+from app.core.motions.trajectory import Trajectory
+from app.core.robot.model import RobotModel
+from app.core.servo.catalogue import ServoRecord, load_catalogue
+from app.core.servo.choice import ServoChoice, choice_parts
+from app.core.servo.model import ServoModel
+from app.core.simulation.battery import (
+    MIN_DISTANCE_M,
+    energy_figures,
+    horizontal_travel_m,
+    positive_work_J,
+)
+from app.core.simulation.result import SimulationResult
+from app.core.simulation.servo_law import ServoLaw
+
+
+@functools.cache
+def catalogue() -> dict[str, ServoRecord]:
+    """The built-in servo catalogue (robots/servos), read once."""
+    return load_catalogue()
+
+
+def simulation_law(
+    robot: RobotModel, servo: ServoModel, choice: ServoChoice | None
+) -> ServoLaw | None:
+    """The servo law for a simulation of `robot`: the parts on their joints, the virtual
+    servos elsewhere; None when every joint is ideal. Raises StudioError (ServoPartsError)
+    naming a setting that cannot be simulated."""
+    from app.core.simulation.part_law import law_with_parts
+
+    if choice is None:
+        return None
+    parts = choice_parts(choice, robot.joint_names, catalogue())
+    return law_with_parts(robot, servo, parts)
+
+
+def energy_line(
+    result: SimulationResult,
+    robot: RobotModel,
+    trajectory: Trajectory,
+    choice: ServoChoice | None,
+    torques: FeedForward | None,
+) -> str:
+    """The run's electrical energy, currents, specific resistance (electrical beside planned
+    work) and battery minutes, as `biped-studio simulate` gives them; "" for a run without
+    parts."""
+    energy = result.energy
+    if energy is None or choice is None or energy.duration_s <= 0.0:
+        return ""
+    vin = np.ones(len(robot.joint_names))  # ideal joints draw nothing: any voltage will do
+    for name in choice.chosen:
+        joint = choice.joint(name)
+        record = catalogue().get(joint.servo)
+        firmware = record.firmware if record is not None else None
+        vin[robot.joint_names.index(name)] = joint.vin_V or (
+            firmware.vin_V if firmware is not None else 1.0
+        )
+    planned_xy = trajectory.q[:, :2]
+    work = float("nan")
+    if torques is not None and horizontal_travel_m(planned_xy) >= MIN_DISTANCE_M:
+        speed = trajectory.v[:, [j.idx_v for j in robot.joints]]
+        work = positive_work_J(np.nan_to_num(torques.tau_Nm), speed, trajectory.dt)
+    shown = result.t <= result.simulated_until_s
+    f = energy_figures(
+        energy,
+        vin,
+        robot.mass_kg,
+        float(np.linalg.norm(robot.model.gravity.linear)),
+        result.q[shown, :2],
+        planned_xy,
+        work,
+        choice.battery_Wh,
+    )
+    sr = (
+        "in place: no specific resistance"
+        if f.sr_electrical is None
+        else f"SR {f.sr_electrical:.3g} electrical"
+        + ("" if f.sr_planned is None else f", {f.sr_planned:.3g} planned work")
+    )
+    line = (
+        f"**Energy** with compensation ({len(choice.chosen)} joint(s) on servo parts, "
+        f"{f.duration_s:.1f} s): {f.electrical_J:.1f} J electrical, {f.joule_J:.1f} J heat; "
+        f"average {f.average_power_W:.1f} W, {f.average_current_A:.2f} A; peak "
+        f"{f.peak_current_A:.2f} A on one joint; {sr}"
+    )
+    if f.battery_minutes is not None:
+        line += f"; a {f.pack_Wh:g} Wh pack lasts **{f.battery_minutes:.0f} min** of this motion"
+    return line

@@ -1,0 +1,341 @@
+"""Servos in the studio: a servo per joint (the ideal servo, or a catalogue servo and its
+firmware settings), kept in the state (`StudioState.work.parts`) with the coefficients and
+virtual servos that follow from it (app.core.servo.choice.with_parts: the part's compliance
+1/K and dead band for the quick estimate, eq 7's k = 1/K); *Size servos* against the current
+motion's torques and the planned gaits (app.core.servo.sizing_work) on a named thread.
+
+A joint put back on the ideal servo keeps the compliance and dead band it had (the Compensation
+panel edits them; *Undo* puts the earlier servo and values back).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import viser
+
+from app.core.collocation.result import GaitResult
+from app.core.errors import StudioError
+from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
+from app.core.servo.catalogue import ServoRecord
+from app.core.servo.choice import (
+    IDEAL,
+    JointServo,
+    ServoChoice,
+    choice_parts,
+    ideal_choice,
+    simulatable,
+    take_joints,
+    with_parts,
+)
+from app.core.servo.sizing import Sizing, envelope
+from app.core.servo.sizing_work import Work, gait_work, motion_work, size_works
+from app.studio.notifier import Notifier
+from app.studio.servo_parts import catalogue
+from app.studio.signals import Signal
+from app.studio.state import LoadedRobot, StudioState
+from app.studio.work import Coefficients
+from panels.servos_panel import ServosPanel
+
+log = logging.getLogger(__name__)
+
+
+class ServosSession:
+    """Owns the Servos folder and the sizing thread."""
+
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        state: StudioState,
+        notifier: Notifier,
+        gaits: Callable[[], dict[str, GaitResult | None]] = dict,
+    ) -> None:
+        """gaits(): the planned gaits to size against too (label → gait or None)."""
+        self._state, self._notifier, self._gaits = state, notifier, gaits
+        self.records: dict[str, ServoRecord] = simulatable(catalogue())
+        """The servos offered: those the simulation can run (a motor model and firmware)."""
+        self.panel = ServosPanel(server.gui, self)
+        self.panel.show_catalogue(
+            [(k, f"{k} — {r.maker} {r.model}") for k, r in sorted(self.records.items())]
+        )
+        self._selected = ""
+        self.last: tuple[Sizing, dict[str, Work]] | None = None
+        """The last sizing and the works it was made against."""
+        self._thread: threading.Thread | None = None
+        self.sized: Signal[Sizing | str] = Signal("servos_sized")
+        """Emitted when *Size servos* ends: its sizing, or why it could not size."""
+        state.on_robot.connect(self._on_robot)
+        state.on_motion.connect(lambda _motion: self._forget_sizing())
+        state.work.on_coefficients.connect(self._on_coefficients)
+        state.work.on_parts.connect(lambda _choice: self._show_selected())
+
+    # --- state ----------------------------------------------------------------------------
+
+    def choice(self) -> ServoChoice | None:
+        """The current servo per joint (every joint ideal when the state holds none)."""
+        with self._state.lock:
+            robot = self._state.robot
+            if robot is None:
+                return None
+            parts = self._state.work.parts
+            return parts if parts is not None else ideal_choice(robot.joint_names)
+
+    def _on_robot(self, loaded: LoadedRobot) -> None:
+        names = loaded.robot.joint_names
+        self._selected = names[0] if names else ""
+        self.last = None
+        self.panel.show_joints(names, self._selected)
+        self.panel.sizing.content = ""
+        self._show_selected()
+
+    def _on_coefficients(self, _coefficients: Coefficients) -> None:
+        self._show_selected()
+
+    def _forget_sizing(self) -> None:
+        self.last = None
+        self._show_selected()
+
+    # --- the choice (ServosActions) -----------------------------------------------------------
+
+    def select_joint(self, joint: str) -> None:
+        self._selected = joint
+        self._show_selected()
+
+    def select_servo(self, key: str) -> None:
+        choice = self.choice()
+        if choice is None or self._selected not in choice.joint_names:
+            return
+        self._apply(choice.with_joint(self._selected, JointServo(key)), "parts")
+
+    def set_setting(self, name: str, value: float) -> None:
+        choice = self.choice()
+        if choice is None or self._selected not in choice.joint_names:
+            return
+        joint = choice.joint(self._selected)
+        if joint.servo == IDEAL:
+            return
+        changed = dataclasses.replace(joint, **{name: float(value)})  # type: ignore[arg-type]
+        self._apply(choice.with_joint(self._selected, changed), "parts")
+
+    def set_battery(self, pack_Wh: float) -> None:
+        choice = self.choice()
+        if choice is None:
+            return
+        pack = None if pack_Wh == 0.0 else float(pack_Wh)
+        self._apply(ServoChoice(choice.joint_names, choice.joints, pack), "parts")
+
+    def restore_parts(self, choice: ServoChoice | None, coefficients: tuple[Any, Any]) -> None:
+        """Undo / redo: `choice` again (None: every joint ideal), the joints it changes taking
+        their coefficients and virtual servo from `coefficients` (params, servo) of that step."""
+        with self._state.lock:
+            robot, current = self._state.robot, self._state.work.coefficients
+            now = self.choice()
+            if robot is None or current is None or now is None:
+                return
+            target = choice if choice is not None else ideal_choice(robot.joint_names)
+            if target.joint_names != robot.joint_names:
+                return
+            changed = [
+                name
+                for name, a, b in zip(target.joint_names, target.joints, now.joints, strict=True)
+                if a != b
+            ]
+            params, servo = take_joints(current.params, current.servo, coefficients, changed)
+            try:
+                self._state.work.set_parts(target, params, servo, "undo")
+            except StudioError as error:
+                self._fail("Servo parts not restored", str(error), None)
+
+    def _apply(self, choice: ServoChoice, origin: str) -> bool:
+        """Check `choice` and install it with the coefficients that follow; a refused one
+        leaves the last good one (one line in the folder and to the tabs)."""
+        with self._state.lock:
+            robot, current = self._state.robot, self._state.work.coefficients
+            if robot is None or current is None:
+                return False
+            now = self.choice()
+            changed = [
+                name
+                for name, a, b in zip(choice.joint_names, choice.joints, now.joints, strict=True)
+                if a != b
+            ] if now is not None else None  # fmt: skip
+            try:
+                parts = choice_parts(choice, robot.joint_names, catalogue())
+                params, servo = with_parts(current.params, current.servo, parts, changed)
+                self._state.work.set_parts(choice, params, servo, origin)
+            except StudioError as error:
+                self._fail("Servo refused", str(error), None)
+                self._show_selected()
+                return False
+        return True
+
+    # --- display ----------------------------------------------------------------------------
+
+    def _show_selected(self) -> None:
+        choice = self.choice()
+        with self._state.lock:
+            coefficients = self._state.work.coefficients
+        if choice is None or self._selected not in choice.joint_names:
+            return
+        joint = choice.joint(self._selected)
+        i = choice.joint_names.index(self._selected)
+        settings: dict[str, float] = {}
+        if joint.servo == IDEAL or coefficients is None:
+            compliance = (
+                float(coefficients.servo.compliance_deg_per_Nm[i]) if coefficients else math.nan
+            )
+            line = (
+                f"**{self._selected}**: ideal servo, compliance {compliance:.3g} °/(N·m) "
+                f"(Compensation panel); the paper's k: {TYPICAL_COMPLIANCE_DEG_PER_NM:g} °/(N·m)"
+            )
+        else:
+            try:
+                parts = choice_parts(
+                    ServoChoice((self._selected,), (joint,)), (self._selected,), catalogue()
+                )
+            except StudioError as error:
+                parts, line = None, f"⚠️ {error}"
+            if parts is not None:
+                part = parts.parts[0]
+                settings = {
+                    "kp": part.firmware.kp,
+                    "vin_V": part.firmware.vin_V,
+                    "current_limit_A": part.firmware.current_limit_A or 0.0,
+                    "dead_band_deg": part.dead_band_deg,
+                }
+                k_now = float(coefficients.params.k_deg_per_Nm[i])
+                line = (
+                    f"**{self._selected}**: {joint.servo}, stiffness K = "
+                    f"{part.stiffness_Nm_per_rad:.1f} N·m/rad, compliance **k = 1/K = "
+                    f"{part.compliance_deg_per_Nm:.3g} °/(N·m)** (the paper's k: "
+                    f"{TYPICAL_COMPLIANCE_DEG_PER_NM:g}); stall {part.stall_torque_Nm:.2f} N·m"
+                )
+                if not np.isclose(k_now, part.compliance_deg_per_Nm, rtol=1e-6):
+                    line += f"  \n⚠️ eq 7's k is {k_now:.3g} (edited in the Compensation panel)"
+        self.panel.show_joint(joint.servo, settings, line, choice.battery_Wh or 0.0)
+        self._show_plot(joint.servo)
+
+    def _show_plot(self, servo: str) -> None:
+        last, joint = self.last, self._selected
+        if last is None:
+            self.panel.show_plot("", np.zeros(0), np.zeros(0), None, "")
+            return
+        sizing, works = last
+        j = [s.joint for s in sizing.joints].index(joint)
+        w = np.concatenate([work.speed_rad_s[:, j] for work in works.values()])
+        tau = np.concatenate([work.torque_Nm[:, j] for work in works.values()])
+        record = self.records.get(servo)
+        env = envelope(record) if record is not None else None
+        bounds = None
+        note = f"{joint}: planned points of {', '.join(works)} (ideal servo: no envelope)"
+        if env is not None and record is not None:
+            bounds = (env.stall_torque_Nm, env.no_load_speed_rad_s, env.torque_limit_Nm)
+            check = sizing.joints[j].check(servo)
+            verdict = "holds" if check.holds else "⚠️ " + "; ".join(check.violations())
+            note = (
+                f"{joint} on {servo} ({env.source}): peak margin {check.peak_margin:+.0%}, RMS "
+                f"{check.rms_torque_Nm:.3g} N·m vs {check.continuous_torque_Nm:.3g} N·m "
+                f"continuous{' (assumed)' if check.continuous_assumed else ''}: {verdict}"
+            )
+        self.panel.show_plot(f"{joint}: torque [N·m] vs speed", w, tau, bounds, note)
+
+    # --- sizing ----------------------------------------------------------------------------
+
+    def size_servos(self, client: viser.ClientHandle | None = None) -> None:
+        """Size every joint against the current motion's torques and the planned gaits, on a
+        thread; the end is announced by `sized`."""
+        if self._thread is not None and self._thread.is_alive():
+            return
+        margin = float(self.panel.margin.value)
+        self.panel.show_sizing(True)
+        self.panel.sizing.content = "⏳ Sizing…"
+        self._thread = threading.Thread(
+            target=self._size, args=(margin, client), name="size-servos", daemon=True
+        )
+        self._thread.start()
+
+    def _size(self, margin: float, client: viser.ClientHandle | None) -> None:
+        try:
+            self._size_now(margin, client)
+        except Exception as error:  # a bug: said in the folder, logged, the button back
+            log.exception("sizing servos")
+            self.panel.sizing.content = f"⚠️ {type(error).__name__}: {error}"
+            self._fail("Sizing failed", f"{type(error).__name__}: {error}", client)
+            self.sized.emit(str(error))
+        finally:
+            self.panel.show_sizing(False)
+
+    def _size_now(self, margin: float, client: viser.ClientHandle | None) -> None:
+        with self._state.lock:
+            state = self._state
+            robot, trajectory, torques = state.robot, state.trajectory, state.work.torques
+        if robot is None:
+            return
+        works: dict[str, Work] = {}
+        duration = 0.0
+        try:
+            if trajectory is not None and torques is not None:
+                works[trajectory.name] = motion_work(
+                    robot,
+                    trajectory,
+                    np.nan_to_num(torques.tau_Nm),
+                    [int(k) for k in torques.infeasible_samples],
+                )
+                duration = trajectory.duration
+            for label, gait in self._gaits().items():
+                work = None if gait is None else gait_work(robot, gait)
+                if work is not None and gait is not None:
+                    works[label] = work
+                    duration = duration or gait.duration_s
+            sizing = size_works(robot.joint_names, works, max(duration, 1e-3), self.records, margin)
+        except StudioError as error:
+            self.panel.sizing.content = f"⚠️ {error}"
+            self._fail("Cannot size the servos", str(error), client)
+            self.sized.emit(str(error))
+            return
+        choice = self.choice()
+        if choice is None or self._state.robot is not robot:
+            return
+        for joint in sizing.joints:
+            chosen = JointServo(joint.choice) if joint.choice is not None else JointServo()
+            choice = choice.with_joint(joint.joint, chosen)
+        self.last = (sizing, works)
+        self.panel.sizing.content = sizing_text(sizing, works, len(self.records), len(catalogue()))
+        if self._apply(choice, "sizing"):
+            self._show_selected()
+        self.sized.emit(sizing)
+
+    def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
+        self.panel.status.content = f"⚠️ {body}"
+        self._notifier.error(title, body, client)
+
+
+def sizing_text(sizing: Sizing, works: dict[str, Work], offered: int, total: int) -> str:
+    """The per-joint choice with its margins, and the joints no servo holds (markdown)."""
+    held = len(sizing.joints) - len(sizing.unsized)
+    lines = [
+        f"**Sized** against {', '.join(works)} over {offered} servos the simulation can run "
+        f"(of {total} in the catalogue), margin {sizing.margin:.0%}: {held} of "
+        f"{len(sizing.joints)} joints"
+    ]
+    for joint in sizing.joints:
+        if joint.choice is not None:
+            c = joint.check(joint.choice)
+            lines.append(
+                f"{joint.joint}: **{c.servo}**, peak margin {c.peak_margin:+.0%}, RMS "
+                f"{c.rms_torque_Nm:.3g} of {c.continuous_torque_Nm:.3g} N·m"
+            )
+        else:
+            best = max(joint.checks, key=lambda c: min(c.peak_margin, c.thermal_margin))
+            lines.append(
+                f"⚠️ {joint.joint}: **no servo holds it** (left on the ideal servo); closest "
+                f"{best.servo}: " + "; ".join(best.violations())
+            )
+    lines += [f"note: {note}" for note in sizing.notes]
+    return "  \n".join(lines)

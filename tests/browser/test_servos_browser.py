@@ -1,0 +1,138 @@
+"""In a real headless Chromium: the Servos folder. A motion and its torques are made by clicking
+(Motions, Compensation), then a catalogue servo is picked for a joint from the Servos folder's
+dropdowns, the page shows its compliance k = 1/K (checked against the motor law's closed form,
+K = kt·vin·error_gain·kp/R, from the record), a margin is typed, *Size servos* is clicked and
+the per-joint choice and its margins are read in the page, against the studio's state and a
+brute force over the servos offered.
+
+The page is loaded once for the module: run the tests together, in file order.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import pytest
+
+from app.core.servo.sizing import check_joint
+from app.studio import Studio
+from app.studio.servo_parts import catalogue
+from tests.browser.page_helpers import (
+    RENDER_TIMEOUT_S,
+    UI_TIMEOUT_S,
+    click_button,
+    expand_folder,
+    folder,
+    gui_row_input,
+    open_studio,
+    type_number,
+    wait_for,
+)
+
+MOTION = "one_leg_stand"
+JOINT = "left_knee"
+SERVO = "mx64"
+MARGIN = 0.2
+
+
+def select_option(page, label: str, option: str) -> None:
+    """Open the dropdown `label` (a Mantine Select) and click `option` in its list."""
+    box = gui_row_input(page, label, "input.mantine-Select-input")
+    box.scroll_into_view_if_needed()
+    box.click()
+    page.get_by_role("option", name=option, exact=True).click()
+    wait_for(
+        f"the page's {label} to show {option}",
+        lambda: box.input_value() == option,
+        UI_TIMEOUT_S,
+    )
+
+
+@pytest.fixture(scope="module")
+def page(browser_page, studio_url: str):
+    return open_studio(browser_page, studio_url)
+
+
+def test_pick_a_catalogue_servo_for_a_joint(page, studio: Studio) -> None:
+    expand_folder(page, "Motions", "Generate")
+    select_option(page, "Motion", MOTION)
+    click_button(page, "Generate")
+    wait_for(
+        f"the generated {MOTION}",
+        lambda: (t := studio.state.trajectory) is not None and t.name == MOTION,
+        UI_TIMEOUT_S,
+    )
+    expand_folder(page, "Compensation", "Compute torque feed-forward")
+    click_button(page, "Compute torque feed-forward")
+    wait_for("the torques' quick estimate", lambda: studio.state.work.prediction, RENDER_TIMEOUT_S)
+
+    expand_folder(page, "Servos", "Size servos")
+    assert JOINT in studio.state.robot.joint_names
+    select_option(page, "Servo of joint", JOINT)
+    record = catalogue()[SERVO]
+    select_option(page, "Servo", f"{SERVO} — {record.maker} {record.model}")
+    parts = wait_for(
+        f"{SERVO} on {JOINT} in the studio",
+        lambda: (p := studio.state.work.parts) is not None and p.joint(JOINT).servo == SERVO and p,
+        UI_TIMEOUT_S,
+    )
+    assert parts.chosen == (JOINT,)
+    fit, firmware = record.fit("m1"), record.firmware
+    stiffness = (
+        fit.motor.kt_Nm_per_A * firmware.vin_V * firmware.error_gain * firmware.kp / fit.motor.R_ohm
+    )
+    shown = f"k = 1/K = {math.degrees(1.0 / stiffness):.3g} °/(N·m)"
+    servos = folder(page, "Servos")
+    servos.get_by_text(shown, exact=False).wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
+    i = studio.state.robot.joint_names.index(JOINT)
+    k = studio.state.work.coefficients.params.k_deg_per_Nm[i]
+    assert k == pytest.approx(math.degrees(1.0 / stiffness), rel=1e-12)
+
+
+def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> None:
+    assert studio.state.work.prediction is not None, "run with the test before"
+    type_number(page, "Margin", MARGIN)
+    wait_for(
+        f"the margin {MARGIN}",
+        lambda: studio.servos.panel.margin.value == pytest.approx(MARGIN),
+        UI_TIMEOUT_S,
+    )
+    before = studio.state.work.parts
+    click_button(page, "Size servos")
+    servos = folder(page, "Servos")
+    servos.get_by_text("Sized against", exact=False).wait_for(
+        state="visible", timeout=RENDER_TIMEOUT_S * 1000
+    )
+    parts = wait_for(
+        "the sized parts", lambda: (p := studio.state.work.parts) is not before and p, UI_TIMEOUT_S
+    )
+    text = servos.inner_text()
+    assert f"margin {MARGIN:.0%}" in text
+    robot = studio.state.robot
+    _, works = studio.servos.last
+    (work,) = works.values()
+    for j, name in enumerate(robot.joint_names):
+        holding = sorted(
+            (r.mass_kg, key)
+            for key, r in studio.servos.records.items()
+            if check_joint(r, work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, MARGIN).holds
+        )
+        expected = holding[0][1] if holding else ""
+        assert parts.joint(name).servo == expected, name
+        if expected:
+            line = re.search(
+                rf"^{re.escape(name)}: {expected}, peak margin ([+-](?:\d+|inf))%", text, re.M
+            )
+            assert line is not None, f"{name}'s choice is not in the page:\n{text}"
+            check = check_joint(
+                studio.servos.records[expected], work.speed_rad_s[:, j], work.torque_Nm[:, j],
+                1.0, MARGIN,
+            )  # fmt: skip
+            shown_margin = float(line.group(1))
+            assert shown_margin == (
+                math.inf if math.isinf(check.peak_margin) else round(100 * check.peak_margin)
+            )
+            assert check.peak_margin >= MARGIN
+        else:
+            assert re.search(rf"{re.escape(name)}: no servo holds it", text), name
