@@ -46,6 +46,26 @@ def test_markdown_table_has_a_row_per_figure_and_names_the_machine():
     assert "Test CPU, 3 cores" in table[-1] and "D UTC" in table[-1]
 
 
+def test_the_stability_line_gives_the_workload_before_and_after():
+    where = {
+        "cpu": "C", "cores": 1, "load_1min": 0.0, "python": "3", "date_utc": "D",
+        "reference_before_s": 0.010, "reference_after_s": 0.012, "load_1min_after": 2.0,
+    }  # fmt: skip
+    last = markdown_table([], where).splitlines()[-1]
+    assert "10.0 ms before the run and 12.0 ms after (1.20×)" in last
+    assert "2.0 at the end" in last and "not a baseline" in last
+
+
+def test_no_entry_measures_against_a_machine_reference():
+    from pathlib import Path
+
+    import app.bench
+
+    for module in Path(app.bench.__file__).parent.glob("*.py"):
+        text = module.read_text()
+        assert "beside_reference" not in text and '"machine reference"' not in text, module
+
+
 def test_a_pipe_in_a_figures_text_stays_inside_its_cell():
     figure = Figure("IK", 3.0, "ms", "≤ 2×", True, 1.5, "placo's loop to |dq| < 1e-6")
     where = {"cpu": "C", "cores": 1, "load_1min": 0.0, "python": "3", "date_utc": "D"}
@@ -73,13 +93,17 @@ def test_json_reports_figures_beside_baselines():
     result = run("--json", "--only", "load,slider", "--robot", "servo_biped", "--repeats", "20")
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
-    assert report["machine"]["cores"] >= 1 and report["reference_s"] > 0.0
+    machine = report["machine"]
+    assert machine["cores"] >= 1
+    # The fixed workload runs before and after, as a stability check, not as a baseline.
+    assert machine["reference_before_s"] > 0.0 and machine["reference_after_s"] > 0.0
     assert set(report) >= {"load", "slider", "figures"}
     assert "drag" not in report  # --only
     figures = report["figures"]
     assert len(figures) == 2  # load; slider (servo_biped is both robots here)
     for figure in figures:
         assert figure["baseline"] > 0.0
+        assert "machine reference" not in figure["baseline_what"]
         assert figure["ratio"] == pytest.approx(figure["value"] / figure["baseline"])
     # The load's baseline is the core load alone, which the studio's load contains.
     assert report["load"]["core_load_s"] == figures[0]["baseline"]

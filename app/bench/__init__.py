@@ -5,11 +5,13 @@ playback; motions: interpolate; dynamics: feedforward; compensation: the k slide
 motions, the plots' cursor; projects; replay; sweep; gait: plan, plan_fine, plan_first_click,
 plan_servo_biped; simulation: simulate, simulate_parts, simulate_click), each registered with
 `@bench_entry(name)` (app.bench.registry); they run stage by stage in STAGES' order. An entry returns its raw
-results and its Figures (app.bench.report), each beside a baseline measured in the same run
-(placo's bare IK beside a drag, bare MuJoCo beside a simulation, the core alone beside the
-studio's load, else the fixed pinocchio workload of `report.reference_s`) so that the ratio
-carries across machines. Every time is taken through app.bench.timing. `--only a,b` runs some
-entries; `--json` prints everything, `--markdown` the table of docs/speed.md.
+results and its Figures (app.bench.report), each beside a baseline doing the same work in the
+same run (placo's own IK loop stopped at the studio's final error beside a drag, DAQP / ProxQP /
+OSQP on the same QP, bare MuJoCo stepping the same torques beside a simulation, np.savez /
+np.load beside a project file, IPOPT's defaults on the same NLP beside the gait, the core alone
+beside the studio's load). The fixed pinocchio workload of `report.reference_s` runs before and
+after, only to show the machine's speed held. Every time is taken through app.bench.timing.
+`--only a,b` runs some entries; `--json` prints everything, `--markdown` the table of docs/speed.md.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ from app.bench.report import (
     machine,
     markdown_table,
     reference_s,
+    stability_line,
     text_lines,
 )
 from app.config import StudioConfig
@@ -81,10 +84,8 @@ def run_bench(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory() as data_dir:
         studio = Studio(StudioConfig(port=free_port(), data_dir=Path(data_dir)))
         try:
-            reference = reference_s()
-            results["reference_s"] = reference
-            results["reference_what"] = REFERENCE_WHAT
-            context = BenchContext(studio, robot, roban, args.repeats, reference)
+            where["reference_before_s"] = reference_s()
+            context = BenchContext(studio, robot, roban, args.repeats)
             for name, entry in ENTRIES.items():
                 if only and name not in only:
                     continue
@@ -93,8 +94,11 @@ def run_bench(args: argparse.Namespace) -> int:
                 raw, entry_figures = entry(context)
                 results[name] = raw
                 figures += entry_figures
+            where["reference_after_s"] = reference_s()
+            where["load_1min_after"] = machine()["load_1min"]
         finally:
             studio.stop()
+    results["reference_what"] = REFERENCE_WHAT
     results["figures"] = [figure.as_dict() for figure in figures]
     if args.json:
         print(json.dumps(results, indent=2))
@@ -103,7 +107,8 @@ def run_bench(args: argparse.Namespace) -> int:
     else:
         print(
             f"{where['cpu']}, {where['cores']} cores, load {where['load_1min']:.1f}, "
-            f"{where['date_utc']} UTC; reference {reference * 1e3:.1f} ms ({REFERENCE_WHAT})"
+            f"{where['date_utc']} UTC"
         )
         print("\n".join(text_lines(figures)))
+        print(stability_line(where).strip())
     return 0

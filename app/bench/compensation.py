@@ -5,7 +5,7 @@
 - compensation_slider_long: the same k slider on the one-leg squats repeated to 6 000 and
   60 000 samples (τ tiled from the 10 s motion's), the slider's CPU time (p95) beside the
   uncached path (`app.core.servo.model.predict`, pinocchio sample by sample) on the same motion;
-  targets ≤ 50 ms and ≤ 200 ms.
+  targets ≤ 50 ms and ≤ 100 ms (issue 28).
 - plot_cursor: the four plots' time cursor moved on that motion (it moves ≤ 4×/s during
   playback, off the player's thread), beside the same plots resent without a cursor; target
   ≤ 25 ms.
@@ -25,22 +25,42 @@ from app.studio import Studio
 from panels.quiet import set_value
 
 COMPENSATION_TARGET_MS = 50.0
-COMPENSATION_LONG_TARGETS_MS = {6000: 50.0, 60000: 200.0}
+COMPENSATION_LONG_TARGETS_MS = {6000: 50.0, 60000: 100.0}
+"""CPU p95 of the k slider per motion length (60 000 samples: issue 28, was 200 ms)."""
 PLOT_CURSOR_TARGET_MS = 25.0
 
 
 @bench_entry("compensation_slider")
 def _entry_compensation_slider(ctx: BenchContext) -> tuple[dict, list[Figure]]:
     row = _bench_compensation_slider(ctx.studio)
+    row["uncached_ms"] = _uncached_prediction_s(ctx.studio) * 1e3
     return row, [
-        ctx.beside_reference(
+        Figure(
             f"compensation slider → prediction, ghosts, plots ({row['samples']} samples, p95)",
             row["p95_ms"],
             "ms",
             f"≤ {COMPENSATION_TARGET_MS:.0f} ms",
             row["p95_ms"] <= COMPENSATION_TARGET_MS,
+            row["uncached_ms"],
+            "the uncached prediction alone of the same motion (pinocchio sample by sample)",
         )
     ]
+
+
+def _uncached_prediction_s(studio: Studio) -> float:
+    """Wall time [s] of `app.core.servo.model.predict` on the studio's motion and torques with
+    the slider's coefficients: the prediction without the session's caches."""
+    from app.core.servo.model import predict
+
+    robot, trajectory = studio.state.robot, studio.state.trajectory
+    feedforward, coefficients = studio.state.work.torques, studio.state.work.coefficients
+    assert robot and trajectory and feedforward and coefficients
+    tau = np.nan_to_num(feedforward.tau_Nm)
+    (seconds,) = timed_each(
+        lambda _: predict(robot, trajectory, tau, coefficients.params, coefficients.servo),
+        range(1),
+    )
+    return seconds
 
 
 @bench_entry("compensation_slider_long")

@@ -30,19 +30,6 @@ class BenchContext:
     roban: Path | None
     """Roban S14's URDF when it is found."""
     repeats: int
-    reference_s: float
-    """`report.reference_s` of this run [s]: the baseline of figures without a natural one."""
-
-    def reference(self, unit: str) -> float:
-        return self.reference_s * (1000.0 if unit == "ms" else 1.0)
-
-    def beside_reference(
-        self, what: str, value: float, unit: str, target: str, ok: bool, note: str = ""
-    ) -> Figure:
-        """A figure without a natural baseline, beside this run's machine reference."""
-        return Figure(
-            what, value, unit, target, ok, self.reference(unit), "machine reference", note
-        )
 
     def robots(self) -> dict[str, str]:
         """name -> source of the load, slider and drag entries' robots."""

@@ -1,10 +1,12 @@
 """What `biped-studio bench` reports: figures beside same-run baselines, and where they ran.
 
 A timing on a loaded or slow machine says little by itself; the same timing beside a
-baseline measured in the same run on the same machine (placo's bare IK solve beside a drag
-event, a one-core run beside the parallel one, bare MuJoCo beside a simulation) gives a ratio
-that carries over to other machines. Where a figure has no natural baseline, it stands beside
-`reference_s`, a fixed pinocchio workload timed in the same run.
+baseline doing the same work, measured in the same run on the same machine (placo's own IK
+loop stopped at the studio's final error beside a drag event, other QP solvers on the very
+same QP, bare MuJoCo stepping the same torques beside a simulation, np.savez beside a project
+save, IPOPT's defaults on the same NLP beside the gait) gives a ratio that says something about
+the code. `reference_s`, a fixed pinocchio workload, is timed before and after the run only to
+show that the machine's speed held meanwhile: it is no figure's baseline.
 """
 
 from __future__ import annotations
@@ -18,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from app.bench.timing import timed
+from app.bench.timing import THREAD_CPU, timed
 
-REFERENCE_WHAT = "machine reference: 300 × (RNEA + CRBA + Jacobians) on servo_biped"
+REFERENCE_WHAT = "300 × (RNEA + CRBA + Jacobians) on servo_biped, CPU"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -71,8 +73,8 @@ def machine() -> dict:
 
 
 def reference_s(runs: int = 5) -> float:
-    """Median wall time of a fixed pinocchio workload [s]: the unit of figures without a
-    natural baseline."""
+    """Median CPU time of a fixed pinocchio workload [s], timed before and after the bench to
+    show whether the machine's speed held (a stability check, never a baseline)."""
     import pinocchio as pin
 
     from app.core.robot.loading import load_robot
@@ -89,7 +91,7 @@ def reference_s(runs: int = 5) -> float:
             pin.crba(model, data, q)
             pin.computeJointJacobians(model, data, q)
 
-    return statistics.median(timed(workload, runs))
+    return statistics.median(timed(workload, runs, THREAD_CPU))
 
 
 def _number(value: float | None) -> str:
@@ -135,6 +137,23 @@ def markdown_table(figures: list[Figure], where: dict) -> str:
     rows.append("")
     rows.append(
         f"Machine: {where['cpu']}, {where['cores']} cores, load {where['load_1min']:.1f} at the "
-        f"start; Python {where['python']}; {where['date_utc']} UTC."
+        f"start{_load_after(where)}; Python {where['python']}; {where['date_utc']} UTC."
+        f"{stability_line(where)}"
     )
     return "\n".join(rows)
+
+
+def _load_after(where: dict) -> str:
+    after = where.get("load_1min_after")
+    return "" if after is None else f", {after:.1f} at the end"
+
+
+def stability_line(where: dict) -> str:
+    """The fixed workload before and after the run (CPU): did the machine's speed hold?"""
+    before, after = where.get("reference_before_s"), where.get("reference_after_s")
+    if before is None or after is None:
+        return ""
+    return (
+        f" Machine stability: {REFERENCE_WHAT} took {before * 1e3:.1f} ms before the run and "
+        f"{after * 1e3:.1f} ms after ({after / before:.2f}×); not a baseline of any figure."
+    )

@@ -23,13 +23,14 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from app.core.quaternions import wxyz_to_xyzw
 from app.core.simulation.errors import SimulationDiverged, SimulationInputError
 from app.core.simulation.part_law import PartEnergy, PartLaw, PartLoop
-from app.core.simulation.servo_law import ServoLaw, ServoLoop
+from app.core.simulation.servo_law import ServoLaw, ServoLoop, Setpoints, actuators_xml
 from app.core.simulation.sim_model import SimModel
 
 DROP_M = 0.0005
@@ -60,6 +61,11 @@ class EngineInput:
     on_floor: bool = True
     """Put the lowest sole corner `DROP_M` above the floor first (else start at q0 as is)."""
     detect_falls: bool = True
+    servo_in_mujoco: bool = True
+    """The ideal servo's torque computed by MuJoCo's actuators (`servo_law.actuators_xml`),
+    several steps per call where the set point holds; False: the law in Python at every
+    tick into `qfrc_applied` (`ServoLoop`, the reference the tests compare with). Servo
+    parts (`PartLaw`) always run in Python."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -101,26 +107,32 @@ def pin_to_qpos(sim: SimModel, q_pin: np.ndarray, qpos: np.ndarray) -> None:
         qpos[adr] = math.atan2(q_pin[i_pin + 1], q_pin[i_pin])
 
 
-def qpos_to_pin(sim: SimModel, qpos: np.ndarray) -> np.ndarray:
-    q = np.zeros(sim.nq_pin)
+def qpos_to_pin(sim: SimModel, qpos: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """MuJoCo's qpos as a pinocchio configuration (into `out` when given)."""
+    q = np.zeros(sim.nq_pin) if out is None else out
     if sim.floating_base:
         q[:3] = qpos[:3]
         q[3:7] = wxyz_to_xyzw(qpos[3:7])
-    for i_pin, adr in sim.pin_scalar_q:
-        q[i_pin] = qpos[adr]
-    for i_pin, adr in sim.pin_continuous_q:
-        q[i_pin], q[i_pin + 1] = math.cos(qpos[adr]), math.sin(qpos[adr])
+    scalar, continuous = np.asarray(sim.pin_scalar_q), np.asarray(sim.pin_continuous_q)
+    if len(scalar):
+        q[scalar[:, 0]] = qpos[scalar[:, 1]]
+    if len(continuous):
+        angle = qpos[continuous[:, 1]]
+        q[continuous[:, 0]], q[continuous[:, 0] + 1] = np.cos(angle), np.sin(angle)
     return q
 
 
-def qvel_to_pin(sim: SimModel, qvel: np.ndarray, R_world_base: np.ndarray) -> np.ndarray:
+def qvel_to_pin(
+    sim: SimModel, qvel: np.ndarray, R_world_base: np.ndarray, out: np.ndarray | None = None
+) -> np.ndarray:
     """MuJoCo's free joint has its linear velocity in the world, pinocchio's in the base."""
-    v = np.zeros(sim.nv_pin)
+    v = np.zeros(sim.nv_pin) if out is None else out
     if sim.floating_base:
         v[:3] = R_world_base.T @ qvel[:3]
         v[3:6] = qvel[3:6]
-    for i_pin, adr in sim.pin_dof:
-        v[i_pin] = qvel[adr]
+    dofs = np.asarray(sim.pin_dof)
+    if len(dofs):
+        v[dofs[:, 0]] = qvel[dofs[:, 1]]
     return v
 
 
@@ -140,12 +152,19 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
         mujoco.set_mju_user_warning(previous)
 
 
-def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRun:
+def start(inp: EngineInput) -> tuple[Any, Any, np.ndarray, int]:
+    """The run's MuJoCo model and data at its first configuration (put down on the floor with
+    `on_floor`), the joint of each actuator's ctrl (`servo_law.actuators_xml`; none when the
+    law runs in Python) and the physics ticks per command sample."""
     import mujoco
 
-    begin = time.perf_counter()
     sim, law = inp.sim, inp.law
-    m = mujoco.MjModel.from_xml_string(sim.xml)
+    xml, ctrl_joint = sim.xml, np.zeros(0, dtype=int)
+    if inp.servo_in_mujoco and not isinstance(law, PartLaw):
+        actuators, ctrl_joint = actuators_xml(law, sim.joint_names)
+        head, tail = xml.rsplit("</mujoco>", 1)
+        xml = head + actuators + "</mujoco>" + tail
+    m = mujoco.MjModel.from_xml_string(xml)
     if isinstance(law, PartLaw):  # the parts' rotor inertia, back-EMF and friction
         law.set_joint_dynamics(m, sim.actuated_dof)
     d = mujoco.MjData(m)
@@ -162,6 +181,17 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
     if sim.floating_base and inp.on_floor:
         d.qpos[2] += DROP_M - min(_lowest_corner_z(d, m, g) for g in soles)
         mujoco.mj_forward(m, d)
+    return m, d, ctrl_joint, ticks
+
+
+def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRun:
+    import mujoco
+
+    begin = time.perf_counter()
+    sim, law = inp.sim, inp.law
+    m, d, ctrl_joint, ticks = start(inp)
+    in_mujoco = len(ctrl_joint) > 0
+    dt = float(m.opt.timestep)
     floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
     root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, sim.root_body) if sim.floating_base else 0
     sites = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name) for name in sim.sole_sites]
@@ -192,6 +222,7 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
         if isinstance(law, PartLaw)
         else ServoLoop(law, dt, commands[0])
     )
+    setpoints = Setpoints(law, dt, commands[0])
     # Contiguous actuated coordinates are read and written through views (no copies).
     qpos_view = d.qpos[aq[0] : aq[-1] + 1] if _contiguous(aq) else None
     qfrc_view = d.qfrc_applied[av[0] : av[-1] + 1] if _contiguous(av) else None
@@ -204,8 +235,22 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
             qfrc_view[:] = tau
         mujoco.mj_step(m, d)
 
-    for _ in range(round(inp.settle_s / dt)):
-        tick()
+    def hold(rows: np.ndarray | None, command: np.ndarray, n_ticks: int) -> None:
+        """MuJoCo's actuators: `n_ticks` steps at the set points `rows` (None: at `command`)."""
+        if rows is None:
+            d.ctrl[:] = command[ctrl_joint]
+            mujoco.mj_step(m, d, n_ticks)
+            return
+        for row in rows[:, ctrl_joint]:
+            d.ctrl[:] = row
+            mujoco.mj_step(m, d)
+
+    if in_mujoco:
+        settle = round(inp.settle_s / dt)
+        hold(setpoints.hold(commands[0], settle), commands[0], settle)
+    else:
+        for _ in range(round(inp.settle_s / dt)):
+            tick()
     _check(d, m, -inp.settle_s)
     if isinstance(servo, PartLoop):
         servo.reset_energy()
@@ -219,13 +264,20 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
     fall_index, reason, stop_index = -1, "", n_samples
     every = max(1, n_samples // 50)
     force6 = np.zeros(6)
+    actuation_off = int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
     k = 0
     for k in range(n_samples):
         _check(d, m, k * inp.dt_cmd_s)
+        if in_mujoco:  # the servo torque of the last step, as the Python law leaves it
+            d.qfrc_applied[:] = d.qfrc_actuator
+            m.opt.disableflags |= actuation_off
         mujoco.mj_forward(m, d)  # after mj_step, positions and contacts lag qpos by a step
+        if in_mujoco:
+            m.opt.disableflags &= ~actuation_off
+            d.qfrc_applied[:] = 0.0
         R = d.xmat[root].reshape(3, 3) if sim.floating_base else np.eye(3)
-        out_q[k] = qpos_to_pin(sim, d.qpos)
-        out_v[k] = qvel_to_pin(sim, d.qvel, R)
+        qpos_to_pin(sim, d.qpos, out_q[k])
+        qvel_to_pin(sim, d.qvel, R, out_v[k])
         out_qj[k] = d.qpos[aq]
         roll[k] = math.atan2(R[2, 1], R[2, 2])
         pitch[k] = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
@@ -233,20 +285,19 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
             sole_pos[k, side] = d.site_xpos[sites[side]]
         root_pos[k] = d.xpos[root]
         touched = ""
-        for c in range(d.ncon):
-            contact = d.contact[c]
-            pair = (int(contact.geom1), int(contact.geom2))
-            if floor not in pair:
-                continue
-            other = pair[1] if pair[0] == floor else pair[0]
+        pairs = d.contact.geom  # (ncon, 2), read at once: d.contact[c] builds an object
+        on_floor = np.flatnonzero((pairs == floor).any(axis=1))
+        for c in on_floor.tolist():
+            first_is_floor = int(pairs[c, 0]) == floor
+            other = int(pairs[c, 1] if first_is_floor else pairs[c, 0])
             foot = side_of_geom.get(other)
             if foot is None:
                 touching[k] = True
                 touched = touched or link_name(int(m.geom_bodyid[other]))
                 continue
             mujoco.mj_contactForce(m, d, c, force6)
-            world = contact.frame.reshape(3, 3).T @ force6[:3]
-            forces[k, foot] += world if pair[0] == floor else -world
+            world = d.contact.frame[c].reshape(3, 3).T @ force6[:3]
+            forces[k, foot] += world if first_is_floor else -world
         if non_foot.size and d.xpos[non_foot, 2].min() < NON_FOOT_CLEARANCE_M:
             touching[k] = True
             touched = touched or link_name(int(non_foot[np.argmin(d.xpos[non_foot, 2])]))
@@ -261,6 +312,17 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
             break
         if progress is not None and k % every == 0:
             progress(k / n_samples)
+        if in_mujoco:
+            if inp.linear_hold:
+                hold(
+                    setpoints.ramp(commands[k], commands[min(k + 1, n_samples - 1)], ticks),
+                    commands[k],
+                    ticks,
+                )
+            else:
+                hold(setpoints.hold(commands[k], ticks), commands[k], ticks)
+            out_tau[k] = d.qfrc_actuator[av]
+            continue
         if inp.linear_hold:
             step = (commands[min(k + 1, n_samples - 1)] - commands[k]) / ticks
             for i in range(1, ticks + 1):

@@ -146,3 +146,69 @@ def servo_law(
         velocity_rad_s=velocity,
         notes=tuple(notes),
     )
+
+
+def actuators_xml(law: ServoLaw, joint_names: tuple[str, ...]) -> tuple[str, np.ndarray]:
+    """MuJoCo actuators applying the servo law's explicit part with ctrl = the set point s:
+    per joint, `general` actuators of force K·s + b₀ − K·q clamped to a force range, so
+    MuJoCo computes the torque in C at every step. Without play one actuator,
+    clip(K·(s − q), ±τ_max); with play h = b/2 two, K·(s − h − q) clamped to [0, τ_max] and
+    K·(s + h − q) clamped to [−τ_max, 0], whose sum is clip(K·dz(s − q, h), ±τ_max) (for
+    e = s − q > h only the first acts, for e < −h only the second, inside ±h neither).
+    Returns the `<actuator>` element and, per actuator, the index of its joint (ctrl = s[that])."""
+    rows, joints = [], []
+    for j, name in enumerate(joint_names):
+        k = float(law.stiffness_Nm_per_rad[j])
+        h = float(law.half_backlash_rad[j])
+        tau = float(law.effort_Nm[j])
+        ranges = ((0.0, (-tau, tau)),) if h <= 0.0 else ((-h, (0.0, tau)), (h, (-tau, 0.0)))
+        for shift, (lo, hi) in ranges:
+            rows.append(
+                f'<general joint="{name}" gainprm="{k!r}" biastype="affine" '
+                f'biasprm="{k * shift!r} {-k!r} 0" forcelimited="true" '
+                f'forcerange="{lo!r} {hi!r}"/>'
+            )
+            joints.append(j)
+    return f"<actuator>{''.join(rows)}</actuator>", np.array(joints, dtype=int)
+
+
+class Setpoints:
+    """The set point's slew (the first line of the law) ahead of the physics: it depends on
+    the commands alone, so a whole hold of `ticks` steps is computed at once.
+    `hold(command, ticks)`: (ticks, n) set points, or None when s reaches the command on the
+    first tick (then it stays there: the ctrl is constant over the hold)."""
+
+    def __init__(self, law: ServoLaw, dt_s: float, initial_command: np.ndarray) -> None:
+        self.max_step = law.velocity_rad_s * dt_s
+        self.setpoint = np.array(initial_command, dtype=float)
+
+    def hold(self, command: np.ndarray, ticks: int) -> np.ndarray | None:
+        """Set points of `ticks` ticks holding `command`: after i ticks
+        s₀ + clip(c − s₀, ±i·ω_max·Δt) (the per-tick slew summed in closed form)."""
+        diff = command - self.setpoint
+        if np.all(np.abs(diff) <= self.max_step):
+            self.setpoint = np.array(command, dtype=float)
+            return None
+        reach = np.arange(1, ticks + 1)[:, None] * self.max_step
+        rows = self.setpoint + np.clip(diff, -reach, reach)
+        rows = np.where(np.abs(diff) <= reach, command, rows)
+        self.setpoint = rows[-1].copy()
+        return rows
+
+    def ramp(self, start: np.ndarray, end: np.ndarray, ticks: int) -> np.ndarray:
+        """Set points of `ticks` ticks whose command ramps from `start` to `end` (the command
+        of tick i is start + i·(end − start)/ticks), each slewed from the one before."""
+        step = (end - start) / ticks
+        commands = start + np.arange(1, ticks + 1)[:, None] * step
+        if np.all(np.abs(commands[0] - self.setpoint) <= self.max_step) and np.all(
+            np.abs(step) <= self.max_step
+        ):
+            self.setpoint = commands[-1].copy()  # it follows the ramp exactly
+            return commands
+        rows = np.empty_like(commands)
+        s = self.setpoint
+        for i, command in enumerate(commands):
+            s = s + np.clip(command - s, -self.max_step, self.max_step)
+            rows[i] = s
+        self.setpoint = s.copy()
+        return rows
