@@ -25,6 +25,7 @@ from app.bench import (
     compensation,
     dynamics,
     gait,
+    gait_speed,
     motions,
     playback,
     posing,
@@ -59,6 +60,7 @@ STAGES = (
     replay,
     sweep,
     gait,
+    gait_speed,
     simulation,
 )
 """The stages' modules in the order their entries run."""

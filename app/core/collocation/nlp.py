@@ -63,6 +63,7 @@ IPOPT_WORDS = {
 WARM_START_OPTIONS: dict[str, Any] = {
     "ipopt.warm_start_init_point": "yes",
     "ipopt.mu_init": 1e-4,
+    "ipopt.mu_strategy": "monotone",  # from a converged point: a fixed small barrier
     "ipopt.warm_start_bound_push": 1e-6,
     "ipopt.warm_start_mult_bound_push": 1e-6,
     "ipopt.warm_start_slack_bound_push": 1e-6,

@@ -16,6 +16,7 @@ At a touch-down time the sample belongs to the new mode (post-impact velocity, n
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 
@@ -51,9 +52,10 @@ class GaitSamples:
 
 
 def _hermite(
-    p0: np.ndarray, m0: np.ndarray, p1: np.ndarray, m1: np.ndarray, h: float, s: float
+    p0: np.ndarray, m0: np.ndarray, p1: np.ndarray, m1: np.ndarray, h: Any, s: Any
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Value and time derivative of the cubic Hermite spline at s ∈ [0, 1] of a step h."""
+    """Value and time derivative of the cubic Hermite spline at s ∈ [0, 1] of a step h (all
+    arguments broadcast: one row per sample, h and s as columns)."""
     s2, s3 = s * s, s * s * s
     value = (
         (2 * s3 - 3 * s2 + 1) * p0
@@ -81,38 +83,28 @@ def sample_gait(
     times = np.asarray(times, dtype=float)
     bounds = np.cumsum(result.durations_s)
     n = len(times)
-    out = {
-        "q": np.empty((n, result.q.shape[1])),
-        "v": np.empty((n, result.v.shape[1])),
-        "a": np.empty((n, result.a.shape[1])),
-        "u": np.empty((n, result.u.shape[1])),
-        "lam": np.empty((n, 3)),
-    }
-    chosen = np.empty(n, dtype=int)
-    for i, t in enumerate(times):
-        mode = (
-            int(np.searchsorted(bounds[:2] - TIME_TOLERANCE_S, t, side="right"))
-            if modes is None
-            else int(modes[i])
-        )
+    out: dict[str, np.ndarray] = {}
+    if modes is None:
+        chosen = np.searchsorted(bounds[:2] - TIME_TOLERANCE_S, times, side="right")
+    else:
+        chosen = np.asarray(modes, dtype=int).reshape(n)
+    k = np.zeros(n, dtype=int)  # the interval of each sample: from node k to k + 1
+    for mode in range(3):
+        rows = chosen == mode
         nodes = np.array(layout.nodes(mode))
-        k = nodes[0] + int(
-            np.clip(np.searchsorted(result.t[nodes], t, side="right") - 1, 0, len(nodes) - 2)
-        )
-        h = result.t[k + 1] - result.t[k]
-        s = float(np.clip((t - result.t[k]) / h, 0.0, 1.0))
-        out["q"][i] = _hermite(result.q[k], result.v[k], result.q[k + 1], result.v[k + 1], h, s)[0]
-        out["v"][i], out["a"][i] = _hermite(
-            result.v[k], result.a[k], result.v[k + 1], result.a[k + 1], h, s
-        )
-        out["u"][i] = (1 - s) * result.u[k] + s * result.u[k + 1]
-        mid = result.mid_force[k]
-        out["lam"][i] = (
-            (1 - 2 * s) * result.stance_force[k] + 2 * s * mid
-            if s <= 0.5
-            else (2 - 2 * s) * mid + (2 * s - 1) * result.stance_force[k + 1]
-        )
-        chosen[i] = mode
+        after = np.searchsorted(result.t[nodes], times[rows], side="right") - 1
+        k[rows] = nodes[0] + np.clip(after, 0, len(nodes) - 2)
+    h = (result.t[k + 1] - result.t[k])[:, None]
+    s = np.clip((times[:, None] - result.t[k][:, None]) / h, 0.0, 1.0)
+    out["q"] = _hermite(result.q[k], result.v[k], result.q[k + 1], result.v[k + 1], h, s)[0]
+    out["v"], out["a"] = _hermite(result.v[k], result.a[k], result.v[k + 1], result.a[k + 1], h, s)
+    out["u"] = (1 - s) * result.u[k] + s * result.u[k + 1]
+    mid = result.mid_force[k]
+    out["lam"] = np.where(
+        s <= 0.5,
+        (1 - 2 * s) * result.stance_force[k] + 2 * s * mid,
+        (2 - 2 * s) * mid + (2 * s - 1) * result.stance_force[k + 1],
+    )
     forces = np.zeros((n, 4, 2))
     contacts = np.zeros((n, 2), dtype=bool)
     for mode, side in enumerate(STANCE):
