@@ -147,12 +147,44 @@ def _stand_check(robot, traj, servo) -> str | None:
         return None
 
 
-def run(args: argparse.Namespace) -> int:
+def _commands(
+    args: argparse.Namespace, robot, traj, inputs: MotionInputs, parts, from_project: bool
+):
+    """The servo commands to simulate, by label (the plan uncompensated first with
+    --baseline), and the label of the main one."""
     from app.core.servo.compensation import compensated_command
     from app.core.servo.model import joint_angles
+    from app.core.simulation.files import read_command_csv
+
+    q_plan = joint_angles(robot, traj.q)
+    if args.cmd is not None:
+        q_cmd, label = read_command_csv(args.cmd, robot.joint_names, traj.n_samples), "commands"
+    elif args.preset == "plan":
+        q_cmd, label = q_plan, "without compensation"
+    elif args.preset == "parts":
+        if parts is None:
+            raise StudioError('--preset parts needs a --servo file that names servos (servo = "…")')
+        q_cmd = compensated_command(
+            q_plan, _torques(args, robot, traj, inputs), parts.compensation()
+        )
+        label = "with compensation"
+    else:
+        params = (
+            inputs.compensation
+            if from_project and inputs.compensation is not None
+            else coefficients_from_args(robot, args.preset, args.clearance, args.compensation)
+        )
+        q_cmd = compensated_command(q_plan, _torques(args, robot, traj, inputs), params)
+        label = "with compensation"
+    commands = {label: q_cmd}
+    if args.baseline and args.preset != "plan":
+        commands = {"without compensation": q_plan, **commands}
+    return commands, label
+
+
+def run(args: argparse.Namespace) -> int:
     from app.core.simulation.files import (
         default_servos,
-        read_command_csv,
         read_servo_toml,
         write_simulation_csv,
     )
@@ -191,29 +223,7 @@ def run(args: argparse.Namespace) -> int:
             "give --cmd, --compensation or --preset, or a project with compensation coefficients"
         )
     options = SimOptions(friction=args.friction, hulls=args.hulls, command_hold=args.hold)
-    q_plan = joint_angles(robot, traj.q)
-    if args.cmd is not None:
-        q_cmd, label = read_command_csv(args.cmd, robot.joint_names, traj.n_samples), "commands"
-    elif args.preset == "plan":
-        q_cmd, label = q_plan, "without compensation"
-    elif args.preset == "parts":
-        if parts is None:
-            raise StudioError('--preset parts needs a --servo file that names servos (servo = "…")')
-        q_cmd = compensated_command(
-            q_plan, _torques(args, robot, traj, inputs), parts.compensation()
-        )
-        label = "with compensation"
-    else:
-        params = (
-            inputs.compensation
-            if from_project and inputs.compensation is not None
-            else coefficients_from_args(robot, args.preset, args.clearance, args.compensation)
-        )
-        q_cmd = compensated_command(q_plan, _torques(args, robot, traj, inputs), params)
-        label = "with compensation"
-    commands = {label: q_cmd}
-    if args.baseline and args.preset != "plan":
-        commands = {"without compensation": q_plan, **commands}
+    commands, label = _commands(args, robot, traj, inputs, parts, from_project)
     stand = _stand_check(robot, traj, servo)
     results = simulate_commands(robot, traj, commands, servo, options, law=law)
     main = results[label]
@@ -223,20 +233,40 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         write_simulation_csv(args.out, main)
     if args.json:
-        report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
-        report["out"] = None if args.out is None else str(args.out)
-        report["stand_check"] = stand
-        if len(results) > 1:
-            report["baseline"] = results["without compensation"].summary()
-        if parts is not None and main.energy is not None:
-            report["servos"] = parts.to_json()
-            report["energy"] = main.energy.to_json()
-        if figures is not None:
-            report["energy_figures"] = figures.to_json()
-        if mass_note is not None:
-            report["servo_masses"] = mass_note
-        print(json.dumps(report, indent=2))
+        print(
+            json.dumps(
+                _json_report(args, robot, traj, results, main, parts, figures, stand, mass_note),
+                indent=2,
+            )
+        )
         return 0
+    _print_report(args, robot, traj, results, main, figures, stand, mass_note)
+    return 0
+
+
+def _json_report(
+    args: argparse.Namespace, robot, traj, results, main, parts, figures, stand, mass_note
+) -> dict:
+    """What --json prints: the main run's summary, the baseline's, energy and notes."""
+    report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
+    report["out"] = None if args.out is None else str(args.out)
+    report["stand_check"] = stand
+    if len(results) > 1:
+        report["baseline"] = results["without compensation"].summary()
+    if parts is not None and main.energy is not None:
+        report["servos"] = parts.to_json()
+        report["energy"] = main.energy.to_json()
+    if figures is not None:
+        report["energy_figures"] = figures.to_json()
+    if mass_note is not None:
+        report["servo_masses"] = mass_note
+    return report
+
+
+def _print_report(
+    args: argparse.Namespace, robot, traj, results, main, figures, stand, mass_note
+) -> None:
+    """One line per run, energy and figures, and the notes (on stderr)."""
     for result in results.values():
         s = result.summary()
         print(
@@ -259,7 +289,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"note: {note}", file=sys.stderr)
     if stand is not None and not stand.startswith("stands"):
         print(f"note: {robot.name} {stand}", file=sys.stderr)
-    return 0
 
 
 def _energy_figures(args, robot, traj, inputs: MotionInputs, parts, result):

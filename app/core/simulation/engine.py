@@ -23,6 +23,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -145,44 +146,11 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
 
     begin = time.perf_counter()
     sim, law = inp.sim, inp.law
-    m = mujoco.MjModel.from_xml_string(sim.xml)
-    if isinstance(law, PartLaw):  # the parts' rotor inertia, back-EMF and friction
-        law.set_joint_dynamics(m, sim.actuated_dof)
-    d = mujoco.MjData(m)
-    dt = float(m.opt.timestep)
-    ticks = round(inp.dt_cmd_s / dt)
-    if ticks < 1 or abs(ticks * dt - inp.dt_cmd_s) > 1e-9 + 1e-6 * inp.dt_cmd_s:
-        raise SimulationInputError(
-            f"the motion's time step {inp.dt_cmd_s:g} s is not a multiple of the physics step "
-            f"{dt:g} s; resample the motion"
-        )
-    pin_to_qpos(sim, inp.q0, d.qpos)
-    mujoco.mj_forward(m, d)
-    soles = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name) for name in sim.sole_geoms]
-    if sim.floating_base and inp.on_floor:
-        d.qpos[2] += DROP_M - min(_lowest_corner_z(d, m, g) for g in soles)
-        mujoco.mj_forward(m, d)
+    m, d, dt, ticks = _start(inp)
     floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
     root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, sim.root_body) if sim.floating_base else 0
     sites = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name) for name in sim.sole_sites]
-    side_of_body = {
-        mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name): side
-        for side, names in enumerate(sim.foot_bodies)
-        for name in names
-    }
-    foot_bodies = set(side_of_body)
-    # Every geom on a foot (its sole box, and its hull with `hulls`) counts for that foot.
-    side_of_geom = {
-        g: side_of_body[int(m.geom_bodyid[g])]
-        for g in range(m.ngeom)
-        if int(m.geom_bodyid[g]) in side_of_body
-    }
-    non_foot = np.array([b for b in range(1, m.nbody) if b not in foot_bodies], dtype=int)
-    link_of = dict(sim.body_links)
-
-    def link_name(body: int) -> str:
-        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
-        return link_of.get(name, name)
+    side_of_geom, non_foot, link_name = _bodies(m, sim)
 
     aq, av = sim.actuated_qpos, sim.actuated_dof
     commands = np.asarray(inp.q_cmd_rad, dtype=float)
@@ -232,21 +200,9 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
         for side in (0, 1):
             sole_pos[k, side] = d.site_xpos[sites[side]]
         root_pos[k] = d.xpos[root]
-        touched = ""
-        for c in range(d.ncon):
-            contact = d.contact[c]
-            pair = (int(contact.geom1), int(contact.geom2))
-            if floor not in pair:
-                continue
-            other = pair[1] if pair[0] == floor else pair[0]
-            foot = side_of_geom.get(other)
-            if foot is None:
-                touching[k] = True
-                touched = touched or link_name(int(m.geom_bodyid[other]))
-                continue
-            mujoco.mj_contactForce(m, d, c, force6)
-            world = contact.frame.reshape(3, 3).T @ force6[:3]
-            forces[k, foot] += world if pair[0] == floor else -world
+        touched = _floor_contacts(m, d, floor, side_of_geom, force6, forces[k], link_name)
+        touching[k] = touched is not None
+        touched = touched or ""
         if non_foot.size and d.xpos[non_foot, 2].min() < NON_FOOT_CLEARANCE_M:
             touching[k] = True
             touched = touched or link_name(int(non_foot[np.argmin(d.xpos[non_foot, 2])]))
@@ -261,15 +217,7 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
             break
         if progress is not None and k % every == 0:
             progress(k / n_samples)
-        if inp.linear_hold:
-            step = (commands[min(k + 1, n_samples - 1)] - commands[k]) / ticks
-            for i in range(1, ticks + 1):
-                servo.set_command(commands[k] + i * step)
-                tick()
-        else:
-            servo.set_command(commands[k])
-            for _ in range(ticks):
-                tick()
+        _hold(servo, commands, k, ticks, inp.linear_hold, tick)
         out_tau[k] = servo.tau
     last = k
     for array in (out_q, out_v, out_qj, out_tau, roll, pitch, forces, sole_pos, root_pos, touching):
@@ -293,6 +241,99 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
         wall_time_s=time.perf_counter() - begin,
         energy=servo.energy() if isinstance(servo, PartLoop) else None,
     )
+
+
+def _start(inp: EngineInput) -> tuple[Any, Any, float, int]:
+    """The MuJoCo model and data at the first pose (a floating robot dropped onto the floor
+    from DROP_M), the physics step [s] and the physics steps per command."""
+    import mujoco
+
+    sim, law = inp.sim, inp.law
+    m = mujoco.MjModel.from_xml_string(sim.xml)
+    if isinstance(law, PartLaw):  # the parts' rotor inertia, back-EMF and friction
+        law.set_joint_dynamics(m, sim.actuated_dof)
+    d = mujoco.MjData(m)
+    dt = float(m.opt.timestep)
+    ticks = round(inp.dt_cmd_s / dt)
+    if ticks < 1 or abs(ticks * dt - inp.dt_cmd_s) > 1e-9 + 1e-6 * inp.dt_cmd_s:
+        raise SimulationInputError(
+            f"the motion's time step {inp.dt_cmd_s:g} s is not a multiple of the physics step "
+            f"{dt:g} s; resample the motion"
+        )
+    pin_to_qpos(sim, inp.q0, d.qpos)
+    mujoco.mj_forward(m, d)
+    soles = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name) for name in sim.sole_geoms]
+    if sim.floating_base and inp.on_floor:
+        d.qpos[2] += DROP_M - min(_lowest_corner_z(d, m, g) for g in soles)
+        mujoco.mj_forward(m, d)
+    return m, d, dt, ticks
+
+
+def _bodies(m: Any, sim: SimModel) -> tuple[dict[int, int], np.ndarray, Callable[[int], str]]:
+    """The foot side of every geom on a foot, the bodies that are not on a foot, and a body's
+    link name."""
+    import mujoco
+
+    side_of_body = {
+        mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name): side
+        for side, names in enumerate(sim.foot_bodies)
+        for name in names
+    }
+    foot_bodies = set(side_of_body)
+    # Every geom on a foot (its sole box, and its hull with `hulls`) counts for that foot.
+    side_of_geom = {
+        g: side_of_body[int(m.geom_bodyid[g])]
+        for g in range(m.ngeom)
+        if int(m.geom_bodyid[g]) in side_of_body
+    }
+    non_foot = np.array([b for b in range(1, m.nbody) if b not in foot_bodies], dtype=int)
+    link_of = dict(sim.body_links)
+
+    def link_name(body: int) -> str:
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
+        return link_of.get(name, name)
+
+    return side_of_geom, non_foot, link_name
+
+
+def _floor_contacts(
+    m: Any, d: Any, floor: int, side_of_geom: dict[int, int], force6: np.ndarray,
+    forces: np.ndarray, link_name: Callable[[int], str],
+) -> str | None:  # fmt: skip
+    """Add each foot's floor contact forces (world frame) [N] to `forces` (2, 3); the link of
+    the first other body touching the floor ("" unnamed), None when only feet touch it."""
+    import mujoco
+
+    touched: str | None = None
+    for c in range(d.ncon):
+        contact = d.contact[c]
+        pair = (int(contact.geom1), int(contact.geom2))
+        if floor not in pair:
+            continue
+        other = pair[1] if pair[0] == floor else pair[0]
+        foot = side_of_geom.get(other)
+        if foot is None:
+            touched = touched or link_name(int(m.geom_bodyid[other]))
+            continue
+        mujoco.mj_contactForce(m, d, c, force6)
+        world = contact.frame.reshape(3, 3).T @ force6[:3]
+        forces[foot] += world if pair[0] == floor else -world
+    return touched
+
+
+def _hold(
+    servo: Any, commands: np.ndarray, k: int, ticks: int, linear: bool, tick: Callable[[], None]
+) -> None:
+    """Step the physics through command k: held (zero-order) or ramped to command k + 1."""
+    if linear:
+        step = (commands[min(k + 1, len(commands) - 1)] - commands[k]) / ticks
+        for i in range(1, ticks + 1):
+            servo.set_command(commands[k] + i * step)
+            tick()
+    else:
+        servo.set_command(commands[k])
+        for _ in range(ticks):
+            tick()
 
 
 def _contiguous(indices: np.ndarray) -> bool:
