@@ -43,6 +43,34 @@ def add_robot_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_motion_command(sub, name: str, help: str) -> argparse.ArgumentParser:
+    """A command over a motion: `NAME TRAJECTORY` (a motion CSV or a project), --robot with
+    --package-root and --feet."""
+    parser = sub.add_parser(name, help=help)
+    parser.add_argument("trajectory", type=Path, help=MOTION_HELP)
+    add_robot_argument(parser)
+    return parser
+
+
+def add_output_arguments(parser: argparse.ArgumentParser, out_help: str | None) -> None:
+    """--out FILE (`out_help`; None: no file to write) and --json."""
+    if out_help is not None:
+        parser.add_argument("--out", type=Path, default=None, help=out_help)
+    parser.add_argument("--json", action="store_true")
+
+
+def add_user_servos_argument(parser: argparse.ArgumentParser) -> None:
+    """--servos FILE (repeatable): the user's own servos added to the catalogue."""
+    parser.add_argument(
+        "--servos",
+        action="append",
+        default=[],
+        type=Path,
+        metavar="FILE",
+        help="a TOML file of your own servos for the catalogue (repeatable)",
+    )
+
+
 def parse_feet(value: str | None) -> tuple[str, str] | None:
     if value is None:
         return None

@@ -9,10 +9,10 @@ import sys
 from pathlib import Path
 
 from app.cli.common import (
-    DEFAULTS,
-    MOTION_HELP,
     MotionInputs,
-    add_robot_options,
+    add_motion_command,
+    add_output_arguments,
+    add_user_servos_argument,
     coefficients_from_args,
     motion_inputs,
     output_target,
@@ -23,12 +23,11 @@ PRESETS = ("plan", "uniform", "table3", "table2", "parts")
 
 
 def add_parser(sub) -> None:
-    simulate = sub.add_parser(
+    simulate = add_motion_command(
+        sub,
         "simulate",
         help="simulate a motion on compliant servos with dead bands (MuJoCo): does it stay up?",
     )
-    simulate.add_argument("trajectory", type=Path, help=MOTION_HELP)
-    simulate.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
     source = simulate.add_mutually_exclusive_group()
     source.add_argument("--cmd", type=Path, help="servo commands CSV (biped-studio compensate)")
     source.add_argument(
@@ -55,14 +54,7 @@ def add_parser(sub) -> None:
         'legs), or catalogue servos per joint (servo = "mx106", kp, vin_V, current_limit_A, '
         "dead_band_deg): the parts' motor law (see biped-studio servos)",
     )
-    simulate.add_argument(
-        "--servos",
-        action="append",
-        default=[],
-        type=Path,
-        metavar="FILE",
-        help="a TOML file of your own servos for the catalogue (repeatable)",
-    )
+    add_user_servos_argument(simulate)
     simulate.add_argument(
         "--baseline", action="store_true", help="also run the plan uncompensated (in parallel)"
     )
@@ -88,9 +80,7 @@ def add_parser(sub) -> None:
         help="commands held until the next one (zoh) or ramped (linear)",
     )
     simulate.add_argument("--hulls", action="store_true", help="collide the links' convex hulls")
-    simulate.add_argument("--out", type=Path, default=None, help="simulation CSV to write")
-    simulate.add_argument("--json", action="store_true")
-    add_robot_options(simulate)
+    add_output_arguments(simulate, "simulation CSV to write")
 
 
 def _torques(args: argparse.Namespace, robot, traj, inputs: MotionInputs):
