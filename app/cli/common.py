@@ -31,13 +31,8 @@ def add_robot_argument(parser: argparse.ArgumentParser) -> None:
 
 
 def add_robot_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--package-root",
-        action="append",
-        default=[],
-        type=Path,
-        help="folder holding package://NAME folders (repeatable)",
-    )
+    """--package-root (repeatable) and --feet."""
+    _add_paths(parser, "--package-root", "folder holding package://NAME folders (repeatable)")
     parser.add_argument(
         "--feet", default=None, help="LEFT,RIGHT foot link names, overriding detection"
     )
@@ -61,14 +56,16 @@ def add_output_arguments(parser: argparse.ArgumentParser, out_help: str | None) 
 
 def add_user_servos_argument(parser: argparse.ArgumentParser) -> None:
     """--servos FILE (repeatable): the user's own servos added to the catalogue."""
-    parser.add_argument(
-        "--servos",
-        action="append",
-        default=[],
-        type=Path,
-        metavar="FILE",
-        help="a TOML file of your own servos for the catalogue (repeatable)",
+    _add_paths(
+        parser, "--servos", "a TOML file of your own servos for the catalogue (repeatable)", "FILE"
     )
+
+
+def _add_paths(
+    parser: argparse.ArgumentParser, flag: str, help: str, metavar: str | None = None
+) -> None:
+    """A repeatable path option: its paths in the order given (none: [])."""
+    parser.add_argument(flag, action="append", default=[], type=Path, metavar=metavar, help=help)
 
 
 def parse_feet(value: str | None) -> tuple[str, str] | None:
