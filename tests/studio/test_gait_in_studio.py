@@ -226,15 +226,15 @@ def test_a_cold_restart_shows_while_the_solve_runs(studio):
 
     session = studio.gait
     settings = session.panel.settings(False)
-    session.running = Solve("gait-test", settings, studio.state.robot, warm=True)
-    session.history = ([], [], [])
+    session.solves.running = Solve("gait-test", settings, studio.state.robot, warm=True)
+    session.solves.history = ([], [], [])
     session._on_progress("gait-test", 3, 1.0, 1e-3)
     assert "restarted cold" not in session.panel.status.content
-    session.history = ([], [], [])
+    session.solves.history = ([], [], [])
     session._on_progress("gait-test", WARM_ITERATIONS_BEFORE_FALLBACK + 1, 1.0, 1e-3)
     assert "restarted cold" in session.panel.status.content
-    session.running = dataclasses.replace(session.running, warm=False)
-    session.history = ([], [], [])
+    session.solves.running = dataclasses.replace(session.solves.running, warm=False)
+    session.solves.history = ([], [], [])
     session._on_progress("gait-test", WARM_ITERATIONS_BEFORE_FALLBACK + 1, 1.0, 1e-3)
     assert "restarted cold" not in session.panel.status.content
-    session.running = None
+    session.solves.running = None
