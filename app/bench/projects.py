@@ -141,7 +141,9 @@ def _bench_projects(studio: Studio, data_dir: Path, runs: int = 5) -> dict:
     if not all(opened):
         raise SystemExit(f"bench: cannot open the project: {studio.project.last_error}")
     count = [0]
-    disconnect = studio.project.autosave.written.connect(lambda _path: count.__setitem__(0, count[0] + 1))
+    disconnect = studio.project.autosave.written.connect(
+        lambda _path: count.__setitem__(0, count[0] + 1)
+    )
     held_s: list[float] = []
     on_s: list[float] = []
     for _ in range(2):  # in turns, so a change in the machine's load weighs on both alike
