@@ -9,24 +9,13 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
-import sys
-import time
-from pathlib import Path
 
 import psutil
 import pytest
 
-from tests.studio.conftest import free_port
+from tests.serve_processes import alive, poll, spawned_workers, start_serve
 
-ROOT = Path(__file__).resolve().parents[1]
 GUARD_S = 300.0
-
-
-def _poll(what: str, condition, seconds: float = GUARD_S) -> None:
-    deadline = time.monotonic() + seconds
-    while not condition():
-        assert time.monotonic() < deadline, what
-        time.sleep(0.05)
 
 
 def _importing(process: psutil.Process) -> bool:
@@ -34,28 +23,6 @@ def _importing(process: psutil.Process) -> bool:
     try:
         return any("numpy" in m.path for m in process.memory_maps())
     except (psutil.NoSuchProcess, psutil.AccessDenied):
-        return False
-
-
-def _workers(process: psutil.Process) -> list[psutil.Process]:
-    try:
-        children = process.children(recursive=True)
-    except psutil.NoSuchProcess:
-        return []
-    found = []
-    for child in children:
-        try:
-            if "multiprocessing.spawn" in " ".join(child.cmdline()):
-                found.append(child)
-        except psutil.NoSuchProcess:
-            continue
-    return found
-
-
-def _alive(process: psutil.Process) -> bool:
-    try:
-        return process.is_running() and process.status() != psutil.STATUS_ZOMBIE
-    except psutil.NoSuchProcess:
         return False
 
 
@@ -77,11 +44,8 @@ def _alive(process: psutil.Process) -> bool:
     ],
 )
 def test_ctrl_c_while_serve_starts_says_one_line(tmp_path, moment):
-    env = {**os.environ, "BIPED_STUDIO_DATA": str(tmp_path / "data")}
-    serve = subprocess.Popen(
-        [sys.executable, "-m", "app", "serve", "--port", str(free_port())],
-        cwd=ROOT,
-        env=env,
+    serve = start_serve(
+        tmp_path / "data",
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -91,14 +55,14 @@ def test_ctrl_c_while_serve_starts_says_one_line(tmp_path, moment):
     workers: list[psutil.Process] = []
     try:
         if moment == "importing":
-            _poll("the studio began importing", lambda: _importing(process))
+            poll("the studio began importing", lambda: _importing(process), GUARD_S)
         else:
 
             def started() -> bool:
-                workers[:] = _workers(process)
+                workers[:] = spawned_workers(process)
                 return bool(workers)
 
-            _poll("the studio started a worker process", started)
+            poll("the studio started a worker process", started, GUARD_S)
         os.killpg(serve.pid, signal.SIGINT)  # what Ctrl+C in its terminal does
         _, stderr = serve.communicate(timeout=GUARD_S)
     finally:
@@ -110,4 +74,4 @@ def test_ctrl_c_while_serve_starts_says_one_line(tmp_path, moment):
     assert serve.returncode in (130, -signal.SIGINT), (serve.returncode, stderr)
     assert len(lines) <= 1 and "Traceback" not in stderr, stderr
     assert all("stopped (Ctrl+C)" in line for line in lines), stderr
-    _poll("a worker outlived the stopped studio", lambda: not any(_alive(w) for w in workers), 10)
+    poll("a worker outlived the stopped studio", lambda: not any(alive(w) for w in workers), 10)

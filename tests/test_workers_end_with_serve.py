@@ -5,34 +5,17 @@ by a minute or more). Nothing here sleeps a fixed time: it polls, within bounded
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
-import sys
-import time
-from pathlib import Path
 
 import psutil
 
-from tests.studio.conftest import free_port
+from tests.serve_processes import alive, poll, spawned_workers, start_serve
 
-ROOT = Path(__file__).resolve().parents[1]
 START_GUARD_S = 300.0
 """How long the studio may take to start its workers on a busy machine."""
 GONE_S = 10.0
 """The issue's bound: every worker ended this long after the kill."""
-
-
-def _workers(studio: psutil.Process) -> list[psutil.Process]:
-    """The studio's worker processes (spawned interpreters: Dask workers, solver workers)."""
-    found = []
-    for child in studio.children(recursive=True):
-        try:
-            if "multiprocessing.spawn" in " ".join(child.cmdline()):
-                found.append(child)
-        except psutil.NoSuchProcess:
-            continue
-    return found
 
 
 def _is_dask_worker(process: psutil.Process) -> bool:
@@ -43,45 +26,26 @@ def _is_dask_worker(process: psutil.Process) -> bool:
         return False
 
 
-def _alive(process: psutil.Process) -> bool:
-    try:
-        return process.is_running() and process.status() != psutil.STATUS_ZOMBIE
-    except psutil.NoSuchProcess:
-        return False
-
-
-def _poll(what: str, condition, seconds: float) -> None:
-    deadline = time.monotonic() + seconds
-    while not condition():
-        assert time.monotonic() < deadline, what
-        time.sleep(0.1)
-
-
 def test_kill_9_of_serve_under_load_leaves_no_worker(tmp_path):
-    env = {**os.environ, "BIPED_STUDIO_DATA": str(tmp_path / "data")}
-    serve = subprocess.Popen(
-        [sys.executable, "-m", "app", "serve", "--port", str(free_port()), "--no-token"],
-        cwd=ROOT,
-        env=env,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
+    serve = start_serve(
+        tmp_path / "data", "--no-token", stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
     )
     studio = psutil.Process(serve.pid)
     workers: list[psutil.Process] = []
     try:
 
         def busy() -> bool:
-            workers[:] = _workers(studio)
+            workers[:] = spawned_workers(studio)
             dask = [w for w in workers if _is_dask_worker(w)]
             return len(dask) >= 1 and len(workers) > len(dask)  # and a solver worker
 
-        _poll("the studio started its sweep and solver workers", busy, START_GUARD_S)
+        poll("the studio started its sweep and solver workers", busy, START_GUARD_S)
         serve.send_signal(signal.SIGKILL)
         serve.wait(30)
-        _poll(
+        poll(
             f"workers still running {GONE_S:g} s after kill -9: "
-            f"{[w.pid for w in workers if _alive(w)]}",
-            lambda: not any(_alive(w) for w in workers),
+            f"{[w.pid for w in workers if alive(w)]}",
+            lambda: not any(alive(w) for w in workers),
             GONE_S,
         )
     finally:
@@ -89,5 +53,5 @@ def test_kill_9_of_serve_under_load_leaves_no_worker(tmp_path):
             serve.kill()
             serve.wait()
         for worker in workers:  # never leave one behind for the rest of the suite
-            if _alive(worker):
+            if alive(worker):
                 worker.kill()

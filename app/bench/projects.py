@@ -172,7 +172,9 @@ def _bench_projects(studio: Studio, data_dir: Path, runs: int = 5) -> dict:
     if not all(opened):
         raise SystemExit(f"bench: cannot open the project: {studio.project.last_error}")
     count = [0]
-    disconnect = studio.project.autosaved.connect(lambda _path: count.__setitem__(0, count[0] + 1))
+    disconnect = studio.project.autosave.written.connect(
+        lambda _path: count.__setitem__(0, count[0] + 1)
+    )
     held_s: list[float] = []
     on_s: list[float] = []
     for _ in range(2):  # in turns, so a change in the machine's load weighs on both alike
@@ -198,11 +200,11 @@ def _bench_projects(studio: Studio, data_dir: Path, runs: int = 5) -> dict:
 def _paced_drags(studio: Studio, autosave: bool, events: int = 125) -> list[float]:
     """Times [s] of foot drags sent at 20 Hz (a browser's rate) around a 3 cm circle, for
     longer than autosave's MAX_DELAY_S (the first WARM_UP_EVENTS left out)."""
-    studio.project.paused = not autosave
+    studio.project.autosave.paused = not autosave
     start = left_foot_placement(studio)
     targets = [drag_target(start, k, 40) for k in range(events)]
     times = timed_each(
         lambda target: studio.pose.request_drag("left", target), targets, pause_s=0.05
     )
-    studio.project.paused = False
+    studio.project.autosave.paused = False
     return times[WARM_UP_EVENTS:]

@@ -31,16 +31,41 @@ def add_robot_argument(parser: argparse.ArgumentParser) -> None:
 
 
 def add_robot_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--package-root",
-        action="append",
-        default=[],
-        type=Path,
-        help="folder holding package://NAME folders (repeatable)",
-    )
+    """--package-root (repeatable) and --feet."""
+    _add_paths(parser, "--package-root", "folder holding package://NAME folders (repeatable)")
     parser.add_argument(
         "--feet", default=None, help="LEFT,RIGHT foot link names, overriding detection"
     )
+
+
+def add_motion_command(sub, name: str, help: str) -> argparse.ArgumentParser:
+    """A command over a motion: `NAME TRAJECTORY` (a motion CSV or a project), --robot with
+    --package-root and --feet."""
+    parser = sub.add_parser(name, help=help)
+    parser.add_argument("trajectory", type=Path, help=MOTION_HELP)
+    add_robot_argument(parser)
+    return parser
+
+
+def add_output_arguments(parser: argparse.ArgumentParser, out_help: str | None) -> None:
+    """--out FILE (`out_help`; None: no file to write) and --json."""
+    if out_help is not None:
+        parser.add_argument("--out", type=Path, default=None, help=out_help)
+    parser.add_argument("--json", action="store_true")
+
+
+def add_user_servos_argument(parser: argparse.ArgumentParser) -> None:
+    """--servos FILE (repeatable): the user's own servos added to the catalogue."""
+    _add_paths(
+        parser, "--servos", "a TOML file of your own servos for the catalogue (repeatable)", "FILE"
+    )
+
+
+def _add_paths(
+    parser: argparse.ArgumentParser, flag: str, help: str, metavar: str | None = None
+) -> None:
+    """A repeatable path option: its paths in the order given (none: [])."""
+    parser.add_argument(flag, action="append", default=[], type=Path, metavar=metavar, help=help)
 
 
 def parse_feet(value: str | None) -> tuple[str, str] | None:

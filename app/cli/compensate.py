@@ -8,9 +8,8 @@ import sys
 from pathlib import Path
 
 from app.cli.common import (
-    DEFAULTS,
-    MOTION_HELP,
-    add_robot_options,
+    add_motion_command,
+    add_output_arguments,
     coefficients_from_args,
     motion_inputs,
     output_target,
@@ -24,12 +23,11 @@ PRESET_CHOICES = ("uniform", "table3", "table2")
 
 def add_parser(sub) -> None:
     """The `compensate` and `calibrate` subcommands (servo spring/clearance compensation)."""
-    compensate = sub.add_parser(
+    compensate = add_motion_command(
+        sub,
         "compensate",
         help="servo commands q + k·τ (+ φ·sign) for a motion and its torque feed-forward",
     )
-    compensate.add_argument("trajectory", type=Path, help=MOTION_HELP)
-    compensate.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
     compensate.add_argument(
         "--tau",
         type=Path,
@@ -49,9 +47,7 @@ def add_parser(sub) -> None:
     compensate.add_argument(
         "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
     )
-    compensate.add_argument("--out", type=Path, default=None, help="command CSV to write")
-    compensate.add_argument("--json", action="store_true")
-    add_robot_options(compensate)
+    add_output_arguments(compensate, "command CSV to write")
     calibrate = sub.add_parser(
         "calibrate", help="fit each servo's k from measured commands, angles and torques"
     )
@@ -64,10 +60,7 @@ def add_parser(sub) -> None:
     calibrate.add_argument(
         "--resolution-deg", type=float, default=None, help="encoder step [°] (0.078125)"
     )
-    calibrate.add_argument(
-        "--out", type=Path, default=None, help="write the identifiable k as a k.toml"
-    )
-    calibrate.add_argument("--json", action="store_true")
+    add_output_arguments(calibrate, "write the identifiable k as a k.toml")
 
 
 def run(args: argparse.Namespace) -> int:

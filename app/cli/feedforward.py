@@ -5,13 +5,11 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
 from app.cli.common import (
-    DEFAULTS,
     MAX_WARNING_LINES,
-    MOTION_HELP,
-    add_robot_options,
+    add_motion_command,
+    add_output_arguments,
     motion_inputs,
     output_target,
 )
@@ -19,14 +17,10 @@ from app.core.errors import StudioError
 
 
 def add_parser(sub) -> None:
-    feedforward = sub.add_parser(
+    feedforward = add_motion_command(
+        sub,
         "feedforward",
         help="joint torques of a motion CSV by the whole-body QP (LQR CoM, friction pyramids)",
-    )
-    feedforward.add_argument("trajectory", type=Path, help=MOTION_HELP)
-    feedforward.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
-    feedforward.add_argument(
-        "--out", type=Path, default=None, help="torque CSV: t [s], tau:<joint> [N·m]…, status"
     )
     feedforward.add_argument(
         "--workers",
@@ -35,8 +29,7 @@ def add_parser(sub) -> None:
         help="worker processes solving chunks of samples in parallel (0: one per core, "
         "or in-process for a motion too short to gain from them)",
     )
-    feedforward.add_argument("--json", action="store_true")
-    add_robot_options(feedforward)
+    add_output_arguments(feedforward, "torque CSV: t [s], tau:<joint> [N·m]…, status")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
 from app.cli.common import (
     MAX_WARNING_LINES,
+    add_output_arguments,
     add_robot_argument,
     load_robot_from_args,
     output_target,
@@ -31,8 +31,7 @@ def add_parser(sub) -> None:
         help="motion parameter (repeatable); 'auto' restores a robot-scaled default",
     )
     motion.add_argument("--dt", type=float, default=0.01, help="sample time step [s]")
-    motion.add_argument("--out", type=Path, default=None, help="CSV file to write")
-    motion.add_argument("--json", action="store_true")
+    add_output_arguments(motion, "CSV file to write")
     add_robot_argument(motion)
 
 

@@ -7,7 +7,12 @@ import dataclasses
 import json
 from pathlib import Path
 
-from app.cli.common import add_robot_options, load_robot_from_args, output_target
+from app.cli.common import (
+    add_output_arguments,
+    add_robot_options,
+    load_robot_from_args,
+    output_target,
+)
 from app.core.budgets import check_dt, check_samples
 from app.core.errors import StudioError
 
@@ -50,9 +55,8 @@ def add_parser(sub) -> None:
         action="store_true",
         help="also solve the baseline and report both beside the paper's Table 4 (ratios)",
     )
-    plan.add_argument("--out", type=Path, default=None, help="gait or walk CSV to write")
     plan.add_argument("--dt", type=float, default=0.01, help="CSV sample time step [s]")
-    plan.add_argument("--json", action="store_true")
+    add_output_arguments(plan, "gait or walk CSV to write")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -6,29 +6,33 @@ import argparse
 import dataclasses
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from app.cli.common import (
-    DEFAULTS,
-    MOTION_HELP,
     MotionInputs,
-    add_robot_options,
+    add_motion_command,
+    add_output_arguments,
+    add_user_servos_argument,
     coefficients_from_args,
     motion_inputs,
     output_target,
 )
 from app.core.errors import StudioError
 
+if TYPE_CHECKING:
+    import numpy as np
+
 PRESETS = ("plan", "uniform", "table3", "table2", "parts")
 
 
 def add_parser(sub) -> None:
-    simulate = sub.add_parser(
+    simulate = add_motion_command(
+        sub,
         "simulate",
         help="simulate a motion on compliant servos with dead bands (MuJoCo): does it stay up?",
     )
-    simulate.add_argument("trajectory", type=Path, help=MOTION_HELP)
-    simulate.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
     source = simulate.add_mutually_exclusive_group()
     source.add_argument("--cmd", type=Path, help="servo commands CSV (biped-studio compensate)")
     source.add_argument(
@@ -46,14 +50,14 @@ def add_parser(sub) -> None:
         "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
     )
     simulate.add_argument(
+        "--tau", type=Path, default=None, help="torque CSV (default: computed by the whole-body QP)"
+    )
+    simulate.add_argument(
         "--drive-torque",
         action="store_true",
         help="compensate the servo's whole drive torque τ + D·q̇ + J·q̈ (its back-EMF damping "
         "and rotor inertia, as simulated), not τ alone: a fast motion (a walk) lags its plan "
         "otherwise; same as eq 7 for a slow one",
-    )
-    simulate.add_argument(
-        "--tau", type=Path, default=None, help="torque CSV (default: computed by the whole-body QP)"
     )
     simulate.add_argument(
         "--servo",
@@ -64,14 +68,7 @@ def add_parser(sub) -> None:
         'or catalogue servos per joint (servo = "mx106", kp, vin_V, current_limit_A, '
         "dead_band_deg): the parts' motor law (see biped-studio servos)",
     )
-    simulate.add_argument(
-        "--servos",
-        action="append",
-        default=[],
-        type=Path,
-        metavar="FILE",
-        help="a TOML file of your own servos for the catalogue (repeatable)",
-    )
+    add_user_servos_argument(simulate)
     simulate.add_argument(
         "--baseline", action="store_true", help="also run the plan uncompensated (in parallel)"
     )
@@ -97,9 +94,7 @@ def add_parser(sub) -> None:
         help="commands held until the next one (zoh) or ramped (linear)",
     )
     simulate.add_argument("--hulls", action="store_true", help="collide the links' convex hulls")
-    simulate.add_argument("--out", type=Path, default=None, help="simulation CSV to write")
-    simulate.add_argument("--json", action="store_true")
-    add_robot_options(simulate)
+    add_output_arguments(simulate, "simulation CSV to write")
 
 
 def _torques(args: argparse.Namespace, robot, traj, inputs: MotionInputs):
@@ -119,25 +114,6 @@ def _torques(args: argparse.Namespace, robot, traj, inputs: MotionInputs):
     ):
         raise StudioError(f"{args.tau} does not have the motion's {traj.n_samples} sample times")
     return table.tau_Nm
-
-
-def _drive_torque(robot, traj, tau, servo, law, options):
-    """τ + D·q̇ + J·q̈ with the D and J the simulation gives each joint (`drive_torque_Nm`)."""
-    from app.core.servo.compensation import drive_torque_Nm
-    from app.core.simulation.servo_law import servo_law
-
-    if law is None:
-        law = servo_law(
-            servo,
-            robot.joint_names,
-            [joint.effort for joint in robot.joints],
-            [joint.velocity for joint in robot.joints],
-        )
-    columns = [joint.idx_v for joint in robot.joints]
-    rotor = getattr(law, "armature_kgm2", options.armature_kgm2)
-    return drive_torque_Nm(
-        tau, traj.v[:, columns], traj.a[:, columns], law.damping_Nms_per_rad, rotor
-    )
 
 
 def _parts(args: argparse.Namespace, joint_names: tuple[str, ...]):
@@ -175,11 +151,66 @@ def _stand_check(robot, traj, servo) -> str | None:
         return None
 
 
-def run(args: argparse.Namespace) -> int:
+def _drive_torque(robot, traj, tau, servo, law, options):
+    """τ + D·q̇ + J·q̈ with the D and J the simulation gives each joint (`drive_torque_Nm`)."""
+    from app.core.servo.compensation import drive_torque_Nm
+    from app.core.simulation.servo_law import servo_law
+
+    if law is None:
+        law = servo_law(
+            servo,
+            robot.joint_names,
+            [joint.effort for joint in robot.joints],
+            [joint.velocity for joint in robot.joints],
+        )
+    columns = [joint.idx_v for joint in robot.joints]
+    rotor = getattr(law, "armature_kgm2", options.armature_kgm2)
+    return drive_torque_Nm(
+        tau, traj.v[:, columns], traj.a[:, columns], law.damping_Nms_per_rad, rotor
+    )
+
+
+def _commands(
+    args: argparse.Namespace,
+    robot,
+    traj,
+    inputs: MotionInputs,
+    parts,
+    from_project: bool,
+    load: Callable[[], np.ndarray],
+):
+    """The servo commands to simulate, by label (the plan uncompensated first with
+    --baseline), and the label of the main one."""
     from app.core.servo.compensation import compensated_command
     from app.core.servo.model import joint_angles
+    from app.core.simulation.files import read_command_csv
+
+    q_plan = joint_angles(robot, traj.q)
+    if args.cmd is not None:
+        q_cmd, label = read_command_csv(args.cmd, robot.joint_names, traj.n_samples), "commands"
+    elif args.preset == "plan":
+        q_cmd, label = q_plan, "without compensation"
+    elif args.preset == "parts":
+        if parts is None:
+            raise StudioError('--preset parts needs a --servo file that names servos (servo = "…")')
+        q_cmd = compensated_command(q_plan, load(), parts.compensation())
+        label = "with compensation" + (" (drive torque)" if args.drive_torque else "")
+    else:
+        params = (
+            inputs.compensation
+            if from_project and inputs.compensation is not None
+            else coefficients_from_args(robot, args.preset, args.clearance, args.compensation)
+        )
+        q_cmd = compensated_command(q_plan, load(), params)
+        label = "with compensation" + (" (drive torque)" if args.drive_torque else "")
+    commands = {label: q_cmd}
+    if args.baseline and args.preset != "plan":
+        commands = {"without compensation": q_plan, **commands}
+    return commands, label
+
+
+def run(args: argparse.Namespace) -> int:
     from app.core.simulation.files import (
-        read_command_csv,
         read_servo_toml,
         sized_servos,
         write_simulation_csv,
@@ -223,34 +254,14 @@ def run(args: argparse.Namespace) -> int:
             "give --cmd, --compensation or --preset, or a project with compensation coefficients"
         )
     options = SimOptions(friction=args.friction, hulls=args.hulls, command_hold=args.hold)
-    q_plan = joint_angles(robot, traj.q)
     if args.drive_torque and (args.cmd is not None or args.preset == "plan"):
         raise StudioError("--drive-torque goes with a compensation (--preset, --compensation)")
 
-    def load():
+    def load() -> np.ndarray:
         tau = _torques(args, robot, traj, inputs)
         return _drive_torque(robot, traj, tau, servo, law, options) if args.drive_torque else tau
 
-    if args.cmd is not None:
-        q_cmd, label = read_command_csv(args.cmd, robot.joint_names, traj.n_samples), "commands"
-    elif args.preset == "plan":
-        q_cmd, label = q_plan, "without compensation"
-    elif args.preset == "parts":
-        if parts is None:
-            raise StudioError('--preset parts needs a --servo file that names servos (servo = "…")')
-        q_cmd = compensated_command(q_plan, load(), parts.compensation())
-        label = "with compensation" + (" (drive torque)" if args.drive_torque else "")
-    else:
-        params = (
-            inputs.compensation
-            if from_project and inputs.compensation is not None
-            else coefficients_from_args(robot, args.preset, args.clearance, args.compensation)
-        )
-        q_cmd = compensated_command(q_plan, load(), params)
-        label = "with compensation" + (" (drive torque)" if args.drive_torque else "")
-    commands = {label: q_cmd}
-    if args.baseline and args.preset != "plan":
-        commands = {"without compensation": q_plan, **commands}
+    commands, label = _commands(args, robot, traj, inputs, parts, from_project, load)
     stand = _stand_check(robot, traj, servo)
     results = simulate_commands(robot, traj, commands, servo, options, law=law)
     main = results[label]
@@ -260,21 +271,43 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         write_simulation_csv(args.out, main)
     if args.json:
-        report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
-        report["out"] = None if args.out is None else str(args.out)
-        report["stand_check"] = stand
-        report["servo_default"] = sized
-        if len(results) > 1:
-            report["baseline"] = results["without compensation"].summary()
-        if parts is not None and main.energy is not None:
-            report["servos"] = parts.to_json()
-            report["energy"] = main.energy.to_json()
-        if figures is not None:
-            report["energy_figures"] = figures.to_json()
-        if mass_note is not None:
-            report["servo_masses"] = mass_note
-        print(json.dumps(report, indent=2))
+        print(
+            json.dumps(
+                _json_report(
+                    args, robot, traj, results, main, parts, figures, stand, mass_note, sized
+                ),
+                indent=2,
+            )
+        )
         return 0
+    _print_report(args, robot, traj, results, main, figures, stand, mass_note, sized)
+    return 0
+
+
+def _json_report(
+    args: argparse.Namespace, robot, traj, results, main, parts, figures, stand, mass_note, sized
+) -> dict:
+    """What --json prints: the main run's summary, the baseline's, energy and notes."""
+    report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
+    report["out"] = None if args.out is None else str(args.out)
+    report["stand_check"] = stand
+    report["servo_default"] = sized
+    if len(results) > 1:
+        report["baseline"] = results["without compensation"].summary()
+    if parts is not None and main.energy is not None:
+        report["servos"] = parts.to_json()
+        report["energy"] = main.energy.to_json()
+    if figures is not None:
+        report["energy_figures"] = figures.to_json()
+    if mass_note is not None:
+        report["servo_masses"] = mass_note
+    return report
+
+
+def _print_report(
+    args: argparse.Namespace, robot, traj, results, main, figures, stand, mass_note, sized
+) -> None:
+    """One line per run, energy and figures, and the notes (on stderr)."""
     for result in results.values():
         s = result.summary()
         print(
@@ -299,7 +332,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"note: {note}", file=sys.stderr)
     if stand is not None and not stand.startswith("stands"):
         print(f"note: {robot.name} {stand}", file=sys.stderr)
-    return 0
 
 
 def _energy_figures(args, robot, traj, inputs: MotionInputs, parts, result):

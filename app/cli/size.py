@@ -8,7 +8,12 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from app.cli.common import DEFAULTS, MOTION_HELP, add_robot_options, motion_inputs
+from app.cli.common import (
+    add_motion_command,
+    add_output_arguments,
+    add_user_servos_argument,
+    motion_inputs,
+)
 from app.core.errors import StudioError
 
 if TYPE_CHECKING:
@@ -16,13 +21,12 @@ if TYPE_CHECKING:
 
 
 def add_parser(sub) -> None:
-    size = sub.add_parser(
+    size = add_motion_command(
+        sub,
         "size",
         help="pick per joint the lightest (or cheapest) catalogue servo whose torque–speed "
         "envelope holds a motion's planned torques with a margin",
     )
-    size.add_argument("trajectory", type=Path, help=MOTION_HELP)
-    size.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
     size.add_argument(
         "--tau",
         type=Path,
@@ -46,19 +50,11 @@ def add_parser(sub) -> None:
     size.add_argument(
         "--by", choices=("mass", "price"), default="mass", help="what to minimise (mass)"
     )
-    size.add_argument(
-        "--servos",
-        action="append",
-        default=[],
-        type=Path,
-        metavar="FILE",
-        help="a TOML file of your own servos for the catalogue (repeatable)",
-    )
+    add_user_servos_argument(size)
     size.add_argument(
         "--time", action="store_true", help="print how long the sizing itself took (not torques)"
     )
-    size.add_argument("--json", action="store_true")
-    add_robot_options(size)
+    add_output_arguments(size, None)
 
 
 def run(args: argparse.Namespace) -> int:

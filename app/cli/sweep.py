@@ -11,7 +11,10 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from app.cli.common import output_target
+from app.cli.common import (
+    add_output_arguments,
+    output_target,
+)
 from app.core.errors import StudioError
 
 
@@ -35,13 +38,7 @@ def add_parser(sub) -> None:
         action="store_true",
         help="if the scheduler cannot be reached, run on a local cluster instead of failing",
     )
-    sweep.add_argument(
-        "--out",
-        type=Path,
-        default=None,
-        help="results table to write: Parquet for .parquet / .pq, CSV otherwise",
-    )
-    sweep.add_argument("--json", action="store_true")
+    add_output_arguments(sweep, "results table to write: Parquet for .parquet / .pq, CSV otherwise")
 
 
 def run(args: argparse.Namespace) -> int:

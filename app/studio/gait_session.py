@@ -11,9 +11,7 @@ solve keeps the last good gait; results belong to their robot.
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import logging
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -22,29 +20,24 @@ import numpy as np
 import viser
 
 from app.core.collocation.defaults import robot_gait_defaults
-from app.core.collocation.gait_problem import (
-    COARSE_KNOTS,
-    REFINE_ABOVE_KNOTS,
-    WARM_ITERATIONS_BEFORE_FALLBACK,
-)
-from app.core.collocation.job_key import GaitProblemKey
+from app.core.collocation.gait_problem import COARSE_KNOTS, WARM_ITERATIONS_BEFORE_FALLBACK
 from app.core.collocation.planar_model import PlanarModel
 from app.core.collocation.result import GaitResult
 from app.core.collocation.settings import GaitSettings
 from app.core.errors import StudioError
 from app.core.projects.project import Project
 from app.core.robot.loading import load_robot
-from app.core.robot.model import RobotModel
 from app.core.robot.report import robot_report
 from app.core.walking.walk import Walk, build_walk
 from app.gait_jobs import build_gait_problem
 from app.jobs import SolverWorker
+from app.studio.gait_solves import GaitSolves
 from app.studio.gait_text import GaitResults, Solve, results_table, stage_words, status_line
+from app.studio.gait_walks import ShownWalk
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
-from app.studio.state import LoadedRobot, Motion, StudioState
-from app.views.footprints_view import FootprintsView, sole_size_m
-from app.views.roots import AlternatingRoot
+from app.studio.state import LoadedRobot, StudioState
+from app.views.footprints_view import FootprintsView
 from panels.gait_panel import GaitPanel
 from panels.quiet import set_value
 
@@ -70,34 +63,18 @@ class GaitSession:
         prepare: bool = False,
     ) -> None:
         self._server, self._state, self._notifier = server, state, notifier
-        self._package_roots = package_roots
         self._prepare = prepare
         """Build each robot's default problem in the worker when the robot loads."""
         self.panel = GaitPanel(server.gui, self)
         self.planar: PlanarModel | None = None
         """The loaded robot's planar model, None when the planner cannot handle it."""
-        self.walk: Walk | None = None
-        """The walk last sent to playback."""
-        self.footprints: FootprintsView | None = None
-        self._roots = AlternatingRoot("/footprints")
-        self._lock = threading.Lock()
+        self._shown = ShownWalk(server)
         self._worker: SolverWorker | None = None
-        self._ids = itertools.count(1)
-        self.running: Solve | None = None
-        """The solve under way."""
-        self.last: Solve | None = None
-        """The last solve that ended, good or not."""
+        self.solves = GaitSolves(package_roots)
+        """The solve under way (`solves.running`), the last, its convergence history."""
         self.results = GaitResults()
         self._pipeline_job: str | None = None
         """The solve whose end continues the one-click pipeline."""
-        self.history: tuple[list[int], list[float], list[float]] = ([], [], [])
-        """Iteration, objective, constraint violation of the solve under way (or the last)."""
-        self.stage = 1
-        """Stage of the solve under way: 1, or 2 once a refining solve's fine mesh started."""
-        self._solved_keys: set[GaitProblemKey] = set()
-        """Structures the worker holds a result of (a warm start: no mesh refinement)."""
-        self._converged_keys: set[GaitProblemKey] = set()
-        """Structures the worker holds a converged gait of (its solves start warm)."""
         self.progressed: Signal[int] = Signal("gait_progressed")
         """Emitted with the iteration after the panel showed a solve's progress (every tab sees
         the panel: a tab opened during a solve sees how far it is)."""
@@ -110,7 +87,16 @@ class GaitSession:
         self.prepared: Signal[object] = Signal("gait_prepared")
         """Emitted with the structure key when the worker has built a problem ahead of time."""
         state.on_robot.connect(self._on_robot)
-        state.on_motion.connect(self._on_motion)
+        state.on_motion.connect(self._shown.on_motion)
+
+    @property
+    def walk(self) -> Walk | None:
+        """The walk last sent to playback."""
+        return self._shown.walk
+
+    @property
+    def footprints(self) -> FootprintsView | None:
+        return self._shown.footprints
 
     # --- projects (HoldsWork) -------------------------------------------------------------------
 
@@ -138,9 +124,8 @@ class GaitSession:
         def fits(result: GaitResult | None) -> GaitResult | None:
             return result if result is not None and result.joint_names == joints else None
 
-        with self._lock:
-            self.results = GaitResults(fits(project.gait_symmetric), fits(project.gait_baseline))
-            self.last = None
+        self.results = GaitResults(fits(project.gait_symmetric), fits(project.gait_baseline))
+        self.solves.forget_last()
         if planar is not None and project.gait_settings is not None:
             self.panel.show_settings(project.gait_settings)
         if 1 <= project.gait_steps <= 20:
@@ -150,8 +135,9 @@ class GaitSession:
         if walk is not None and robot is not None and trajectory is not None:
             walked = walk.trajectory
             if walked.q.shape == trajectory.q.shape and np.array_equal(walked.q, trajectory.q):
-                self.walk = dataclasses.replace(walk, trajectory=trajectory)  # the one shown
-                self._show_footprints(robot, self.walk)
+                shown = dataclasses.replace(walk, trajectory=trajectory)  # the one shown
+                self._shown.walk = shown
+                self._shown.show_footprints(robot, shown)
 
     # --- worker --------------------------------------------------------------------------------
 
@@ -159,9 +145,10 @@ class GaitSession:
         if self._worker is None:
             worker = SolverWorker(build_gait_problem)
             worker.on_progress(self._on_progress)
-            worker.on_done(self._on_done)
-            worker.on_failed(self._on_failed)
-            worker.on_cancelled(self._on_cancelled)
+            worker.on_done(lambda job_id, result: self._end(job_id, result=result))
+            # a failure may have crashed and restarted the worker; a cancel restarts it
+            worker.on_failed(lambda job_id, message: self._end(job_id, message, forget=True))
+            worker.on_cancelled(lambda job_id: self._end(job_id, "cancelled", forget=True))
             worker.on_prepared(self._on_prepared)
             self._worker = worker
         return self._worker
@@ -178,21 +165,10 @@ class GaitSession:
             self.panel.status.content = f"⚠️ {error}"
             self._notifier.error("Gait settings refused", str(error), client)
             return None
-        feet = (robot.feet[0].link, robot.feet[1].link)
-        key = GaitProblemKey.for_robot(robot.source, settings, self._package_roots, feet)
+        key = self.solves.key(robot, settings)
         kind = "baseline (original DIRCON)" if baseline else "symmetric gait"
-        refines = settings.knots > REFINE_ABOVE_KNOTS and key not in self._solved_keys
-        with self._lock:
-            running = self.running
-            if running is None:
-                job_id = f"gait-{next(self._ids)}"
-                self.running = Solve(
-                    job_id, settings, robot, time.monotonic(), kind=kind, refines=refines,
-                    warm=key in self._converged_keys, key=key,
-                )  # fmt: skip
-                self.history = ([], [], [])
-                self.stage = 1
-        if running is not None:  # another tab's (or this one's) solve: never cancelled silently
+        running, started = self.solves.start(settings, robot, kind, key)
+        if not started:  # another tab's (or this one's) solve: never cancelled silently
             waited = time.monotonic() - running.started_s
             self._notifier.error(
                 "A gait solve is running",
@@ -201,10 +177,11 @@ class GaitSession:
                 client,
             )
             return None
+        job_id = running.job_id
         plan = (
             f" — mesh refinement: {COARSE_KNOTS} knots solved first, then {settings.knots} "
             "knots from it"
-            if refines
+            if running.refines
             else ""
         )
         self.panel.status.content = (
@@ -213,7 +190,7 @@ class GaitSession:
         )
         self.panel.show_running(True)
         self._ensure_worker().submit(job_id, settings, key)
-        self._solved_keys.add(key)  # its next solve starts from this one's result
+        self.solves.submitted(key)
         return job_id
 
     def cancel(self) -> None:
@@ -224,8 +201,7 @@ class GaitSession:
         if self._worker is not None:
             self._worker.close()
             self._worker = None
-        self._converged_keys.clear()
-        self._solved_keys.clear()
+        self.solves.forget_structures()
 
     # --- events from the worker (the "solver-events" thread) ------------------------------------
 
@@ -235,19 +211,10 @@ class GaitSession:
         self.prepared.emit(key)
 
     def _on_progress(self, job_id: str, iteration: int, objective: float, violation: float) -> None:
-        with self._lock:
-            if self.running is None or self.running.job_id != job_id:
-                return
-            iterations, objectives, violations = self.history
-            if self.running.refines and iterations and iteration < iterations[-1]:
-                self.stage = 2  # the coarse solve ended: the fine mesh's iterations start
-                for series in (iterations, objectives, violations):
-                    series.clear()
-            iterations.append(iteration)
-            objectives.append(objective)
-            violations.append(violation)
-            history = (list(iterations), list(objectives), list(violations))
-            running = self.running
+        progressed = self.solves.progress(job_id, iteration, objective, violation)
+        if progressed is None:
+            return
+        running, history = progressed
         self.panel.show_progress(min(1.0, iteration / MAX_PROGRESS_ITERATIONS))
         if len(history[0]) % 5 == 1:
             self.panel.show_convergence(*history)
@@ -259,53 +226,35 @@ class GaitSession:
                     "iterations: restarted cold from the built-in guess."
                 )
             self.panel.status.content = (
-                f"Solving the {running.kind} (job {job_id}){stage_words(running, self.stage)}: "
+                f"Solving the {running.kind} (job {job_id}){stage_words(running, self.solves.stage)}: "
                 f"IPOPT iteration {iteration}, constraint violation {violation:.1e}, "
                 f"{waited:.1f} s since the click…{restarted}"
             )
             self.progressed.emit(iteration)
 
-    def _end(self, job_id: str, result: GaitResult | None = None, error: str = "") -> None:
-        with self._lock:
-            running = self.running
-            if running is None or running.job_id != job_id:
-                return
-            ended = dataclasses.replace(
-                running, result=result, error=error, ended_s=time.monotonic()
-            )
-            self.running, self.last = None, ended
-            if running.robot is not self._state.robot:
-                ended = dataclasses.replace(ended, result=None, error="another robot was loaded")
-                self.last = ended
-            elif result is not None and result.converged:
-                if running.key is not None:
-                    self._converged_keys.add(running.key)
-                if running.settings.baseline:
-                    self.results.baseline = result
-                else:
-                    self.results.symmetric = result
-            history = self.history
+    def _end(
+        self, job_id: str, error: str = "", result: GaitResult | None = None, forget: bool = False
+    ) -> None:
+        """The worker's answer to solve `job_id`; `forget`: the worker restarted (its
+        structures are gone)."""
+        if forget:
+            self.solves.forget_structures()
+        ended = self.solves.end(job_id, self._state.robot, result, error)
+        if ended is None:
+            return
+        if ended.result is not None and ended.result.converged:
+            if ended.settings.baseline:
+                self.results.baseline = ended.result
+            else:
+                self.results.symmetric = ended.result
         self.panel.show_running(False)
-        self.panel.show_convergence(*history)
+        self.panel.show_convergence(*self.solves.history)
         self.panel.status.content = status_line(ended, self.results)
         self.show_results()
         pipeline, self._pipeline_job = self._pipeline_job, None
         if pipeline == ended.job_id and ended.result is not None and ended.result.converged:
             self.play_result(None, then=PIPELINE_STAGES)
         self.finished.emit(ended)
-
-    def _on_done(self, job_id: str, result: Any) -> None:
-        self._end(job_id, result=result)
-
-    def _on_failed(self, job_id: str, message: str) -> None:
-        self._converged_keys.clear()
-        self._solved_keys.clear()  # the worker may have crashed and restarted
-        self._end(job_id, error=message)
-
-    def _on_cancelled(self, job_id: str) -> None:
-        self._converged_keys.clear()
-        self._solved_keys.clear()  # a cancel restarts the worker: its results are gone
-        self._end(job_id, error="cancelled")
 
     # --- results -------------------------------------------------------------------------------
 
@@ -314,7 +263,7 @@ class GaitSession:
         self.show_results()
 
     def _stale(self) -> bool:
-        last = self.last
+        last = self.solves.last
         if last is None:
             return False
         try:
@@ -363,31 +312,14 @@ class GaitSession:
         ]
         try:
             with self._state.lock, self._server.atomic():
-                self.walk = walk
+                self._shown.walk = walk
                 self._state.set_motion(walk.trajectory, "  \n".join(lines), robot, then)
-                self._show_footprints(robot, walk)
+                self._shown.show_footprints(robot, walk)
             self._state.on_play.emit(None)
         except StudioError as error:
-            self.walk = None
+            self._shown.walk = None
             self.panel.status.content = f"⚠️ {error}"
             self._notifier.error("Cannot play the gait", str(error), client)
-
-    def _show_footprints(self, robot: RobotModel, walk: Walk) -> None:
-        if self.footprints is not None:
-            self.footprints.remove()
-        prints = [(f.side, f.x_m, f.y_m) for f in walk.footprints]
-        self.footprints = FootprintsView(
-            self._server, prints, sole_size_m(robot.feet[0].sole_corners_m), self._roots.next()
-        )
-
-    def _on_motion(self, motion: Motion | None) -> None:
-        """Footprints belong to the walk: gone when another motion is shown."""
-        walk = self.walk
-        if self.footprints is not None and (
-            motion is None or walk is None or motion.trajectory is not walk.trajectory
-        ):
-            self.footprints.remove()
-            self.footprints, self.walk = None, None
 
     def load_planner_robot(self, client: viser.ClientHandle | None) -> Any:
         """Load the gait paper's robot into the studio; the robot, or None if it failed."""
@@ -405,7 +337,7 @@ class GaitSession:
         """Plan for the new robot: its planar model and scaled defaults, or why not."""
         robot = loaded.robot
         self.results = GaitResults()  # gaits belong to their robot
-        self.last, self.walk = None, None
+        self.solves.last, self._shown.walk = None, None
         self.panel.load_robot.visible = robot.name != PAPER_ROBOT
         try:
             self.planar = PlanarModel(robot)
@@ -441,6 +373,4 @@ class GaitSession:
         robot = self._state.robot
         if robot is None or self.planar is None:
             return False
-        feet = (robot.feet[0].link, robot.feet[1].link)
-        key = GaitProblemKey.for_robot(robot.source, settings, self._package_roots, feet)
-        return self._ensure_worker().prepare(key)
+        return self._ensure_worker().prepare(self.solves.key(robot, settings))

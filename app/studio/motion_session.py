@@ -17,6 +17,7 @@ import threading
 from pathlib import Path
 from typing import Any, Literal, cast
 
+import numpy as np
 import viser
 
 from app.core.errors import StudioError
@@ -31,7 +32,7 @@ from app.core.projects.project import Project
 from app.core.robot.model import RobotModel
 from app.studio.admission import Admission, Busy
 from app.studio.notifier import Notifier
-from app.studio.state import LoadedRobot, StudioState
+from app.studio.state import LoadedRobot, Stance, StudioState
 from panels.keyframes_panel import KeyframesPanel
 from panels.motions_panel import MotionsPanel
 
@@ -107,17 +108,24 @@ class MotionSession:
         if not _valid_duration(duration_s):
             self._fail("Keyframe refused", _duration_message(duration_s), None)
             return
-        with self._state.lock:
-            robot, pose = self._state.robot, self._state.pose
-            if robot is None or pose is None:
-                return
-            q, stance = pose.q.copy(), pose.stance
+        current = self._current_pose()
+        if current is None:
+            return
+        robot, q, stance = current
         with self._lock:
             keyframe = capture_keyframe(
                 robot, q, stance, f"pose {len(self.keyframes) + 1}", duration_s
             )
             self.keyframes.append(keyframe)
             self._show(len(self.keyframes) - 1)
+
+    def _current_pose(self) -> tuple[RobotModel, np.ndarray, Stance] | None:
+        """The robot and a copy of its pose (configuration, stance); None before a robot."""
+        with self._state.lock:
+            robot, pose = self._state.robot, self._state.pose
+            if robot is None or pose is None:
+                return None
+            return robot, pose.q.copy(), pose.stance
 
     def move(self, index: int, offset: int) -> None:
         with self._lock:
@@ -147,11 +155,10 @@ class MotionSession:
 
     def replace(self, index: int) -> None:
         """The selected keyframe takes the current pose; its name and duration stay."""
-        with self._state.lock:
-            robot, pose = self._state.robot, self._state.pose
-            if robot is None or pose is None:
-                return
-            q, stance = pose.q.copy(), pose.stance
+        current = self._current_pose()
+        if current is None:
+            return
+        robot, q, stance = current
         with self._lock:
             if 0 <= index < len(self.keyframes):
                 old = self.keyframes[index]

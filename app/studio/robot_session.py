@@ -82,9 +82,6 @@ class RobotSession:
             return False
         return self._load(source, client, sandbox=None)
 
-    def allowed_folders_markdown(self) -> str:
-        return "*Open path* may load from: " + ", ".join(f"`{f}`" for f in self.access.describe())
-
     def _needs_confirmation(self, client: viser.ClientHandle | None) -> bool:
         if client is None or self._state.robot is None:
             return False

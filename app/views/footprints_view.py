@@ -6,10 +6,12 @@ from __future__ import annotations
 import numpy as np
 import viser
 
+from app.views.roots import NodeLayer
+
 COLOURS = {"left": (30, 110, 220), "right": (220, 60, 60)}
 
 
-class FootprintsView:
+class FootprintsView(NodeLayer):
     def __init__(
         self,
         server: viser.ViserServer,
@@ -29,14 +31,6 @@ class FootprintsView:
             )
             for i, (side, x, y) in enumerate(footprints)
         ]
-
-    def set_visible(self, visible: bool) -> None:
-        for node in self._nodes:
-            node.visible = visible
-
-    def remove(self) -> None:
-        for node in self._nodes:
-            node.remove()
 
 
 def sole_size_m(corners_m: np.ndarray) -> tuple[float, float]:

@@ -1,4 +1,4 @@
-"""Scene roots that alternate between two names.
+"""Scene roots that alternate between two names, and `NodeLayer`: nodes shown and removed together.
 
 An overlay rebuilt for a new robot or motion must not be re-added under the name it was just
 removed from (viser's client can keep the old nodes' poses), nor under a new name every time
@@ -20,3 +20,18 @@ class AlternatingRoot:
         name = f"{self._base}/{'ab'[self._count % 2]}"
         self._count += 1
         return name
+
+
+class NodeLayer:
+    """An overlay of scene nodes shown, hidden and removed together (`_nodes`, filled by the
+    subclass)."""
+
+    _nodes: list
+
+    def set_visible(self, visible: bool) -> None:
+        for node in self._nodes:
+            node.visible = visible
+
+    def remove(self) -> None:
+        for node in self._nodes:
+            node.remove()

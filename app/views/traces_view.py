@@ -5,10 +5,12 @@ from __future__ import annotations
 import numpy as np
 import viser
 
+from app.views.roots import NodeLayer
+
 COLOURS = {"left": (30, 110, 220), "right": (220, 60, 60), "com": (230, 40, 90)}
 
 
-class TracesView:
+class TracesView(NodeLayer):
     def __init__(
         self, server: viser.ViserServer, paths: dict[str, np.ndarray], root: str = "/traces"
     ) -> None:
@@ -24,11 +26,3 @@ class TracesView:
                     thickness_units="screen",
                 )
             )
-
-    def set_visible(self, visible: bool) -> None:
-        for node in self._nodes:
-            node.visible = visible
-
-    def remove(self) -> None:
-        for node in self._nodes:
-            node.remove()

@@ -85,7 +85,7 @@ def test_drag_the_pelvis_down_then_undo(page, studio: Studio) -> None:
         UI_TIMEOUT_S,
     )
     q_before = studio.state.q.copy()
-    history = studio.project.history
+    history = studio.project.undo_steps.history
     # Undo steps are still moments (a pause in the work): wait for the ready pose to be one.
     wait_for(
         "the ready pose to be an undo step",
@@ -190,7 +190,7 @@ def solve_in_page(page, studio: Studio, previous, shows: str, what: str):
     click_button(page, "Solve")
     result = wait_for(
         what,
-        lambda: (r := gait.results.symmetric) is not previous and gait.running is None and r,
+        lambda: (r := gait.results.symmetric) is not previous and gait.solves.running is None and r,
         SOLVE_TIMEOUT_S,
     )
     folder(page, GAIT).get_by_text(shows, exact=False).first.wait_for(

@@ -108,7 +108,7 @@ def page(browser_page, studio_url: str):
 
 def test_solve_shows_progress_then_results(page, studio: Studio) -> None:
     session = studio.gait
-    assert session.running is None and session.results.symmetric is None
+    assert session.solves.running is None and session.results.symmetric is None
     expand_folder(page, GAIT, "Solve")
     gait = folder(page, GAIT)
     assert not page.get_by_role("button", name="Walk this gait", exact=True).is_enabled()
@@ -136,10 +136,10 @@ def test_solve_shows_progress_then_results(page, studio: Studio) -> None:
     gait.get_by_text("IPOPT convergence", exact=True).wait_for(state="visible")
     assert seen_at(page, "Solving", clicked_ms) < seen_at(page, "Solved in", clicked_ms)
 
-    assert session.running is None
+    assert session.solves.running is None
     result = session.results.symmetric
     assert result.converged
-    assert len(session.history[0]) >= 1  # convergence was reported live
+    assert len(session.solves.history[0]) >= 1  # convergence was reported live
     print(f"\nsolve: {result.iterations} IPOPT iterations, {result.solve_s:.2f} s in the worker")
 
 
@@ -210,7 +210,7 @@ def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio, st
         lambda: seen_at(page, "Solving", clicked_ms) is not None,
         UI_TIMEOUT_S,
     )
-    assert session.running is not None and session.running.settings.knots == BIG_KNOTS
+    assert session.solves.running is not None and session.solves.running.settings.knots == BIG_KNOTS
     folder(other, GAIT).get_by_text("Solving the symmetric gait", exact=False).wait_for(
         state="visible", timeout=UI_TIMEOUT_S * 1000
     )
@@ -245,6 +245,6 @@ def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio, st
         state="visible", timeout=UI_TIMEOUT_S * 1000
     )
     other.close()
-    wait_for("the studio to be idle", lambda: session.running is None, UI_TIMEOUT_S)
+    wait_for("the studio to be idle", lambda: session.solves.running is None, UI_TIMEOUT_S)
     assert session.results.symmetric is good
     assert not page.get_by_role("button", name="Cancel", exact=True).is_enabled()

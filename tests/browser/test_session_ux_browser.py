@@ -32,7 +32,9 @@ def test_an_open_tab_survives_a_restart_and_the_project_keeps_its_name(chromium,
     context = studio_context(chromium, viewport=VIEWPORT)
     try:
         assert first.project.save_as("walker")
-        wait_for_signal(first.project.autosaved, lambda: first.joints.set_joint_angle(1, 0.2))
+        wait_for_signal(
+            first.project.autosave.written, lambda: first.joints.set_joint_angle(1, 0.2)
+        )
         page = context.new_page()
         page.set_default_timeout(RENDER_TIMEOUT_S * 1000)
         page.goto(first.web.url)

@@ -10,12 +10,12 @@ import signal
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import psutil
 
-ROOT = Path(__file__).resolve().parents[2]
+from tests.serve_processes import ROOT, alive, poll
+
 GUARD_S = 120.0
 
 PARENT = textwrap.dedent(
@@ -47,20 +47,6 @@ PARENT = textwrap.dedent(
 )
 
 
-def _poll(what: str, condition, seconds: float = GUARD_S) -> None:
-    deadline = time.monotonic() + seconds
-    while not condition():
-        assert time.monotonic() < deadline, what
-        time.sleep(0.05)
-
-
-def _alive(process: psutil.Process) -> bool:
-    try:
-        return process.is_running() and process.status() != psutil.STATUS_ZOMBIE
-    except psutil.NoSuchProcess:
-        return False
-
-
 def test_a_busy_worker_outlives_the_asking_thread_and_dies_with_its_parent(tmp_path):
     script = tmp_path / "parent.py"
     script.write_text(PARENT)
@@ -84,16 +70,16 @@ def test_a_busy_worker_outlives_the_asking_thread_and_dies_with_its_parent(tmp_p
         # The asking thread is gone from the kernel too: had the child been started by it,
         # its parent-death signal would have come now.
         task = Path(f"/proc/{parent.pid}/task/{asking}")
-        _poll("the asking thread ended", lambda: not task.exists())
-        assert _alive(child)
+        poll("the asking thread ended", lambda: not task.exists(), GUARD_S)
+        assert alive(child)
         while not any("GIL" in line for line in lines):  # the child is inside its C call
             lines.append(parent.stdout.readline())
         parent.send_signal(signal.SIGKILL)
         parent.wait(30)
-        _poll("the worker outlived its parent by 10 s", lambda: not _alive(child), 10.0)
+        poll("the worker outlived its parent by 10 s", lambda: not alive(child), 10.0)
     finally:
         if parent.poll() is None:
             parent.kill()
             parent.wait()
-        if child is not None and _alive(child):
+        if child is not None and alive(child):
             child.kill()

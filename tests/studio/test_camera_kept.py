@@ -25,7 +25,7 @@ def test_a_camera_burst_is_kept_once_per_period_and_autosaved(tmp_path, loop):
         tab = Tab(studio, loop)
         wait("the tab's starting view", lambda: len(studio.camera.tabs) == 1)
         assert studio.state.display.settings.camera is None
-        assert studio.project.autosave_now() is None  # opening a tab is not work
+        assert studio.project.autosave.now() is None  # opening a tab is not work
 
         replaced: list[str] = []
         studio.state.on_display.connect(lambda display: replaced.append(display.origin))
@@ -45,8 +45,8 @@ def test_a_camera_burst_is_kept_once_per_period_and_autosaved(tmp_path, loop):
         # At most one replacement per period (the first at once), not one per move.
         assert len(replaced) <= 2 + elapsed_s / SAVE_PERIOD_S < len(moves)
 
-        studio.project.autosave_now()  # unless the autosave thread wrote it already
-        path = studio.project.autosaves.latest()
+        studio.project.autosave.now()  # unless the autosave thread wrote it already
+        path = studio.project.autosave.store.latest()
         assert path is not None and read_project(path).display.camera == last
         tab.close()
     finally:

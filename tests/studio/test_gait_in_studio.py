@@ -21,7 +21,7 @@ def test_solve_for_the_loaded_robot_then_walk_it(studio):
     assert "Solved in" in panel.status.content
     assert "max \\|τ\\|" in panel.results.content
     assert f"{TABLE4.max_abs_tau_Nm[0]} / {TABLE4.max_abs_tau_Nm[1]}" in panel.results.content
-    assert len(studio.gait.history[0]) >= 1  # convergence was reported live
+    assert len(studio.gait.solves.history[0]) >= 1  # convergence was reported live
     # Step lengths within what the slack bounds allow: x1 = (0.5 + slack0)(x0 + x2).
     lsp, rsp = result.step_lengths_m
     assert abs(lsp - rsp) <= 2 * 0.05 * (lsp + rsp) + 1e-6
@@ -69,7 +69,7 @@ def test_a_crafted_knot_count_is_refused_before_the_worker_builds(studio):
     panel = studio.gait.panel
     panel.sliders["knots"]._impl.value = 400.0  # what a crafted websocket message sets
     assert studio.gait.solve(baseline=False) is None
-    assert studio.gait.running is None
+    assert studio.gait.solves.running is None
     assert "knots" in panel.status.content and "160" in panel.status.content
 
 
@@ -85,7 +85,7 @@ def test_cancel_keeps_the_last_good_gait(studio):
 
     ended = wait_for_signal(studio.gait.finished, solve_then_cancel)
     assert ended.error == "cancelled"
-    assert studio.gait.running is None
+    assert studio.gait.solves.running is None
     assert "Cancelled" in panel.status.content
     assert studio.gait.results.symmetric is good
 
@@ -141,7 +141,7 @@ def test_a_running_solve_shows_in_the_shared_panel_and_is_never_replaced(studio)
     disconnect = studio.gait.finished.connect(lambda solve: (ended.append(solve), done.set()))
     try:
         wait_for_signal(studio.gait.progressed, lambda: setattr(panel.solve, "value", True))
-        running = studio.gait.running
+        running = studio.gait.solves.running
         assert running is not None and running.kind == "symmetric gait"
         assert f"Solving the symmetric gait (job {running.job_id}): IPOPT iteration" in (
             panel.status.content
@@ -149,7 +149,7 @@ def test_a_running_solve_shows_in_the_shared_panel_and_is_never_replaced(studio)
         assert panel.progress.visible and not panel.cancel.disabled
         assert panel.solve.disabled and panel.baseline.disabled and panel.all_stages.disabled
         assert studio.gait.solve(baseline=True) is None  # a click from another tab
-        assert studio.gait.running is running
+        assert studio.gait.solves.running is running
         assert running.job_id in studio.notifier.last_error
         assert done.wait(GUARD_S), "the solve did not end"
     finally:
@@ -226,15 +226,15 @@ def test_a_cold_restart_shows_while_the_solve_runs(studio):
 
     session = studio.gait
     settings = session.panel.settings(False)
-    session.running = Solve("gait-test", settings, studio.state.robot, warm=True)
-    session.history = ([], [], [])
+    session.solves.running = Solve("gait-test", settings, studio.state.robot, warm=True)
+    session.solves.history = ([], [], [])
     session._on_progress("gait-test", 3, 1.0, 1e-3)
     assert "restarted cold" not in session.panel.status.content
-    session.history = ([], [], [])
+    session.solves.history = ([], [], [])
     session._on_progress("gait-test", WARM_ITERATIONS_BEFORE_FALLBACK + 1, 1.0, 1e-3)
     assert "restarted cold" in session.panel.status.content
-    session.running = dataclasses.replace(session.running, warm=False)
-    session.history = ([], [], [])
+    session.solves.running = dataclasses.replace(session.solves.running, warm=False)
+    session.solves.history = ([], [], [])
     session._on_progress("gait-test", WARM_ITERATIONS_BEFORE_FALLBACK + 1, 1.0, 1e-3)
     assert "restarted cold" not in session.panel.status.content
-    session.running = None
+    session.solves.running = None

@@ -40,7 +40,7 @@ def test_one_click_shows_its_stages_then_ghosts_stand_on_the_robot(studio):
     def record(stage: str) -> None:
         # what the line says, and whether the stage it names is really under way
         really = {
-            "planning": lambda: gait.running is not None,
+            "planning": lambda: gait.solves.running is not None,
             "torques": lambda: (
                 state.work.torques is None
                 and gait.walk is not None

@@ -317,12 +317,12 @@ def test_autosave_follows_edits_and_a_restart_restores_them(tmp_path):
     first = start_studio(data)
     try:
         path = wait_for_signal(
-            first.project.autosaved, lambda: first.joints.set_joint_angle(1, 0.12)
+            first.project.autosave.written, lambda: first.joints.set_joint_angle(1, 0.12)
         )
         assert_same(read_project(path).q, first.state.q, "autosaved q")
         assert "unsaved" in first.project.panel.title.content
         # A keyframe edit emits no state signal: the poll finds it.
-        path = wait_for_signal(first.project.autosaved, lambda: first.motions.capture(0.7))
+        path = wait_for_signal(first.project.autosave.written, lambda: first.motions.capture(0.7))
         assert len(read_project(path).keyframes) == 1
         q = first.state.q.copy()
     finally:
@@ -342,11 +342,13 @@ def test_a_fresh_start_writes_no_autosave_until_something_changes(tmp_path):
     config = StudioConfig(port=free_port(), data_dir=tmp_path / "data")
     studio = Studio(config)
     try:
-        assert studio.project.autosave_now() is None  # nothing changed since the start
-        assert studio.project.autosaves.saves() == []
+        assert studio.project.autosave.now() is None  # nothing changed since the start
+        assert studio.project.autosave.store.saves() == []
         studio.joints.set_joint_angle(0, -0.1)
-        assert studio.project.autosave_now() is not None
-        assert np.array_equal(read_project(studio.project.autosaves.latest()).q, studio.state.q)
+        assert studio.project.autosave.now() is not None
+        assert np.array_equal(
+            read_project(studio.project.autosave.store.latest()).q, studio.state.q
+        )
     finally:
         studio.stop()
 
@@ -358,10 +360,10 @@ def test_undo_and_redo_walk_back_through_pose_and_keyframe_edits(studio):
     q0 = state.q.copy()
     name, slider = next(iter(studio.joints.panel.sliders.items()))
     joint = state.robot.joint_names.index(name)
-    wait_for_signal(project.autosaved, lambda: setattr(slider, "value", slider.value + 10.0))
+    wait_for_signal(project.autosave.written, lambda: setattr(slider, "value", slider.value + 10.0))
     q1 = state.q.copy()
     assert not np.array_equal(q1, q0)
-    wait_for_signal(project.autosaved, lambda: studio.motions.capture(0.8))
+    wait_for_signal(project.autosave.written, lambda: studio.motions.capture(0.8))
     assert len(studio.motions.keyframes) == 1 and not project.panel.undo.disabled
 
     project.panel.undo.value = True  # the keyframe goes, the pose stays
@@ -379,7 +381,7 @@ def test_undo_and_redo_walk_back_through_pose_and_keyframe_edits(studio):
     assert len(studio.motions.keyframes) == 1 and project.panel.redo.disabled
     # A new edit after an undo drops what could be redone.
     project.panel.undo.value = True
-    wait_for_signal(project.autosaved, lambda: studio.motions.capture(1.5))
+    wait_for_signal(project.autosave.written, lambda: studio.motions.capture(1.5))
     assert project.panel.redo.disabled and not project.redo()
     assert [k.duration_s for k in studio.motions.keyframes] == [1.5]
 

@@ -25,7 +25,9 @@ def test_a_restored_project_keeps_its_name_and_file(tmp_path):
         assert first.project.save_as("walker")
         path = data / "projects" / "walker.bstudio"
         assert first.project.path == path
-        wait_for_signal(first.project.autosaved, lambda: first.joints.set_joint_angle(1, 0.2))
+        wait_for_signal(
+            first.project.autosave.written, lambda: first.joints.set_joint_angle(1, 0.2)
+        )
         q = first.state.q.copy()
     finally:
         first.stop()
@@ -51,7 +53,7 @@ def test_untitled_work_is_restored_as_untitled(tmp_path):
     first = start_studio(data)
     try:
         autosave = wait_for_signal(
-            first.project.autosaved, lambda: first.joints.set_joint_angle(0, -0.1)
+            first.project.autosave.written, lambda: first.joints.set_joint_angle(0, -0.1)
         )
         assert read_project(autosave).autosave_of == ""
     finally:

@@ -188,10 +188,10 @@ def test_undo_takes_a_part_change_back(studio):
     robot = studio.state.robot
     joint = robot.joint_names[4]
     i = robot.joint_names.index(joint)
-    studio.project.autosave_now()  # the work before: a step
+    studio.project.autosave.now()  # the work before: a step
     before = studio.state.work.coefficients.servo.compliance_deg_per_Nm[i]
     pick(studio, joint, "mx106")
-    studio.project.autosave_now()
+    studio.project.autosave.now()
     assert studio.state.work.parts.joint(joint).servo == "mx106"
     assert studio.project.undo()
     assert studio.state.work.parts.joint(joint).servo == ""

@@ -25,21 +25,21 @@ def test_undo_and_redo_name_the_edit(studio):
     name, slider = next(iter(studio.joints.panel.sliders.items()))
     joint = robot.joint_names.index(name)
     q0 = state.q.copy()
-    wait_for_signal(project.autosaved, lambda: setattr(slider, "value", slider.value + 10.0))
+    wait_for_signal(project.autosave.written, lambda: setattr(slider, "value", slider.value + 10.0))
     moved_deg = np.rad2deg(robot.joint_angles(state.q)[joint] - robot.joint_angles(q0)[joint])
     assert abs(moved_deg - 10.0) < 0.1  # within its limits: the slider moved it by 10°
     others = np.delete(robot.joint_angles(state.q) - robot.joint_angles(q0), joint)
     assert np.abs(others).max() < 1e-9  # that joint alone
 
     # A keyframe captured.
-    wait_for_signal(project.autosaved, lambda: studio.motions.capture(0.8))
+    wait_for_signal(project.autosave.written, lambda: studio.motions.capture(0.8))
     captured = studio.motions.keyframes[0].name
 
     # The left foot dragged 2 cm up.
     foot = robot.feet[0].link
     target = robot.link_placements(state.q, robot.model.createData())[foot].copy()
     target[2, 3] += 0.02
-    wait_for_signal(project.autosaved, lambda: studio.pose.request_drag("left", target))
+    wait_for_signal(project.autosave.written, lambda: studio.pose.request_drag("left", target))
 
     assert project.undo()
     assert _said(studio) == ("Undid: left foot drag", "Undid: left foot drag")
@@ -75,11 +75,13 @@ def test_a_slow_drag_is_one_undo_step(studio):
     for k in range(1, 4):  # three moves, each followed by a still moment
         target = start.copy()
         target[2, 3] += 0.01 * k
-        wait_for_signal(project.autosaved, lambda t=target: studio.pose.request_drag("left", t))
+        wait_for_signal(
+            project.autosave.written, lambda t=target: studio.pose.request_drag("left", t)
+        )
     handles.held.discard("left")  # released
     target = start.copy()
     target[2, 3] += 0.03
-    wait_for_signal(project.autosaved, lambda: studio.pose.request_drag("left", target))
+    wait_for_signal(project.autosave.written, lambda: studio.pose.request_drag("left", target))
 
     assert project.undo()
     assert _said(studio)[0] == "Undid: left foot drag"

@@ -117,6 +117,12 @@ def _dm(matrix: np.ndarray) -> ca.DM:
     return ca.DM(matrix)
 
 
+def _friction(c: Constrainer, force: Any, mu: Any) -> None:
+    """The contact force (tangential, normal, normal) inside the friction pyramid."""
+    total = force[1] + force[2]
+    c.constrain(ca.vertcat(mu * total - force[0], mu * total + force[0]), 0.0, ca.inf, "friction")
+
+
 class GaitProblem:
     """The NLP for one structure (knots, baseline); `solve` re-solves it for any slider values."""
 
@@ -188,13 +194,6 @@ class GaitProblem:
             durations = L.symmetric_durations(H)
             slack = nlp.variable("slack", 1)
         steps = [durations[j] / (L.sizes[j] - 1) for j in range(3)]
-
-        def friction(c: Constrainer, force: Any, mu: Any) -> None:
-            total = force[1] + force[2]
-            c.constrain(
-                ca.vertcat(mu * total - force[0], mu * total + force[0]), 0.0, ca.inf, "friction"
-            )
-
         if self.baseline:
             foothold_args: tuple[tuple[Any, ...], ...] = ((), (x1,), (d,))
             step_args: tuple[Any, ...] = (T,)
@@ -202,58 +201,8 @@ class GaitProblem:
             foothold_args = ((), (slack, d), (d,))
             step_args = (H,)
 
-        def foothold_of(j: int, *args: Any) -> Any:
-            if j == 0:
-                return 0.0
-            if j == 2 or self.baseline:
-                return args[-1] if j == 2 else args[0]
-            slack_, d_ = args
-            return (0.5 + slack_) * (0.0 + d_)
-
-        def step_of(j: int, arg: Any) -> Any:
-            duration = arg[j] if self.baseline else L.symmetric_durations(arg)[j]
-            return duration / (L.sizes[j] - 1)
-
-        def knot(j: int) -> Callable[..., None]:
-            """The constraints at one knot of mode j."""
-            S, swing_rows = _dm(stance_rows(STANCE[j])), _dm(swing_z_rows(other(STANCE[j])))
-
-            def build(c: Constrainer, qk: Any, vk: Any, ak: Any, uk: Any, lamk: Any,
-                      mu_: Any, *extra: Any) -> None:  # fmt: skip
-                p = m.contact_positions(qk)
-                Js = S @ m.contact_jacobian(qk)
-                c.constrain(m.rnea(qk, vk, ak) - Bd @ uk - Js.T @ lamk, tag="dynamics")
-                c.constrain(S @ p - ca.vertcat(foothold_of(j, *extra), 0.0, 0.0), tag="contact")
-                c.constrain(Js @ vk, tag="contact")
-                c.constrain(Js @ ak + S @ m.contact_jdot_v(qk, vk), tag="contact")
-                friction(c, lamk, mu_)
-                c.constrain(swing_rows @ p, 0.0, 0.0, tag="swing")  # bounds set per solve
-
-            return build
-
-        def interval(j: int) -> Callable[..., None]:
-            """The collocation constraints between two knots of mode j."""
-            S, swing_rows = _dm(stance_rows(STANCE[j])), _dm(swing_z_rows(other(STANCE[j])))
-
-            def build(c: Constrainer, q0: Any, v0: Any, a0: Any, u0: Any, q1: Any, v1: Any,
-                      a1: Any, u1: Any, gamma: Any, lam_mid: Any, mu_: Any, step: Any) -> None:  # fmt: skip
-                q_c, v_c, qd_c, vd_c = hermite_simpson(q0, v0, a0, q1, v1, a1, step_of(j, step))
-                Jc = S @ m.contact_jacobian(q_c)
-                c.constrain(qd_c - v_c - Jc.T @ gamma, tag="dynamics")
-                c.constrain(
-                    m.rnea(q_c, v_c, vd_c) - Bd @ (0.5 * (u0 + u1)) - Jc.T @ lam_mid,
-                    tag="dynamics",
-                )
-                friction(c, lam_mid, mu_)
-                # Bounds between the knots, at the collocation point (bounds set per solve).
-                c.constrain(q_c[BASE_DOF:], tag="range_mid")
-                c.constrain(v_c[BASE_DOF:], tag="speed_mid")
-                c.constrain(swing_rows @ m.contact_positions(q_c), tag="swing")
-
-            return build
-
-        knot_builders = [knot(j) for j in range(3)]
-        interval_builders = [interval(j) for j in range(3)]
+        knot_builders = [self._knot(j, Bd) for j in range(3)]
+        interval_builders = [self._interval(j, Bd) for j in range(3)]
         energy: Any = 0
         smooth: Any = 0
         for k in range(N):
@@ -292,32 +241,7 @@ class GaitProblem:
                     + ca.sumsqr(u[k + 1] - u[k])
                 )
 
-        impact_loss: Any = 0  # kinetic energy lost at the touch-downs: ½ Δvᵀ M Δv [J]
-        for j in (0, 1):
-            pre, post = L.last(j), L.first(j + 1)
-            impulse = nlp.variable("impulse", 3)
-            S_land = _dm(stance_rows(STANCE[j + 1]))
-            nlp.constrain(q[post] - q[pre], tag="impact")
-            nlp.constrain(
-                m.mass_matrix(q[pre]) @ (v[post] - v[pre])
-                - (S_land @ m.contact_jacobian(q[pre])).T @ impulse,
-                tag="impact",
-            )
-            friction(nlp, impulse, mu)
-            landing = _dm(foot_rows(STANCE[j + 1])) @ m.contact_jacobian(q[pre]) @ v[pre]
-            nlp.constrain(landing, tag="touchdown")  # |heel, toe velocity| before touch-down
-            jump = v[post] - v[pre]
-            impact_loss += 0.5 * ca.dot(jump, m.mass_matrix(q[pre]) @ jump)
-            # The lifting foot's heel may not move down just after the impact. Its toe has no
-            # such row: where the foot rolls off its toe (the optimum at a low K0) that row is
-            # active and its gradient lies in the span of the impact and stance equalities, so
-            # IPOPT's multipliers grow without bound and the solve stalls (K0 = 2 on
-            # servo_biped: 1000 iterations). The toe stays above the floor by the swing rows
-            # of the next collocation point and knots.
-            heel = _dm(swing_z_rows(STANCE[j])[:1])
-            lifting = heel @ m.contact_jacobian(q[post]) @ v[post]
-            nlp.constrain(lifting, 0.0, ca.inf, tag="lifting")
-
+        impact_loss = self._impacts(q, v, mu)
         advance = ca.vertcat(d, ca.DM.zeros(m.nq - 1))
         nlp.constrain(q[N - 1] - q[0] - advance, tag="periodicity")
         nlp.constrain(v[N - 1] - v[0], tag="periodicity")
@@ -333,6 +257,91 @@ class GaitProblem:
             assert slack is not None
             cost += K1 * slack**2 + K2 * smooth
         nlp.cost = cost
+
+    def _foothold(self, j: int, *args: Any) -> Any:
+        """Where mode j's stance foot stands (x) [m]: 0, or from the step's variables."""
+        if j == 0:
+            return 0.0
+        if j == 2 or self.baseline:
+            return args[-1] if j == 2 else args[0]
+        slack_, d_ = args
+        return (0.5 + slack_) * (0.0 + d_)
+
+    def _step(self, j: int, arg: Any) -> Any:
+        """The time step between two knots of mode j [s] (arg: T, or H for the symmetric gait)."""
+        L = self.layout
+        duration = arg[j] if self.baseline else L.symmetric_durations(arg)[j]
+        return duration / (L.sizes[j] - 1)
+
+    def _knot(self, j: int, Bd: Any) -> Callable[..., None]:
+        """The constraints at one knot of mode j."""
+        m = self.model
+        S, swing_rows = _dm(stance_rows(STANCE[j])), _dm(swing_z_rows(other(STANCE[j])))
+
+        def build(c: Constrainer, qk: Any, vk: Any, ak: Any, uk: Any, lamk: Any,
+                  mu_: Any, *extra: Any) -> None:  # fmt: skip
+            p = m.contact_positions(qk)
+            Js = S @ m.contact_jacobian(qk)
+            c.constrain(m.rnea(qk, vk, ak) - Bd @ uk - Js.T @ lamk, tag="dynamics")
+            c.constrain(S @ p - ca.vertcat(self._foothold(j, *extra), 0.0, 0.0), tag="contact")
+            c.constrain(Js @ vk, tag="contact")
+            c.constrain(Js @ ak + S @ m.contact_jdot_v(qk, vk), tag="contact")
+            _friction(c, lamk, mu_)
+            c.constrain(swing_rows @ p, 0.0, 0.0, tag="swing")  # bounds set per solve
+
+        return build
+
+    def _interval(self, j: int, Bd: Any) -> Callable[..., None]:
+        """The collocation constraints between two knots of mode j."""
+        m = self.model
+        S, swing_rows = _dm(stance_rows(STANCE[j])), _dm(swing_z_rows(other(STANCE[j])))
+
+        def build(c: Constrainer, q0: Any, v0: Any, a0: Any, u0: Any, q1: Any, v1: Any,
+                  a1: Any, u1: Any, gamma: Any, lam_mid: Any, mu_: Any, step: Any) -> None:  # fmt: skip
+            q_c, v_c, qd_c, vd_c = hermite_simpson(q0, v0, a0, q1, v1, a1, self._step(j, step))
+            Jc = S @ m.contact_jacobian(q_c)
+            c.constrain(qd_c - v_c - Jc.T @ gamma, tag="dynamics")
+            c.constrain(
+                m.rnea(q_c, v_c, vd_c) - Bd @ (0.5 * (u0 + u1)) - Jc.T @ lam_mid,
+                tag="dynamics",
+            )
+            _friction(c, lam_mid, mu_)
+            # Bounds between the knots, at the collocation point (bounds set per solve).
+            c.constrain(q_c[BASE_DOF:], tag="range_mid")
+            c.constrain(v_c[BASE_DOF:], tag="speed_mid")
+            c.constrain(swing_rows @ m.contact_positions(q_c), tag="swing")
+
+        return build
+
+    def _impacts(self, q: list[Any], v: list[Any], mu: Any) -> Any:
+        """The two touch-downs' constraints; the kinetic energy they lose, ½ Δvᵀ M Δv [J]."""
+        nlp, m, L = self.nlp, self.model, self.layout
+        impact_loss: Any = 0
+        for j in (0, 1):
+            pre, post = L.last(j), L.first(j + 1)
+            impulse = nlp.variable("impulse", 3)
+            S_land = _dm(stance_rows(STANCE[j + 1]))
+            nlp.constrain(q[post] - q[pre], tag="impact")
+            nlp.constrain(
+                m.mass_matrix(q[pre]) @ (v[post] - v[pre])
+                - (S_land @ m.contact_jacobian(q[pre])).T @ impulse,
+                tag="impact",
+            )
+            _friction(nlp, impulse, mu)
+            landing = _dm(foot_rows(STANCE[j + 1])) @ m.contact_jacobian(q[pre]) @ v[pre]
+            nlp.constrain(landing, tag="touchdown")  # |heel, toe velocity| before touch-down
+            jump = v[post] - v[pre]
+            impact_loss += 0.5 * ca.dot(jump, m.mass_matrix(q[pre]) @ jump)
+            # The lifting foot's heel may not move down just after the impact. Its toe has no
+            # such row: where the foot rolls off its toe (the optimum at a low K0) that row is
+            # active and its gradient lies in the span of the impact and stance equalities, so
+            # IPOPT's multipliers grow without bound and the solve stalls (K0 = 2 on
+            # servo_biped: 1000 iterations). The toe stays above the floor by the swing rows
+            # of the next collocation point and knots.
+            heel = _dm(swing_z_rows(STANCE[j])[:1])
+            lifting = heel @ m.contact_jacobian(q[post]) @ v[post]
+            nlp.constrain(lifting, 0.0, ca.inf, tag="lifting")
+        return impact_loss
 
     # -- solving -------------------------------------------------------------------------------
 

@@ -124,6 +124,24 @@ def pyramid_edges(mu: float) -> np.ndarray:
     )
 
 
+def _moment_map(W: np.ndarray) -> np.ndarray:
+    """r_c × w_i = −[w_i]× r_c: the moments (3, 16) of the 16 β of a foot from its corner
+    offsets (4, 3), as a (12, 48) map: row 3c + j (offset of corner c, axis j), column
+    16k + 4c + i."""
+    moment_map = np.zeros((3 * N_CORNERS, 3 * N_CORNERS * N_EDGES))
+    for corner in range(N_CORNERS):
+        for i in range(N_EDGES):
+            w_i = W[:, i]
+            minus_skew = -np.array(
+                [[0.0, -w_i[2], w_i[1]], [w_i[2], 0.0, -w_i[0]], [-w_i[1], w_i[0], 0.0]]
+            )
+            for k in range(3):
+                moment_map[
+                    3 * corner : 3 * corner + 3, N_CORNERS * N_EDGES * k + N_EDGES * corner + i
+                ] = minus_skew[k]
+    return moment_map
+
+
 class WholeBodyQp:
     """The QP's sparsity fixed at construction; `solve` fills values and runs the solver warm."""
 
@@ -153,7 +171,27 @@ class WholeBodyQp:
         self._a = _as_slice(self.actuated)
         self.limited = np.flatnonzero(np.isfinite(weights.tau_max))
         self._limited_v = _as_slice(self.actuated[self.limited])
+        self._layout()
+        A0 = self._constraint_matrix()
+        P = self._constant_cost()
+        self._solvers(solver, P, A0)
+        self.zero_v = np.zeros(nv)
+        self._constant_bounds()
+        self._qdd_weight = -2.0 * weights.w_qdd
+        self._no_loop, self._no_drift = np.zeros((0, nv)), np.zeros(0)
+        self._W_tiled = np.tile(self.W, N_CORNERS)  # (3, 16): corner-major, edge-minor
+        self._moment_map = _moment_map(self.W)
+        self.last_x: np.ndarray | None = None
+        self.last_solver_s = 0.0
+        """Wall time of the last sample's solver call alone [s]."""
+        self.last_problem: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        """(p, l, u) of the last sample (A is self.A, P self.P)."""
+        self.last_duals: tuple[np.ndarray, np.ndarray] | None = None
+        """ProxQP's multipliers of the last sample: (equality rows, inequality rows)."""
 
+    def _layout(self) -> None:
+        """The columns of z = (q̈, β, η, f_loop) and the rows of the constraints, by name."""
+        nv = self.nv
         nb, ne, nf = 2 * N_CORNERS * N_EDGES, 12, 3 * len(self.loop_ids)
         self.cols = {"qdd": slice(0, nv), "beta": slice(nv, nv + nb)}
         self.cols["eta"] = slice(nv + nb, nv + nb + ne)
@@ -172,7 +210,12 @@ class WholeBodyQp:
             self.rows[name] = slice(start, start + size)
             start += size
         self.m = start
+        self.n_eq = self.rows["contact"].start
+        """Rows dyn and loop are equalities (ProxQP's A z = b); the rest are l ≤ C z ≤ u."""
 
+    def _constraint_matrix(self) -> sp.csc_matrix:
+        """Fill A's constant entries and find its sparsity (`nz_rows`, `nz_cols`); A's
+        pattern as a CSC matrix of ones."""
         mask = self._fill(*self._structure())
         # Column-major, so ProxQP's Eigen matrices take A's two row blocks without reordering.
         self.A = np.zeros((self.m, self.n), order="F")
@@ -180,13 +223,17 @@ class WholeBodyQp:
         self._fill_constant(mask)
         cols, rows = np.nonzero(mask.T != 0.0)  # column-major = CSC order
         self.nz_rows, self.nz_cols = rows, cols
-        A0 = sp.csc_matrix((np.ones(len(rows)), (rows, cols)), shape=(self.m, self.n))
+        return sp.csc_matrix((np.ones(len(rows)), (rows, cols)), shape=(self.m, self.n))
 
+    def _constant_cost(self) -> np.ndarray:
+        """The constant Hessian `P` (and the CoM LQR's H_u, G_u in it)."""
+        weights, nv, n = self.weights, self.nv, self.n
+        nb, ne, nf = (self.cols[c].stop - self.cols[c].start for c in ("beta", "eta", "f"))
         # Constant cost: w‖q̈‖², ε‖β‖² + V's quadratic in β, ‖η‖², tiny ‖f_loop‖².
         r, q, a = weights.r_lqr, weights.q_lqr, weights.a
         self.H_u = (r + a * a * q) * np.eye(3)
         self.G_u = np.tile(self.W, 2 * N_CORNERS) / self.mass  # ū = G_u β + g − c̈_des
-        P = np.zeros((self.n, self.n))
+        P = np.zeros((n, n))
         P[self.cols["qdd"], self.cols["qdd"]] = 2.0 * weights.w_qdd * np.eye(nv)
         P[self.cols["beta"], self.cols["beta"]] = 2.0 * (
             weights.epsilon * np.eye(nb) + self.G_u.T @ self.H_u @ self.G_u
@@ -195,8 +242,12 @@ class WholeBodyQp:
         P[self.cols["f"], self.cols["f"]] = 2.0 * LOOP_FORCE_WEIGHT * np.eye(nf)
         self.P = P
         """The constant Hessian of the cost, full and symmetric, shape (n, n)."""
-        self.n_eq = self.rows["contact"].start
-        """Rows dyn and loop are equalities (ProxQP's A z = b); the rest are l ≤ C z ≤ u."""
+        return P
+
+    def _solvers(self, solver: QpSolver, P: np.ndarray, A0: sp.csc_matrix) -> None:
+        """The reduced QP where it applies (solver "reduced"), OSQP set up (solver "osqp");
+        ProxQP is made on the first sample."""
+        weights, nv = self.weights, self.nv
         self._prox: proxqp.dense.QP | None = None
         self.reduced: ReducedQp | None = None
         """The reduced QP (solver "reduced" on a robot it applies to), else None."""
@@ -233,7 +284,12 @@ class WholeBodyQp:
                 warm_starting=True,
                 max_iter=MAX_ITERATIONS,
             )
-        self.zero_v = np.zeros(nv)
+
+    def _constant_bounds(self) -> None:
+        """The bounds before a sample's values, per contact state (`_state_bounds`), the
+        contact rows that are equalities (`_state_rows`) and the β masks (`_state_mask`)."""
+        weights = self.weights
+        nb = self.cols["beta"].stop - self.cols["beta"].start
         # The bounds that do not change: |τ| (before h), β ≥ 0, |η| ≤ η_max, free contact rows.
         self._lower0, self._upper0 = np.full(self.m, -np.inf), np.full(self.m, np.inf)
         self._lower0[self.rows["tau"]] = -weights.tau_max[self.limited]
@@ -261,29 +317,6 @@ class WholeBodyQp:
                 [6 * foot + i for foot in feet for i in range(6)], dtype=int
             )
             self._state_mask[state] = np.repeat(np.array(state, dtype=float), nb // 2)
-        self._qdd_weight = -2.0 * weights.w_qdd
-        self._no_loop, self._no_drift = np.zeros((0, nv)), np.zeros(0)
-        self._W_tiled = np.tile(self.W, N_CORNERS)  # (3, 16): corner-major, edge-minor
-        # r_c × w_i = −[w_i]× r_c: moments (3, 16) of the 16 β from the offsets (4, 3) as a
-        # (12, 48) map, row 3c + j (offset of corner c, axis j), column 16k + 4c + i.
-        self._moment_map = np.zeros((3 * N_CORNERS, 3 * N_CORNERS * N_EDGES))
-        for corner in range(N_CORNERS):
-            for i in range(N_EDGES):
-                w_i = self.W[:, i]
-                minus_skew = -np.array(
-                    [[0.0, -w_i[2], w_i[1]], [w_i[2], 0.0, -w_i[0]], [-w_i[1], w_i[0], 0.0]]
-                )
-                for k in range(3):
-                    self._moment_map[
-                        3 * corner : 3 * corner + 3, N_CORNERS * N_EDGES * k + N_EDGES * corner + i
-                    ] = minus_skew[k]
-        self.last_x: np.ndarray | None = None
-        self.last_solver_s = 0.0
-        self.last_problem: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        """(p, l, u) of the last sample (A is self.A, P self.P)."""
-        self.last_duals: tuple[np.ndarray, np.ndarray] | None = None
-        """ProxQP's multipliers of the last sample: (equality rows, inequality rows)."""
-        """Wall time of the last sample's solver call alone [s]."""
 
     def _structure(self):
         """0/1 matrices with the structural nonzeros of M, Φᵀ, the foot and loop Jacobians."""

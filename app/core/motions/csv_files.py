@@ -217,76 +217,11 @@ def _read_table(
             "imported with read_roban_motion_csv"
         )
 
-    expected = dict(_columns(robot))
-    index: dict[str, int] = {}
-    unknown: list[str] = []
-    for column, cell in enumerate(header):
-        match = _HEADER_CELL.match(cell)
-        assert match is not None  # the pattern matches any text
-        name, unit = match["name"], match["unit"]
-        if name not in expected:
-            unknown.append(name)
-            continue
-        if name in index:
-            raise MotionFileError(f"{source}: column {name!r} appears twice in the header")
-        if unit is not None and unit.strip() != expected[name]:
-            raise MotionFileError(
-                f"{source}: column {name!r} is in [{unit.strip()}], expected [{expected[name]}]"
-            )
-        index[name] = column
-    if unknown:
-        names = ", ".join(j.name for j in _moving_joints(robot))
-        raise MotionFileError(
-            f"{source}: unknown column(s) {', '.join(map(repr, unknown))} for robot "
-            f"{robot.name!r}; its joints are: {names} (columns are t, base_*, q:<joint>, "
-            "v:<joint>, a:<joint>, contact_left, contact_right)"
-        )
-    derivatives = [name for name in expected if name[:2] in ("v:", "a:")]
-    required = [name for name in expected if name not in derivatives]
-    has_derivatives = any(name in index for name in derivatives)
-    missing = [
-        name for name in required + (derivatives if has_derivatives else []) if name not in index
-    ]
-    if missing:
-        shown = ", ".join(missing[:12]) + (" …" if len(missing) > 12 else "")
-        raise MotionFileError(
-            f"{source}: {len(missing)} column(s) missing for robot {robot.name!r}: {shown}"
-            + (" (give all v: and a: columns or none)" if has_derivatives else "")
-        )
-
-    labels = [cell.strip() for cell in header]
-    rows: list[np.ndarray] = []
-    lines: list[int] = []
-    for line, cells in table:
-        if len(cells) != len(header):
-            raise MotionFileError(
-                f"{source}, line {line}: {len(cells)} values, the header has {len(header)} columns"
-            )
-        rows.append(
-            np.array(
-                [
-                    _number(cell, line, column + 1, labels[column], source)
-                    for column, cell in enumerate(cells)
-                ]
-            )
-        )
-        lines.append(line)
-    values = np.array(rows).reshape(len(rows), len(header))
-    if len(values) < 2:
-        raise MotionFileError(f"{source}: {len(values)} sample row(s); a motion needs at least 2")
-
+    index, has_derivatives = _header_index(header, source, robot)
+    values, lines = _values(table, header, source)
     t = values[:, index["t"]]
     _check_times(t, lines, source)
-    contacts = np.empty((len(values), 2), dtype=bool)
-    for side, name in enumerate(CONTACT_COLUMNS):
-        flags = values[:, index[name]]
-        bad = np.flatnonzero((flags != 0.0) & (flags != 1.0))
-        if len(bad):
-            raise MotionFileError(
-                f"{source}, line {lines[bad[0]]}, column {index[name] + 1} ({name}): "
-                f"{flags[bad[0]]:g}; a contact is 0 or 1"
-            )
-        contacts[:, side] = flags == 1.0
+    contacts = _contacts(values, index, lines, source)
 
     joints = _moving_joints(robot)
     q = np.tile(robot.q_neutral, (len(values), 1))
@@ -324,6 +259,92 @@ def _read_table(
         ),
         source,
     )
+
+
+def _header_index(header: list[str], source: str, robot: RobotModel) -> tuple[dict[str, int], bool]:
+    """The column of each name in the header row, and whether it has the v: and a: columns
+    (MotionFileError: an unknown, repeated or missing column, a wrong unit)."""
+    expected = dict(_columns(robot))
+    index: dict[str, int] = {}
+    unknown: list[str] = []
+    for column, cell in enumerate(header):
+        match = _HEADER_CELL.match(cell)
+        assert match is not None  # the pattern matches any text
+        name, unit = match["name"], match["unit"]
+        if name not in expected:
+            unknown.append(name)
+            continue
+        if name in index:
+            raise MotionFileError(f"{source}: column {name!r} appears twice in the header")
+        if unit is not None and unit.strip() != expected[name]:
+            raise MotionFileError(
+                f"{source}: column {name!r} is in [{unit.strip()}], expected [{expected[name]}]"
+            )
+        index[name] = column
+    if unknown:
+        names = ", ".join(j.name for j in _moving_joints(robot))
+        raise MotionFileError(
+            f"{source}: unknown column(s) {', '.join(map(repr, unknown))} for robot "
+            f"{robot.name!r}; its joints are: {names} (columns are t, base_*, q:<joint>, "
+            "v:<joint>, a:<joint>, contact_left, contact_right)"
+        )
+    derivatives = [name for name in expected if name[:2] in ("v:", "a:")]
+    required = [name for name in expected if name not in derivatives]
+    has_derivatives = any(name in index for name in derivatives)
+    missing = [
+        name for name in required + (derivatives if has_derivatives else []) if name not in index
+    ]
+    if missing:
+        shown = ", ".join(missing[:12]) + (" …" if len(missing) > 12 else "")
+        raise MotionFileError(
+            f"{source}: {len(missing)} column(s) missing for robot {robot.name!r}: {shown}"
+            + (" (give all v: and a: columns or none)" if has_derivatives else "")
+        )
+    return index, has_derivatives
+
+
+def _values(
+    table: Iterator[tuple[int, list[str]]], header: list[str], source: str
+) -> tuple[np.ndarray, list[int]]:
+    """The sample rows as numbers, shape (rows, columns), and each row's line number."""
+    labels = [cell.strip() for cell in header]
+    rows: list[np.ndarray] = []
+    lines: list[int] = []
+    for line, cells in table:
+        if len(cells) != len(header):
+            raise MotionFileError(
+                f"{source}, line {line}: {len(cells)} values, the header has {len(header)} columns"
+            )
+        rows.append(
+            np.array(
+                [
+                    _number(cell, line, column + 1, labels[column], source)
+                    for column, cell in enumerate(cells)
+                ]
+            )
+        )
+        lines.append(line)
+    values = np.array(rows).reshape(len(rows), len(header))
+    if len(values) < 2:
+        raise MotionFileError(f"{source}: {len(values)} sample row(s); a motion needs at least 2")
+    return values, lines
+
+
+def _contacts(
+    values: np.ndarray, index: dict[str, int], lines: list[int], source: str
+) -> np.ndarray:
+    """The contact columns as flags, shape (rows, 2) (MotionFileError: not 0 or 1)."""
+    contacts = np.empty((len(values), 2), dtype=bool)
+    for side, name in enumerate(CONTACT_COLUMNS):
+        flags = values[:, index[name]]
+        bad = np.flatnonzero((flags != 0.0) & (flags != 1.0))
+        if len(bad):
+            raise MotionFileError(
+                f"{source}, line {lines[bad[0]]}, column {index[name] + 1} ({name}): "
+                f"{flags[bad[0]]:g}; a contact is 0 or 1"
+            )
+        contacts[:, side] = flags == 1.0
+    return contacts
 
 
 def _checked(robot: RobotModel, trajectory: Trajectory, source: str) -> Trajectory:

@@ -193,24 +193,8 @@ class WholeBodyIK:
         """The torso hold while a solve has one (added then, removed after)..."""
         self._torso_goal: np.ndarray | None = None
         """...and the orientation it holds (also in the goal cost)."""
-        for loop in robot.tree.loops:
-            task = self._solver.add_relative_position_task(loop.link_a, loop.link_b, np.zeros(3))
-            # Soft but dominant: a planar loop's out-of-plane rows are rank-deficient as hard
-            # equalities. close_loops() polishes the result to numerical precision.
-            task.configure(f"loop {loop.name}", "soft", LOOP_WEIGHT)
-        bounded = [joint for joint in robot.joints if joint.kind != "continuous"]
-        self._bounded_names = tuple(joint.name for joint in bounded)
-        self._bounded_q = np.array([joint.idx_q for joint in bounded], dtype=int)
-        """Configuration index of each joint with limits (not continuous), in joint order."""
-        self._bounded_lower = np.array([joint.lower for joint in bounded], dtype=float)
-        self._bounded_upper = np.array([joint.upper for joint in bounded], dtype=float)
-        self._bounded_info = Bounded(
-            self._bounded_names,
-            np.array([joint.idx_v for joint in bounded], dtype=int),
-            self._bounded_q,
-            self._bounded_lower,
-            self._bounded_upper,
-        )
+        self._add_loop_tasks(robot)
+        self._bound_joints(robot)
         self._foot_ids = {foot.side: robot.link_frame_ids[foot.link] for foot in robot.feet}
         self._stance_feet = {
             stance: tuple(foot for foot in robot.feet if stance in (foot.side, "both"))
@@ -266,6 +250,30 @@ class WholeBodyIK:
         self._held_parts: list[tuple[str, np.ndarray, np.ndarray]] = []
         """(frame, position, rotation) of each held foot's target (in the goal cost with
         HELD_MERIT_WEIGHT while a torso is held)."""
+
+    def _add_loop_tasks(self, robot: RobotModel) -> None:
+        """One relative-position task per kinematic loop of `robot`."""
+        for loop in robot.tree.loops:
+            task = self._solver.add_relative_position_task(loop.link_a, loop.link_b, np.zeros(3))
+            # Soft but dominant: a planar loop's out-of-plane rows are rank-deficient as hard
+            # equalities. close_loops() polishes the result to numerical precision.
+            task.configure(f"loop {loop.name}", "soft", LOOP_WEIGHT)
+
+    def _bound_joints(self, robot: RobotModel) -> None:
+        """The joints with limits (not continuous) and their bounds."""
+        bounded = [joint for joint in robot.joints if joint.kind != "continuous"]
+        self._bounded_names = tuple(joint.name for joint in bounded)
+        self._bounded_q = np.array([joint.idx_q for joint in bounded], dtype=int)
+        """Configuration index of each joint with limits (not continuous), in joint order."""
+        self._bounded_lower = np.array([joint.lower for joint in bounded], dtype=float)
+        self._bounded_upper = np.array([joint.upper for joint in bounded], dtype=float)
+        self._bounded_info = Bounded(
+            self._bounded_names,
+            np.array([joint.idx_v for joint in bounded], dtype=int),
+            self._bounded_q,
+            self._bounded_lower,
+            self._bounded_upper,
+        )
 
     def _configure_foot(self, side: str, role: Literal["moving", "held"]) -> None:
         """A moving foot is a soft task; a held one hard (or of STANCE_WEIGHT once hard stance

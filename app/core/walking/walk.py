@@ -264,17 +264,7 @@ def build_walk(
     step_width_m: lateral distance between the feet [m] (None: their distance with every joint
     at zero); start_s, stop_s: durations of the start and stop double supports [s] (None: one
     gait cycle H each); dt: sample time [s]."""
-    if not result.has_gait or not result.converged:
-        raise WalkError(f"no solved gait to walk: {result.status}")
-    if result.joint_names != planar.joint_names:
-        raise WalkError(
-            f"the gait was planned for joints {', '.join(result.joint_names)}; "
-            f"{planar.robot.name} has planar joints {', '.join(planar.joint_names)}"
-        )
-    if not isinstance(steps, int) or not 1 <= steps <= MAX_STEPS:
-        raise WalkError(f"steps = {steps!r}: give a whole number of steps in [1, {MAX_STEPS}]")
-    if not dt > 0.0 or not math.isfinite(dt):
-        raise WalkError(f"dt must be > 0, got {dt}")
+    _check(planar, result, steps, dt)
     H = result.duration_s
     start_s = H if start_s is None else float(start_s)
     stop_s = H if stop_s is None else float(stop_s)
@@ -301,19 +291,7 @@ def build_walk(
         ]
     )
     # Lateral ZMP reference and the LIPM sway.
-    foot_y = {"left": 0.5 * width, "right": -0.5 * width}
-    p_ref = np.zeros(len(t))
-    first, last = walk.segments[1], walk.segments[-2]
-    first_y = foot_y["right" if first.contacts[1] else "left"]
-    last_y = foot_y["right" if last.contacts[1] else "left"]
-    for k, tk in enumerate(t):
-        seg = walk.segments[which[k]]
-        if seg.kind == "start":
-            p_ref[k] = first_y * smoothstep(np.array(tk / start_s))
-        elif seg.kind == "stop":
-            p_ref[k] = last_y * (1.0 - smoothstep(np.array((tk - seg.t0) / stop_s)))
-        else:
-            p_ref[k] = foot_y["left" if seg.contacts[0] else "right"]
+    p_ref = _zmp_reference(walk, t, which, width, start_s, stop_s)
     pin.centerOfMass(planar.robot.model, lifter.data, planar.to_full_q(result.q[0]))
     z_com = float(lifter.data.com[0][2])
     gravity = planar.gravity
@@ -333,33 +311,7 @@ def build_walk(
             "sway and its CoM stays between the feet; in single support it is not over the "
             "stance sole, so the whole-body QP cannot balance those samples"
         )
-    yd = np.gradient(y, dt)
-    ydd = np.gradient(yd, dt)
-
-    model = planar.robot.model
-    q = np.empty((len(t), model.nq))
-    v = np.empty((len(t), model.nv))
-    a = np.empty((len(t), model.nv))
-    contacts = np.empty((len(t), 2), dtype=bool)
-    for k, tk in enumerate(t):
-        seg = walk.segments[which[k]]
-        if tk - EPS_S < seg.t0 - 1e-12:
-            offsets = np.array([0.0, 1.0, 2.0]) * EPS_S
-        elif tk + EPS_S > seg.t1 + 1e-12:
-            offsets = np.array([-2.0, -1.0, 0.0]) * EPS_S
-        else:
-            offsets = np.array([-1.0, 0.0, 1.0]) * EPS_S
-        configs = [
-            lifter.lift(walk.at(seg, tk + o), y[k] + yd[k] * o + 0.5 * ydd[k] * o * o)
-            for o in offsets
-        ]
-        here = int(np.argmin(np.abs(offsets)))
-        q[k] = configs[here]
-        d01 = pin.difference(model, configs[0], configs[1]) / EPS_S
-        d12 = pin.difference(model, configs[1], configs[2]) / EPS_S
-        a[k] = (d12 - d01) / EPS_S
-        v[k] = (d01, 0.5 * (d01 + d12), d12)[here] + (here - 1) * 0.5 * EPS_S * a[k]
-        contacts[k] = seg.contacts
+    q, v, a, contacts = _samples(walk, lifter, t, which, y, dt)
     footprints = _footprints(walk, lifter, width, total)
     notes = walk.notes + notes
     if lifter.residual_m_rad > 1e-6:
@@ -408,3 +360,75 @@ def _footprints(
     for side, (x, t_on) in on.items():
         prints.append(Footprint(side, x, y[side], t_on, total))
     return tuple(sorted(prints, key=lambda f: (f.t_on_s, f.side)))
+
+
+def _check(planar: PlanarModel, result: GaitResult, steps: int, dt: float) -> None:
+    """WalkError unless `result` is a solved gait of `planar`'s joints and steps, dt fit."""
+    if not result.has_gait or not result.converged:
+        raise WalkError(f"no solved gait to walk: {result.status}")
+    if result.joint_names != planar.joint_names:
+        raise WalkError(
+            f"the gait was planned for joints {', '.join(result.joint_names)}; "
+            f"{planar.robot.name} has planar joints {', '.join(planar.joint_names)}"
+        )
+    if not isinstance(steps, int) or not 1 <= steps <= MAX_STEPS:
+        raise WalkError(f"steps = {steps!r}: give a whole number of steps in [1, {MAX_STEPS}]")
+    if not dt > 0.0 or not math.isfinite(dt):
+        raise WalkError(f"dt must be > 0, got {dt}")
+
+
+def _zmp_reference(
+    walk: _PlanarWalk, t: np.ndarray, which: np.ndarray, width: float, start_s: float,
+    stop_s: float,
+) -> np.ndarray:  # fmt: skip
+    """The lateral ZMP reference [m] at times `t`: under the stance foot, moved smoothly onto
+    the first stance foot at the start and back between the feet at the stop."""
+    foot_y = {"left": 0.5 * width, "right": -0.5 * width}
+    p_ref = np.zeros(len(t))
+    first, last = walk.segments[1], walk.segments[-2]
+    first_y = foot_y["right" if first.contacts[1] else "left"]
+    last_y = foot_y["right" if last.contacts[1] else "left"]
+    for k, tk in enumerate(t):
+        seg = walk.segments[which[k]]
+        if seg.kind == "start":
+            p_ref[k] = first_y * smoothstep(np.array(tk / start_s))
+        elif seg.kind == "stop":
+            p_ref[k] = last_y * (1.0 - smoothstep(np.array((tk - seg.t0) / stop_s)))
+        else:
+            p_ref[k] = foot_y["left" if seg.contacts[0] else "right"]
+    return p_ref
+
+
+def _samples(
+    walk: _PlanarWalk, lifter: LegLifter, t: np.ndarray, which: np.ndarray, y: np.ndarray,
+    dt: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """q, v, a and contacts of the whole-body walk at times `t`, the base swayed by `y` [m];
+    v and a by finite differences of configurations EPS_S apart (inside each segment)."""
+    yd = np.gradient(y, dt)
+    ydd = np.gradient(yd, dt)
+    model = walk.planar.robot.model
+    q = np.empty((len(t), model.nq))
+    v = np.empty((len(t), model.nv))
+    a = np.empty((len(t), model.nv))
+    contacts = np.empty((len(t), 2), dtype=bool)
+    for k, tk in enumerate(t):
+        seg = walk.segments[which[k]]
+        if tk - EPS_S < seg.t0 - 1e-12:
+            offsets = np.array([0.0, 1.0, 2.0]) * EPS_S
+        elif tk + EPS_S > seg.t1 + 1e-12:
+            offsets = np.array([-2.0, -1.0, 0.0]) * EPS_S
+        else:
+            offsets = np.array([-1.0, 0.0, 1.0]) * EPS_S
+        configs = [
+            lifter.lift(walk.at(seg, tk + o), y[k] + yd[k] * o + 0.5 * ydd[k] * o * o)
+            for o in offsets
+        ]
+        here = int(np.argmin(np.abs(offsets)))
+        q[k] = configs[here]
+        d01 = pin.difference(model, configs[0], configs[1]) / EPS_S
+        d12 = pin.difference(model, configs[1], configs[2]) / EPS_S
+        a[k] = (d12 - d01) / EPS_S
+        v[k] = (d01, 0.5 * (d01 + d12), d12)[here] + (here - 1) * 0.5 * EPS_S * a[k]
+        contacts[k] = seg.contacts
+    return q, v, a, contacts

@@ -1,0 +1,89 @@
+"""Loading a sweep point into the studio: its robot variant and a walk of its gait.
+
+The point's gait is solved again on a worker (the NLP is warm there); the variant robot is loaded
+with `StudioState.set_robot` and a walk of the gait played with `set_motion`. A point of a
+simulated sweep also hands its servo settings (the compliance, dead band and compensation it was
+simulated with) to the Compensation panel through the `servos` callback.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import viser
+
+from app.core.errors import StudioError
+from app.core.sweeps.robot_variants import sweep_robot_of
+from app.core.sweeps.sampling import SweepPoint
+from app.core.sweeps.servo_metrics import servo_settings
+from app.studio.state import StudioState
+from robots.catalogue import BUILTIN_ROBOTS
+
+WALK_STEPS = 4
+ServoSettings = Callable[[Any, Any], None]
+"""Takes (CompensationParams, ServoModel) for the loaded robot: the Compensation panel's."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PointLoader:
+    """Loads sweep points into `state` (see the module's docstring)."""
+
+    server: viser.ViserServer
+    state: StudioState
+    variants_dir: Path
+    """Where the URDFs of loaded sweep designs are kept (the data folder's variants/)."""
+    servos: ServoSettings | None = None
+
+    def load(self, engine: Any, point: SweepPoint) -> None:
+        """Solve `point`'s gait on `engine` and load its robot and walk (StudioError: why not)."""
+        from app.core.collocation.planar_model import PlanarModel
+        from app.core.robot.report import robot_report
+        from app.core.walking.walk import build_walk
+
+        loaded = self.state.robot
+        same = loaded is not None and sweep_robot_of(loaded.source) == point.robot.robot
+        if point.robot.robot not in BUILTIN_ROBOTS and not same:  # a file: not read again
+            raise StudioError(
+                f"point {point.index} is of {Path(point.robot.robot).name}: load that robot "
+                "first (Robot panel), then its points"
+            )
+        gait = engine.solve(point)
+        if not gait.converged:
+            raise StudioError(f"point {point.index} did not solve again: {gait.status}")
+        robot = self._robot_of(point, loaded if same else None)
+        walk = build_walk(PlanarModel(robot), gait, steps=WALK_STEPS)
+        report = robot_report(robot)
+        changed = ", ".join(f"{n} = {v:.4g}" for n, v in point.robot.values) or "as built"
+        summary = (
+            f"**sweep point #{point.index}** — {robot.name} ({changed}), SR {gait.sr:.4f}, "
+            f"max |τ| {gait.max_abs_tau_Nm:.2f} N·m; a walk of {WALK_STEPS} steps"
+        )
+        servos = None
+        if point.simulation is not None:
+            setup = point.simulation
+            servos = servo_settings(robot, setup)
+            summary += (
+                f"; servos {setup.compliance_deg_per_Nm:.3g} °/(N·m), dead band "
+                f"{setup.dead_band_deg:.3g}°, compensation {'on' if setup.compensation else 'off'}"
+            )
+        with self.state.lock, self.server.atomic():
+            if robot is not loaded:
+                self.state.set_robot(robot, report)
+            self.state.set_motion(walk.trajectory, summary, robot)
+        if servos is not None and self.servos is not None:
+            self.servos(*servos)  # after the robot: loading it reset the servos
+        self.state.on_play.emit(None)
+
+    def _robot_of(self, point: SweepPoint, swept: Any) -> Any:
+        """The point's robot: its variant's file, the robot `swept` on screen (it stays, and the
+        panel's choices), or the built-in as built."""
+        from app.core.robot.loading import load_robot
+
+        if point.robot.values:  # a file that stays: the gait worker and saves read it
+            return load_robot(point.robot.write_urdf(self.variants_dir))
+        if swept is not None:
+            return swept
+        return point.robot.load()
