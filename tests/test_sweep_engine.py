@@ -105,6 +105,9 @@ def test_a_killed_worker_loses_only_its_points_which_are_retried(engine):
     for index in lost:
         assert received[index].solved, received[index].reason
         assert received[index].worker.rsplit(":", 1)[1] != str(pid)  # rerun elsewhere
+    # The nanny starts a new worker in the killed one's place (seconds on a busy machine): the
+    # module's cluster is handed on as it was found, two workers.
+    engine.client.wait_for_workers(2, timeout=300)
 
 
 def test_an_unreachable_scheduler_is_a_clear_error():
@@ -119,6 +122,7 @@ def test_the_same_sweep_runs_unchanged_against_a_scheduler_address(engine):
     local = {r.index: r for r in engine.start(points).results()}
     # A client of the running cluster's scheduler, with the credentials (without them it is
     # refused: tests/test_sweep_cluster_security.py).
+    engine.client.wait_for_workers(2, timeout=300)  # a worker killed by a test is restarting
     with SweepEngine(engine.address, security=engine._cluster.security) as remote:
         assert remote.address == engine.address and remote.n_workers == 2
         by_address = {r.index: r for r in remote.start(points).results()}
