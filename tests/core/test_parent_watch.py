@@ -26,7 +26,7 @@ PARENT = textwrap.dedent(
     def busy(watching):
         die_with_parent()
         watching.set()
-        print("child holds the GIL", flush=True)
+        print("child holds the GIL", file=sys.stderr, flush=True)
         sum(range(10**15))  # one C call: no other thread of this process runs meanwhile
 
     if __name__ == "__main__":
@@ -57,23 +57,25 @@ def test_a_busy_worker_outlives_the_asking_thread_and_dies_with_its_parent(tmp_p
         env=env,
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
         text=True,
     )
     child = None
     try:
-        assert parent.stdout is not None
-        lines = [parent.stdout.readline()]
-        while lines[-1] and "GIL" in lines[-1]:  # the child may print first
-            lines.append(parent.stdout.readline())
-        pid, asking = (int(x) for x in lines[-1].split())
+        assert parent.stdout is not None and parent.stderr is not None
+        # The parent's line on stdout, the child's on stderr: on one pipe the two could
+        # interleave within a line (seen once on two pytest workers).
+        pid, asking = (int(x) for x in parent.stdout.readline().split())
         child = psutil.Process(pid)
         # The asking thread is gone from the kernel too: had the child been started by it,
         # its parent-death signal would have come now.
         task = Path(f"/proc/{parent.pid}/task/{asking}")
         poll("the asking thread ended", lambda: not task.exists(), GUARD_S)
         assert alive(child)
-        while not any("GIL" in line for line in lines):  # the child is inside its C call
-            lines.append(parent.stdout.readline())
+        line = "-"
+        while line and "GIL" not in line:  # the child is inside its C call
+            line = parent.stderr.readline()
+        assert "GIL" in line, "the child never said it holds the GIL"
         parent.send_signal(signal.SIGKILL)
         parent.wait(30)
         poll("the worker outlived its parent by 10 s", lambda: not alive(child), 10.0)
