@@ -154,15 +154,10 @@ def _stand_check(robot, traj, servo) -> str | None:
 def _drive_torque(robot, traj, tau, servo, law, options):
     """τ + D·q̇ + J·q̈ with the D and J the simulation gives each joint (`drive_torque_Nm`)."""
     from app.core.servo.compensation import drive_torque_Nm
-    from app.core.simulation.servo_law import servo_law
+    from app.core.simulation.run import robot_servo_law
 
     if law is None:
-        law = servo_law(
-            servo,
-            robot.joint_names,
-            [joint.effort for joint in robot.joints],
-            [joint.velocity for joint in robot.joints],
-        )
+        law = robot_servo_law(robot, servo)
     columns = [joint.idx_v for joint in robot.joints]
     rotor = getattr(law, "armature_kgm2", options.armature_kgm2)
     return drive_torque_Nm(

@@ -24,29 +24,16 @@ from tests.browser.page_helpers import (
     click_button,
     expand_folder,
     folder,
-    gui_row_input,
     open_studio,
     type_number,
     wait_for,
 )
+from tests.browser.test_compensation_browser import select_option
 
 MOTION = "one_leg_stand"
 JOINT = "left_knee"
 SERVO = "mx64"
 MARGIN = 0.2
-
-
-def select_option(page, label: str, option: str) -> None:
-    """Open the dropdown `label` (a Mantine Select) and click `option` in its list."""
-    box = gui_row_input(page, label, "input.mantine-Select-input")
-    box.scroll_into_view_if_needed()
-    box.click()
-    page.get_by_role("option", name=option, exact=True).click()
-    wait_for(
-        f"the page's {label} to show {option}",
-        lambda: box.input_value() == option,
-        UI_TIMEOUT_S,
-    )
 
 
 @pytest.fixture(scope="module")

@@ -101,13 +101,7 @@ def prepare(
             f"{robot.n_actuated}; give one servo per joint"
         )
     if law is None:
-        law = servo_law(
-            servo,
-            robot.joint_names,
-            [joint.effort for joint in robot.joints],
-            [joint.velocity for joint in robot.joints],
-            scaled_ideal_servo(robot).torque_limit_Nm,  # where the URDF gives no effort
-        )
+        law = robot_servo_law(robot, servo)
     roll, pitch = base_roll_pitch(trajectory.q)
     return EngineInput(
         sim=sim,
@@ -280,6 +274,19 @@ def simulate_commands(
 def _scaled(progress: Callable[[float], None], i: int, n: int) -> Callable[[float], None]:
     """Progress of run i of n as a fraction of all n."""
     return lambda fraction: progress((i + fraction) / n)
+
+
+def robot_servo_law(robot: RobotModel, servo: ServoModel):
+    """The ideal servos' law on `robot`: its joints' efforts and speeds, the robot's sized
+    torque where the URDF gives no effort (what a run simulates, and what the drive torque
+    compensates)."""
+    return servo_law(
+        servo,
+        robot.joint_names,
+        [joint.effort for joint in robot.joints],
+        [joint.velocity for joint in robot.joints],
+        scaled_ideal_servo(robot).torque_limit_Nm,  # where the URDF gives no effort
+    )
 
 
 def simulate_plan_and_compensated(
