@@ -1,8 +1,8 @@
 """`biped-studio bench`: the studio's speed targets, measured on fixed work, server side.
 
 Laid out like app/cli: one module per stage holds its entries (posing: load, slider, drag;
-playback; motions: interpolate; dynamics: feedforward; compensation: the k slider, long
-motions, the plots' cursor; projects; replay; sweep; gait: plan, plan_fine, plan_first_click,
+ik_baseline: drag_ik; playback; motions: interpolate; dynamics: feedforward; qp_solvers;
+compensation: the k slider, long motions, the plots' cursor; projects; replay; sweep; gait: plan, plan_fine, plan_first_click,
 plan_servo_biped; simulation: simulate, simulate_parts, simulate_click), each registered with
 `@bench_entry(name)` (app.bench.registry); they run stage by stage in STAGES' order. An entry returns its raw
 results and its Figures (app.bench.report), each beside a baseline doing the same work in the
@@ -26,6 +26,7 @@ from app.bench import (
     dynamics,
     gait,
     gait_speed,
+    ik_baseline,
     motions,
     playback,
     posing,
@@ -53,6 +54,7 @@ __all__ = ["ENTRIES", "run_bench"]
 
 STAGES = (
     posing,
+    ik_baseline,
     playback,
     motions,
     dynamics,
