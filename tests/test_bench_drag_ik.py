@@ -88,3 +88,10 @@ def test_placos_loop_solves_the_same_problem_and_stops_as_it_says(events):
         # Close to the target: within 0.1 mm, as the studio.
         assert distance < 1e-4
     assert "reached" in endings
+
+
+def test_the_entry_runs_beside_the_drag():
+    from app.bench import ENTRIES
+
+    names = list(ENTRIES)
+    assert names.index("drag_ik") == names.index("drag") + 1

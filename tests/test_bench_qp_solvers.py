@@ -106,3 +106,10 @@ def test_studio_and_baselines_reach_the_same_optimum(squats):
         assert row["max_stationarity"] < 2e-6, name
         assert row["max_objective_gap"] < 1e-7, name
         assert row["max_qdd_difference"] < 1e-4, name
+
+
+def test_the_entry_runs_beside_the_feedforward():
+    from app.bench import ENTRIES
+
+    names = list(ENTRIES)
+    assert names.index("qp_solvers") == names.index("feedforward") + 1
