@@ -37,7 +37,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from app.bench.posing import WARM_UP_EVENTS, drag_target, left_foot_placement
+from app.bench.posing import WARM_UP_EVENTS, _PlacoBareDrag, drag_target, left_foot_placement
 from app.bench.registry import BenchContext, bench_entry
 from app.bench.report import Figure
 from app.bench.timing import THREAD_CPU, percentiles_ms, timed_each
@@ -112,44 +112,25 @@ class Stop:
     orientation_error_rad: float
 
 
-class PlacoLoop:
+class PlacoLoop(_PlacoBareDrag):
     """placo's own IK on a drag event's problem (the module docstring), bare: no Python of
-    ours between its QP steps but the stopping test."""
+    ours between its QP steps but the stopping test. The drag entry's bare problem (feet,
+    posture, damping, loops, CoM polygon) with the torso hold a foot drag adds."""
 
     def __init__(self, robot: RobotModel) -> None:
-        import placo
+        from app.core.posing.ik import TORSO_WEIGHT
 
-        from app.core.posing.ik import DAMPING_MIN, LOOP_WEIGHT, TORSO_WEIGHT, WholeBodyIK
-        from app.core.robot.urdf_xml import canonical_urdf
-
-        defaults = WholeBodyIK(robot)  # the studio's posture weight and CoM margin
-        self.wrapper = placo.RobotWrapper("", 0, canonical_urdf(robot.tree))
-        solver = placo.KinematicsSolver(self.wrapper)
-        solver.enable_joint_limits(True)
-        solver.enable_velocity_limits(False)
-        solver.mask_fbase(not robot.floating_base)
-        self.left, self.right = (foot.link for foot in robot.feet)
-        self._left_task = solver.add_frame_task(self.left, np.eye(4))
-        self._left_task.configure("left", "soft", 1.0, 1.0)
-        self._right_task = solver.add_frame_task(self.right, np.eye(4))
-        self._right_task.configure("right", "hard", 1.0, 1.0)
-        self._torso = solver.add_orientation_task(robot.tree.root, np.eye(3))
+        super().__init__(robot)
+        self.wrapper, self.solver = self._wrapper, self._solver
+        self.left, self.right = self._left, self._right
+        self._torso = self.solver.add_orientation_task(robot.tree.root, np.eye(3))
         self._torso.configure("torso", "soft", TORSO_WEIGHT)
-        self._bounded = [joint for joint in robot.joints if joint.kind != "continuous"]
-        self._posture = solver.add_joints_task()
-        self._posture.configure("posture", "soft", defaults.posture_weight)
-        solver.add_regularization_task(DAMPING_MIN)
-        for loop in robot.tree.loops:
-            task = solver.add_relative_position_task(loop.link_a, loop.link_b, np.zeros(3))
-            task.configure(f"loop {loop.name}", "soft", LOOP_WEIGHT)
-        self._polygon = solver.add_com_polygon_constraint([np.zeros(2)] * 3, defaults.com_margin_m)
-        self._polygon.configure("com polygon", "hard", 1.0)
-        self.solver = solver
 
-    def solve(self, event: DragEvent) -> Stop:
+    def solve(self, event: DragEvent) -> Stop:  # type: ignore[override]
         """QP steps from the event's start until the left foot is within the studio's final
         errors of the target, or gets no closer (the module docstring), or MAX_STEPS."""
         wrapper, solver = self.wrapper, self.solver
+        assert self._posture is not None and self._polygon is not None  # the same problem
         self._polygon.polygon = [np.array(corner) for corner in event.polygon[::-1]]  # clockwise
         wrapper.state.q = event.q_from.copy()
         wrapper.update_kinematics()
