@@ -23,7 +23,7 @@ them) and gives both sides over all events.
 Equal accuracy is the point: placo's loop run to |dq| < 1e-6 does more steps than the studio
 needs for the same answer. Both are timed in thread CPU, in alternating passes of tight loops
 (a busy moment hits one pass, not the comparison), best of the passes per event; the first
-WARM_UP_EVENTS are left out (they lift the foot from the ground). p50 and p95 over the events.
+WARM_UP_EVENTS are left out (they lift the foot from the ground).
 
 pink and mink (other task-space IK libraries) are not in the studio's environment: no
 baseline of theirs is measured.

@@ -15,9 +15,12 @@ all with the studio's tolerance (1e-6) where they take one.
 
 Two figures per solver and robot, CPU time per sample (mean over the motion, since the studio
 solves a chunk in bulk; thread CPU, each pass in a tight loop, best of the passes):
-- the solve alone: the solver's call on the built matrices, beside the studio's work after
-  its kinematics (closed form + DAQP with its assembly where needed);
-- with the assembly: kinematics + the matrices + the solver, beside the studio's whole chunk.
+- the solve alone: the solver's call on the built matrices, beside the studio's solving
+  (its batched closed form of every sample, and DAQP's calls where the closed form does not
+  answer), timed inside its own chunks;
+- with the assembly: the kinematics + the matrices + the solver, beside the studio's
+  kinematics + closed form + the matrices and DAQP where it needs them (the torques and the
+  certification that follow are left out of both).
 
 Same solution: each answer is certified independently (`kkt_certificate`: feasibility, and
 the stationarity residual with non-negative multipliers fitted by NNLS on the active rows),
