@@ -279,6 +279,8 @@ class _Stepper:
         self._qfrc = d.qfrc_applied[av[0] : av[-1] + 1] if _contiguous(av) else None
         self._aq, self._av = aq, av
         self._qfrc_applied, self._qfrc_actuator = d.qfrc_applied, d.qfrc_actuator
+        self._ctrl, self._opt = d.ctrl, m.opt
+        self._tau_view = d.qfrc_actuator[av[0] : av[-1] + 1] if _contiguous(av) else None
         self._actuation_off = int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
         self._stage_vel = mujoco.mjtStage.mjSTAGE_VEL
 
@@ -312,18 +314,19 @@ class _Stepper:
         recorder.kinematics(k)
         # The forces under the torque of the step before the sample, as the Python law
         # leaves it: the actuators off, that torque applied, MuJoCo's last stages alone.
+        opt, off = self._opt, self._actuation_off
         self._qfrc_applied[:] = self._qfrc_actuator
-        m.opt.disableflags |= self._actuation_off
+        opt.disableflags |= off
         mj.mj_forwardSkip(m, d, self._stage_vel, 1)
         recorder.forces()
-        m.opt.disableflags &= ~self._actuation_off
+        opt.disableflags &= ~off
         self._qfrc_applied[:] = 0.0
         if last:
             return
-        d.ctrl[:] = (command if rows is None else rows[0])[self.ctrl_joint]
+        self._ctrl[:] = (command if rows is None else rows[0])[self.ctrl_joint]
         mj.mj_step2(m, d)  # the hold's first step, second half
         self._ctrl_steps(rows, command, 1, ticks)
-        recorder.tau[k] = self._qfrc_actuator[self._av]
+        recorder.tau[k] = self._actuator_tau()
 
     def _python_sample(self, k: int, recorder: Recorder, last: bool) -> None:
         """`sample` with the law in Python: the forward pass sees the torque the law left in
@@ -346,16 +349,26 @@ class _Stepper:
         recorder.tau[k] = self.servo.tau
 
     def _ctrl_steps(self, rows: np.ndarray | None, command: np.ndarray, first: int, ticks: int):
-        """Steps `first` … `ticks` − 1 of a hold at the set points `rows` (None: `command`)."""
-        mj, m, d = self._mj, self.m, self.d
-        if rows is None:
-            d.ctrl[:] = command[self.ctrl_joint]
-            if ticks > first:
-                mj.mj_step(m, d, ticks - first)
-            return
-        for row in rows[first:, self.ctrl_joint]:
-            d.ctrl[:] = row
-            mj.mj_step(m, d)
+        """Steps `first` … `ticks` − 1 of a hold at the set points `rows` (None: `command`):
+        one step per row while the set point moves (`Setpoints.moving`), then one
+        `mj_step(n)` at the command."""
+        mj, m, d, ctrl = self._mj, self.m, self.d, self._ctrl
+        moving = 0 if rows is None else self.setpoints.moving
+        if moving > first:
+            assert rows is not None
+            for row in rows[first:moving, self.ctrl_joint]:
+                ctrl[:] = row
+                mj.mj_step(m, d)
+        rest = ticks - max(first, moving)
+        if rest > 0:
+            ctrl[:] = command[self.ctrl_joint]
+            mj.mj_step(m, d, rest)
+
+    def _actuator_tau(self) -> np.ndarray:
+        """The actuators' torque on the actuated joints [N·m] (n,), MuJoCo's last step's."""
+        if self._tau_view is None:
+            return self._qfrc_actuator[self._av]
+        return self._tau_view
 
     def _apply_torque(self) -> None:
         """The Python law's torque at the current joint angles into qfrc_applied."""

@@ -94,11 +94,17 @@ class Recorder:
         # MjData's fixed arrays, bound once (each attribute read builds a new numpy view).
         self._d_qpos, self._d_qvel, self._d_xpos = d.qpos, d.qvel, d.xpos
         self._d_xmat_root = d.xmat[scene.root]
-        self._d_site_xpos, self._d_warnings = d.site_xpos, d.warning.number
-        self._pending: list[tuple[int, int, float]] = []  # (contact, side, sign) of sample k
+        self._d_soles = [d.site_xpos[site] for site in scene.sites]
+        self._d_warnings = d.warning.number
+        self._con: Any = None  # MjData's contact list of the last `kinematics`
+        self._contacts: list[int] = []  # the foot contacts of the last sample,
+        self._sides: list[int] = []  # their foot (0 left, 1 right)
+        self._signs: list[float] = []  # and +1 if the floor is the first geom, else −1
         self._k = 0
         capacity = 8 * n_samples
-        self._rows = np.zeros((capacity, 3))  # (sample, side, sign) per foot contact
+        self._sample = np.zeros(capacity, dtype=int)  # per foot contact
+        self._side = np.zeros(capacity, dtype=int)
+        self._sign = np.zeros(capacity)
         self._wrench = np.zeros((capacity, 6))  # mj_contactForce: contact frame
         self._frame = np.zeros((capacity, 9))  # the contact frame (rows: normal, tangents)
         self._count = 0
@@ -110,15 +116,20 @@ class Recorder:
         self.qpos[k] = self._d_qpos
         self.qvel[k] = self._d_qvel
         self.xmat_root[k] = self._d_xmat_root
-        self.sole[k] = self._d_site_xpos[scene.sites]
+        sole = self.sole[k]
+        sole[0], sole[1] = self._d_soles
         self.body_xpos[k] = self._d_xpos
         self.warnings[k] = self._d_warnings
-        self._k, pending = k, self._pending
-        pending.clear()
+        self._k = k
+        contacts, sides, signs = self._contacts, self._sides, self._signs
+        contacts.clear()
+        sides.clear()
+        signs.clear()
         if d.ncon == 0:
             return
         floor, side_of, touched = scene.floor, scene.side_of_geom, -1
-        for c, (g1, g2) in enumerate(d.contact.geom.tolist()):
+        self._con = con = d.contact  # valid until the next collision pass (mj_step1)
+        for c, (g1, g2) in enumerate(con.geom.tolist()):
             if g1 == floor:
                 other, sign = g2, 1.0
             elif g2 == floor:
@@ -130,30 +141,33 @@ class Recorder:
                 if touched < 0:
                     touched = int(self.m.geom_bodyid[other])
                 continue
-            pending.append((c, side, sign))
+            contacts.append(c)
+            sides.append(side)
+            signs.append(sign)
         self.touched_body[k] = touched
 
     def forces(self) -> None:
         """The foot contacts' forces of the constraint solve just done, at the state of the
         last `kinematics`."""
-        pending = self._pending
-        if not pending:
+        contacts = self._contacts
+        if not contacts:
             return
-        begin, end = self._count, self._count + len(pending)
-        if end > len(self._rows):
+        begin, end = self._count, self._count + len(contacts)
+        if end > len(self._sample):
             self._grow(2 * end)
         m, d, wrench, force = self.m, self.d, self._wrench, self._contact_force
-        contacts = [c for c, _, _ in pending]
         for i, c in enumerate(contacts, begin):
             force(m, d, c, wrench[i])
-        self._frame[begin:end] = d.contact.frame[contacts]
-        self._rows[begin:end] = [(self._k, side, sign) for _, side, sign in pending]
+        self._frame[begin:end] = self._con.frame[contacts]
+        self._sample[begin:end] = self._k
+        self._side[begin:end] = self._sides
+        self._sign[begin:end] = self._signs
         self._count = end
 
     def _grow(self, capacity: int) -> None:
-        for name in ("_rows", "_wrench", "_frame"):
+        for name in ("_sample", "_side", "_sign", "_wrench", "_frame"):
             old = getattr(self, name)
-            new = np.zeros((capacity, old.shape[1]))
+            new = np.zeros((capacity, *old.shape[1:]), dtype=old.dtype)
             new[: len(old)] = old
             setattr(self, name, new)
 
@@ -203,12 +217,12 @@ class Recorder:
     def contact_forces(self, n_samples: int) -> np.ndarray:
         """Floor force on each sole, world frame (T, 2, 3) [N]."""
         forces = np.zeros((n_samples, 2, 3))
-        rows, count = self._rows, self._count
-        keep = rows[:count, 0] < n_samples
+        count = self._count
+        keep = self._sample[:count] < n_samples
         frames = self._frame[:count][keep].reshape(-1, 3, 3)
         world = np.einsum("nji,nj->ni", frames, self._wrench[:count][keep, :3])
-        index = (rows[:count][keep, 0].astype(int), rows[:count][keep, 1].astype(int))
-        np.add.at(forces, index, world * rows[:count][keep, 2:3])
+        world *= self._sign[:count][keep, None]
+        np.add.at(forces, (self._sample[:count][keep], self._side[:count][keep]), world)
         return forces
 
 
