@@ -306,10 +306,11 @@ class _Stepper:
             return
         mj, m, d, ticks, commands = self._mj, self.m, self.d, self.ticks, self.commands
         command = commands[k]
+        rows: np.ndarray | None
         if self.inp.linear_hold:
             rows = self.setpoints.ramp(command, commands[min(k + 1, len(commands) - 1)], ticks)
         else:
-            rows = self.setpoints.hold(command, ticks)
+            rows = self.setpoints.hold_sample(commands, k, ticks)
         mj.mj_step1(m, d)  # positions, contacts, velocities at the sample: mj_step's first half
         recorder.kinematics(k)
         # The forces under the torque of the step before the sample, as the Python law
