@@ -15,6 +15,12 @@ can run in a worker process without pinocchio. Sequence:
    pitch more than `FALL_TILT_DEG` away from the plan's, or the root below
    `FALL_HEIGHT_FRACTION` of its planned height. After a fall the simulation goes on for
    `POST_FALL_S` and stops; later samples repeat the last state.
+
+A sample is recorded inside the first physics step of its hold (`recording`): `mj_step1`
+(positions, contacts, velocities), the contact forces under the previous step's servo torque
+(MuJoCo's acceleration and constraint stages alone, `mj_forwardSkip`), `mj_step2`; the rows
+are preallocated and converted in bulk, and the verdicts run on them a block of samples at a
+time (no longer than `POST_FALL_S`, so a fall never needs a sample the block has not made).
 """
 
 from __future__ import annotations
