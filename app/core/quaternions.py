@@ -74,6 +74,14 @@ def matrices_to_xyzquat(T: np.ndarray) -> np.ndarray:
     quat = np.empty((n, 4))  # x, y, z, w
     trace = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
     positive = trace > 0.0
+    if positive.all():  # an upright base, the usual case: no masked copies
+        t = np.sqrt(trace + 1.0)
+        half = 0.5 / t
+        quat[:, 3] = 0.5 * t
+        quat[:, 0] = (m[:, 2, 1] - m[:, 1, 2]) * half
+        quat[:, 1] = (m[:, 0, 2] - m[:, 2, 0]) * half
+        quat[:, 2] = (m[:, 1, 0] - m[:, 0, 1]) * half
+        return np.concatenate([T[:, :3, 3], quat], axis=1)
     if positive.any():
         mp = m[positive]
         t = np.sqrt(trace[positive] + 1.0)

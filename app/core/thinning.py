@@ -29,10 +29,14 @@ def thin_minmax(t: np.ndarray, curves: np.ndarray, max_points: int = MAX_POINTS)
     # (a repeat never wins: arg-min/max return the first occurrence).
     columns = starts[:, None] + np.minimum(np.arange(sizes.max()), sizes[:, None] - 1)
     block = curves[:, columns]  # (C, buckets, width)
-    missing = ~np.isfinite(block)  # NaN and ±inf samples are ignored
-    valid = ~np.all(missing, axis=2)  # (C, buckets): the curve has a sample in the bucket
-    lowest = np.argmin(np.where(missing, np.inf, block), axis=2)
-    highest = np.argmax(np.where(missing, -np.inf, block), axis=2)
+    if np.isfinite(curves).all():  # the usual case: no masking copies of the block
+        lowest, highest = block.argmin(axis=2), block.argmax(axis=2)
+        valid = np.ones(lowest.shape, dtype=bool)
+    else:
+        missing = ~np.isfinite(block)  # NaN and ±inf samples are ignored
+        valid = ~np.all(missing, axis=2)  # (C, buckets): the curve has a sample in the bucket
+        lowest = np.argmin(np.where(missing, np.inf, block), axis=2)
+        highest = np.argmax(np.where(missing, -np.inf, block), axis=2)
     bucket = np.nonzero(valid)[1]
     picked = [np.array([0, n - 1]), columns[bucket, lowest[valid]], columns[bucket, highest[valid]]]
     return np.unique(np.concatenate(picked))

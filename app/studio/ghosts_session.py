@@ -70,6 +70,9 @@ class GhostsSession:
         """Emitted when the plots' time cursor has moved to a time [s]."""
         self._mirroring = False
         """A project's display settings are being shown: the widgets' echoes are not edits."""
+        self._torques_thinned: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        """(times, torques, the samples their plot keeps): a slider's re-prediction keeps the
+        motion and its torques (the same arrays), so their thinning is not redone."""
         state.on_motion.connect(self._on_motion)
         state.work.on_prediction.connect(lambda _prediction: self.redraw())
         state.work.on_simulation.connect(lambda _record: self.redraw())
@@ -120,7 +123,12 @@ class GhostsSession:
         deg = np.rad2deg
         t = prediction.t
         self.plots.info.content = quick_estimate_summary(prediction)
-        keep = thin_minmax(t, prediction.tau_Nm.T)  # plots get ≤ 2000 points, every peak kept
+        thinned = self._torques_thinned
+        if thinned is None or thinned[0] is not t or thinned[1] is not prediction.tau_Nm:
+            # plots get ≤ 2000 points, every peak kept
+            keep = thin_minmax(t, prediction.tau_Nm.T)
+            thinned = self._torques_thinned = (t, prediction.tau_Nm, keep)
+        keep = thinned[2]
         self.plots.show_torques(t[keep], prediction.joint_names, prediction.tau_Nm[keep])
         attitude = np.stack(
             [

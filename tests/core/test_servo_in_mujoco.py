@@ -74,10 +74,12 @@ def test_the_set_points_slew_as_the_per_tick_recurrence():
     rng = np.random.default_rng(5)
     n, dt, ticks = 5, 0.001, 10
     law = _law(n, rng, False)
-    commands = np.cumsum(rng.normal(0.0, 0.02, (40, n)), axis=0)
+    # Steps within a tick's slew (≥ 1 mrad here) and beyond it, and jumps.
+    commands = np.cumsum(rng.normal(0.0, 0.0006, (40, n)) * rng.choice([1, 20], (40, 1)), axis=0)
     commands[10] += 0.3  # jumps the slew needs several ticks (or holds) for
     commands[25] -= 0.5
-    for ramp in (False, True):
+    for mode in ("hold", "hold_sample", "ramp"):
+        ramp = mode == "ramp"
         fast = Setpoints(law, dt, commands[0])
         s, max_step = commands[0].copy(), law.velocity_rad_s * dt
         for k in range(len(commands) - 1):
@@ -90,8 +92,17 @@ def test_the_set_points_slew_as_the_per_tick_recurrence():
             for c in wanted:
                 s = s + np.clip(c - s, -max_step, max_step)
                 expected.append(s.copy())
-            rows = fast.ramp(commands[k], end, ticks) if ramp else fast.hold(commands[k], ticks)
+            if mode == "ramp":
+                rows = fast.ramp(commands[k], end, ticks)
+            elif mode == "hold":
+                rows = fast.hold(commands[k], ticks)
+            else:  # its shortcut for steps within a tick's slew
+                rows = fast.hold_sample(commands, k, ticks)
             got = np.tile(commands[k], (ticks, 1)) if rows is None else rows
+            if not ramp:  # the rows after `moving` all hold the command
+                np.testing.assert_array_equal(
+                    got[fast.moving :], commands[k][None].repeat(ticks - fast.moving, 0)
+                )
             np.testing.assert_allclose(got, np.array(expected), rtol=0, atol=1e-12)
 
 

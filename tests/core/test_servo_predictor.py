@@ -79,6 +79,30 @@ def test_the_cached_predictor_equals_the_uncached_prediction_on_every_edit(name,
         )
 
 
+@pytest.mark.parametrize("block", [9, 64])
+def test_the_predictor_in_blocks_equals_the_uncached_prediction(monkeypatch, block):
+    """The predictor grounds a block of samples at a time: blocks that split the stance
+    phases (one foot throughout, or both feet within a block) give the uncached prediction,
+    and the last, shorter block too."""
+    from app.core.servo import model
+
+    robot, trajectory, tau, params, servo = setup("servo_biped", "one_leg_squats")
+    assert trajectory.n_samples % block != 0
+    # The stance switches to the right foot for stretches of several lengths (the grounding
+    # then moves the base to that foot: a different leg's kinematics within a block).
+    contacts = trajectory.contacts.copy()
+    for begin, length in ((40, 3), (100, 80), (300, 1)):
+        contacts[begin : begin + length] = (False, True)
+    trajectory = dataclasses.replace(trajectory, contacts=contacts)
+    monkeypatch.setattr(model, "BLOCK_SAMPLES", block)
+    predictor = Predictor(robot, trajectory, tau)
+    for k_scale in (1.0, -0.5):
+        moved = dataclasses.replace(params, k_deg_per_Nm=params.k_deg_per_Nm * k_scale)
+        same_prediction(
+            predictor.predict(moved, servo), predict(robot, trajectory, tau, moved, servo)
+        )
+
+
 def test_the_legs_forward_kinematics_match_pinocchio():
     """T_base_foot of both legs, over random configurations, against pinocchio's frames."""
     robot = load_robot(str(ROBAN)) if ROBAN.exists() else load_robot("servo_biped")

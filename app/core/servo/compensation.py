@@ -200,11 +200,19 @@ def compensated_command(
                 f"{label} contain NaN or infinite values (first at sample {bad[0]}, "
                 f"joint {params.joint_names[bad[1]]})"
             )
+    return checked_command(q, tau, params)
+
+
+def checked_command(
+    q_rad: np.ndarray, tau_Nm: np.ndarray, params: CompensationParams
+) -> np.ndarray:
+    """`compensated_command`'s equations alone, for inputs it has already accepted (float
+    arrays (T, n), finite): a slider's re-prediction checks its fixed plan and torques once."""
     with np.errstate(over="ignore", invalid="ignore"):  # huge τ: inf, refused when written
-        spring = q + k_rad_per_Nm(params.k_deg_per_Nm) * tau  # eq 7
-        direction = np.sign(spring) if params.clearance_sign == "command" else np.sign(tau)
-        command = spring + np.deg2rad(params.phi_deg) * direction  # eq 23
-    return np.where(params.enabled, command, q)
+        spring = q_rad + k_rad_per_Nm(params.k_deg_per_Nm) * tau_Nm  # eq 7
+        direction = np.sign(spring) if params.clearance_sign == "command" else np.sign(tau_Nm)
+        spring += np.deg2rad(params.phi_deg) * direction  # eq 23
+    return np.where(params.enabled, spring, q_rad)
 
 
 def drive_torque_Nm(

@@ -119,11 +119,13 @@ class LegChains:
 
     def stance_to_base(self, right: np.ndarray, q: np.ndarray) -> np.ndarray:
         """T_base_foot of each sample's stance foot (right[k] selects the right foot), (T,4,4)."""
+        right = np.asarray(right, dtype=bool)
+        if right.all() or not right.any():  # one stance foot throughout: no masked copies
+            return self.base_to_foot(int(right[0]) if len(right) else 0, q)
         out = np.empty((len(q), 4, 4))
         for foot in (0, 1):
             mask = right == bool(foot)
-            if mask.any():
-                out[mask] = self.base_to_foot(foot, q[mask])
+            out[mask] = self.base_to_foot(foot, q[mask])
         return out
 
 

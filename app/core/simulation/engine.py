@@ -15,6 +15,12 @@ can run in a worker process without pinocchio. Sequence:
    pitch more than `FALL_TILT_DEG` away from the plan's, or the root below
    `FALL_HEIGHT_FRACTION` of its planned height. After a fall the simulation goes on for
    `POST_FALL_S` and stops; later samples repeat the last state.
+
+A sample is recorded inside the first physics step of its hold (`recording`): `mj_step1`
+(positions, contacts, velocities), the contact forces under the previous step's servo torque
+(MuJoCo's acceleration and constraint stages alone, `mj_forwardSkip`), `mj_step2`; the rows
+are preallocated and converted in bulk, and the verdicts run on them a block of samples at a
+time (no longer than `POST_FALL_S`, so a fall never needs a sample the block has not made).
 """
 
 from __future__ import annotations
@@ -27,19 +33,42 @@ from typing import Any
 
 import numpy as np
 
-from app.core.quaternions import wxyz_to_xyzw
 from app.core.simulation.errors import SimulationDiverged, SimulationInputError
 from app.core.simulation.part_law import PartEnergy, PartLaw, PartLoop
+from app.core.simulation.recording import (
+    FALL_HEIGHT_FRACTION,
+    FALL_TILT_DEG,
+    MAX_SPEED,
+    NON_FOOT_CLEARANCE_M,
+    Recorder,
+    Scene,
+    check_diverged,
+    diverged_message,
+    first_fall,
+    qpos_to_pin,
+    qvel_to_pin,
+)
 from app.core.simulation.servo_law import ServoLaw, ServoLoop, Setpoints, actuators_xml
 from app.core.simulation.sim_model import SimModel
 
+__all__ = [
+    "DROP_M",
+    "FALL_HEIGHT_FRACTION",
+    "FALL_TILT_DEG",
+    "MAX_SPEED",
+    "NON_FOOT_CLEARANCE_M",
+    "POST_FALL_S",
+    "EngineInput",
+    "EngineRun",
+    "pin_to_qpos",
+    "qpos_to_pin",
+    "qvel_to_pin",
+    "run_engine",
+    "start",
+]
+
 DROP_M = 0.0005
-FALL_TILT_DEG = 30.0
-FALL_HEIGHT_FRACTION = 0.6
-NON_FOOT_CLEARANCE_M = 0.005
 POST_FALL_S = 0.5
-MAX_SPEED = 1e3
-"""Any generalised speed beyond this [m/s or rad/s] is a blown-up simulation."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -107,35 +136,6 @@ def pin_to_qpos(sim: SimModel, q_pin: np.ndarray, qpos: np.ndarray) -> None:
         qpos[adr] = math.atan2(q_pin[i_pin + 1], q_pin[i_pin])
 
 
-def qpos_to_pin(sim: SimModel, qpos: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """MuJoCo's qpos as a pinocchio configuration (into `out` when given)."""
-    q = np.zeros(sim.nq_pin) if out is None else out
-    if sim.floating_base:
-        q[:3] = qpos[:3]
-        q[3:7] = wxyz_to_xyzw(qpos[3:7])
-    scalar, continuous = np.asarray(sim.pin_scalar_q), np.asarray(sim.pin_continuous_q)
-    if len(scalar):
-        q[scalar[:, 0]] = qpos[scalar[:, 1]]
-    if len(continuous):
-        angle = qpos[continuous[:, 1]]
-        q[continuous[:, 0]], q[continuous[:, 0] + 1] = np.cos(angle), np.sin(angle)
-    return q
-
-
-def qvel_to_pin(
-    sim: SimModel, qvel: np.ndarray, R_world_base: np.ndarray, out: np.ndarray | None = None
-) -> np.ndarray:
-    """MuJoCo's free joint has its linear velocity in the world, pinocchio's in the base."""
-    v = np.zeros(sim.nv_pin) if out is None else out
-    if sim.floating_base:
-        v[:3] = R_world_base.T @ qvel[:3]
-        v[3:6] = qvel[3:6]
-    dofs = np.asarray(sim.pin_dof)
-    if len(dofs):
-        v[dofs[:, 0]] = qvel[dofs[:, 1]]
-    return v
-
-
 def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None) -> EngineRun:
     """Simulate the motion (module docstring). `progress(fraction)` is called about 50 times;
     raising from it stops the run. MuJoCo's warnings are kept in memory for the run (by
@@ -185,176 +185,206 @@ def start(inp: EngineInput) -> tuple[Any, Any, np.ndarray, int]:
 
 
 def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRun:
-    import mujoco
-
+    """The module docstring's sequence: settle, then the samples a block at a time, each
+    block's blow-up and fall verdicts checked on what it recorded."""
     begin = time.perf_counter()
-    sim, law = inp.sim, inp.law
     m, d, ctrl_joint, ticks = start(inp)
-    in_mujoco = len(ctrl_joint) > 0
-    dt = float(m.opt.timestep)
-    floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
-    root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, sim.root_body) if sim.floating_base else 0
-    sites = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name) for name in sim.sole_sites]
-    side_of_body = {
-        mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name): side
-        for side, names in enumerate(sim.foot_bodies)
-        for name in names
-    }
-    foot_bodies = set(side_of_body)
-    # Every geom on a foot (its sole box, and its hull with `hulls`) counts for that foot.
-    side_of_geom = {
-        g: side_of_body[int(m.geom_bodyid[g])]
-        for g in range(m.ngeom)
-        if int(m.geom_bodyid[g]) in side_of_body
-    }
-    non_foot = np.array([b for b in range(1, m.nbody) if b not in foot_bodies], dtype=int)
-    link_of = dict(sim.body_links)
-
-    def link_name(body: int) -> str:
-        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
-        return link_of.get(name, name)
-
-    aq, av = sim.actuated_qpos, sim.actuated_dof
-    commands = np.asarray(inp.q_cmd_rad, dtype=float)
-    n_samples, n = commands.shape
-    servo = (
-        PartLoop(law, dt, commands[0], m, d, av)
-        if isinstance(law, PartLaw)
-        else ServoLoop(law, dt, commands[0])
-    )
-    setpoints = Setpoints(law, dt, commands[0])
-    # Contiguous actuated coordinates are read and written through views (no copies).
-    qpos_view = d.qpos[aq[0] : aq[-1] + 1] if _contiguous(aq) else None
-    qfrc_view = d.qfrc_applied[av[0] : av[-1] + 1] if _contiguous(av) else None
-
-    def tick() -> None:
-        tau = servo.torque(d.qpos[aq] if qpos_view is None else qpos_view)
-        if qfrc_view is None:
-            d.qfrc_applied[av] = tau
-        else:
-            qfrc_view[:] = tau
-        mujoco.mj_step(m, d)
-
-    def hold(rows: np.ndarray | None, command: np.ndarray, n_ticks: int) -> None:
-        """MuJoCo's actuators: `n_ticks` steps at the set points `rows` (None: at `command`)."""
-        if rows is None:
-            d.ctrl[:] = command[ctrl_joint]
-            mujoco.mj_step(m, d, n_ticks)
-            return
-        for row in rows[:, ctrl_joint]:
-            d.ctrl[:] = row
-            mujoco.mj_step(m, d)
-
-    if in_mujoco:
-        settle = round(inp.settle_s / dt)
-        hold(setpoints.hold(commands[0], settle), commands[0], settle)
-    else:
-        for _ in range(round(inp.settle_s / dt)):
-            tick()
-    _check(d, m, -inp.settle_s)
-    if isinstance(servo, PartLoop):
-        servo.reset_energy()
-    nq, nv = sim.nq_pin, sim.nv_pin
-    out_q, out_v = np.zeros((n_samples, nq)), np.zeros((n_samples, nv))
-    out_qj, out_tau = np.zeros((n_samples, n)), np.zeros((n_samples, n))
-    roll, pitch = np.zeros(n_samples), np.zeros(n_samples)
-    forces, sole_pos = np.zeros((n_samples, 2, 3)), np.zeros((n_samples, 2, 3))
-    root_pos = np.zeros((n_samples, 3))
-    touching = np.zeros(n_samples, dtype=bool)
-    fall_index, reason, stop_index = -1, "", n_samples
-    every = max(1, n_samples // 50)
-    force6 = np.zeros(6)
-    actuation_off = int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
-    k = 0
-    for k in range(n_samples):
-        _check(d, m, k * inp.dt_cmd_s)
-        if in_mujoco:  # the servo torque of the last step, as the Python law leaves it
-            d.qfrc_applied[:] = d.qfrc_actuator
-            m.opt.disableflags |= actuation_off
-        mujoco.mj_forward(m, d)  # after mj_step, positions and contacts lag qpos by a step
-        if in_mujoco:
-            m.opt.disableflags &= ~actuation_off
-            d.qfrc_applied[:] = 0.0
-        R = d.xmat[root].reshape(3, 3) if sim.floating_base else np.eye(3)
-        qpos_to_pin(sim, d.qpos, out_q[k])
-        qvel_to_pin(sim, d.qvel, R, out_v[k])
-        out_qj[k] = d.qpos[aq]
-        roll[k] = math.atan2(R[2, 1], R[2, 2])
-        pitch[k] = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
-        for side in (0, 1):
-            sole_pos[k, side] = d.site_xpos[sites[side]]
-        root_pos[k] = d.xpos[root]
-        touched = ""
-        pairs = d.contact.geom  # (ncon, 2), read at once: d.contact[c] builds an object
-        on_floor = np.flatnonzero((pairs == floor).any(axis=1))
-        for c in on_floor.tolist():
-            first_is_floor = int(pairs[c, 0]) == floor
-            other = int(pairs[c, 1] if first_is_floor else pairs[c, 0])
-            foot = side_of_geom.get(other)
-            if foot is None:
-                touching[k] = True
-                touched = touched or link_name(int(m.geom_bodyid[other]))
-                continue
-            mujoco.mj_contactForce(m, d, c, force6)
-            world = d.contact.frame[c].reshape(3, 3).T @ force6[:3]
-            forces[k, foot] += world if first_is_floor else -world
-        if non_foot.size and d.xpos[non_foot, 2].min() < NON_FOOT_CLEARANCE_M:
-            touching[k] = True
-            touched = touched or link_name(int(non_foot[np.argmin(d.xpos[non_foot, 2])]))
+    stepper = _Stepper(inp, m, d, ctrl_joint, ticks)
+    stepper.settle()
+    _check(d, -inp.settle_s)
+    n_samples = len(stepper.commands)
+    recorder = Recorder(m, d, Scene.of(inp.sim, m), n_samples, stepper.commands.shape[1])
+    planned = (inp.roll_planned_rad, inp.pitch_planned_rad, inp.root_height_planned_m)
+    post = max(1, round(POST_FALL_S / inp.dt_cmd_s))
+    # A block no longer than the post-fall time: a fall found at a block's end never needs
+    # samples the block has not simulated, nor stops before those it has.
+    block, every = max(1, min(post, n_samples // 50)), max(1, n_samples // 50)
+    fall_index, reason, stop, k0, next_report = -1, "", n_samples, 0, 0
+    while k0 < stop:
+        if progress is not None and k0 >= next_report:
+            progress(k0 / n_samples)
+            next_report = k0 + every
+        k1 = min(stop, k0 + block)
+        for k in range(k0, k1):
+            stepper.sample(k, recorder, last=k == n_samples - 1)
+        check_diverged(recorder, k0, k1, inp.dt_cmd_s)
         if fall_index < 0 and inp.detect_falls:
-            reason = _fall_reason(inp, k, roll[k], pitch[k], d.xpos[root, 2], touched, sim)
-            if reason:
-                fall_index = k
-                if k == 0:
+            fall_index, reason = first_fall(recorder, k0, k1, inp.sim, planned)
+            if fall_index >= 0:
+                if fall_index == 0:
                     reason = f"while settling on the first pose: {reason}"
-                stop_index = min(n_samples, k + max(1, round(POST_FALL_S / inp.dt_cmd_s)))
-        if k + 1 >= stop_index:
-            break
-        if progress is not None and k % every == 0:
-            progress(k / n_samples)
-        if in_mujoco:
-            if inp.linear_hold:
-                hold(
-                    setpoints.ramp(commands[k], commands[min(k + 1, n_samples - 1)], ticks),
-                    commands[k],
-                    ticks,
-                )
-            else:
-                hold(setpoints.hold(commands[k], ticks), commands[k], ticks)
-            out_tau[k] = d.qfrc_actuator[av]
-            continue
-        if inp.linear_hold:
-            step = (commands[min(k + 1, n_samples - 1)] - commands[k]) / ticks
-            for i in range(1, ticks + 1):
-                servo.set_command(commands[k] + i * step)
-                tick()
-        else:
-            servo.set_command(commands[k])
-            for _ in range(ticks):
-                tick()
-        out_tau[k] = servo.tau
-    last = k
-    for array in (out_q, out_v, out_qj, out_tau, roll, pitch, forces, sole_pos, root_pos, touching):
-        array[last + 1 :] = array[last]
+                stop = min(n_samples, fall_index + post)
+        k0 = k1
     if progress is not None:
         progress(1.0)
+    return _engine_run(inp, recorder, stop - 1, fall_index, reason, stepper, begin)
+
+
+def _engine_run(
+    inp: EngineInput,
+    recorder: Recorder,
+    last: int,
+    fall_index: int,
+    reason: str,
+    stepper: _Stepper,
+    begin: float,
+) -> EngineRun:
+    """The recorded rows in the run's layouts; samples after `last` repeat it (no torque
+    after the last recorded sample, as the step loop applies none)."""
+    rec, sim = recorder, inp.sim
+    rec.tau[last:] = 0.0
+    for raw in (rec.qpos, rec.qvel, rec.xmat_root, rec.sole, rec.body_xpos, rec.touched_body):
+        raw[last + 1 :] = raw[last]
+    forces = rec.contact_forces(last + 1)
+    forces = np.concatenate([forces, np.repeat(forces[last:], len(rec.tau) - last - 1, axis=0)])
+    roll, pitch = rec.roll_pitch()
+    R_world_base = rec.xmat_root.reshape(-1, 3, 3)
     return EngineRun(
-        q=out_q,
-        v=out_v,
-        q_joints_rad=out_qj,
-        tau_Nm=out_tau,
+        q=qpos_to_pin(sim, rec.qpos),
+        v=qvel_to_pin(sim, rec.qvel, R_world_base),
+        q_joints_rad=rec.qpos[:, sim.actuated_qpos],
+        tau_Nm=rec.tau,
         roll_rad=roll,
         pitch_rad=pitch,
         contact_force_N=forces,
-        sole_position_m=sole_pos,
-        root_position_m=root_pos,
-        non_foot_contact=touching,
+        sole_position_m=rec.sole,
+        root_position_m=rec.body_xpos[:, rec.scene.root].copy(),
+        non_foot_contact=rec.touching(),
         fall_index=fall_index,
         fall_reason=reason,
         n_simulated=last + 1,
         wall_time_s=time.perf_counter() - begin,
-        energy=servo.energy() if isinstance(servo, PartLoop) else None,
+        energy=stepper.servo.energy() if isinstance(stepper.servo, PartLoop) else None,
     )
+
+
+class _Stepper:
+    """The physics a hold at a time: the ideal servo's law in MuJoCo's actuators (set points
+    as ctrl, `mj_step(n)` where they hold), or a law in Python at every tick (`ServoLoop`,
+    `PartLoop`) into qfrc_applied. `sample(k)` records sample k inside the hold's first
+    physics step (split into `mj_step1` / `mj_step2`, the same computation as `mj_step`)."""
+
+    def __init__(self, inp: EngineInput, m: Any, d: Any, ctrl_joint: np.ndarray, ticks: int):
+        import mujoco
+
+        self.inp, self.m, self.d, self.ctrl_joint, self.ticks = inp, m, d, ctrl_joint, ticks
+        self._mj = mujoco
+        self.in_mujoco = len(ctrl_joint) > 0
+        self.commands = np.asarray(inp.q_cmd_rad, dtype=float)
+        self.dt = float(m.opt.timestep)
+        law, first, av = inp.law, self.commands[0], inp.sim.actuated_dof
+        self.servo: ServoLoop = (
+            PartLoop(law, self.dt, first, m, d, av)
+            if isinstance(law, PartLaw)
+            else ServoLoop(law, self.dt, first)
+        )
+        self.setpoints = Setpoints(law, self.dt, first)
+        aq = inp.sim.actuated_qpos
+        # Contiguous actuated coordinates are read and written through views (no copies).
+        self._qpos = d.qpos[aq[0] : aq[-1] + 1] if _contiguous(aq) else None
+        self._qfrc = d.qfrc_applied[av[0] : av[-1] + 1] if _contiguous(av) else None
+        self._aq, self._av = aq, av
+        self._qfrc_applied, self._qfrc_actuator = d.qfrc_applied, d.qfrc_actuator
+        self._ctrl, self._opt = d.ctrl, m.opt
+        self._tau_view = d.qfrc_actuator[av[0] : av[-1] + 1] if _contiguous(av) else None
+        self._actuation_off = int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
+        self._stage_vel = mujoco.mjtStage.mjSTAGE_VEL
+
+    def settle(self) -> None:
+        """Hold the first command for `settle_s` (not recorded)."""
+        command = self.commands[0]
+        settle = round(self.inp.settle_s / self.dt)
+        if self.in_mujoco:
+            rows = self.setpoints.hold(command, settle)
+            self._ctrl_steps(rows, command, 0, settle)
+        else:
+            for _ in range(settle):
+                self._apply_torque()
+                self._mj.mj_step(self.m, self.d)
+        if isinstance(self.servo, PartLoop):
+            self.servo.reset_energy()
+
+    def sample(self, k: int, recorder: Recorder, last: bool) -> None:
+        """Record sample k, then hold its command for `ticks` steps (ramped to the next one
+        with `linear_hold`); `last`: record only."""
+        if not self.in_mujoco:
+            self._python_sample(k, recorder, last)
+            return
+        mj, m, d, ticks, commands = self._mj, self.m, self.d, self.ticks, self.commands
+        command = commands[k]
+        rows: np.ndarray | None
+        if self.inp.linear_hold:
+            rows = self.setpoints.ramp(command, commands[min(k + 1, len(commands) - 1)], ticks)
+        else:
+            rows = self.setpoints.hold_sample(commands, k, ticks)
+        mj.mj_step1(m, d)  # positions, contacts, velocities at the sample: mj_step's first half
+        recorder.kinematics(k)
+        # The forces under the torque of the step before the sample, as the Python law
+        # leaves it: the actuators off, that torque applied, MuJoCo's last stages alone.
+        opt, off = self._opt, self._actuation_off
+        self._qfrc_applied[:] = self._qfrc_actuator
+        opt.disableflags |= off
+        mj.mj_forwardSkip(m, d, self._stage_vel, 1)
+        recorder.forces()
+        opt.disableflags &= ~off
+        self._qfrc_applied[:] = 0.0
+        if last:
+            return
+        self._ctrl[:] = (command if rows is None else rows[0])[self.ctrl_joint]
+        mj.mj_step2(m, d)  # the hold's first step, second half
+        self._ctrl_steps(rows, command, 1, ticks)
+        recorder.tau[k] = self._actuator_tau()
+
+    def _python_sample(self, k: int, recorder: Recorder, last: bool) -> None:
+        """`sample` with the law in Python: the forward pass sees the torque the law left in
+        qfrc_applied, then `ticks` steps with the law at every one."""
+        mj, m, d, ticks, commands = self._mj, self.m, self.d, self.ticks, self.commands
+        mj.mj_forward(m, d)
+        recorder.kinematics(k)
+        recorder.forces()
+        if last:
+            return
+        command, after = commands[k], commands[min(k + 1, len(commands) - 1)]
+        step = (after - command) / ticks if self.inp.linear_hold else None
+        if step is None:
+            self.servo.set_command(command)
+        for i in range(1, ticks + 1):
+            if step is not None:
+                self.servo.set_command(command + i * step)
+            self._apply_torque()
+            mj.mj_step(m, d)
+        recorder.tau[k] = self.servo.tau
+
+    def _ctrl_steps(self, rows: np.ndarray | None, command: np.ndarray, first: int, ticks: int):
+        """Steps `first` … `ticks` − 1 of a hold at the set points `rows` (None: `command`):
+        one step per row while the set point moves (`Setpoints.moving`), then one
+        `mj_step(n)` at the command."""
+        mj, m, d, ctrl = self._mj, self.m, self.d, self._ctrl
+        moving = 0 if rows is None else self.setpoints.moving
+        if moving > first:
+            assert rows is not None
+            for row in rows[first:moving, self.ctrl_joint]:
+                ctrl[:] = row
+                mj.mj_step(m, d)
+        rest = ticks - max(first, moving)
+        if rest > 0:
+            ctrl[:] = command[self.ctrl_joint]
+            mj.mj_step(m, d, rest)
+
+    def _actuator_tau(self) -> np.ndarray:
+        """The actuators' torque on the actuated joints [N·m] (n,), MuJoCo's last step's."""
+        if self._tau_view is None:
+            return self._qfrc_actuator[self._av]
+        return self._tau_view
+
+    def _apply_torque(self) -> None:
+        """The Python law's torque at the current joint angles into qfrc_applied."""
+        d = self.d
+        tau = self.servo.torque(d.qpos[self._aq] if self._qpos is None else self._qpos)
+        if self._qfrc is None:
+            d.qfrc_applied[self._av] = tau
+        else:
+            self._qfrc[:] = tau
 
 
 def _contiguous(indices: np.ndarray) -> bool:
@@ -368,37 +398,10 @@ def _lowest_corner_z(d, m, geom: int) -> float:
     return float(corners[:, 2].min())
 
 
-def _check(d, m, t_s: float) -> None:
+def _check(d: Any, t_s: float) -> None:
     """MuJoCo resets the state when its accelerations turn NaN (mjWARN_BADQACC): a blow-up."""
     import mujoco
 
     reset = d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
     if reset or not (np.all(np.isfinite(d.qpos)) and np.all(np.abs(d.qvel) < MAX_SPEED)):
-        raise SimulationDiverged(
-            f"the simulation blew up at t = {t_s:.3f} s (NaN or runaway speed); the servos are "
-            "too stiff for the time step: lower the stiffness or the time step"
-        )
-
-
-def _fall_reason(
-    inp: EngineInput, k: int, roll: float, pitch: float, z: float, touched: str, sim: SimModel
-) -> str:
-    """Why sample k has fallen ("" if it has not); `touched`: the first non-foot link found
-    on the floor at k ("" if none)."""
-    if touched:
-        return f"the link {touched} touches the floor"
-    if not sim.floating_base:
-        return ""
-    for label, actual, planned in (
-        ("roll", roll, inp.roll_planned_rad[k]),
-        ("pitch", pitch, inp.pitch_planned_rad[k]),
-    ):
-        error = math.degrees(abs(math.remainder(actual - planned, 2.0 * math.pi)))
-        if error > FALL_TILT_DEG:
-            return f"the torso's {label} is {error:.0f}° off the plan"
-    if z < FALL_HEIGHT_FRACTION * inp.root_height_planned_m[k]:
-        return (
-            f"the torso is down to {z * 100:.1f} cm "
-            f"(planned {inp.root_height_planned_m[k] * 100:.1f} cm)"
-        )
-    return ""
+        raise SimulationDiverged(diverged_message(t_s))

@@ -176,22 +176,53 @@ class Setpoints:
     """The set point's slew (the first line of the law) ahead of the physics: it depends on
     the commands alone, so a whole hold of `ticks` steps is computed at once.
     `hold(command, ticks)`: (ticks, n) set points, or None when s reaches the command on the
-    first tick (then it stays there: the ctrl is constant over the hold)."""
+    first tick (then it stays there: the ctrl is constant over the hold). `moving`: after
+    `hold` or `ramp`, the number of leading rows that differ from the command held (the rows
+    after them all equal it)."""
 
     def __init__(self, law: ServoLaw, dt_s: float, initial_command: np.ndarray) -> None:
         self.max_step = law.velocity_rad_s * dt_s
         self.setpoint = np.array(initial_command, dtype=float)
+        self.moving = 0
+        self._reach: dict[int, np.ndarray] = {}
+        self._on = -2  # the sample whose command the set point sits on (−2: none known)
+        self._small: tuple[np.ndarray, np.ndarray] | None = None  # (commands, within a tick)
+
+    def hold_sample(self, commands: np.ndarray, k: int, ticks: int) -> np.ndarray | None:
+        """`hold(commands[k], ticks)`, with a shortcut for the usual sample: when the set
+        point sits on commands[k − 1] and every joint's step to commands[k] is within one
+        tick's slew (found for all samples at once), it reaches commands[k] on the first
+        tick (None) without per-sample arithmetic. Same result as `hold`."""
+        if self._small is None or self._small[0] is not commands:
+            step = np.abs(np.diff(commands, axis=0)) <= self.max_step
+            self._small = (commands, np.concatenate([[False], step.all(axis=1)]))
+        if self._on == k - 1 and self._small[1][k]:
+            self.setpoint = np.array(commands[k], dtype=float)
+            self.moving, self._on = 0, k
+            return None
+        rows = self.hold(commands[k], ticks)
+        self._on = k if rows is None or self.moving < ticks else -2
+        return rows
 
     def hold(self, command: np.ndarray, ticks: int) -> np.ndarray | None:
         """Set points of `ticks` ticks holding `command`: after i ticks
         s₀ + clip(c − s₀, ±i·ω_max·Δt) (the per-tick slew summed in closed form)."""
-        diff = command - self.setpoint
-        if np.all(np.abs(diff) <= self.max_step):
+        diff = np.subtract(command, self.setpoint)
+        gap = np.abs(diff)
+        if (gap <= self.max_step).all():
             self.setpoint = np.array(command, dtype=float)
+            self.moving = 0
             return None
-        reach = np.arange(1, ticks + 1)[:, None] * self.max_step
-        rows = self.setpoint + np.clip(diff, -reach, reach)
-        rows = np.where(np.abs(diff) <= reach, command, rows)
+        reach = self._reach.get(ticks)
+        if reach is None:
+            reach = self._reach[ticks] = np.arange(1, ticks + 1)[:, None] * self.max_step
+        arrived = gap <= reach
+        # ufuncs rather than np.clip / np.where's wrappers: this runs once per sample.
+        slewed = np.minimum(np.maximum(diff, -reach), reach)
+        slewed += self.setpoint
+        rows = np.where(arrived, command, slewed)
+        done = arrived.all(axis=1)
+        self.moving = int(done.argmax()) if done[-1] else ticks
         self.setpoint = rows[-1].copy()
         return rows
 
@@ -204,6 +235,7 @@ class Setpoints:
             np.abs(step) <= self.max_step
         ):
             self.setpoint = commands[-1].copy()  # it follows the ramp exactly
+            self.moving = ticks
             return commands
         rows = np.empty_like(commands)
         s = self.setpoint
@@ -211,4 +243,5 @@ class Setpoints:
             s = s + np.clip(command - s, -self.max_step, self.max_step)
             rows[i] = s
         self.setpoint = s.copy()
+        self.moving = ticks
         return rows

@@ -1,0 +1,332 @@
+"""The step loop's per-sample recording (numpy and mujoco only): raw MuJoCo arrays copied into
+preallocated rows at each sample, converted in bulk afterwards (pinocchio layout, roll and
+pitch, sole forces in the world), and the fall and blow-up verdicts checked a block of
+samples at a time on what was recorded.
+
+At sample k the step loop calls `kinematics(k)` once MuJoCo's position and velocity stages
+have run at the sample's state (positions, velocities, bodies, sites and the contact list)
+and `forces()` once the constraint forces are solved there under the servo torque of the
+step before the sample (the torque the servo applies as the sample is taken).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from app.core.quaternions import wxyz_to_xyzw
+from app.core.simulation.errors import SimulationDiverged
+from app.core.simulation.sim_model import SimModel
+
+FALL_TILT_DEG = 30.0
+FALL_HEIGHT_FRACTION = 0.6
+NON_FOOT_CLEARANCE_M = 0.005
+MAX_SPEED = 1e3
+"""Any generalised speed beyond this [m/s or rad/s] is a blown-up simulation."""
+NON_FOOT = 2
+"""`Scene.side_of_geom` of a geom on neither foot."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Scene:
+    """MuJoCo ids the recording reads, resolved once per run."""
+
+    floor: int
+    root: int
+    sites: np.ndarray
+    """The (left, right) sole sites."""
+    side_of_geom: list[int]
+    """Per geom: 0 / 1 on the left / right foot (every geom of a foot's bodies), else
+    NON_FOOT."""
+    non_foot: np.ndarray
+    """Bodies (not the world) on neither foot."""
+    body_names: tuple[str, ...]
+    """Per body, the URDF link it carries (or its MuJoCo name), to name it in a verdict."""
+
+    @classmethod
+    def of(cls, sim: SimModel, m: Any) -> Scene:
+        import mujoco
+
+        def body(name: str) -> int:
+            return int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name))
+
+        side_of_body = {
+            body(name): side for side, names in enumerate(sim.foot_bodies) for name in names
+        }
+        link_of = dict(sim.body_links)
+        names = []
+        for b in range(m.nbody):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body {b}"
+            names.append(link_of.get(name, name))
+        return cls(
+            floor=int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")),
+            root=body(sim.root_body) if sim.floating_base else 0,
+            sites=np.array(
+                [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, n) for n in sim.sole_sites]
+            ),
+            side_of_geom=[
+                side_of_body.get(int(m.geom_bodyid[g]), NON_FOOT) for g in range(m.ngeom)
+            ],
+            non_foot=np.array([b for b in range(1, m.nbody) if b not in side_of_body], dtype=int),
+            body_names=tuple(names),
+        )
+
+
+class Recorder:
+    """Preallocated rows of the raw MuJoCo arrays, one per sample (module docstring)."""
+
+    def __init__(self, m: Any, d: Any, scene: Scene, n_samples: int, n_joints: int) -> None:
+        import mujoco
+
+        self.m, self.d, self.scene = m, d, scene
+        self.qpos = np.zeros((n_samples, m.nq))
+        self.qvel = np.zeros((n_samples, m.nv))
+        self.xmat_root = np.zeros((n_samples, 9))
+        self.sole = np.zeros((n_samples, 2, 3))
+        self.body_xpos = np.zeros((n_samples, m.nbody, 3))
+        self.tau = np.zeros((n_samples, n_joints))
+        self.warnings = np.zeros((n_samples, int(mujoco.mjtWarning.mjNWARNING)), dtype=int)
+        self.touched_body = np.full(n_samples, -1, dtype=int)
+        """The body of the first non-foot geom found touching the floor at a sample, −1 if none."""
+        # MjData's fixed arrays, bound once (each attribute read builds a new numpy view).
+        self._d_qpos, self._d_qvel, self._d_xpos = d.qpos, d.qvel, d.xpos
+        self._d_xmat_root = d.xmat[scene.root]
+        self._d_soles = [d.site_xpos[site] for site in scene.sites]
+        self._d_warnings = d.warning.number
+        self._con: Any = None  # MjData's contact list of the last `kinematics`
+        self._contacts: list[int] = []  # the foot contacts of the last sample,
+        self._sides: list[int] = []  # their foot (0 left, 1 right)
+        self._signs: list[float] = []  # and +1 if the floor is the first geom, else −1
+        self._k = 0
+        capacity = 8 * n_samples
+        self._sample = np.zeros(capacity, dtype=int)  # per foot contact
+        self._side = np.zeros(capacity, dtype=int)
+        self._sign = np.zeros(capacity)
+        self._wrench = np.zeros((capacity, 6))  # mj_contactForce: contact frame
+        self._frame = np.zeros((capacity, 9))  # the contact frame (rows: normal, tangents)
+        self._count = 0
+        self._contact_force = mujoco.mj_contactForce
+
+    def kinematics(self, k: int) -> None:
+        """Sample k's state, bodies and contact list (after `mj_step1`)."""
+        d, scene = self.d, self.scene
+        self.qpos[k] = self._d_qpos
+        self.qvel[k] = self._d_qvel
+        self.xmat_root[k] = self._d_xmat_root
+        sole = self.sole[k]
+        sole[0], sole[1] = self._d_soles
+        self.body_xpos[k] = self._d_xpos
+        self.warnings[k] = self._d_warnings
+        self._k = k
+        contacts, sides, signs = self._contacts, self._sides, self._signs
+        contacts.clear()
+        sides.clear()
+        signs.clear()
+        if d.ncon == 0:
+            return
+        floor, side_of, touched = scene.floor, scene.side_of_geom, -1
+        self._con = con = d.contact  # valid until the next collision pass (mj_step1)
+        for c, (g1, g2) in enumerate(con.geom.tolist()):
+            if g1 == floor:
+                other, sign = g2, 1.0
+            elif g2 == floor:
+                other, sign = g1, -1.0
+            else:
+                continue
+            side = side_of[other]
+            if side == NON_FOOT:
+                if touched < 0:
+                    touched = int(self.m.geom_bodyid[other])
+                continue
+            contacts.append(c)
+            sides.append(side)
+            signs.append(sign)
+        self.touched_body[k] = touched
+
+    def forces(self) -> None:
+        """The foot contacts' forces of the constraint solve just done, at the state of the
+        last `kinematics`."""
+        contacts = self._contacts
+        if not contacts:
+            return
+        begin, end = self._count, self._count + len(contacts)
+        if end > len(self._sample):
+            self._grow(2 * end)
+        m, d, wrench, force = self.m, self.d, self._wrench, self._contact_force
+        for i, c in enumerate(contacts, begin):
+            force(m, d, c, wrench[i])
+        self._frame[begin:end] = self._con.frame[contacts]
+        self._sample[begin:end] = self._k
+        self._side[begin:end] = self._sides
+        self._sign[begin:end] = self._signs
+        self._count = end
+
+    def _grow(self, capacity: int) -> None:
+        for name in ("_sample", "_side", "_sign", "_wrench", "_frame"):
+            old = getattr(self, name)
+            new = np.zeros((capacity, *old.shape[1:]), dtype=old.dtype)
+            new[: len(old)] = old
+            setattr(self, name, new)
+
+    def first_diverged(self, begin: int, end: int) -> int:
+        """First sample in [begin, end) that has blown up (NaN, a runaway speed, or MuJoCo's
+        reset after a bad position, speed or acceleration), −1 if none."""
+        import mujoco
+
+        resets = [
+            int(mujoco.mjtWarning.mjWARN_BADQACC),
+            int(mujoco.mjtWarning.mjWARN_BADQPOS),
+            int(mujoco.mjtWarning.mjWARN_BADQVEL),
+        ]
+        warned = self.warnings[begin:end, resets].sum(axis=1)
+        bad = (
+            (warned > 0)
+            | ~np.all(np.isfinite(self.qpos[begin:end]), axis=1)
+            | ~np.all(np.abs(self.qvel[begin:end]) < MAX_SPEED, axis=1)
+        )
+        return begin + int(np.argmax(bad)) if bad.any() else -1
+
+    def roll_pitch(self, begin: int = 0, end: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The root's roll and pitch [rad] (ZYX convention) at the samples [begin, end)."""
+        R = self.xmat_root[begin:end]
+        roll = np.arctan2(R[:, 7], R[:, 8])
+        pitch = np.arctan2(-R[:, 6], np.hypot(R[:, 0], R[:, 3]))
+        return roll, pitch
+
+    def touching(self, begin: int = 0, end: int | None = None) -> np.ndarray:
+        """(samples,) bool: a non-foot geom on the floor or a non-foot body's origin within
+        NON_FOOT_CLEARANCE_M of it."""
+        contact = self.touched_body[begin:end] >= 0
+        if not self.scene.non_foot.size:
+            return contact
+        low = self.body_xpos[begin:end, self.scene.non_foot, 2].min(axis=1)
+        return contact | (low < NON_FOOT_CLEARANCE_M)
+
+    def touched_link(self, k: int) -> str:
+        """The first non-foot link found on the floor at sample k ("" if none)."""
+        body = int(self.touched_body[k])
+        if body < 0 and self.scene.non_foot.size:
+            z = self.body_xpos[k, self.scene.non_foot, 2]
+            if z.min() < NON_FOOT_CLEARANCE_M:
+                body = int(self.scene.non_foot[np.argmin(z)])
+        return self.scene.body_names[body] if body >= 0 else ""
+
+    def contact_forces(self, n_samples: int) -> np.ndarray:
+        """Floor force on each sole, world frame (T, 2, 3) [N]."""
+        forces = np.zeros((n_samples, 2, 3))
+        count = self._count
+        keep = self._sample[:count] < n_samples
+        frames = self._frame[:count][keep].reshape(-1, 3, 3)
+        world = np.einsum("nji,nj->ni", frames, self._wrench[:count][keep, :3])
+        world *= self._sign[:count][keep, None]
+        np.add.at(forces, (self._sample[:count][keep], self._side[:count][keep]), world)
+        return forces
+
+
+def check_diverged(recorder: Recorder, begin: int, end: int, dt_cmd_s: float) -> None:
+    """Raise SimulationDiverged at the first blown-up sample of [begin, end)."""
+    k = recorder.first_diverged(begin, end)
+    if k >= 0:
+        raise SimulationDiverged(diverged_message(k * dt_cmd_s))
+
+
+def diverged_message(t_s: float) -> str:
+    return (
+        f"the simulation blew up at t = {t_s:.3f} s (NaN or runaway speed); the servos are "
+        "too stiff for the time step: lower the stiffness or the time step"
+    )
+
+
+def first_fall(
+    recorder: Recorder,
+    begin: int,
+    end: int,
+    sim: SimModel,
+    planned: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> tuple[int, str]:
+    """The first sample of [begin, end) at which the robot has fallen and why, (−1, "") if
+    none. `planned`: the plan's (roll, pitch, root height) per sample. Candidates are found
+    vectorised with a margin, each confirmed by `fall_reason` (the one statement of the
+    rules)."""
+    candidate = recorder.touching(begin, end)
+    if sim.floating_base:
+        roll, pitch = recorder.roll_pitch(begin, end)
+        margin = 1e-6
+        for actual, plan in ((roll, planned[0]), (pitch, planned[1])):
+            off = np.mod(actual - plan[begin:end], 2.0 * np.pi)
+            off = np.degrees(np.minimum(off, 2.0 * np.pi - off))
+            candidate |= off > FALL_TILT_DEG - margin
+        z = recorder.body_xpos[begin:end, recorder.scene.root, 2]
+        candidate |= z < FALL_HEIGHT_FRACTION * planned[2][begin:end] + margin
+    for i in np.flatnonzero(candidate).tolist():
+        k = begin + i
+        roll_k, pitch_k = recorder.roll_pitch(k, k + 1)
+        reason = fall_reason(
+            float(roll_k[0]),
+            float(pitch_k[0]),
+            float(recorder.body_xpos[k, recorder.scene.root, 2]),
+            recorder.touched_link(k),
+            sim,
+            (float(planned[0][k]), float(planned[1][k]), float(planned[2][k])),
+        )
+        if reason:
+            return k, reason
+    return -1, ""
+
+
+def fall_reason(
+    roll: float,
+    pitch: float,
+    z: float,
+    touched: str,
+    sim: SimModel,
+    planned: tuple[float, float, float],
+) -> str:
+    """Why a sample has fallen ("" if it has not); `touched`: the first non-foot link found
+    on the floor ("" if none); `planned`: the plan's roll, pitch and root height there."""
+    if touched:
+        return f"the link {touched} touches the floor"
+    if not sim.floating_base:
+        return ""
+    for label, actual, plan in (("roll", roll, planned[0]), ("pitch", pitch, planned[1])):
+        error = math.degrees(abs(math.remainder(actual - plan, 2.0 * math.pi)))
+        if error > FALL_TILT_DEG:
+            return f"the torso's {label} is {error:.0f}° off the plan"
+    if z < FALL_HEIGHT_FRACTION * planned[2]:
+        return f"the torso is down to {z * 100:.1f} cm (planned {planned[2] * 100:.1f} cm)"
+    return ""
+
+
+def qpos_to_pin(sim: SimModel, qpos: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """MuJoCo's qpos (…, nq) as pinocchio configurations (…, nq_pin) (into `out` when given)."""
+    qpos = np.asarray(qpos)
+    q = np.zeros((*qpos.shape[:-1], sim.nq_pin)) if out is None else out
+    if sim.floating_base:
+        q[..., :3] = qpos[..., :3]
+        q[..., 3:7] = wxyz_to_xyzw(qpos[..., 3:7])
+    scalar, continuous = np.asarray(sim.pin_scalar_q), np.asarray(sim.pin_continuous_q)
+    if len(scalar):
+        q[..., scalar[:, 0]] = qpos[..., scalar[:, 1]]
+    if len(continuous):
+        angle = qpos[..., continuous[:, 1]]
+        q[..., continuous[:, 0]], q[..., continuous[:, 0] + 1] = np.cos(angle), np.sin(angle)
+    return q
+
+
+def qvel_to_pin(
+    sim: SimModel, qvel: np.ndarray, R_world_base: np.ndarray, out: np.ndarray | None = None
+) -> np.ndarray:
+    """MuJoCo's qvel (…, nv) as pinocchio velocities (…, nv_pin): MuJoCo's free joint has its
+    linear velocity in the world, pinocchio's in the base (R_world_base (…, 3, 3))."""
+    qvel = np.asarray(qvel)
+    v = np.zeros((*qvel.shape[:-1], sim.nv_pin)) if out is None else out
+    if sim.floating_base:
+        v[..., :3] = np.einsum("...ji,...j->...i", R_world_base, qvel[..., :3])
+        v[..., 3:6] = qvel[..., 3:6]
+    dofs = np.asarray(sim.pin_dof)
+    if len(dofs):
+        v[..., dofs[:, 0]] = qvel[..., dofs[:, 1]]
+    return v
