@@ -138,7 +138,7 @@ class Posing:
             )
         else:
             targets = IkTargets(T_world_pelvis=T, stance=self.stance, posture_q=gesture.q_start)
-        result = self.ik.solve(q, targets)
+        result = self.ik.solve(q, targets, stop_when_met=True)
         self._gesture = dataclasses.replace(gesture, q_last=result.q.tobytes())
         return result
 
