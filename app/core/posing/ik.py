@@ -582,9 +582,9 @@ class WholeBodyIK:
         if self.robot.floating_base and stance_targets:
             side, T_target = next(iter(stance_targets.items()))
             link = self.robot.foot(side).link
-            off = data.oMf[self.robot.link_frame_ids[link]].homogeneous - T_target
-            if float(np.abs(off).max()) > ANCHORED_M:
-                q = anchor_on_foot(self.robot, q, link, T_target, data)
+            placed = data.oMf[self.robot.link_frame_ids[link]]
+            if float(np.abs(placed.homogeneous - T_target).max()) > ANCHORED_M:
+                q = anchor_on_foot(self.robot, q, link, T_target, data, placed)
                 pin.framesForwardKinematics(model, data, q)
         self._placed_q = q
         return q
