@@ -18,7 +18,8 @@ was held, is not `reached`; its `shortfall` says by how much and what holds it b
 (app.core.posing.shortfall: a joint at a limit the targets push against, the CoM polygon, the
 torso hold).
 
-Each `solve` iterates the QP from the given configuration until the step vanishes.
+Each `solve` iterates the QP from the given configuration until the step vanishes, or (a drag:
+stop_when_met) until an accepted step meets the goals to GOAL_MET_COST.
 """
 
 from __future__ import annotations
