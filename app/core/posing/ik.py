@@ -73,6 +73,11 @@ GOAL_MET_COST = 1e-8
 """[m²] A goal cost below this (the soft goals within 0.1 mm, 10× inside REACHED_M) needs no
 line search for a small step (< SMALL_STEP): the steps from there are the corrections of a
 converging solve."""
+CRAWL_COST = (0.3 * REACHED_M) ** 2
+CRAWL_GAIN = 0.01
+"""[m², -] stop_when_met also stops where the goals are within a third of REACHED_M and a small
+step (< SMALL_STEP) lowered their cost by less than this fraction: the steps crawl along an
+active constraint (the CoM on the polygon's edge, a joint at its limit) for micrometres."""
 CONTRACTING = 0.5
 SMALL_STEP = 1e-3
 """[rad or m] Steps are judged converging from their ratio only once both are this small: the
@@ -454,7 +459,8 @@ class WholeBodyIK:
         goals were met to GOAL_MET_COST — the steps are taken without a line search and without
         computing the goal cost again (the iterations are converging: there is nothing for it
         to guard), the targets aimed where they were. With stop_when_met, a step the line
-        search accepts with the goal cost below GOAL_MET_COST ends the iterations (solve)."""
+        search accepts with the goal cost below GOAL_MET_COST, or crawling below CRAWL_COST,
+        ends the iterations (solve)."""
         wrapper, model, solver = self._wrapper, self.robot.model, self._solver
         q = start.copy()
         wrapper.state.q = q
@@ -507,13 +513,16 @@ class WholeBodyIK:
                     wrapper.update_kinematics()
                 after = self._goal_cost()
                 if after < cost * (1.0 - 1e-9):
-                    q, cost = wrapper.state.q.copy(), after
+                    q, gain_kept, cost = wrapper.state.q.copy(), 1.0 - after / cost, after
                     break
             else:  # no step along dq lowers the goal cost: the closest pose is reached
                 wrapper.state.q = q
                 wrapper.update_kinematics()
                 break
-            if stop_when_met and cost < GOAL_MET_COST:
+            if stop_when_met and (
+                cost < GOAL_MET_COST
+                or (cost < CRAWL_COST and step < SMALL_STEP and gain_kept < CRAWL_GAIN)
+            ):
                 break  # the goals are met: what further steps change is not visible
         return q, iterations
 
@@ -633,8 +642,10 @@ class WholeBodyIK:
         within 0.1 mrad, the held feet within 10 µm) instead of iterating until the steps
         vanish: the steps from there trade the light posture task against the goals below
         what is visible, and most are refused by the line search anyway (a drag event: one
-        QP where the full convergence test takes two or three). Only for solves whose soft
-        goals are all in the goal cost (no CoM target, no joint hold): a drag."""
+        QP where the full convergence test takes two or three); also at a small accepted step
+        that lowers a goal cost already below CRAWL_COST by less than CRAWL_GAIN (a crawl along
+        an active constraint). Only for solves whose soft goals are all in the goal cost (no CoM
+        target, no joint hold): a drag."""
         robot = self.robot
         start = np.array(q_start, dtype=float)
         self._placed_q = None
