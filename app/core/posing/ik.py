@@ -18,7 +18,8 @@ was held, is not `reached`; its `shortfall` says by how much and what holds it b
 (app.core.posing.shortfall: a joint at a limit the targets push against, the CoM polygon, the
 torso hold).
 
-Each `solve` iterates the QP from the given configuration until the step vanishes.
+Each `solve` iterates the QP from the given configuration until the step vanishes, or (a drag:
+stop_when_met) until an accepted step meets the goals to GOAL_MET_COST.
 """
 
 from __future__ import annotations
@@ -72,6 +73,11 @@ GOAL_MET_COST = 1e-8
 """[m²] A goal cost below this (the soft goals within 0.1 mm, 10× inside REACHED_M) needs no
 line search for a small step (< SMALL_STEP): the steps from there are the corrections of a
 converging solve."""
+CRAWL_COST = (0.3 * REACHED_M) ** 2
+CRAWL_GAIN = 0.01
+"""[m², -] stop_when_met also stops where the goals are within a third of REACHED_M and a small
+step (< SMALL_STEP) lowered their cost by less than this fraction: the steps crawl along an
+active constraint (the CoM on the polygon's edge, a joint at its limit) for micrometres."""
 CONTRACTING = 0.5
 SMALL_STEP = 1e-3
 """[rad or m] Steps are judged converging from their ratio only once both are this small: the
@@ -432,6 +438,7 @@ class WholeBodyIK:
         polygon: np.ndarray | None,
         max_iterations: int,
         step_tolerance: float,
+        stop_when_met: bool = False,
     ) -> tuple[np.ndarray, int]:
         """QP steps from start until they vanish; the CoM is guarded when a polygon is given.
 
@@ -451,7 +458,9 @@ class WholeBodyIK:
         rounding). Once settled — the steps contracting so, or small (< SMALL_STEP) after the
         goals were met to GOAL_MET_COST — the steps are taken without a line search and without
         computing the goal cost again (the iterations are converging: there is nothing for it
-        to guard), the targets aimed where they were."""
+        to guard), the targets aimed where they were. With stop_when_met, a step the line
+        search accepts with the goal cost below GOAL_MET_COST, or crawling below CRAWL_COST,
+        ends the iterations (solve)."""
         wrapper, model, solver = self._wrapper, self.robot.model, self._solver
         q = start.copy()
         wrapper.state.q = q
@@ -504,12 +513,17 @@ class WholeBodyIK:
                     wrapper.update_kinematics()
                 after = self._goal_cost()
                 if after < cost * (1.0 - 1e-9):
-                    q, cost = wrapper.state.q.copy(), after
+                    q, gain_kept, cost = wrapper.state.q.copy(), 1.0 - after / cost, after
                     break
             else:  # no step along dq lowers the goal cost: the closest pose is reached
                 wrapper.state.q = q
                 wrapper.update_kinematics()
                 break
+            if stop_when_met and (
+                cost < GOAL_MET_COST
+                or (cost < CRAWL_COST and step < SMALL_STEP and gain_kept < CRAWL_GAIN)
+            ):
+                break  # the goals are met: what further steps change is not visible
         return q, iterations
 
     def _hold_torso(self, R_world: np.ndarray | None) -> None:
@@ -578,9 +592,9 @@ class WholeBodyIK:
         if self.robot.floating_base and stance_targets:
             side, T_target = next(iter(stance_targets.items()))
             link = self.robot.foot(side).link
-            off = data.oMf[self.robot.link_frame_ids[link]].homogeneous - T_target
-            if float(np.abs(off).max()) > ANCHORED_M:
-                q = anchor_on_foot(self.robot, q, link, T_target, data)
+            placed = data.oMf[self.robot.link_frame_ids[link]]
+            if float(np.abs(placed.homogeneous - T_target).max()) > ANCHORED_M:
+                q = anchor_on_foot(self.robot, q, link, T_target, data, placed)
                 pin.framesForwardKinematics(model, data, q)
         self._placed_q = q
         return q
@@ -593,8 +607,9 @@ class WholeBodyIK:
         warnings: list[str],
         max_iterations: int,
         step_tolerance: float,
+        stop_when_met: bool = False,
     ) -> tuple[np.ndarray, int]:
-        q, iterations = self._iterate(start, polygon, max_iterations, step_tolerance)
+        q, iterations = self._iterate(start, polygon, max_iterations, step_tolerance, stop_when_met)
         if polygon is not None and not self._polygon_on:
             # The CoM never got inside: rather than a contorted compromise, show the pose
             # without the polygon and say so.
@@ -602,7 +617,9 @@ class WholeBodyIK:
                 "the CoM cannot be brought over the support polygon from here "
                 "(a leg without ankle roll cannot shift it over one flat foot): shown without it"
             )
-            q, iterations = self._iterate(start, None, max_iterations, step_tolerance)
+            q, iterations = self._iterate(
+                start, None, max_iterations, step_tolerance, stop_when_met
+            )
         if self.robot.tree.loops:
             q = close_loops(self.robot, q, self._data).q
         q = self._anchor(q, {side: self._feet[side].T_world_frame for side in stance_sides})
@@ -616,8 +633,19 @@ class WholeBodyIK:
         com_in_support: bool | None = None,
         max_iterations: int = 60,
         step_tolerance: float = 1e-6,
+        stop_when_met: bool = False,
     ) -> IkResult:
-        """Iterate the QP from q_start towards the targets; never returns NaN."""
+        """Iterate the QP from q_start towards the targets; never returns NaN.
+
+        stop_when_met: stop at the first step the line search accepts with the goals met to
+        GOAL_MET_COST (the moving foot within 0.1 mm and 1 mrad of its target, the torso hold
+        within 0.1 mrad, the held feet within 10 µm) instead of iterating until the steps
+        vanish: the steps from there trade the light posture task against the goals below
+        what is visible, and most are refused by the line search anyway (a drag event: one
+        QP where the full convergence test takes two or three); also at a small accepted step
+        that lowers a goal cost already below CRAWL_COST by less than CRAWL_GAIN (a crawl along
+        an active constraint). Only for solves whose soft goals are all in the goal cost (no CoM
+        target, no joint hold): a drag."""
         robot = self.robot
         start = np.array(q_start, dtype=float)
         self._placed_q = None
@@ -680,7 +708,13 @@ class WholeBodyIK:
         def steps() -> tuple[np.ndarray, int]:
             chosen = polygon if use_polygon else None
             return self._solve_steps(
-                start, chosen, stance_sides, warnings, max_iterations, step_tolerance
+                start,
+                chosen,
+                stance_sides,
+                warnings,
+                max_iterations,
+                step_tolerance,
+                stop_when_met and targets.com_xy is None and self._held is None,
             )
 
         try:

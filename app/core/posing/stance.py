@@ -10,14 +10,22 @@ from app.core.robot.model import RobotModel
 
 
 def anchor_on_foot(
-    robot: RobotModel, q: np.ndarray, foot_link: str, T_world_foot: np.ndarray, data: pin.Data
+    robot: RobotModel,
+    q: np.ndarray,
+    foot_link: str,
+    T_world_foot: np.ndarray,
+    data: pin.Data,
+    placed: pin.SE3 | None = None,
 ) -> np.ndarray:
-    """A copy of q whose base is moved so that `foot_link` is at T_world_foot (4x4)."""
+    """A copy of q whose base is moved so that `foot_link` is at T_world_foot (4x4); `placed`:
+    the foot's placement at q when already at hand (no forward kinematics then)."""
     out = np.array(q, dtype=float)
     if not robot.floating_base:
         return out
-    pin.framesForwardKinematics(robot.model, data, out)
-    current = data.oMf[robot.link_frame_ids[foot_link]]
+    current = placed
+    if current is None:
+        pin.framesForwardKinematics(robot.model, data, out)
+        current = data.oMf[robot.link_frame_ids[foot_link]]
     correction = pin.SE3(T_world_foot) * current.inverse()
     out[:7] = pin.SE3ToXYZQUAT(correction * pin.XYZQUATToSE3(out[:7]))
     return out
