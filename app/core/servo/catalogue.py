@@ -366,7 +366,11 @@ def load_catalogue(directory: Path = SERVOS_DIR) -> dict[str, ServoRecord]:
 def read_user_servos(path: str | os.PathLike[str]) -> list[ServoRecord]:
     """The records of a user's TOML file: one record, or several [[servo]] tables."""
     source = os.fspath(path)
-    data = input_gate.read_toml(source, ServoCatalogueError)
+    return records_from_toml(input_gate.read_toml(source, ServoCatalogueError), source)
+
+
+def records_from_toml(data: dict[str, Any], source: str) -> list[ServoRecord]:
+    """The records of a user's parsed TOML file named `source` (read_user_servos)."""
     if "servo" in data:
         tables = data["servo"]
         if set(data) != {"servo"} or not isinstance(tables, list) or not tables:
