@@ -56,6 +56,7 @@ class ServosPanel:
             )
             self.joint = gui.add_dropdown("Servo of joint", ("—",), initial_value="—")
             self.servo = gui.add_dropdown("Servo", (IDEAL_LABEL,), initial_value=IDEAL_LABEL)
+            self.not_offered = gui.add_markdown("")
             self.upload = gui.add_upload_button(
                 "Add servo file (.toml)",
                 icon=viser.Icon.UPLOAD,
@@ -119,11 +120,13 @@ class ServosPanel:
         def _(event: viser.GuiEvent) -> None:
             session.size_servos(event.client)
 
-    def show_catalogue(self, servos: Sequence[tuple[str, str]]) -> None:
-        """The servos offered: (key, label) each, after the ideal servo."""
+    def show_catalogue(self, servos: Sequence[tuple[str, str]], not_offered: str = "") -> None:
+        """The servos offered: (key, label) each, after the ideal servo; `not_offered` says
+        which the simulation cannot run, and why."""
         self._labels = {IDEAL_LABEL: "", **{label: key for key, label in servos}}
         with self._quiet.quietly():
             self.servo.options = tuple(self._labels)
+        self.not_offered.content = not_offered
 
     def show_joints(self, joints: Sequence[str], selected: str) -> None:
         with self._quiet.quietly():

@@ -13,7 +13,12 @@ import numpy as np
 from app.core.dynamics.wbc import FeedForward
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
-from app.core.servo.catalogue import ServoRecord, load_catalogue
+from app.core.servo.catalogue import (
+    DATASHEET_FIT,
+    ServoRecord,
+    load_catalogue,
+    why_not_simulated,
+)
 from app.core.servo.choice import ServoChoice, choice_parts, offered_catalogue, simulatable
 from app.core.servo.model import ServoModel
 from app.core.servo.user_files import UserServoFile, records
@@ -112,14 +117,28 @@ def added_text(file: UserServoFile, offered: dict[str, ServoRecord]) -> str:
         f"({len(offered)} in the catalogue now): "
         + ", ".join(f"{r.key} ({r.maker} {r.model})" for r in found)
     ]
-    kept_out = [r.key for r in found if r.key not in runnable]
+    kept_out = [r for r in found if r.key not in runnable]
     if kept_out:
         lines.append(
-            f"⚠️ not offered in *Servo*: {', '.join(kept_out)}: no motor model (give a "
-            "[firmware] table and identified = a BAM model, or a [motor] table with "
-            "kt_Nm_per_A and R_ohm)"
+            f"⚠️ not offered in *Servo*: {', '.join(r.key for r in kept_out)}: "
+            + why_not_simulated(kept_out[0])
         )
+    derived = [r.key for r in found if r.key in runnable and (f := r.fit("m1")) and f.derived]
+    if derived:
+        lines.append(f"{', '.join(derived)}: {DATASHEET_FIT}")
     return "  \n".join(lines)
+
+
+def not_offered_text(records: dict[str, ServoRecord]) -> str:
+    """The catalogue's servos the Servos folder cannot offer, and why (markdown)."""
+    out = sorted(key for key, record in records.items() if why_not_simulated(record))
+    if not out:
+        return ""
+    return (
+        f"Not offered (datasheet only: {', '.join(out)}): "
+        + why_not_simulated(records[out[0]])
+        + " (`biped-studio servos`)."
+    )
 
 
 def users_of_files(choice: ServoChoice, besides: list[str]) -> list[str]:

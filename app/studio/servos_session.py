@@ -40,7 +40,7 @@ from app.core.servo.sizing import Sizing, check_joint, envelope
 from app.core.servo.sizing_work import Work, gait_work, motion_work, size_works
 from app.core.servo.user_files import UserServoFile, adding, user_file
 from app.studio.notifier import Notifier
-from app.studio.servo_parts import added_text, catalogue, users_of_files
+from app.studio.servo_parts import added_text, catalogue, not_offered_text, users_of_files
 from app.studio.signals import Signal
 from app.studio.state import LoadedRobot, StudioState
 from app.studio.work import Coefficients
@@ -111,7 +111,8 @@ class ServosSession:
         offered = offered_catalogue(ServoChoice((), (), user_servos=files), catalogue())
         self.records = simulatable(offered)
         self.panel.show_catalogue(
-            [(k, f"{k} — {r.maker} {r.model}") for k, r in sorted(self.records.items())]
+            [(k, f"{k} — {r.maker} {r.model}") for k, r in sorted(self.records.items())],
+            not_offered_text(offered),
         )
 
     def _on_coefficients(self, _coefficients: Coefficients) -> None:

@@ -141,6 +141,11 @@ def upload(page, name: str, text: str) -> None:
 def test_a_user_servo_file_uploaded_is_offered_and_picked(page, studio: Studio) -> None:
     expand_folder(page, "Servos", "Add servo file (.toml)")
     servos = folder(page, "Servos")
+    # the catalogue's datasheet-only servos are not offered, and the folder says why
+    servos.get_by_text("Not offered (datasheet only: mx28", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    assert "no identified motor model and no firmware constants" in servos.inner_text()
     before = studio.state.work.parts
     upload(page, "bad.toml", servo_toml("my_servo", stall="-4.2"))
     wait_notified(page, "Servo file refused", "stall_torque_Nm is -4.2", UI_TIMEOUT_S)

@@ -145,7 +145,9 @@ def test_a_file_of_the_same_name_replaces_the_earlier_and_a_datasheet_only_one_i
     assert studio.state.work.coefficients.params.k_deg_per_Nm[i] == pytest.approx(expected)
     # A record without a motor model is kept but not offered, and the folder says why.
     assert session.add_servo_file("sheet.toml", servo_toml("sheet_only", motor=False).encode())
-    assert "not offered in *Servo*: sheet_only: no motor model" in session.panel.status.content
+    assert "not offered in *Servo*: sheet_only: no identified motor model and no firmware" in (
+        session.panel.status.content
+    )
     assert not labels_of(studio, "sheet_only")
 
 
@@ -174,3 +176,30 @@ def test_a_project_keeps_the_files_and_checks_them_on_open(studio, tmp_path):
     missing = dataclasses.replace(project.servo_parts, user_servos=())
     with pytest.raises(ProjectError, match="'my_servo' is not in the catalogue"):
         check_fits(dataclasses.replace(project, servo_parts=missing), studio.state.robot)
+
+
+def test_the_folder_says_why_the_datasheet_only_servos_are_not_offered(studio):
+    note = studio.servos.panel.not_offered.content
+    for key in ("mx28", "xc430_w240", "xh430_w350", "xh540_v270", "xm540_w270", "xw540_t260"):
+        assert key in note
+        assert not labels_of(studio, key)
+    assert "no identified motor model and no firmware constants" in note
+
+
+def test_a_file_with_firmware_but_no_motor_runs_a_dc_motor_from_its_datasheet(studio):
+    session = studio.servos
+    text = servo_toml("dc_servo", motor=False) + (
+        f'firmware = "our firmware"\n\n[firmware]\nvin_V = 12.0\nkp = {KP}\n'
+        f"error_gain = {ERROR_GAIN}\nmax_pwm = {MAX_PWM}\n"
+    )
+    assert session.add_servo_file("dc.toml", text.encode())
+    assert "derived from the datasheet" in session.panel.status.content
+    joint = studio.state.robot.joint_names[1]
+    pick(studio, joint, "dc_servo")
+    i = studio.state.robot.joint_names.index(joint)
+    # kt = V·max_pwm/ω0, R = kt·V·max_pwm/τs give K = kt·vin·eg·kp/R = τs·eg·kp/max_pwm at
+    # vin = V: the file's stall torque 4.2 N·m at its 12 V.
+    stiffness = 4.2 * ERROR_GAIN * KP / MAX_PWM
+    k = studio.state.work.coefficients.params.k_deg_per_Nm[i]
+    assert k == pytest.approx(math.degrees(1.0 / stiffness), rel=1e-12)
+    assert "stall 4.20 N·m" in session.panel.stiffness.content

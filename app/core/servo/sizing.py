@@ -95,7 +95,8 @@ def envelope(record: ServoRecord) -> Envelope:
             motor_law.stall_torque_Nm(motor, firmware),
             motor_law.no_load_speed_rad_s(motor, firmware),
             math.inf if limit is None else motor.kt_Nm_per_A * limit,
-            f"model m1 at {firmware.vin_V:g} V",
+            f"{'datasheet DC model' if (fit := record.fit('m1')) and fit.derived else 'model m1'}"
+            f" at {firmware.vin_V:g} V",
         )
     return Envelope(
         record.stall_torque_Nm,
