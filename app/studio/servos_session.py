@@ -36,7 +36,7 @@ from app.core.servo.choice import (
     take_joints,
     with_parts,
 )
-from app.core.servo.sizing import Sizing, check_joint, envelope
+from app.core.servo.sizing import Sizing, check_joint, envelope, totals
 from app.core.servo.sizing_work import Work, gait_work, motion_work, size_works
 from app.core.servo.user_files import UserServoFile, adding, user_file
 from app.studio.notifier import Notifier
@@ -354,7 +354,7 @@ class ServosSession:
             choice = choice.with_joint(joint.joint, chosen)
         self.last = (sizing, works)
         total = len(offered_catalogue(choice, catalogue()))
-        self.panel.sizing.content = sizing_text(sizing, works, len(self.records), total)
+        self.panel.sizing.content = sizing_text(sizing, works, self.records, total)
         if self._apply(choice, "sizing"):
             self._show_selected()
         self.sized.emit(sizing)
@@ -364,11 +364,14 @@ class ServosSession:
         self._notifier.error(title, body, client)
 
 
-def sizing_text(sizing: Sizing, works: dict[str, Work], offered: int, total: int) -> str:
-    """The per-joint choice with its margins, and the joints no servo holds (markdown)."""
+def sizing_text(
+    sizing: Sizing, works: dict[str, Work], records: dict[str, ServoRecord], total: int
+) -> str:
+    """The per-joint choice with its margins, the joints no servo holds, and what the chosen
+    servos add up to (markdown); `records`: the servos sized over."""
     held = len(sizing.joints) - len(sizing.unsized)
     lines = [
-        f"**Sized** against {', '.join(works)} over {offered} servos the simulation can run "
+        f"**Sized** against {', '.join(works)} over {len(records)} servos the simulation can run "
         f"(of {total} in the catalogue), margin {sizing.margin:.0%}: {held} of "
         f"{len(sizing.joints)} joints"
     ]
@@ -385,5 +388,6 @@ def sizing_text(sizing: Sizing, works: dict[str, Work], offered: int, total: int
                 f"⚠️ {joint.joint}: **no servo holds it** (left on the ideal servo); closest "
                 f"{best.servo}: " + "; ".join(best.violations())
             )
+    lines.append(f"**Total**: {totals(sizing, records).line()}")
     lines += [f"note: {note}" for note in sizing.notes]
     return "  \n".join(lines)
