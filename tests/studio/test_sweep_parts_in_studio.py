@@ -76,3 +76,39 @@ def test_a_loaded_point_keeps_its_parts(studio, tmp_path):
     loader.load(engine, point_of(None))  # on the virtual servos: every joint ideal again
     assert studio.state.work.parts.chosen == ()
     assert studio.servos.panel.servo.value == "ideal servo"
+
+
+def test_the_sweep_panel_offers_the_servo_and_its_kp(studio):
+    from app.core.servo.choice import simulatable
+    from app.studio.sweep_choices import SweptRobot, panel_data
+
+    assert studio.robots.load("dircon_biped")
+    session, panel = studio.sweep, studio.sweep.panel
+    assert {"part:servo", "part:kp"} <= set(panel.param_a.options)
+    runnable = sorted(simulatable(load_catalogue()))
+    panel.param_a.value = "part:servo"  # its range: every servo the simulation can run
+    assert (panel.min_a.value, panel.max_a.value) == (0, len(runnable) - 1)
+    panel.min_a.value, panel.max_a.value = 1, 2
+    panel.param_b.value = "part:kp"
+    panel.min_b.value, panel.max_b.value = 16, 32
+    # without the simulation: refused in one line naming the part parameters
+    panel.simulate.value = False
+    session.run(None)
+    assert "part parameter servo" in panel.status.content
+    assert session.outcome is None
+    # an index past the list: refused, naming the servos by index
+    panel.simulate.value = True
+    panel.max_a.value = len(runnable)
+    session.run(None)
+    assert "must be indices" in panel.status.content and runnable[0] in panel.status.content
+    assert session.outcome is None
+    # the sweep the panel's rows make: the servos 1 … 2 as choices, kp 16 … 32
+    panel.max_a.value = 2
+    data = SweptRobot(robot="dircon_biped").spec_data(panel.spec_values())
+    spec = SweepSpec.from_mapping(data)
+    servo, kp = spec.parameters
+    assert servo.choices == tuple(runnable[1:3])
+    assert (kp.kind, kp.minimum, kp.maximum) == ("part", 16.0, 32.0)
+    # and shown again (a project's sweep) as the same rows
+    shown = panel_data(data)["parameter"][0]
+    assert (shown["min"], shown["max"]) == (1.0, 2.0)
