@@ -1,5 +1,5 @@
 """The "Servos" folder: a servo per joint (the ideal servo, or a catalogue servo with its
-firmware settings), the stiffness K and compliance k = 1/K that follow beside the paper's k,
+firmware settings; the user's own servo files added by upload), the stiffness K and compliance k = 1/K that follow beside the paper's k,
 *Size servos* with its margin, the per-joint choice and its violations, the battery, and a
 torque–speed plot of the selected joint (its planned points over its servo's envelope).
 
@@ -35,6 +35,9 @@ class ServosActions(Protocol):
     def select_servo(self, key: str) -> None: ...
     def set_setting(self, name: str, value: float) -> None: ...
     def set_battery(self, pack_Wh: float) -> None: ...
+    def add_servo_file(
+        self, name: str, content: bytes, client: viser.ClientHandle | None
+    ) -> bool: ...
     def size_servos(self, client: viser.ClientHandle | None) -> None: ...
 
 
@@ -53,6 +56,15 @@ class ServosPanel:
             )
             self.joint = gui.add_dropdown("Servo of joint", ("—",), initial_value="—")
             self.servo = gui.add_dropdown("Servo", (IDEAL_LABEL,), initial_value=IDEAL_LABEL)
+            self.not_offered = gui.add_markdown("")
+            self.upload = gui.add_upload_button(
+                "Add servo file (.toml)",
+                icon=viser.Icon.UPLOAD,
+                mime_type=".toml",
+                hint="Your own servos: a TOML file with the catalogue's fields (one record or "
+                "[[servo]] tables, every figure with its source; at most 64 KiB). Kept with the "
+                "project; a file of the same name replaces the earlier one",
+            )
             self.settings = {
                 name: gui.add_number(label, 0.0, min=0.0, step=0.01, disabled=True)
                 for name, label in SETTING_LABELS.items()
@@ -94,6 +106,11 @@ class ServosPanel:
 
             handle.on_update(changed)
 
+        @self.upload.on_upload
+        def _(event: viser.GuiEvent) -> None:
+            uploaded = self.upload.value
+            session.add_servo_file(uploaded.name, uploaded.content, event.client)
+
         @self.battery.on_update
         def _(_event: viser.GuiEvent) -> None:
             if not self._quiet.is_quiet():
@@ -103,11 +120,13 @@ class ServosPanel:
         def _(event: viser.GuiEvent) -> None:
             session.size_servos(event.client)
 
-    def show_catalogue(self, servos: Sequence[tuple[str, str]]) -> None:
-        """The servos offered: (key, label) each, after the ideal servo."""
+    def show_catalogue(self, servos: Sequence[tuple[str, str]], not_offered: str = "") -> None:
+        """The servos offered: (key, label) each, after the ideal servo; `not_offered` says
+        which the simulation cannot run, and why."""
         self._labels = {IDEAL_LABEL: "", **{label: key for key, label in servos}}
         with self._quiet.quietly():
             self.servo.options = tuple(self._labels)
+        self.not_offered.content = not_offered
 
     def show_joints(self, joints: Sequence[str], selected: str) -> None:
         with self._quiet.quietly():

@@ -90,3 +90,17 @@ def test_compensation_from_the_parts_straightens_the_torso(tmp_path):
     assert with_k["max_roll_error_deg"] < 0.5 * without["max_roll_error_deg"]
     result = run("simulate", str(motion), "--preset", "parts")
     assert result.returncode == 1 and "--servo file that names servos" in result.stderr
+
+
+def test_servos_says_which_cannot_be_simulated_and_why():
+    result = run("servos")
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert any(line.startswith("mx64 ") and line.endswith("BAM m1/m6") for line in lines)
+    assert any(line.startswith("xm540_w270 ") and line.endswith("  -") for line in lines)
+    (why,) = [line for line in lines if line.startswith("cannot be simulated (")]
+    assert "xm540_w270" in why and "no firmware constants" in why
+    listing = json.loads(run("servos", "--json").stdout)
+    rows = {row["key"]: row for row in listing["servos"]}
+    assert "no identified motor model" in rows["mx28"]["not_simulated"]
+    assert rows["mx64"]["not_simulated"] is None

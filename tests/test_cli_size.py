@@ -165,3 +165,20 @@ def test_size_of_a_project_holds_its_gait_too(tmp_path):
                  "mass": r.mass_kg, "limit": env.torque_limit_Nm}  # fmt: skip
         w, tau = samples.v[:, [3 + i]], samples.u[:, [i]]
         assert _brute_force(w, tau, [servo], 0.0)[0] == r.key, name
+
+
+def test_size_says_what_the_chosen_servos_add_up_to(com_shift):
+    motion, tau_csv = com_shift
+    result = run("size", str(motion), "--tau", str(tau_csv), "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    chosen = [row["servo"] for row in report["joints"] if row["servo"] is not None]
+    catalogue = load_catalogue()
+    total = report["totals"]
+    assert total["servos"] == len(chosen)
+    assert total["mass_kg"] == pytest.approx(sum(catalogue[k].mass_kg for k in chosen))
+    # no built-in servo's maker publishes a price: none is summed, and the output says so
+    assert total["price"] is None and set(total["unpriced"]) == set(chosen)
+    text = run("size", str(motion), "--tau", str(tau_csv)).stdout
+    (line,) = [line for line in text.splitlines() if line.startswith("total: ")]
+    assert f"{len(chosen)} servos" in line and "price unpublished for" in line

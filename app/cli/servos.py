@@ -26,9 +26,11 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from app.core.servo.catalogue import (
+        DATASHEET_FIT,
         identified_names,
         load_catalogue,
         read_user_servos,
+        why_not_simulated,
         with_user_servos,
     )
 
@@ -53,11 +55,12 @@ def run(args: argparse.Namespace) -> int:
 
     print(
         f"{'key':12s} {'maker / model':32s} {'V':>5s} {'stall':>6s} {'speed':>5s} {'mass':>6s} "
-        f"{'gear':>6s} {'play':>5s} {'K m1 / m6':>11s} {'1/K m1 / m6':>13s}"
+        f"{'gear':>6s} {'play':>5s} {'cont.':>5s} {'price':>9s} {'K m1 / m6':>11s} "
+        f"{'1/K m1 / m6':>13s}  simulated as"
     )
     print(
         f"{'':12s} {'':32s} {'':>5s} {'N·m':>6s} {'rpm':>5s} {'g':>6s} {'':>6s} {'°':>5s} "
-        f"{'N·m/rad':>11s} {'°/(N·m)':>13s}"
+        f"{'N·m':>5s} {'':>9s} {'N·m/rad':>11s} {'°/(N·m)':>13s}"
     )
     for record in records.values():
         stiffness, compliance = [], []
@@ -68,18 +71,45 @@ def run(args: argparse.Namespace) -> int:
         if not record.fits:
             stiffness = compliance = ["-"]
         play = f"{record.backlash_deg:g}" if record.backlash_deg is not None else "-"
+        cont = record.continuous_torque_Nm
+        rated = "-" if cont is None else f"{cont:.2f}"
+        price = "-" if record.price is None else f"{record.price:g} {record.price_currency}"
         name = f"{record.maker} {record.model}"[:32]
         print(
             f"{record.key:12s} {name:32s} {record.supply_voltage_V:5.1f} "
             f"{record.stall_torque_Nm:6.2f} {record.no_load_speed_rpm:5.0f} "
-            f"{record.mass_kg * 1000:6.1f} {record.gear_ratio:6.1f} {play:>5s} "
-            f"{' / '.join(stiffness):>11s} {' / '.join(compliance):>13s}"
+            f"{record.mass_kg * 1000:6.1f} {record.gear_ratio:6.1f} {play:>5s} {rated:>5s} "
+            f"{price:>9s} "
+            f"{' / '.join(stiffness):>11s} {' / '.join(compliance):>13s}  {simulated_as(record)}"
         )
     print(
         "K and 1/K: the firmware P loop's stiffness kt·vin·error_gain·kp/R with BAM's firmware "
         "constants and its m1 or m6 fit (the simulation's parts use m1 unless friction_model = "
         f'"m6"); the spring paper\'s k: {TYPICAL_COMPLIANCE_DEG_PER_NM:g} °/(N·m); sources: --json'
     )
+    print(
+        "cont. (continuous torque) and price: as the maker publishes them, '-' where it does "
+        "not (sizing then assumes a fraction of stall torque and cannot size by price)"
+    )
+    derived = [r.key for r in records.values() if (f := r.fit("m1")) is not None and f.derived]
+    if derived:
+        print(f"DC model ({', '.join(derived)}): {DATASHEET_FIT}")
+    cannot = [r for r in records.values() if why_not_simulated(r)]
+    if cannot:
+        print(
+            f"cannot be simulated ({', '.join(r.key for r in cannot)}): "
+            + why_not_simulated(cannot[0])
+        )
     if only_identified:
         print("identified by BAM, no sourced datasheet record yet: " + ", ".join(only_identified))
     return 0
+
+
+def simulated_as(record) -> str:
+    """The motor model the simulation runs a record with, or "-" where it cannot."""
+    fit = record.fit("m1")
+    if record.firmware is None or fit is None:
+        return "-"
+    if fit.derived:
+        return "DC model (datasheet)"
+    return "BAM " + "/".join(f.name for f in record.fits) if record.identified else "own m1"

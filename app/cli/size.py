@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -60,7 +61,12 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
 
     from app.core.servo.catalogue import load_catalogue, read_user_servos, with_user_servos
-    from app.core.servo.sizing import CONTINUOUS_FRACTION_OF_STALL, check_fraction, check_margin
+    from app.core.servo.sizing import (
+        CONTINUOUS_FRACTION_OF_STALL,
+        check_fraction,
+        check_margin,
+        totals,
+    )
     from app.core.servo.sizing_work import motion_work, size_works
 
     margin = check_margin(args.margin)
@@ -89,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
         continuous_fraction=fraction,
     )
     seconds = time.perf_counter() - begin
+    total = totals(sizing, catalogue)
     notes = list(sizing.notes)
     if flagged:
         notes.append(
@@ -104,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
             "n_servos": len(catalogue),
             "works": list(works),
             **sizing.to_json(),
+            "totals": dataclasses.asdict(total),
             "notes": notes,
         }
         if args.time:
@@ -132,6 +140,7 @@ def run(args: argparse.Namespace) -> int:
                 f"  {joint.joint:20s} NO SERVO holds it; closest {best.servo}: "
                 + "; ".join(best.violations())
             )
+    print(f"total: {total.line()}")
     for note in notes:
         print(f"note: {note}")
     if args.time:

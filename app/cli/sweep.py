@@ -119,10 +119,11 @@ def run(args: argparse.Namespace) -> int:
         f"after {first_s:.1f} s); Pareto set of {metrics}: {len(front)} points "
         f"{list(front)}{output_target(args.out)}"
     )
-    names = [p.name for p in spec.parameters]
     for i in front:
         r = by_index[i]
-        values = ", ".join(f"{n} = {v:.4g}" for n, v in zip(names, r.values, strict=True))
+        values = ", ".join(
+            f"{p.name} = {p.shown(v)}" for p, v in zip(spec.parameters, r.values, strict=True)
+        )
         shown = ", ".join(f"{m} = {r.metric(m):.4g}" for m, _ in spec.pareto)
         print(f"  #{i}: {values} → {shown}")
     return 0

@@ -1,6 +1,7 @@
 """What the simulation takes from the servo parts in the state (`StudioState.work.parts`): the
 servo law to run (`simulation_law`, the CLI's `part_law` functions) and the energy line of a
-run on parts (`energy_line`). Not a session: the simulation session calls these two hooks.
+run on parts (`energy_line`), and what the Servos folder says of a user's servo file
+(`added_text`). Not a session: the simulation and servos sessions call these hooks.
 """
 
 from __future__ import annotations
@@ -12,9 +13,15 @@ import numpy as np
 from app.core.dynamics.wbc import FeedForward
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
-from app.core.servo.catalogue import ServoRecord, load_catalogue
-from app.core.servo.choice import ServoChoice, choice_parts
+from app.core.servo.catalogue import (
+    DATASHEET_FIT,
+    ServoRecord,
+    load_catalogue,
+    why_not_simulated,
+)
+from app.core.servo.choice import ServoChoice, choice_parts, offered_catalogue, simulatable
 from app.core.servo.model import ServoModel
+from app.core.servo.user_files import UserServoFile, records
 from app.core.simulation.battery import (
     MIN_DISTANCE_M,
     energy_figures,
@@ -59,9 +66,10 @@ def energy_line(
     if energy is None or choice is None or energy.duration_s <= 0.0:
         return ""
     vin = np.ones(len(robot.joint_names))  # ideal joints draw nothing: any voltage will do
+    offered = offered_catalogue(choice, catalogue())
     for name in choice.chosen:
         joint = choice.joint(name)
-        record = catalogue().get(joint.servo)
+        record = offered.get(joint.servo)
         firmware = record.firmware if record is not None else None
         vin[robot.joint_names.index(name)] = joint.vin_V or (
             firmware.vin_V if firmware is not None else 1.0
@@ -97,3 +105,48 @@ def energy_line(
     if f.battery_minutes is not None:
         line += f"; a {f.pack_Wh:g} Wh pack lasts **{f.battery_minutes:.0f} min** of this motion"
     return line
+
+
+def added_text(file: UserServoFile, offered: dict[str, ServoRecord]) -> str:
+    """What the Servos folder says of a user's file just added (markdown): its servos, and
+    those the simulation cannot run, with why."""
+    found = records(file)
+    runnable = simulatable({r.key: r for r in found})
+    lines = [
+        f"Added {len(found)} servo(s) from **{file.name}** "
+        f"({len(offered)} in the catalogue now): "
+        + ", ".join(f"{r.key} ({r.maker} {r.model})" for r in found)
+    ]
+    kept_out = [r for r in found if r.key not in runnable]
+    if kept_out:
+        lines.append(
+            f"⚠️ not offered in *Servo*: {', '.join(r.key for r in kept_out)}: "
+            + why_not_simulated(kept_out[0])
+        )
+    derived = [r.key for r in found if r.key in runnable and (f := r.fit("m1")) and f.derived]
+    if derived:
+        lines.append(f"{', '.join(derived)}: {DATASHEET_FIT}")
+    return "  \n".join(lines)
+
+
+def not_offered_text(records: dict[str, ServoRecord]) -> str:
+    """The catalogue's servos the Servos folder cannot offer, and why (markdown)."""
+    out = sorted(key for key, record in records.items() if why_not_simulated(record))
+    if not out:
+        return ""
+    return (
+        f"Not offered (datasheet only: {', '.join(out)}): "
+        + why_not_simulated(records[out[0]])
+        + " (`biped-studio servos`)."
+    )
+
+
+def users_of_files(choice: ServoChoice, besides: list[str]) -> list[str]:
+    """The joints (not in `besides`) on a servo of the choice's user files: when a file is
+    replaced their part may have changed under the same key."""
+    keys = {record.key for file in choice.user_servos for record in records(file)}
+    return [
+        name
+        for name, joint in zip(choice.joint_names, choice.joints, strict=True)
+        if joint.servo in keys and name not in besides
+    ]

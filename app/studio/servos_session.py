@@ -15,6 +15,7 @@ import logging
 import math
 import threading
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -30,14 +31,16 @@ from app.core.servo.choice import (
     ServoChoice,
     choice_parts,
     ideal_choice,
+    offered_catalogue,
     simulatable,
     take_joints,
     with_parts,
 )
-from app.core.servo.sizing import Sizing, envelope
+from app.core.servo.sizing import Sizing, check_joint, envelope, totals
 from app.core.servo.sizing_work import Work, gait_work, motion_work, size_works
+from app.core.servo.user_files import UserServoFile, adding, user_file
 from app.studio.notifier import Notifier
-from app.studio.servo_parts import catalogue
+from app.studio.servo_parts import added_text, catalogue, not_offered_text, users_of_files
 from app.studio.signals import Signal
 from app.studio.state import LoadedRobot, StudioState
 from app.studio.work import Coefficients
@@ -59,11 +62,12 @@ class ServosSession:
         """gaits(): the planned gaits to size against too (label → gait or None)."""
         self._state, self._notifier, self._gaits = state, notifier, gaits
         self.records: dict[str, ServoRecord] = simulatable(catalogue())
-        """The servos offered: those the simulation can run (a motor model and firmware)."""
+        """The servos offered: those the simulation can run (a motor model and firmware), the
+        user's own files' included."""
+        self._user_files: tuple[UserServoFile, ...] = ()
+        """The user's servo files, kept across robots (the state's parts hold them too)."""
         self.panel = ServosPanel(server.gui, self)
-        self.panel.show_catalogue(
-            [(k, f"{k} — {r.maker} {r.model}") for k, r in sorted(self.records.items())]
-        )
+        self._show_catalogue(())
         self._selected = ""
         self.last: tuple[Sizing, dict[str, Work]] | None = None
         """The last sizing and the works it was made against."""
@@ -73,7 +77,7 @@ class ServosSession:
         state.on_robot.connect(self._on_robot)
         state.on_motion.connect(lambda _motion: self._forget_sizing())
         state.work.on_coefficients.connect(self._on_coefficients)
-        state.work.on_parts.connect(lambda _choice: self._show_selected())
+        state.work.on_parts.connect(self._on_parts)
 
     # --- state ----------------------------------------------------------------------------
 
@@ -84,7 +88,9 @@ class ServosSession:
             if robot is None:
                 return None
             parts = self._state.work.parts
-            return parts if parts is not None else ideal_choice(robot.joint_names)
+            if parts is not None:
+                return parts
+            return replace(ideal_choice(robot.joint_names), user_servos=self._user_files)
 
     def _on_robot(self, loaded: LoadedRobot) -> None:
         names = loaded.robot.joint_names
@@ -93,6 +99,21 @@ class ServosSession:
         self.panel.show_joints(names, self._selected)
         self.panel.sizing.content = ""
         self._show_selected()
+
+    def _on_parts(self, choice: ServoChoice) -> None:
+        if choice.user_servos != self._user_files:
+            self._show_catalogue(choice.user_servos)
+        self._show_selected()
+
+    def _show_catalogue(self, files: tuple[UserServoFile, ...]) -> None:
+        """Offer the catalogue's servos the simulation can run and the user's `files`'."""
+        self._user_files = files
+        offered = offered_catalogue(ServoChoice((), (), user_servos=files), catalogue())
+        self.records = simulatable(offered)
+        self.panel.show_catalogue(
+            [(k, f"{k} — {r.maker} {r.model}") for k, r in sorted(self.records.items())],
+            not_offered_text(offered),
+        )
 
     def _on_coefficients(self, _coefficients: Coefficients) -> None:
         self._show_selected()
@@ -128,7 +149,28 @@ class ServosSession:
         if choice is None:
             return
         pack = None if pack_Wh == 0.0 else float(pack_Wh)
-        self._apply(ServoChoice(choice.joint_names, choice.joints, pack), "parts")
+        self._apply(replace(choice, battery_Wh=pack), "parts")
+
+    def add_servo_file(
+        self, name: str, content: bytes, client: viser.ClientHandle | None = None
+    ) -> bool:
+        """A user's servo TOML added to those offered (a file of the same name replaced),
+        kept with the parts and so with the project; refused with one line, nothing lost."""
+        choice = self.choice()
+        if choice is None:
+            self._fail("Servo file not added", "load a robot first", client)
+            return False
+        try:
+            file = user_file(name, content)
+            files = adding(choice.user_servos, file)
+            offered = offered_catalogue(replace(choice, user_servos=files), catalogue())
+        except StudioError as error:
+            self._fail("Servo file refused", str(error), client)
+            return False
+        if not self._apply(replace(choice, user_servos=files), "parts", client):
+            return False
+        self.panel.status.content = added_text(file, offered)
+        return True
 
     def restore_parts(self, choice: ServoChoice | None, coefficients: tuple[Any, Any]) -> None:
         """Undo / redo: `choice` again (None: every joint ideal), the joints it changes taking
@@ -152,7 +194,9 @@ class ServosSession:
             except StudioError as error:
                 self._fail("Servo parts not restored", str(error), None)
 
-    def _apply(self, choice: ServoChoice, origin: str) -> bool:
+    def _apply(
+        self, choice: ServoChoice, origin: str, client: viser.ClientHandle | None = None
+    ) -> bool:
         """Check `choice` and install it with the coefficients that follow; a refused one
         leaves the last good one (one line in the folder and to the tabs)."""
         with self._state.lock:
@@ -165,12 +209,14 @@ class ServosSession:
                 for name, a, b in zip(choice.joint_names, choice.joints, now.joints, strict=True)
                 if a != b
             ] if now is not None else None  # fmt: skip
+            if changed is not None and now is not None and choice.user_servos != now.user_servos:
+                changed += users_of_files(choice, changed)  # a replaced file's k follows
             try:
                 parts = choice_parts(choice, robot.joint_names, catalogue())
                 params, servo = with_parts(current.params, current.servo, parts, changed)
                 self._state.work.set_parts(choice, params, servo, origin)
             except StudioError as error:
-                self._fail("Servo refused", str(error), None)
+                self._fail("Servo refused", str(error), client)
                 self._show_selected()
                 return False
         return True
@@ -196,9 +242,8 @@ class ServosSession:
             )
         else:
             try:
-                parts = choice_parts(
-                    ServoChoice((self._selected,), (joint,)), (self._selected,), catalogue()
-                )
+                one = ServoChoice((self._selected,), (joint,), user_servos=choice.user_servos)
+                parts = choice_parts(one, (self._selected,), catalogue())
             except StudioError as error:
                 parts, line = None, f"⚠️ {error}"
             if parts is not None:
@@ -236,7 +281,9 @@ class ServosSession:
         note = f"{joint}: planned points of {', '.join(works)} (ideal servo: no envelope)"
         if env is not None and record is not None:
             bounds = (env.stall_torque_Nm, env.no_load_speed_rad_s, env.torque_limit_Nm)
-            check = sizing.joints[j].check(servo)
+            checked = [c for c in sizing.joints[j].checks if c.servo == servo]
+            # a servo added after the sizing: checked on the same points now
+            check = checked[0] if checked else check_joint(record, w, tau, 1.0, sizing.margin)
             verdict = "holds" if check.holds else "⚠️ " + "; ".join(check.violations())
             note = (
                 f"{joint} on {servo} ({env.source}): peak margin {check.peak_margin:+.0%}, RMS "
@@ -306,7 +353,8 @@ class ServosSession:
             chosen = JointServo(joint.choice) if joint.choice is not None else JointServo()
             choice = choice.with_joint(joint.joint, chosen)
         self.last = (sizing, works)
-        self.panel.sizing.content = sizing_text(sizing, works, len(self.records), len(catalogue()))
+        total = len(offered_catalogue(choice, catalogue()))
+        self.panel.sizing.content = sizing_text(sizing, works, self.records, total)
         if self._apply(choice, "sizing"):
             self._show_selected()
         self.sized.emit(sizing)
@@ -316,11 +364,14 @@ class ServosSession:
         self._notifier.error(title, body, client)
 
 
-def sizing_text(sizing: Sizing, works: dict[str, Work], offered: int, total: int) -> str:
-    """The per-joint choice with its margins, and the joints no servo holds (markdown)."""
+def sizing_text(
+    sizing: Sizing, works: dict[str, Work], records: dict[str, ServoRecord], total: int
+) -> str:
+    """The per-joint choice with its margins, the joints no servo holds, and what the chosen
+    servos add up to (markdown); `records`: the servos sized over."""
     held = len(sizing.joints) - len(sizing.unsized)
     lines = [
-        f"**Sized** against {', '.join(works)} over {offered} servos the simulation can run "
+        f"**Sized** against {', '.join(works)} over {len(records)} servos the simulation can run "
         f"(of {total} in the catalogue), margin {sizing.margin:.0%}: {held} of "
         f"{len(sizing.joints)} joints"
     ]
@@ -337,5 +388,6 @@ def sizing_text(sizing: Sizing, works: dict[str, Work], offered: int, total: int
                 f"⚠️ {joint.joint}: **no servo holds it** (left on the ideal servo); closest "
                 f"{best.servo}: " + "; ".join(best.violations())
             )
+    lines.append(f"**Total**: {totals(sizing, records).line()}")
     lines += [f"note: {note}" for note in sizing.notes]
     return "  \n".join(lines)

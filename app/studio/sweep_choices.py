@@ -3,6 +3,10 @@
 `SweptRobot` is the robot the panel sweeps (its sweep name, feet, package folders and planner
 defaults); `choices` are its parameters with their first ranges; `spec_data` turns the panel's
 values into the sweep data `SweepSpec.from_mapping` reads.
+
+The servo parts: "part:servo" is categorical, its min and max the first and last of the
+servos the simulation can run in key order (`part_servos`: 0 is the first), "part:kp" the
+firmware's P gain on them (app.core.sweeps.part_parameters).
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ import numpy as np
 
 from app.core.collocation.controls import CONTROLS
 from app.core.errors import StudioError
+from app.core.sweeps.part_parameters import runnable_servos
 from app.core.sweeps.robot_variants import ROBOT_PARAMETERS, sweep_robot_of
 from app.core.sweeps.servo_metrics import SERVO_PARAMETERS, simulation_cost_s
 from robots.catalogue import BUILTIN_ROBOTS
@@ -22,6 +27,8 @@ from robots.catalogue import BUILTIN_ROBOTS
 STEP_RANGE = (0.6, 1.4)
 """The panel's first step-length range, × the robot's default step (the planner's defaults
 scale with the legs): dircon_biped's 0.2 m gives 0.12–0.28 m."""
+KP_RANGE = (8.0, 64.0)
+"""The panel's first kp range: a quarter to twice BAM's firmware kp of 32."""
 H_RANGE = (0.6 / 0.72, 0.9 / 0.72)
 """The panel's first gait-time range, × the robot's default H: dircon_biped's 0.72 s gives
 0.6–0.9 s."""
@@ -67,10 +74,14 @@ class SweptRobot:
 
     def spec_data(self, values: dict[str, Any]) -> dict[str, Any]:
         """The sweep data of this robot with the panel's `values`: a .urdf robot's workers
-        load it as the studio did (its package folders, its feet)."""
+        load it as the studio did (its package folders, its feet); the part:servo row's
+        min … max (indices of `part_servos`) become its choices."""
         data: dict[str, Any] = {"robot": self.robot}
         if self.robot not in BUILTIN_ROBOTS and self.feet is not None:
             data |= {"package_roots": list(self.package_roots), "feet": list(self.feet)}
+        values = dict(values)
+        if "parameter" in values:
+            values["parameter"] = [_with_choices(p) for p in values["parameter"]]
         return {**data, **values}
 
     def planner_defaults(self) -> Any:
@@ -82,16 +93,25 @@ class SweptRobot:
         return self.defaults
 
     def line(self) -> str:
-        """Which robot the panel sweeps, and why robot parameters are missing where they are."""
+        """Which robot the panel sweeps, why robot parameters are missing where they are, and
+        the servos part:servo's min … max index."""
+        servos = ", ".join(f"{i} {key}" for i, key in enumerate(part_servos()))
+        parts = f"  \npart:servo (on the legs, min … max of): {servos}; needs *Simulate*."
         if self.robot in ROBOT_PARAMETERS:
-            return f"Robot: **{self.robot}** (the loaded robot) and its variants."
+            return f"Robot: **{self.robot}** (the loaded robot) and its variants." + parts
         if self.robot.lower().endswith(".urdf"):
             why = (
                 "its links have no known segment axis or shape to stretch, so no robot "
-                "parameters (gait and servo only)"
+                "parameters (gait, servo and part only)"
             )
-            return f"Robot: **{self.name}** (`{Path(self.robot).name}`, the loaded robot): {why}."
-        return f"Robot: **{self.robot}** (the loaded robot): its builder has no sweep parameters."
+            return (
+                f"Robot: **{self.name}** (`{Path(self.robot).name}`, the loaded robot): {why}."
+                + parts
+            )
+        return (
+            f"Robot: **{self.robot}** (the loaded robot): its builder has no sweep parameters."
+            + parts
+        )
 
 
 def choices(robot: str, defaults: Any) -> dict[str, tuple[float, float]]:
@@ -106,7 +126,43 @@ def choices(robot: str, defaults: Any) -> dict[str, tuple[float, float]]:
         out[f"robot:{p.name}"] = (p.minimum, p.maximum)
     for s in SERVO_PARAMETERS.values():
         out[f"servo:{s.name}"] = (s.minimum, s.maximum)
+    out["part:servo"] = (0.0, float(len(part_servos()) - 1))
+    out["part:kp"] = KP_RANGE
     return out
+
+
+def part_servos() -> tuple[str, ...]:
+    """The servos a sweep's part:servo row picks from, by index: those the simulation can run."""
+    return tuple(sorted(runnable_servos()))
+
+
+def _with_choices(parameter: dict[str, Any]) -> dict[str, Any]:
+    if (parameter.get("kind"), parameter.get("name")) != ("part", "servo"):
+        return parameter
+    keys = part_servos()
+    lo, hi = (parameter.get(k) for k in ("min", "max"))
+    if not all(isinstance(v, float | int) and np.isfinite(v) for v in (lo, hi)):
+        raise StudioError(f"part:servo: min and max are indices 0 … {len(keys) - 1}")
+    first, last = round(float(lo)), round(float(hi))  # type: ignore[arg-type]
+    if not 0 <= first <= last < len(keys):
+        raise StudioError(
+            f"part:servo: min {lo:g} and max {hi:g} must be indices 0 ≤ min ≤ max ≤ "
+            f"{len(keys) - 1} of {', '.join(f'{i} {k}' for i, k in enumerate(keys))}"
+        )
+    return {"kind": "part", "name": "servo", "choices": list(keys[first : last + 1])}
+
+
+def panel_data(data: dict[str, Any]) -> dict[str, Any]:
+    """A sweep's data as the panel shows it: a part:servo parameter's choices as its min and
+    max indices (of `part_servos`)."""
+    keys = part_servos()
+    shown = []
+    for p in data.get("parameter", []):
+        if "choices" in p:
+            at = [keys.index(k) for k in p["choices"] if k in keys]
+            p = {**p, "min": float(min(at, default=0)), "max": float(max(at, default=0))}
+        shown.append(p)
+    return {**data, "parameter": shown}
 
 
 def ordered(offered: dict[str, tuple[float, float]]) -> list[str]:

@@ -3,7 +3,8 @@
 The point's gait is solved again on a worker (the NLP is warm there); the variant robot is loaded
 with `StudioState.set_robot` and a walk of the gait played with `set_motion`. A point of a
 simulated sweep also hands its servo settings (the compliance, dead band and compensation it was
-simulated with) to the Compensation panel through the `servos` callback.
+simulated with) to the Compensation panel through the `servos` callback, and its servo parts
+(a catalogue servo and kp on the legs, or the ideal servo everywhere) to the state's parts.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ from typing import Any
 import viser
 
 from app.core.errors import StudioError
+from app.core.robot.model import RobotModel
+from app.core.sweeps.part_parameters import leg_parts
 from app.core.sweeps.robot_variants import sweep_robot_of
 from app.core.sweeps.sampling import SweepPoint
 from app.core.sweeps.servo_metrics import servo_settings
@@ -65,17 +68,43 @@ class PointLoader:
         if point.simulation is not None:
             setup = point.simulation
             servos = servo_settings(robot, setup)
-            summary += (
-                f"; servos {setup.compliance_deg_per_Nm:.3g} °/(N·m), dead band "
-                f"{setup.dead_band_deg:.3g}°, compensation {'on' if setup.compensation else 'off'}"
-            )
+            if setup.part is None:
+                summary += (
+                    f"; servos {setup.compliance_deg_per_Nm:.3g} °/(N·m), dead band "
+                    f"{setup.dead_band_deg:.3g}°"
+                )
+            else:
+                kp = "" if setup.part.kp is None else f" at kp {setup.part.kp:g}"
+                summary += f"; {setup.part.servo}{kp} on the legs"
+            summary += f", compensation {'on' if setup.compensation else 'off'}"
         with self.state.lock, self.server.atomic():
             if robot is not loaded:
                 self.state.set_robot(robot, report)
             self.state.set_motion(walk.trajectory, summary, robot)
         if servos is not None and self.servos is not None:
             self.servos(*servos)  # after the robot: loading it reset the servos
+        if servos is not None and point.simulation is not None:
+            self._keep_parts(robot, point.simulation, servos)
         self.state.on_play.emit(None)
+
+    def _keep_parts(self, robot: RobotModel, setup: Any, servos: tuple[Any, Any]) -> None:
+        """The point's parts into the state: its servo and kp on the legs (the ideal servo
+        elsewhere), or every joint ideal for a point simulated on the virtual servos."""
+        from app.core.servo.choice import JointServo, ideal_choice
+
+        with self.state.lock:
+            if self.state.robot is not robot:
+                return
+            current = self.state.work.parts
+            choice = ideal_choice(robot.joint_names)
+            if current is not None:
+                choice = dataclasses.replace(choice, user_servos=current.user_servos)
+            part = setup.part
+            if part is not None:
+                for name in leg_parts(robot, part).joint_names:
+                    joint = JointServo(part.servo, kp=part.kp, dead_band_deg=part.dead_band_deg)
+                    choice = choice.with_joint(name, joint)
+            self.state.work.set_parts(choice, *servos, "sweep")
 
     def _robot_of(self, point: SweepPoint, swept: Any) -> Any:
         """The point's robot: its variant's file, the robot `swept` on screen (it stays, and the

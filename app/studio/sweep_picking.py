@@ -145,7 +145,7 @@ class SweepPicker:
 
 def _values(spec: SweepSpec, result: PointResult) -> str:
     return ", ".join(
-        f"{p.name} = {v:.4g}" for p, v in zip(spec.parameters, result.values, strict=True)
+        f"{p.name} = {p.shown(v)}" for p, v in zip(spec.parameters, result.values, strict=True)
     )
 
 

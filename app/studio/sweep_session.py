@@ -178,11 +178,11 @@ class SweepSession:
             return None
         swept = self._swept
         defaults = swept.planner_defaults()
-        data = swept.spec_data(self.panel.spec_values())
+        values = self.panel.spec_values()
         try:
-            spec = SweepSpec.from_mapping(data, "sweep panel")
+            spec = SweepSpec.from_mapping(swept.spec_data(values), "sweep panel")
         except StudioError:  # the panel holds a bad sweep: prepare its knots anyway
-            knots = dict(data.get("gait", {})).get("knots", 14)
+            knots = dict(values.get("gait", {})).get("knots", 14)  # type: ignore[call-overload]
             spec = SweepSpec.from_mapping(
                 swept.spec_data(
                     {

@@ -17,6 +17,7 @@ from app.core.sweeps.outcomes import tally
 from app.core.sweeps.results import SweepRecord
 from app.core.sweeps.sampling import SweepPoint
 from app.core.sweeps.spec import SweepSpec
+from app.studio.sweep_choices import panel_data
 from app.studio.sweep_picking import SweepPicker
 from panels.sweep_panel import SweepPanel
 
@@ -78,7 +79,7 @@ class SweepView:
         """A project's sweep: its spec in the panel, its points plotted; Load point is off
         while its points cannot be loaded (`loadable`: a URDF's sweep before that robot)."""
         spec, results = record.spec(), record.results
-        self.panel.show_spec(json.loads(record.spec_json))
+        self.panel.show_spec(panel_data(json.loads(record.spec_json)))
         solved = [r for r in results if r.solved]
         counts = tally(results, spec.n_points, spec.simulate, finished=True).line()
         self.say(

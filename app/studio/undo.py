@@ -162,6 +162,10 @@ def _parts_edit(before: ServoChoice | None, after: ServoChoice | None) -> str:
         for name, servo, was in zip(after.joint_names, after.joints, old, strict=True)
         if servo != (was if was is not None else JointServo())
     ]
+    files = before.user_servos if before is not None else ()
+    if after.user_servos != files:
+        names = ", ".join(f.name for f in after.user_servos) or "none"
+        return f"servo files ({names})"
     if not changed:
         return "battery" if before is None or before.battery_Wh != after.battery_Wh else ""
     if len(changed) > NAMED_JOINTS:

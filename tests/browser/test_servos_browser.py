@@ -3,7 +3,9 @@
 dropdowns, the page shows its compliance k = 1/K (checked against the motor law's closed form,
 K = kt·vin·error_gain·kp/R, from the record), a margin is typed, *Size servos* is clicked and
 the per-joint choice and its margins are read in the page, against the studio's state and a
-brute force over the servos offered.
+brute force over the servos offered. Last, the user's own servo file is uploaded through the
+folder's upload button (a bad one first: refused in one line, nothing changed), its servo
+picked from the dropdown and its k = 1/K read in the page against the file's own numbers.
 
 The page is loaded once for the module: run the tests together, in file order.
 """
@@ -27,8 +29,10 @@ from tests.browser.page_helpers import (
     open_studio,
     type_number,
     wait_for,
+    wait_notified,
 )
 from tests.browser.test_compensation_browser import select_option
+from tests.studio.test_user_servos_in_studio import ERROR_GAIN, KP, KT, VIN, R, servo_toml
 
 MOTION = "one_leg_stand"
 JOINT = "left_knee"
@@ -123,3 +127,50 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
             assert check.peak_margin >= MARGIN
         else:
             assert re.search(rf"{re.escape(name)}: no servo holds it", text), name
+
+
+def upload(page, name: str, text: str) -> None:
+    """The user's file through the Servos folder's upload button and the browser's chooser."""
+    with page.expect_file_chooser() as chooser:
+        click_button(page, "Add servo file (.toml)")
+    chooser.value.set_files(
+        files=[{"name": name, "mimeType": "application/toml", "buffer": text.encode()}]
+    )
+
+
+def test_a_user_servo_file_uploaded_is_offered_and_picked(page, studio: Studio) -> None:
+    expand_folder(page, "Servos", "Add servo file (.toml)")
+    servos = folder(page, "Servos")
+    # the catalogue's datasheet-only servos are not offered, and the folder says why
+    servos.get_by_text("Not offered (datasheet only: mx28", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    assert "no identified motor model and no firmware constants" in servos.inner_text()
+    before = studio.state.work.parts
+    upload(page, "bad.toml", servo_toml("my_servo", stall="-4.2"))
+    wait_notified(page, "Servo file refused", "stall_torque_Nm is -4.2", UI_TIMEOUT_S)
+    servos.get_by_text("stall_torque_Nm is -4.2", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    assert studio.state.work.parts is before
+    assert "my_servo" not in studio.servos.records
+
+    upload(page, "mine.toml", servo_toml("my_servo"))
+    servos.get_by_text("Added 1 servo(s) from mine.toml", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    joint = studio.state.robot.joint_names[0]
+    select_option(page, "Servo of joint", joint)
+    select_option(page, "Servo", "my_servo — Workshop Test servo my_servo")
+    parts = wait_for(
+        f"my_servo on {joint} in the studio",
+        lambda: (
+            (p := studio.state.work.parts) is not None and p.joint(joint).servo == "my_servo" and p
+        ),
+        UI_TIMEOUT_S,
+    )
+    assert [f.name for f in parts.user_servos] == ["mine.toml"]
+    compliance = math.degrees(R / (KT * VIN * ERROR_GAIN * KP))  # 1/K of the file's numbers
+    servos.get_by_text(f"k = 1/K = {compliance:.3g} °/(N·m)", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )

@@ -110,14 +110,14 @@ def test_loading_another_robot_offers_its_choices_and_cancels_the_sweep(studio, 
     thigh = dircon["thigh_length_m"]
     assert (panel.min_b.value, panel.max_b.value) == (thigh.minimum, thigh.maximum)
 
-    # a URDF file (not a built-in's): gait and servo parameters only, and the reason said
+    # a URDF file (not a built-in's): gait, servo and part parameters only, the reason said
     copy = tmp_path / "my_biped.urdf"
     shutil.copy(BUILTIN_ROBOTS["servo_biped"].urdf_path, copy)
     offered = wait_for_signal(session.on_choices, lambda: studio.robots.load(copy))
     assert offered == str(copy)
     assert not any(o.startswith("robot:") for o in panel.param_a.options)
     assert "no robot parameters" in panel.robot_line.content
-    assert {o.split(":")[0] for o in panel.param_a.options} == {"gait", "servo"}
+    assert {o.split(":")[0] for o in panel.param_a.options} == {"gait", "servo", "part"}
 
     # its sweep runs on the file, and Load point keeps that robot and plays the point's gait
     robot = studio.state.robot

@@ -17,6 +17,8 @@ A record (the same fields for the built-in catalogue and a user's own file)::
     [firmware]                        # optional: vin_V, kp, error_gain, max_pwm, current_limit_A
     [motor]                           # optional, the user's own m1 fit: kt_Nm_per_A, R_ohm,
                                       #   armature_kgm2, friction_base_Nm, friction_viscous_Nms
+                                      # [firmware] without identified or [motor]: a DC motor
+                                      #   derived from the datasheet (motor_law.datasheet_motor)
     [sources]                         # where every figure above comes from, one line each
     stall_torque_Nm = "https://… (Stall Torque 7.3 N·m at 14.8 V)"
 
@@ -98,6 +100,8 @@ class Fit:
     """"m1" or "m6"."""
     motor: MotorConstants
     friction: FrictionM1 | FrictionM6
+    derived: str = ""
+    """How the fit was made where nothing identified it ("" for BAM's and the user's)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -161,6 +165,8 @@ class ServoRecord:
         out["fits"] = {}
         for fit in self.fits:
             entry: dict[str, Any] = {"motor": dataclasses.asdict(fit.motor)}
+            if fit.derived:
+                entry["derived"] = fit.derived
             if firmware is not None:
                 motor = fit.motor
                 entry["model_stall_torque_Nm"] = motor_law.stall_torque_Nm(motor, firmware)
@@ -168,6 +174,7 @@ class ServoRecord:
                 entry["stiffness_Nm_per_rad"] = motor_law.stiffness_Nm_per_rad(motor, firmware)
                 entry["compliance_deg_per_Nm"] = motor_law.compliance_deg_per_Nm(motor, firmware)
             out["fits"][fit.name] = entry
+        out["not_simulated"] = why_not_simulated(self) or None
         return out
 
 
@@ -256,6 +263,8 @@ def record_from_mapping(data: dict[str, Any], where: str) -> ServoRecord:
         if fits:
             raise ServoCatalogueError(f"{where}: give identified or a [motor] table, not both")
         fits.append(Fit("m1", *_motor(motor_table, f"{where} motor")))
+    if firmware is not None and not fits:
+        fits.append(_datasheet_fit(figures, firmware))
     if firmware is not None:
         for fit in fits:
             try:
@@ -276,6 +285,40 @@ def record_from_mapping(data: dict[str, Any], where: str) -> ServoRecord:
         fits=tuple(fits),
         origin=where.split(" [")[0],
         **figures,
+    )
+
+
+DATASHEET_ARMATURE_KGM2 = 0.01
+"""The armature of a servo whose maker publishes none: the simulation's default, the ideal
+servo's (app.core.simulation.mjcf.SimOptions.armature_kgm2; BAM's MX-64: 0.012)."""
+DATASHEET_FIT = (
+    "a DC motor derived from the datasheet's stall torque and no-load speed at its voltage "
+    "(kt = V·max_pwm/ω0, R = kt·V·max_pwm/τs); friction and armature are not published: "
+    f"no friction, the ideal servo's armature {DATASHEET_ARMATURE_KGM2:g} kg·m²"
+)
+"""What a fit made by `_datasheet_fit` says of itself."""
+
+
+def _datasheet_fit(figures: dict[str, float], firmware: Firmware) -> Fit:
+    motor = motor_law.datasheet_motor(
+        figures["supply_voltage_V"],
+        firmware.max_pwm,
+        figures["stall_torque_Nm"],
+        figures["no_load_speed_rpm"] * 2.0 * math.pi / 60.0,
+        DATASHEET_ARMATURE_KGM2,
+    )
+    return Fit("m1", motor, FrictionM1(0.0, 0.0), DATASHEET_FIT)
+
+
+def why_not_simulated(record: ServoRecord) -> str:
+    """Why the simulation cannot run `record` ("" when it can): it needs the firmware's
+    position loop (error_gain, max_pwm, kp), which datasheets do not publish."""
+    if record.firmware is not None and record.fit("m1") is not None:
+        return ""
+    return (
+        "no identified motor model and no firmware constants (error_gain, max_pwm, kp: the "
+        "datasheet publishes neither); give [firmware] in your own servo file to simulate it "
+        "with a DC motor derived from its stall torque and no-load speed"
     )
 
 
@@ -366,7 +409,11 @@ def load_catalogue(directory: Path = SERVOS_DIR) -> dict[str, ServoRecord]:
 def read_user_servos(path: str | os.PathLike[str]) -> list[ServoRecord]:
     """The records of a user's TOML file: one record, or several [[servo]] tables."""
     source = os.fspath(path)
-    data = input_gate.read_toml(source, ServoCatalogueError)
+    return records_from_toml(input_gate.read_toml(source, ServoCatalogueError), source)
+
+
+def records_from_toml(data: dict[str, Any], source: str) -> list[ServoRecord]:
+    """The records of a user's parsed TOML file named `source` (read_user_servos)."""
     if "servo" in data:
         tables = data["servo"]
         if set(data) != {"servo"} or not isinstance(tables, list) or not tables:

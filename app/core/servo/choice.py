@@ -17,10 +17,11 @@ from typing import Any, Literal
 
 import numpy as np
 
-from app.core.servo.catalogue import ServoRecord
+from app.core.servo.catalogue import ServoCatalogueError, ServoRecord
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
 from app.core.servo.parts import ServoParts, ServoPartsError, parts_from_mapping
+from app.core.servo.user_files import UserServoFile, with_user_files
 
 IDEAL = ""
 """The ideal servo: the virtual compliance and dead band of the Compensation panel."""
@@ -54,6 +55,9 @@ class ServoChoice:
     joints: tuple[JointServo, ...]
     battery_Wh: float | None = None
     """A pack's usable energy [Wh] for the minutes of the motion repeated; None: not said."""
+    user_servos: tuple[UserServoFile, ...] = ()
+    """The user's own servo files (TOML texts), beside the built-in catalogue; read and
+    checked again wherever the choice is resolved (app.core.servo.user_files)."""
 
     def joint(self, name: str) -> JointServo:
         return self.joints[self.joint_names.index(name)]
@@ -101,11 +105,22 @@ def choice_parts(
     pack = choice.battery_Wh
     if pack is not None and not (math.isfinite(pack) and 0.0 < pack <= 1.0e5):
         raise ServoPartsError(f"{where}: battery_Wh is {pack:g}; give 0 < Wh ≤ 100000")
+    offered = offered_catalogue(choice, catalogue, where)
     chosen = choice.chosen
     if not chosen:
         return None
     data = {"joints": {name: joint_mapping(choice.joint(name)) for name in chosen}}
-    return parts_from_mapping(data, chosen, catalogue, where)
+    return parts_from_mapping(data, chosen, offered, where)
+
+
+def offered_catalogue(
+    choice: ServoChoice, catalogue: dict[str, ServoRecord], where: str = "servo parts"
+) -> dict[str, ServoRecord]:
+    """The catalogue with the choice's user servo files; ServoPartsError naming a bad file."""
+    try:
+        return with_user_files(catalogue, choice.user_servos)
+    except ServoCatalogueError as error:
+        raise ServoPartsError(f"{where}: user servos: {error}") from None
 
 
 def with_parts(

@@ -125,6 +125,26 @@ def stall_torque_Nm(motor: MotorConstants, firmware: Firmware) -> float:
     return torque
 
 
+def datasheet_motor(
+    supply_voltage_V: float,
+    max_pwm: float,
+    stall_torque_Nm: float,
+    no_load_speed_rad_s: float,
+    armature_kgm2: float,
+) -> MotorConstants:
+    """The DC motor whose closed forms give a datasheet's stall torque τ_s and no-load speed
+    ω_0 at its rated supply V, reached at the firmware's largest duty max_pwm: from
+    ω_0 = V·max_pwm/kt and τ_s = kt·V·max_pwm/R,
+
+        kt = V · max_pwm / ω_0,      R = kt · V · max_pwm / τ_s = (V · max_pwm)² / (τ_s · ω_0).
+
+    Friction and the rotor's armature are not published: no friction is modelled (the
+    identified servos show a few % of stall), the armature is the caller's."""
+    volts = supply_voltage_V * max_pwm
+    kt = volts / no_load_speed_rad_s
+    return MotorConstants(kt, kt * volts / stall_torque_Nm, armature_kgm2)
+
+
 def no_load_speed_rad_s(motor: MotorConstants, firmware: Firmware) -> float:
     """ω_0 = vin · max_pwm / kt: where the back-EMF eats the whole supply."""
     return firmware.vin_V * firmware.max_pwm / motor.kt_Nm_per_A

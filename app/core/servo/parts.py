@@ -29,7 +29,7 @@ import numpy as np
 from app.core import input_gate
 from app.core.errors import StudioError
 from app.core.servo import motor_law
-from app.core.servo.catalogue import ServoRecord
+from app.core.servo.catalogue import ServoRecord, why_not_simulated
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
 from app.core.servo.motor_law import Firmware, FrictionM1, FrictionM6, MotorConstants
@@ -169,14 +169,12 @@ def _part(
             f"{where}: servo {key!r} is not in the catalogue; known: {', '.join(sorted(catalogue))}"
         )
     fit = record.fit(friction_model)
-    if record.firmware is None or record.fit("m1") is None:
-        raise ServoPartsError(
-            f"{where}: servo {key!r} has no identified motor model and firmware constants; the "
-            "simulation needs kt, R and error_gain: give [motor] and [firmware] in a --servos file"
-        )
+    base = record.firmware
+    if base is None or why_not_simulated(record):
+        why = why_not_simulated(record)
+        raise ServoPartsError(f"{where}: servo {key!r} cannot be simulated: {why}")
     if fit is None:
         raise ServoPartsError(f"{where}: servo {key!r} has no identified {friction_model} model")
-    base = record.firmware
     firmware = Firmware(
         vin_V=settings.get("vin_V", base.vin_V),
         kp=settings.get("kp", base.kp),

@@ -106,7 +106,8 @@ class SweepSummary:
 
 
 def results_csv(spec: SweepSpec, results: Sequence[PointResult]) -> str:
-    """One row per point, in index order: the parameters, the metrics, and `pareto` (0/1)."""
+    """One row per point, in index order: the parameters (a categorical one by its choice's
+    key), the metrics, and `pareto` (0/1)."""
     front = set(pareto_indices(spec, results))
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
@@ -114,9 +115,11 @@ def results_csv(spec: SweepSpec, results: Sequence[PointResult]) -> str:
     writer.writerow([*(p.name for p in spec.parameters), *metrics, "pareto"])
     for r in sorted(results, key=lambda r: r.index):
         row = r.row()
-        writer.writerow(
-            [*(repr(v) for v in r.values), *(row[c] for c in metrics), int(r.index in front)]
-        )
+        cells = [
+            p.shown(v) if p.choices else repr(v)
+            for p, v in zip(spec.parameters, r.values, strict=True)
+        ]
+        writer.writerow([*cells, *(row[c] for c in metrics), int(r.index in front)])
     return out.getvalue()
 
 
@@ -128,7 +131,7 @@ def results_columns(
     ordered = sorted(results, key=lambda r: r.index)
     out: dict[str, list[float | int | bool | str]] = {}
     for j, p in enumerate(spec.parameters):
-        out[p.name] = [float(r.values[j]) for r in ordered]
+        out[p.name] = [p.shown(r.values[j]) if p.choices else float(r.values[j]) for r in ordered]
     rows = [r.row() for r in ordered]
     for c in columns(spec):
         out[c] = [row[c] for row in rows]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+from typing import Any
 
 import numpy as np
 
@@ -60,7 +61,10 @@ def sample_values(spec: SweepSpec) -> np.ndarray:
     hi = np.array([p.maximum for p in spec.parameters])
     values = lo + unit * (hi - lo)
     for j, p in enumerate(spec.parameters):
-        if p.is_integer:
+        if p.choices:  # categorical: the unit range cut into one equal stratum per choice
+            n = len(p.choices)
+            values[:, j] = np.minimum(np.floor(unit[:, j] * n), n - 1)
+        elif p.is_integer:
             values[:, j] = np.round(values[:, j])
     return values
 
@@ -74,7 +78,9 @@ def start_point(spec: SweepSpec, defaults: GaitSettings | None = None) -> SweepP
 
         defaults = default_settings(spec.variant().load())
     base = spec.base_settings(defaults)
-    simulation = SimulationSetup.of(spec.walk_steps, dict(spec.servo)) if spec.simulate else None
+    simulation = None
+    if spec.simulate:
+        simulation = SimulationSetup.of(spec.walk_steps, dict(spec.servo), dict(spec.part))
     return SweepPoint(-1, (), spec.variant(), base, spec.start, base, simulation)
 
 
@@ -94,11 +100,14 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
         gait: dict[str, float | int] = {}
         robot: dict[str, float] = {}
         servo: dict[str, float] = dict(spec.servo)
+        part: dict[str, Any] = dict(spec.part)
         for p, value in zip(spec.parameters, row, strict=True):
             if p.kind == "gait":
                 gait[p.name] = int(value) if p.is_integer else float(value)
             elif p.kind == "servo":
                 servo[p.name] = float(value)
+            elif p.kind == "part":
+                part[p.name] = p.shown(value) if p.choices else float(value)
             else:
                 robot[p.name] = float(value)
                 setting = robot_parameter(spec.robot, p.name).gait_setting
@@ -114,7 +123,7 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
                 settings,
                 spec.start,
                 dataclasses.replace(base, knots=settings.knots),
-                SimulationSetup.of(spec.walk_steps, servo) if spec.simulate else None,
+                SimulationSetup.of(spec.walk_steps, servo, part) if spec.simulate else None,
             )
         )
     return points

@@ -29,6 +29,7 @@ import numpy as np
 
 from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
 from app.core.simulation.files import DEFAULT_BACKLASH_DEG
+from app.core.sweeps.part_parameters import PartSetup, leg_parts
 
 DEFAULT_WALK_STEPS = 2
 MAX_WALK_STEPS = 8
@@ -80,14 +81,27 @@ class SimulationSetup:
     compliance_deg_per_Nm: float = TYPICAL_COMPLIANCE_DEG_PER_NM
     dead_band_deg: float = DEFAULT_BACKLASH_DEG
     compensation: bool = True
+    part: PartSetup | None = None
+    """A catalogue servo on the leg joints (app.core.sweeps.part_parameters); None: the
+    virtual servos above."""
 
     @classmethod
-    def of(cls, walk_steps: int, values: dict[str, float]) -> SimulationSetup:
-        """The setup with the servo parameters `values` (names of SERVO_PARAMETERS)."""
+    def of(
+        cls, walk_steps: int, values: dict[str, float], part: dict[str, Any] | None = None
+    ) -> SimulationSetup:
+        """The setup with the servo parameters `values` (names of SERVO_PARAMETERS) and the
+        part's `part` ("servo": key, "kp": value; none: no part)."""
         fields: dict[str, Any] = {"walk_steps": int(walk_steps)}
         for name, value in values.items():
             p = SERVO_PARAMETERS[name]
             fields[name] = value >= 0.5 if p.is_switch else float(value)
+        if part and "servo" in part:
+            kp = part.get("kp")
+            fields["part"] = PartSetup(
+                str(part["servo"]),
+                None if kp is None else float(kp),
+                float(values["dead_band_deg"]) if "dead_band_deg" in values else None,
+            )
         return cls(**fields)
 
 
@@ -128,22 +142,25 @@ def simulation_cost_s(walk_steps: int) -> float:
 
 def servo_settings(robot: Any, setup: SimulationSetup) -> tuple[Any, Any]:
     """(CompensationParams, ServoModel) of a setup on `robot`: the leg joints (those the
-    uniform preset compensates) get the setup's compliance and dead band, the others are rigid;
-    compensation on is eq 7 with k = that compliance (a calibrated servo), off sends the plan."""
+    uniform preset compensates) get the setup's compliance and dead band (with a part: its
+    1/K and dead band), the others are rigid; compensation on is eq 7 with k = that compliance
+    (a calibrated servo), off sends the plan."""
+    from app.core.servo.choice import with_parts
     from app.core.servo.compensation import disabled_params
     from app.core.servo.model import ServoModel
     from app.core.servo.presets import uniform_preset
 
     legs = uniform_preset(robot).enabled
-    if setup.compensation:
-        params = uniform_preset(robot, setup.compliance_deg_per_Nm)
-    else:
-        params = disabled_params(robot.joint_names)
+    params = uniform_preset(robot, setup.compliance_deg_per_Nm)
     servo = ServoModel(
         robot.joint_names,
         np.where(legs, setup.compliance_deg_per_Nm, 0.0),
         np.where(legs, setup.dead_band_deg, 0.0),
     )
+    if setup.part is not None:
+        params, servo = with_parts(params, servo, leg_parts(robot, setup.part))
+    if not setup.compensation:
+        params = disabled_params(robot.joint_names)
     return params, servo
 
 
@@ -161,7 +178,17 @@ def walk_and_simulate(planar: Any, gait: Any, setup: SimulationSetup) -> tuple[A
     feedforward = torque_feedforward(robot, walk.trajectory)
     params, servo = servo_settings(robot, setup)
     commands = servo_commands(robot, walk.trajectory, feedforward.tau_Nm, params)
-    result = simulate(robot, walk.trajectory, commands.q_cmd_rad, servo)
+    if setup.part is None:
+        result = simulate(robot, walk.trajectory, commands.q_cmd_rad, servo)
+    else:
+        from app.core.simulation.part_law import law_with_parts
+        from app.core.simulation.run import simulate_commands
+
+        law = law_with_parts(robot, servo, leg_parts(robot, setup.part))
+        runs = {"simulated": commands.q_cmd_rad}
+        result = simulate_commands(robot, walk.trajectory, runs, servo, parallel=False, law=law)[
+            "simulated"
+        ]
     return walk, feedforward, commands, servo, result
 
 

@@ -15,13 +15,15 @@ A sweep file (TOML) looks like:
 
     [servo]                     # fixed servo parameters (with simulate = true)
     compliance_deg_per_Nm = 1.4
+    [part]                      # or a catalogue servo on the legs (app.core.sweeps.part_parameters)
+    servo = "mx106"
 
     [gait]                      # fixed GaitSettings for every point
     knots = 12
 
     [[parameter]]
     name = "step_length_m"      # a GaitSettings field, a robot parameter, or a servo parameter
-    kind = "gait"               # gait | robot | servo
+    kind = "gait"               # gait | robot | servo | part (servo: choices = [...]; kp)
     min = 0.1
     max = 0.3
     levels = 3                  # grid only (default 3)
@@ -44,6 +46,7 @@ from typing import Any, Literal
 
 from app.core import input_gate
 from app.core.collocation.settings import GaitSettings, GaitSettingsError
+from app.core.sweeps.part_parameters import PART_NAMES, check_kp, choices_of, fixed_part
 from app.core.sweeps.robot_variants import RobotVariant, SweepSpecError, robot_parameter
 from app.core.sweeps.servo_metrics import (
     DEFAULT_WALK_STEPS,
@@ -75,10 +78,10 @@ SIMULATION_METRICS = {
 METRICS.update(SIMULATION_METRICS)
 """The metrics a Pareto front may use, with what they mean."""
 SAMPLINGS = ("grid", "random", "latin")
-KINDS = ("gait", "robot", "servo")
+KINDS = ("gait", "robot", "servo", "part")
 TOP_KEYS = (
     "robot", "sampling", "samples", "seed", "pareto", "start", "gait", "parameter",
-    "simulate", "walk_steps", "servo", "package_roots", "feet",
+    "simulate", "walk_steps", "servo", "package_roots", "feet", "part",
 )  # fmt: skip
 START = {
     "anchor": "from the gait of the [gait] settings on the same NLP (solved once per worker): "
@@ -88,12 +91,14 @@ START = {
     "what its worker solved before",
 }
 """Where each point's solve starts."""
-PARAMETER_KEYS = ("name", "kind", "min", "max", "levels")
+PARAMETER_KEYS = ("name", "kind", "min", "max", "levels", "choices")
 STRUCTURAL = ("baseline",)
 """Settings a sweep cannot vary (not a number)."""
 
 KIND_WORDS = {int: "whole number", str: "text", bool: "true or false", dict: "table", list: "list"}
 Sense = Literal["min", "max"]
+PART_KINDS = ("servo", "part")
+"""Kinds of parameters that act only through the simulation."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,9 +111,20 @@ class SweepParameter:
     maximum: float
     levels: int = DEFAULT_LEVELS
     """Grid values of this parameter (grid sampling only)."""
+    choices: tuple[str, ...] = ()
+    """A categorical parameter's values (the servo keys of kind "part"); its value at a
+    point is the index of its choice."""
+
+    def shown(self, value: float) -> str:
+        """A point's value as the user reads it: a choice's key, else the number."""
+        if self.choices:
+            return self.choices[min(max(round(value), 0), len(self.choices) - 1)]
+        return f"{value:.4g}"
 
     @property
     def is_integer(self) -> bool:
+        if self.kind == "part":
+            return True
         if self.kind == "servo":
             return SERVO_PARAMETERS[self.name].is_switch
         return self.kind == "gait" and isinstance(getattr(GaitSettings, self.name), int)
@@ -139,6 +155,9 @@ class SweepSpec:
     """A .urdf robot's package folders (RobotVariant.package_roots)."""
     feet: tuple[str, str] | None = None
     """A .urdf robot's (left, right) foot links, when named rather than detected."""
+
+    part: tuple[tuple[str, Any], ...] = ()
+    """The fixed servo part on the legs: ("servo", key) and ("kp", value) as given ([part])."""
 
     def variant(self, values: dict[str, float] | None = None) -> RobotVariant:
         """The swept robot with robot parameters `values` (none: as built)."""
@@ -218,9 +237,12 @@ class SweepSpec:
                 f"{source}: walk_steps = {walk_steps}; give 1 to {MAX_WALK_STEPS} steps"
             )
         servo = _servo_table(data.get("servo", {}), source)
+        part = fixed_part(data.get("part", {}), source)
+        _check_parts(parameters, servo, part, source)
         if not simulate:
-            needs = [f"servo parameter {p.name}" for p in parameters if p.kind == "servo"]
+            needs = [f"{p.kind} parameter {p.name}" for p in parameters if p.kind in PART_KINDS]
             needs += [f"[servo] {name}" for name, _ in servo]
+            needs += [f"[part] {name}" for name, _ in part]
             needs += [f"pareto metric {m}" for m, _ in pareto if m in SIMULATION_METRICS]
             if needs:
                 raise SweepSpecError(
@@ -231,7 +253,7 @@ class SweepSpec:
         spec = cls(
             robot, parameters, sampling, samples, seed, pareto,
             tuple(sorted(gait.items())), start, simulate, walk_steps, servo,
-            package_roots, feet,
+            package_roots, feet, part,
         )  # fmt: skip
         if sampling != "grid" and samples < 1:
             raise SweepSpecError(f"{source}: samples = {samples}; give at least 1 point")
@@ -300,11 +322,20 @@ def _parameter(entry: Any, where: str, robot: str, base: GaitSettings) -> SweepP
         raise SweepSpecError(
             f"{where}: unknown key(s) {', '.join(unknown)}; known: {', '.join(PARAMETER_KEYS)}"
         )
-    for key in ("name", "min", "max"):
-        if key not in entry:
-            raise SweepSpecError(f"{where}: missing {key!r}")
+    if "name" not in entry:
+        raise SweepSpecError(f"{where}: missing 'name'")
     name = _typed(entry["name"], str, f"{where}: name")
     kind = _typed(entry.get("kind", "gait"), str, f"{where}: kind")
+    if kind == "part" and name == "servo":
+        if {"min", "max", "levels"} & set(entry):
+            raise SweepSpecError(f"{where}: servo is categorical: give choices, not min/max/levels")
+        keys = choices_of(entry, f"{where} (servo)")
+        return SweepParameter(kind, name, 0.0, float(len(keys) - 1), len(keys), keys)
+    if "choices" in entry:
+        raise SweepSpecError(f"{where}: choices are for the part parameter servo only")
+    for key in ("min", "max"):
+        if key not in entry:
+            raise SweepSpecError(f"{where}: missing {key!r}")
     lo = _number(entry["min"], f"{where} ({name}): min")
     hi = _number(entry["max"], f"{where} ({name}): max")
     levels = _integer(entry.get("levels", DEFAULT_LEVELS), f"{where} ({name}): levels")
@@ -323,6 +354,12 @@ def _parameter(entry: Any, where: str, robot: str, base: GaitSettings) -> SweepP
             )
     elif kind == "servo":
         _check_servo_range(name, lo, hi, where)
+    elif kind == "part":
+        if name not in PART_NAMES:
+            raise SweepSpecError(
+                f"{where}: unknown part parameter {name!r}; known: {', '.join(PART_NAMES)}"
+            )
+        check_kp(lo, where), check_kp(hi, where)
     else:
         raise SweepSpecError(f"{where}: kind = {kind!r}; give one of {', '.join(KINDS)}")
     return SweepParameter(kind, name, lo, hi, levels)
@@ -343,6 +380,33 @@ def _check_gait_range(name: str, lo: float, hi: float, base: GaitSettings, where
             raise SweepSpecError(
                 f"{where}: {name} range [{lo:g}, {hi:g}] leaves what the planner accepts: {error}"
             ) from None
+
+
+def _check_parts(
+    parameters: tuple[SweepParameter, ...],
+    servo: tuple[tuple[str, float], ...],
+    part: tuple[tuple[str, Any], ...],
+    source: str,
+) -> None:
+    """A kp needs a servo (swept or in [part]); a part's compliance is its 1/K, so the virtual
+    servo's compliance cannot be set beside it."""
+    swept = {p.name for p in parameters if p.kind == "part"}
+    fixed = {name for name, _ in part}
+    if swept & fixed:
+        raise SweepSpecError(f"{source}: {', '.join(sorted(swept & fixed))} swept and in [part]")
+    given = swept | fixed
+    if "kp" in given and "servo" not in given:
+        raise SweepSpecError(
+            f'{source}: kp needs a servo: give [part] servo = "<key>" or sweep servo'
+        )
+    compliance = "compliance_deg_per_Nm"
+    if "servo" in given and (
+        any(p.name == compliance for p in parameters) or any(n == compliance for n, _ in servo)
+    ):
+        raise SweepSpecError(
+            f"{source}: {compliance} is the virtual servo's; with a servo part the compliance "
+            "is the part's 1/K (sweep kp instead)"
+        )
 
 
 def _check_servo_range(name: str, lo: float, hi: float, where: str) -> None:
