@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import io
 import logging
+from dataclasses import dataclass
 
 from app.config import StudioConfig
 from app.core.projects.codec import ProjectError
@@ -43,6 +44,29 @@ from panels.compensation_folder import CompensationFolder
 log = logging.getLogger(__name__)
 
 
+@dataclass(frozen=True)
+class ServoRooms:
+    """The servo rooms: torques, coefficients and simulation each fill their rows of the one
+    Compensation folder, ghosts draws their results; the servo parts have the Servos panel.
+    Each reads the others' results from `state.work` only."""
+
+    torques: TorquesSession
+    compensation: CompensationSession
+    simulation: SimulationSession
+    ghosts: GhostsSession
+    servos: ServosSession
+
+
+@dataclass(frozen=True)
+class Presenting:
+    """What the tabs and an audience see: each tab's camera (kept for projects), the demo tour
+    and its presenter-only gate, and the Share panel (screenshots, videos, replays)."""
+
+    camera: CameraSession
+    demo: DemoSession
+    share: ShareSession
+
+
 class Studio:
     """A running studio. All browser tabs share its state."""
 
@@ -60,10 +84,10 @@ class Studio:
             max_upload_bytes=config.max_upload_bytes,
         )
         """The viser server behind the Host/Origin/token checks (app.web), and its URL."""
-        self.server = self.web.server
-        self.server.gui.configure_theme(control_width="large", dark_mode=False, show_logo=False)
-        self.server.scene.set_up_direction("+z")
-        self.server.scene.add_grid(
+        server = self.web.server
+        server.gui.configure_theme(control_width="large", dark_mode=False, show_logo=False)
+        server.scene.set_up_direction("+z")
+        server.scene.add_grid(
             "/ground",
             width=4.0,
             height=4.0,
@@ -72,27 +96,27 @@ class Studio:
             plane="xy",
             shadow_opacity=0.2,
         )
-        self.notifier = Notifier(self.server)
+        self.notifier = Notifier(server)
         # No silent failure: whatever a tab's action raises reaches that tab in one line.
-        guard_callbacks(self.server, self.notifier.error)
+        guard_callbacks(server, self.notifier.error)
         self.state = StudioState()
-        server, state, notifier = self.server, self.state, self.notifier
+        state, notifier = self.state, self.notifier
         self.robots = RobotSession(server, state, notifier, config)
         self.pose = PoseSession(server, state, notifier)
         self.joints = JointsSession(server, state)
         self.motions = MotionSession(server, state, notifier)
         self.playback = PlaybackSession(server, state)
-        self.camera = CameraSession(server, state)
+        camera = CameraSession(server, state)
         # Torques, coefficients and simulation each fill their rows of one Compensation folder.
         folder = CompensationFolder(server.gui)
-        self.compensation = CompensationSession(state, notifier, folder)
-        self.torques = TorquesSession(state, notifier, folder)
-        self.simulation = SimulationSession(state, notifier, folder)
-        self.ghosts = GhostsSession(server, state, folder)
+        compensation = CompensationSession(state, notifier, folder)
+        torques = TorquesSession(state, notifier, folder)
+        simulation = SimulationSession(state, notifier, folder)
+        ghosts = GhostsSession(server, state, folder)
         self.gait = GaitSession(
             server, state, notifier, config.package_roots, prepare=config.prepare_gait
         )
-        self.servos = ServosSession(
+        servos = ServosSession(
             server,
             state,
             notifier,
@@ -109,33 +133,37 @@ class Studio:
                 "started": self.gait.pipeline_started,
                 "iteration": self.gait.progressed,
                 "solved": self.gait.finished,
-                "torques": self.torques.done,
-                "simulated": self.simulation.runner.finished,
-                "refused": self.simulation.refused,
+                "torques": torques.done,
+                "simulated": simulation.runner.finished,
+                "refused": simulation.refused,
             },
         )
-        self.share = ShareSession(
-            server,
-            state,
-            notifier,
-            config.data_dir,
-            layers=lambda: self.ghosts.replay_layers(self.playback.panel.traces.value),
-            pause_playback=self.playback.player.pause,
+        self.servo_rooms = ServoRooms(torques, compensation, simulation, ghosts, servos)
+        self.presenting = Presenting(
+            camera,
+            DemoSession(server, presenter_only=config.presenter_only),
+            ShareSession(
+                server,
+                state,
+                notifier,
+                config.data_dir,
+                layers=lambda: ghosts.replay_layers(self.playback.panel.traces.value),
+                pause_playback=self.playback.player.pause,
+            ),
         )
-        self.demo = DemoSession(server, presenter_only=config.presenter_only)
         self.sweep = SweepSession(
             server,
             state,
             notifier,
             config.data_dir / "variants",
-            servos=self.compensation.set_servos,
+            servos=compensation.set_servos,
             prepare=config.prepare_sweep,
             package_roots=config.package_roots,
         )
         if robot is None:
             robot = load_robot(config.robot, package_roots=config.package_roots, feet=config.feet)
             prepare(robot)
-        with self.state.lock, self.server.atomic():
+        with self.state.lock, server.atomic():
             self.state.set_robot(robot, robot_report(robot))
         self.project = ProjectSession(
             server,
@@ -145,7 +173,7 @@ class Studio:
             (self.motions, ServoWork(state), self.gait, self.sweep),
             self.motions,
             dragging=lambda: self.pose.handles is not None and bool(self.pose.handles.held),
-            servos=self.servos,
+            servos=servos,
         )
         if config.project is not None:
             if not self.project.open(config.project, trusted=True):
@@ -160,12 +188,12 @@ class Studio:
     def stop(self) -> None:
         self.project.stop()
         self.playback.stop()
-        self.camera.stop()
-        self.share.close()
+        self.presenting.camera.stop()
+        self.presenting.share.close()
         self.gait.close()
         self.sweep.close()
-        self.ghosts.close()
-        self.simulation.close()
-        self.torques.close()
+        self.servo_rooms.ghosts.close()
+        self.servo_rooms.simulation.close()
+        self.servo_rooms.torques.close()
         with contextlib.redirect_stdout(io.StringIO()):  # viser's "Server stopped": not news
-            self.server.stop()
+            self.web.server.stop()

@@ -93,7 +93,7 @@ def test_generate_a_motion_and_compute_its_torques(
     page, studio: Studio, shots: dict[str, np.ndarray], tmp_path: Path
 ) -> None:
     session = studio.state.work
-    assert session.prediction is None and studio.ghosts.view is None
+    assert session.prediction is None and studio.servo_rooms.ghosts.view is None
 
     # Motions: pick the motion in the dropdown, wait for its parameters, generate it.
     expand_folder(page, "Motions", "Generate")
@@ -134,7 +134,7 @@ def test_generate_a_motion_and_compute_its_torques(
     feedforward = session.torques
     assert feedforward is not None
     # The ghosts session draws on the prediction's signal, after the prediction is stored.
-    wait_for("the ghosts view", lambda: studio.ghosts.view, UI_TIMEOUT_S)
+    wait_for("the ghosts view", lambda: studio.servo_rooms.ghosts.view, UI_TIMEOUT_S)
     assert feedforward.tau_Nm.shape == (trajectory.n_samples, len(prediction.joint_names))
     folder(page, "Compensation").get_by_text("max |τ|", exact=False).wait_for(
         state="visible", timeout=UI_TIMEOUT_S * 1000
@@ -155,7 +155,7 @@ def test_generate_a_motion_and_compute_its_torques(
 def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
     page, studio: Studio, shots: dict[str, np.ndarray], tmp_path: Path
 ) -> None:
-    session, panel = studio.state.work, studio.compensation.panel
+    session, panel = studio.state.work, studio.servo_rooms.compensation.panel
     feedforward, before = session.torques, session.prediction
     trajectory = studio.state.trajectory
     assert feedforward is not None and before is not None and trajectory is not None, (
@@ -214,7 +214,7 @@ def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
 
 
 def test_plots_show_the_torques(page, studio: Studio) -> None:
-    assert studio.ghosts.plots.torques is not None, "run with the previous tests"
+    assert studio.servo_rooms.ghosts.plots.torques is not None, "run with the previous tests"
     plots = folder(page, "Plots")
     canvas = plots.locator(".uplot canvas")
     if not canvas.first.is_visible():

@@ -74,7 +74,7 @@ def test_drag_the_pelvis_down_then_undo(page, studio: Studio) -> None:
     robot = studio.state.robot
     assert robot is not None and studio.pose.handles is not None
     wait_stable(page, "the studio's first render", not_blank)
-    (client,) = studio.server.get_clients().values()
+    (client,) = studio.web.server.get_clients().values()
     # From straight legs the pelvis cannot go down: bend the knees first, as docs/pose.md says.
     q_straight = studio.state.q.copy()
     expand_folder(page, "Pose (drag the feet)", "Ready pose (knees bent)")

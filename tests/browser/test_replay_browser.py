@@ -151,7 +151,9 @@ def test_screenshot_and_follow_presenter(chromium, tmp_path):
         wait_stable(viewer, "the viewer's first render", not_blank)
         folder_title(viewer, "Demo").click()
         viewer.get_by_label("Follow presenter").check()
-        wait_for("the follower to register", lambda: len(studio.demo.followers) == 1, 30.0)
+        wait_for(
+            "the follower to register", lambda: len(studio.presenting.demo.followers) == 1, 30.0
+        )
         before = wait_stable(page, "the presenter's view", not_blank)
         page.mouse.move(300, 400)
         page.mouse.down()

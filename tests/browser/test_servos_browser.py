@@ -82,7 +82,7 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
     type_number(page, "Margin", MARGIN)
     wait_for(
         f"the margin {MARGIN}",
-        lambda: studio.servos.panel.margin.value == pytest.approx(MARGIN),
+        lambda: studio.servo_rooms.servos.panel.margin.value == pytest.approx(MARGIN),
         UI_TIMEOUT_S,
     )
     before = studio.state.work.parts
@@ -97,12 +97,12 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
     text = servos.inner_text()
     assert f"margin {MARGIN:.0%}" in text
     robot = studio.state.robot
-    _, works = studio.servos.last
+    _, works = studio.servo_rooms.servos.last
     (work,) = works.values()
     for j, name in enumerate(robot.joint_names):
         holding = sorted(
             (r.mass_kg, key)
-            for key, r in studio.servos.records.items()
+            for key, r in studio.servo_rooms.servos.records.items()
             if check_joint(r, work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, MARGIN).holds
         )
         expected = holding[0][1] if holding else ""
@@ -113,7 +113,7 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
             )
             assert line is not None, f"{name}'s choice is not in the page:\n{text}"
             check = check_joint(
-                studio.servos.records[expected], work.speed_rad_s[:, j], work.torque_Nm[:, j],
+                studio.servo_rooms.servos.records[expected], work.speed_rad_s[:, j], work.torque_Nm[:, j],
                 1.0, MARGIN,
             )  # fmt: skip
             shown_margin = float(line.group(1))

@@ -57,7 +57,7 @@ def wait_for_signal(signal, start: Callable[[], object], accept=lambda _value: T
 
 def compute_torques(studio: Studio):
     """Compute the torque feed-forward of the current motion from the panel; its result."""
-    session = studio.torques
+    session = studio.servo_rooms.torques
     return wait_for_signal(session.done, lambda: setattr(session.panel.compute, "value", True))
 
 

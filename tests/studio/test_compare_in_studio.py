@@ -22,7 +22,7 @@ def studio(tmp_path):
 
 
 def test_colour_by_error_follows_the_links_distance_from_the_plan(studio):
-    session = studio.ghosts
+    session = studio.servo_rooms.ghosts
     panel, ghosts = session.compare.panel, session.view
     panel.choice.value = GHOSTS["without"][1]
     shown = {name for name, box in session.panel.ghosts.items() if box.value}

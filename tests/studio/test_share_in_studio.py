@@ -19,7 +19,8 @@ def studio(tmp_path):
 
 def _export(studio):
     return wait_for_signal(
-        studio.share.exported, lambda: setattr(studio.share.panel.export, "value", True)
+        studio.presenting.share.exported,
+        lambda: setattr(studio.presenting.share.panel.export, "value", True),
     )
 
 
@@ -27,13 +28,13 @@ def test_export_records_what_is_shown_and_nothing_reaches_the_live_tabs(studio, 
     studio.motions.panel.motion.value = "com_shift"
     studio.motions.panel.generate.value = True
     compute_torques(studio)
-    ghosts = studio.ghosts.panel.ghosts
+    ghosts = studio.servo_rooms.ghosts.panel.ghosts
     ghosts["planned"].value = True
     ghosts["with"].value = True  # by default the plan and the command only
     ghosts["without"].value = False
     studio.playback.panel.traces.value = False
-    studio.share.panel.zip.value = True
-    live = studio.server.get_scene_serializer()  # everything the live tabs are sent from now
+    studio.presenting.share.panel.zip.value = True
+    live = studio.web.server.get_scene_serializer()  # everything the live tabs are sent from now
 
     result = _export(studio)
 
@@ -41,7 +42,7 @@ def test_export_records_what_is_shown_and_nothing_reaches_the_live_tabs(studio, 
     folder = result.folder.path
     assert folder.parent == tmp_path / "data" / "replays"
     assert folder.with_name(folder.name + ".zip").is_file()
-    assert str(folder) in studio.share.panel.status.content
+    assert str(folder) in studio.presenting.share.panel.status.content
     recording = read_viser_file((folder / RECORDING).read_bytes())
     names = recording.node_names()
     for shown in ("planned", "command", "with"):
@@ -64,6 +65,6 @@ def test_export_records_what_is_shown_and_nothing_reaches_the_live_tabs(studio, 
 def test_export_without_a_motion_says_so_and_changes_nothing(studio):
     assert studio.state.trajectory is None
     assert _export(studio) is None
-    assert "generate or build a motion first" in studio.share.panel.status.content
+    assert "generate or build a motion first" in studio.presenting.share.panel.status.content
     assert not (studio.config.data_dir / "replays").exists()
     assert studio.state.robot is not None
