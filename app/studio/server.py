@@ -38,7 +38,7 @@ from app.studio.state import StudioState
 from app.studio.sweep_session import SweepSession
 from app.studio.torques_session import TorquesSession
 from app.web.callback_guard import guard_callbacks
-from app.web.guard import guarded_server
+from app.web.guard import GuardedServer, guarded_server
 from panels.compensation_folder import CompensationFolder
 
 log = logging.getLogger(__name__)
@@ -76,26 +76,9 @@ class Studio:
             log.warning("%s", warning)
         self.config = config
         """The configuration served, its access token filled in."""
-        self.web = guarded_server(
-            config.host,
-            config.port,
-            config.access_token,
-            label="Biped Studio",
-            max_upload_bytes=config.max_upload_bytes,
-        )
+        self.web = _themed_server(config)
         """The viser server behind the Host/Origin/token checks (app.web), and its URL."""
         server = self.web.server
-        server.gui.configure_theme(control_width="large", dark_mode=False, show_logo=False)
-        server.scene.set_up_direction("+z")
-        server.scene.add_grid(
-            "/ground",
-            width=4.0,
-            height=4.0,
-            cell_size=0.1,
-            section_size=0.5,
-            plane="xy",
-            shadow_opacity=0.2,
-        )
         self.notifier = Notifier(server)
         # No silent failure: whatever a tab's action raises reaches that tab in one line.
         guard_callbacks(server, self.notifier.error)
@@ -175,6 +158,11 @@ class Studio:
             dragging=lambda: self.pose.handles is not None and bool(self.pose.handles.held),
             servos=servos,
         )
+        self._open_first_project(config)
+        self.sweep.start_preparing()  # started: prepare the sweep workers in the background
+
+    def _open_first_project(self, config: StudioConfig) -> None:
+        """The project asked for on the command line, or the autosave to restore; autosaving."""
         if config.project is not None:
             if not self.project.open(config.project, trusted=True):
                 self.stop()
@@ -183,7 +171,6 @@ class Studio:
             self.project.restore_autosave()
         if config.autosave:
             self.project.start_autosave(now=config.project is not None)
-        self.sweep.start_preparing()  # started: prepare the sweep workers in the background
 
     def stop(self) -> None:
         self.project.stop()
@@ -197,3 +184,26 @@ class Studio:
         self.servo_rooms.torques.close()
         with contextlib.redirect_stdout(io.StringIO()):  # viser's "Server stopped": not news
             self.web.server.stop()
+
+
+def _themed_server(config: StudioConfig) -> GuardedServer:
+    """The guarded viser server of `config`, with the studio's theme, z up and a ground grid."""
+    web = guarded_server(
+        config.host,
+        config.port,
+        config.access_token,
+        label="Biped Studio",
+        max_upload_bytes=config.max_upload_bytes,
+    )
+    web.server.gui.configure_theme(control_width="large", dark_mode=False, show_logo=False)
+    web.server.scene.set_up_direction("+z")
+    web.server.scene.add_grid(
+        "/ground",
+        width=4.0,
+        height=4.0,
+        cell_size=0.1,
+        section_size=0.5,
+        plane="xy",
+        shadow_opacity=0.2,
+    )
+    return web

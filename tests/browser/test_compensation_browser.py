@@ -34,6 +34,7 @@ from tests.browser.page_helpers import (
     open_studio,
     page_time_s,
     publish,
+    select_option,
     type_number,
     wait_for,
     wait_stable,
@@ -52,19 +53,6 @@ TARGET_OFFSET_DEG = 20.0
 # ~4.5 % and ~4 % of the view.
 MIN_GHOSTS_FRACTION = 0.01
 MIN_EDIT_FRACTION = 0.01
-
-
-def select_option(page, label: str, option: str) -> None:
-    """Open the dropdown `label` (a Mantine Select) and click `option` in its list."""
-    box = gui_row_input(page, label, "input.mantine-Select-input")
-    box.scroll_into_view_if_needed()
-    box.click()
-    page.get_by_role("option", name=option, exact=True).click()
-    wait_for(
-        f"the page's {label} to show {option}",
-        lambda: box.input_value() == option,
-        UI_TIMEOUT_S,
-    )
 
 
 def single_support_time(studio: Studio) -> float:

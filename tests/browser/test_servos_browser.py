@@ -24,11 +24,12 @@ from tests.browser.page_helpers import (
     click_button,
     expand_folder,
     folder,
+    generate_motion,
     open_studio,
+    select_option,
     type_number,
     wait_for,
 )
-from tests.browser.test_compensation_browser import select_option
 
 MOTION = "one_leg_stand"
 JOINT = "left_knee"
@@ -42,14 +43,7 @@ def page(browser_page, studio_url: str):
 
 
 def test_pick_a_catalogue_servo_for_a_joint(page, studio: Studio) -> None:
-    expand_folder(page, "Motions", "Generate")
-    select_option(page, "Motion", MOTION)
-    click_button(page, "Generate")
-    wait_for(
-        f"the generated {MOTION}",
-        lambda: (t := studio.state.trajectory) is not None and t.name == MOTION,
-        UI_TIMEOUT_S,
-    )
+    generate_motion(page, studio, MOTION)
     expand_folder(page, "Compensation", "Compute torque feed-forward")
     click_button(page, "Compute torque feed-forward")
     wait_for("the torques' quick estimate", lambda: studio.state.work.prediction, RENDER_TIMEOUT_S)

@@ -26,23 +26,14 @@ from tests.browser.page_helpers import (
     click_button,
     expand_folder,
     folder,
-    gui_row_input,
     open_studio,
+    select_option,
     type_number,
     wait_for,
 )
 
 SOFT_DEG_PER_NM = 20.0
 """Two ankle pitch servos this soft give 2 × 2.9 N·m/rad against servo_biped's m·g·h ≈ 15."""
-
-
-def select_option(page, label: str, option: str) -> None:
-    """Open the dropdown `label` (a Mantine Select) and click `option` in its list."""
-    box = gui_row_input(page, label, "input.mantine-Select-input")
-    box.scroll_into_view_if_needed()
-    box.click()
-    page.get_by_role("option", name=option, exact=True).click()
-    wait_for(f"the page's {label} to show {option}", lambda: box.input_value() == option, 60)
 
 
 def page_text(page, folder_label: str) -> str:

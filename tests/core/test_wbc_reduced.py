@@ -26,7 +26,7 @@ from app.core.dynamics.wbc_qp import N_CORNERS, N_EDGES
 from app.core.dynamics.wbc_terms import SampleInput
 from app.core.motions.library import run_motion
 from app.core.robot.loading import load_robot
-from tests.conftest import ROBAN_URDF
+from tests.conftest import load_robots
 
 CASES = [
     ("servo_biped", "one_leg_squats"),
@@ -38,7 +38,7 @@ CASES = [
 
 @pytest.fixture(scope="module")
 def robots():
-    return {"servo_biped": load_robot("servo_biped"), "roban": load_robot(ROBAN_URDF)}
+    return load_robots("servo_biped", "roban")
 
 
 @pytest.fixture(scope="module")

@@ -61,6 +61,14 @@ def compute_torques(studio: Studio):
     return wait_for_signal(session.done, lambda: setattr(session.panel.compute, "value", True))
 
 
+def with_stand_torques(studio: Studio) -> Studio:
+    """`studio` with the one-leg stand generated from the Motions panel and its torques."""
+    studio.motions.panel.motion.value = "one_leg_stand"
+    studio.motions.panel.generate.value = True
+    compute_torques(studio)
+    return studio
+
+
 def solve_gait(studio: Studio, button: str = "solve"):
     """Press a gait panel button ("solve" or "baseline") and wait for that solve to end."""
     panel = studio.gait.panel

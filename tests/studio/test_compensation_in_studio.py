@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from app.core.simulation.on_plan import on_plan_stance
-from tests.studio.conftest import compute_torques, start_studio, wait_for_signal
+from tests.studio.conftest import compute_torques, start_studio, wait_for_signal, with_stand_torques
 
 
 def assert_ghost_at(ghosts, name, q):
@@ -24,14 +24,9 @@ def assert_ghost_at(ghosts, name, q):
 
 
 @pytest.fixture
-def studio(tmp_path):
-    """A studio with the one-leg stand and its torques (each test gets its own)."""
-    studio = start_studio(tmp_path / "data")
-    studio.motions.panel.motion.value = "one_leg_stand"
-    studio.motions.panel.generate.value = True
-    compute_torques(studio)
-    yield studio
-    studio.stop()
+def studio(studio):
+    """The conftest's studio with the one-leg stand and its torques (each test its own)."""
+    return with_stand_torques(studio)
 
 
 def test_torques_plots_and_ghosts_follow_the_motion(studio):

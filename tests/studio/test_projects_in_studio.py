@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import dataclasses
 import io
-import json
 import math
 import zipfile
 from pathlib import Path
@@ -20,6 +19,7 @@ from app.core.projects.display import CameraView, DisplaySettings
 from app.core.projects.files import read_project
 from app.core.servo.edits import SetBacklash, SetK
 from app.studio import Studio
+from tests.hostile.test_hostile_projects import rewrite
 from tests.same_values import assert_same
 from tests.studio.conftest import free_port, start_studio, wait_for_signal
 from tests.studio.ws_tab import CAMERA, Tab, loop, wait
@@ -186,17 +186,8 @@ def _assert_display_restored(a: Studio, b: Studio, tab: Tab) -> None:
 
 
 def _crafted(data: bytes, edit) -> bytes:
-    source = zipfile.ZipFile(io.BytesIO(data))
-    out = io.BytesIO()
-    with zipfile.ZipFile(out, "w") as target:
-        for info in source.infolist():
-            content = source.read(info)
-            if info.filename == "manifest.json":
-                manifest = json.loads(content)
-                edit(manifest)
-                content = json.dumps(manifest).encode()
-            target.writestr(info.filename, content)
-    return out.getvalue()
+    """The saved project with `edit` applied to its manifest (a dict, edited in place)."""
+    return rewrite(data, manifest=edit)
 
 
 def _slip(data: bytes) -> bytes:

@@ -18,17 +18,13 @@ from app.core.servo.edits import SetK
 from app.core.servo.sizing import check_joint
 from app.core.simulation.part_law import PartLaw
 from app.studio.servo_parts import catalogue
-from tests.studio.conftest import compute_torques, start_studio, wait_for_signal
+from tests.studio.conftest import wait_for_signal, with_stand_torques
 
 
 @pytest.fixture
-def studio(tmp_path):
-    studio = start_studio(tmp_path / "data")
-    studio.motions.panel.motion.value = "one_leg_stand"
-    studio.motions.panel.generate.value = True
-    compute_torques(studio)
-    yield studio
-    studio.stop()
+def studio(studio):
+    """The conftest's studio with the one-leg stand and its torques (each test its own)."""
+    return with_stand_torques(studio)
 
 
 def closed_form_compliance_deg_per_Nm(key: str, kp: float | None = None) -> float:

@@ -7,14 +7,7 @@ import pytest
 
 from app.core.replay.folder import RECORDING
 from app.core.replay.viser_file import read_viser_file
-from tests.studio.conftest import compute_torques, start_studio, wait_for_signal
-
-
-@pytest.fixture
-def studio(tmp_path):
-    studio = start_studio(tmp_path / "data")
-    yield studio
-    studio.stop()
+from tests.studio.conftest import compute_torques, wait_for_signal
 
 
 def _export(studio):

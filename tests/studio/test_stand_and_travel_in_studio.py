@@ -15,7 +15,7 @@ import pytest
 from app.core.posing.ready_pose import ready_pose
 from app.core.simulation.verdicts import LEAN_LOAD_FRACTION
 from app.studio.stand_checker import CHECKING
-from tests.studio.conftest import GUARD_S, compute_torques, start_studio, wait_for_signal
+from tests.studio.conftest import GUARD_S, compute_torques, wait_for_signal
 
 
 def stand_line(studio, accept=lambda _text: True) -> str:
@@ -59,13 +59,6 @@ def _ankle_bound_deg_per_Nm(robot) -> float:
         ]
     )
     return math.degrees(2.0 / (robot.mass_kg * 9.81 * (com[2] - ankle)))
-
-
-@pytest.fixture
-def studio(tmp_path):
-    studio = start_studio(tmp_path / "data")
-    yield studio
-    studio.stop()
 
 
 def test_the_panel_says_before_any_motion_whether_the_robot_can_stand(studio):
