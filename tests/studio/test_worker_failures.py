@@ -23,29 +23,33 @@ def studio(studio):
     return studio
 
 
-def test_a_studio_error_is_told_as_it_is_and_not_logged(studio, monkeypatch, caplog) -> None:
-    def refuse(*_args, **_kwargs):
-        raise StudioError("no torques for this robot today")
+def torques_failing_with(studio, monkeypatch, caplog, error: Exception):
+    """Compute the torques with the feed-forward raising `error`: the Torques status line and
+    what the session logged. The job ends with no result and no torques kept."""
 
-    monkeypatch.setattr(torques_session, "torque_feedforward", refuse)
+    def fail(*_args, **_kwargs):
+        raise error
+
+    monkeypatch.setattr(torques_session, "torque_feedforward", fail)
     with caplog.at_level(logging.ERROR, logger="app.studio.torques_session"):
         assert compute_torques(studio) is None
-    assert studio.servo_rooms.torques.panel.status.content == "⚠️ no torques for this robot today"
     assert studio.state.work.torques is None
-    assert not [r for r in caplog.records if r.name == "app.studio.torques_session"]
+    logged = [r for r in caplog.records if r.name == "app.studio.torques_session"]
+    return studio.servo_rooms.torques.panel.status.content, logged
+
+
+def test_a_studio_error_is_told_as_it_is_and_not_logged(studio, monkeypatch, caplog) -> None:
+    error = StudioError("no torques for this robot today")
+    status, logged = torques_failing_with(studio, monkeypatch, caplog, error)
+    assert status == "⚠️ no torques for this robot today"
+    assert logged == []
 
 
 @pytest.mark.expected_traceback("app.studio.torques_session")
 def test_a_bug_is_told_in_one_line_and_its_traceback_logged(studio, monkeypatch, caplog) -> None:
-    def bug(*_args, **_kwargs):
-        raise ZeroDivisionError("a bug on purpose")
-
-    monkeypatch.setattr(torques_session, "torque_feedforward", bug)
-    with caplog.at_level(logging.ERROR, logger="app.studio.torques_session"):
-        assert compute_torques(studio) is None
-    status = studio.servo_rooms.torques.panel.status.content
+    error = ZeroDivisionError("a bug on purpose")
+    status, logged = torques_failing_with(studio, monkeypatch, caplog, error)
     assert status == "⚠️ ZeroDivisionError: a bug on purpose"
-    assert studio.state.work.torques is None
-    (record,) = [r for r in caplog.records if r.name == "app.studio.torques_session"]
+    (record,) = logged
     assert record.exc_info is not None and record.exc_info[0] is ZeroDivisionError
     assert record.getMessage() == "Torque feed-forward failed"
