@@ -269,14 +269,7 @@ class SweepPanel:
                 width=0.0,
                 points=uplot.Series_Points(show=True, size=6.0, fill=ALL_COLOUR),
             ),
-            uplot.Series(
-                label="fell in simulation",
-                stroke=FELL_COLOUR,
-                width=0.0,
-                points=uplot.Series_Points(
-                    show=True, size=7.0, fill="#ffffff", stroke=FELL_COLOUR, width=2.0
-                ),
-            ),
+            _ringed("fell in simulation", FELL_COLOUR),
             uplot.Series(
                 label="Pareto front",
                 stroke=FRONT_COLOUR,
@@ -284,14 +277,7 @@ class SweepPanel:
                 spanGaps=True,
                 points=uplot.Series_Points(show=True, size=8.0, fill=FRONT_COLOUR),
             ),
-            uplot.Series(
-                label="failed (strip below)",
-                stroke=FAILED_COLOUR,
-                width=0.0,
-                points=uplot.Series_Points(
-                    show=True, size=7.0, fill="#ffffff", stroke=FAILED_COLOUR, width=2.0
-                ),
-            ),
+            _ringed("failed (strip below)", FAILED_COLOUR),
         )
         with self.folder:
             self.plot = self._gui.add_uplot(
@@ -315,3 +301,13 @@ def _whole_or_as_is(value: float) -> float | int:
     """A whole number as an int (the spec wants whole numbers there); anything else as it is,
     so the spec's check names it."""
     return int(value) if np.isfinite(value) and float(value).is_integer() else value
+
+
+def _ringed(label: str, colour: str) -> uplot.Series:
+    """Points alone, white with a `colour` ring: designs that fell or failed."""
+    return uplot.Series(
+        label=label,
+        stroke=colour,
+        width=0.0,
+        points=uplot.Series_Points(show=True, size=7.0, fill="#ffffff", stroke=colour, width=2.0),
+    )

@@ -1,4 +1,4 @@
-"""Shared test helpers: paths of the third-party robots, a tiny biped URDF to mutate, and the
+"""Shared test helpers: paths of the third-party robots (and a loader by name), a tiny biped URDF to mutate, and the
 rule that a traceback in the studio's log fails the test that caused it."""
 
 from __future__ import annotations
@@ -14,6 +14,15 @@ REPO = Path(__file__).resolve().parents[1]
 THIRD_PARTY_ROBOTS = REPO / "tests" / "third_party"
 ROBAN_URDF = THIRD_PARTY_ROBOTS / "roban_s14" / "urdf" / "robanS14.urdf"
 SIGMABAN_URDF = THIRD_PARTY_ROBOTS / "sigmaban" / "robot.urdf"
+THIRD_PARTY_URDFS = {"roban": ROBAN_URDF, "sigmaban": SIGMABAN_URDF}
+
+
+def load_robots(*names: str) -> dict:
+    """{name: RobotModel} of the named robots: the built-ins by their name, "roban" (Roban
+    S14) and "sigmaban" from tests/third_party."""
+    from app.core.robot.loading import load_robot
+
+    return {name: load_robot(THIRD_PARTY_URDFS.get(name, name)) for name in names}
 
 
 def _link(name: str, mass: float = 0.5, geometry: str = "") -> str:

@@ -29,3 +29,19 @@ def model_with_sole_edge_frames(robot) -> tuple[pin.Model, pin.Data, list[int]]:
             )
             frame_ids.append(model.addFrame(frame))
     return model, model.createData(), frame_ids
+
+
+def planar_contact_jacobian(planar, full, q: np.ndarray) -> np.ndarray:
+    """The sole points' world x and z rows of pinocchio's frame Jacobians, mapped to the planar
+    velocities through the planar model's G: shape (2 · points, planar nv), the planar
+    contact Jacobian's layout. `full` is `model_with_sole_edge_frames`'s answer."""
+    model, data, frame_ids = full
+    pin.computeJointJacobians(model, data, planar.to_full_q(q))
+    pin.updateFramePlacements(model, data)
+    G = planar.velocity_map(q)
+    return np.vstack(
+        [
+            pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[[0, 2]] @ G
+            for fid in frame_ids
+        ]
+    )

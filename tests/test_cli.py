@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import pytest
 
@@ -13,14 +15,27 @@ from robots.catalogue import BUILTIN_ROBOTS
 from tests.conftest import ROBAN_URDF, tiny_biped_urdf
 
 
-def run(*args: str) -> subprocess.CompletedProcess:
+def run(
+    *args: str, timeout_s: float = 120, data_dir: Path | None = None
+) -> subprocess.CompletedProcess:
+    """`python -m app ARGS` as a user runs it, its output as text; `data_dir`: the studio's
+    data folder (BIPED_STUDIO_DATA) instead of the user's."""
+    env = None if data_dir is None else {**os.environ, "BIPED_STUDIO_DATA": str(data_dir)}
     return subprocess.run(
         [sys.executable, "-m", "app", *args],
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=timeout_s,
         check=False,
+        env=env,
     )
+
+
+def com_shift_csv(folder: Path) -> Path:
+    """`motion com_shift --out folder/com_shift.csv`, checked to succeed; the file."""
+    motion = folder / "com_shift.csv"
+    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    return motion
 
 
 def test_robots_json_lists_every_builtin():

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from tests.test_cli import run
+from tests.test_cli import com_shift_csv, run
 
 
 def _refuse(name: str) -> None:
@@ -14,8 +14,7 @@ def _refuse(name: str) -> None:
 
 
 def test_battery_minutes_and_currents_follow_from_the_energy(tmp_path):
-    motion = tmp_path / "com_shift.csv"
-    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    motion = com_shift_csv(tmp_path)
     parts = tmp_path / "servo.toml"
     parts.write_text('servo = "mx106"\nvin_V = 14.0\n')
     result = run(
@@ -39,8 +38,7 @@ def test_battery_minutes_and_currents_follow_from_the_energy(tmp_path):
     [(("--battery-Wh", "nan"), "Wh"), (("--battery-Wh", "-3"), "Wh"), ((), "servo parts")],
 )
 def test_a_bad_battery_is_one_line_and_exit_1(tmp_path, extra, words):
-    motion = tmp_path / "m.csv"
-    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    motion = com_shift_csv(tmp_path)
     args = ["simulate", str(motion), "--preset", "plan", *extra]
     if not extra:
         args += ["--battery-Wh", "10"]  # without a --servo file that names servos
@@ -54,8 +52,7 @@ def test_servo_masses_change_the_robot_the_simulation_runs(tmp_path):
     from app.core.robot.loading import load_robot
     from app.core.servo.catalogue import load_catalogue
 
-    motion = tmp_path / "com_shift.csv"
-    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    motion = com_shift_csv(tmp_path)
     parts = tmp_path / "servo.toml"
     parts.write_text('servo = "mx106"\n')
     args = ["simulate", str(motion), "--preset", "plan", "--servo", str(parts), "--json"]

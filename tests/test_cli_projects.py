@@ -4,9 +4,7 @@ robot, motion, torques and coefficients give the same results as the same inputs
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -22,18 +20,12 @@ from app.core.servo.files import write_torque_csv
 from app.core.servo.model import joint_angles
 from app.core.servo.presets import preset_params
 from app.core.simulation.files import read_command_csv
+from tests.test_cli import run as run_cli
 
 
 def run(tmp_path, *args: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "BIPED_STUDIO_DATA": str(tmp_path / "data")}
-    return subprocess.run(
-        [sys.executable, "-m", "app", *args],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-        env=env,
-    )
+    """The command with its data folder in `tmp_path` (projects write autosaves there)."""
+    return run_cli(*args, timeout_s=300, data_dir=tmp_path / "data")
 
 
 @pytest.fixture(scope="module")

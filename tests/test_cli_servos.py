@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 
 from tests.core.test_servo_catalogue import RECORD
-from tests.test_cli import run
+from tests.test_cli import com_shift_csv, run
 
 
 def test_servos_json_lists_the_catalogue_with_sources_and_stiffness():
@@ -47,8 +47,7 @@ def test_a_bad_user_servo_is_one_line_and_exit_1(tmp_path):
 
 
 def test_simulate_on_catalogue_servos_reports_stiffness_and_energy(tmp_path):
-    motion = tmp_path / "com_shift.csv"
-    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    motion = com_shift_csv(tmp_path)
     parts = tmp_path / "servo.toml"
     parts.write_text('servo = "mx106"\n[joints.left_knee]\nservo = "mx64"\nkp = 40\n')
     result = run("simulate", str(motion), "--preset", "plan", "--servo", str(parts), "--json")
@@ -65,8 +64,7 @@ def test_simulate_on_catalogue_servos_reports_stiffness_and_energy(tmp_path):
 
 
 def test_simulate_with_a_bad_kp_is_one_line(tmp_path):
-    motion = tmp_path / "com_shift.csv"
-    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    motion = com_shift_csv(tmp_path)
     parts = tmp_path / "servo.toml"
     parts.write_text('servo = "mx106"\nkp = 1e9\n')
     result = run("simulate", str(motion), "--preset", "plan", "--servo", str(parts))
@@ -76,8 +74,7 @@ def test_simulate_with_a_bad_kp_is_one_line(tmp_path):
 
 
 def test_compensation_from_the_parts_straightens_the_torso(tmp_path):
-    motion = tmp_path / "com_shift.csv"
-    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    motion = com_shift_csv(tmp_path)
     parts = tmp_path / "servo.toml"
     parts.write_text('servo = "mx106"\n')
     result = run(

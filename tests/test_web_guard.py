@@ -546,7 +546,7 @@ def test_the_studio_serves_only_its_tokened_link(tmp_path: Path) -> None:
         assert config.token is not None and (tmp_path / "access-token").read_text().strip() == (
             config.token
         )
-        port = studio.server.get_port()
+        port = studio.web.server.get_port()
         assert studio.web.url == f"http://127.0.0.1:{port}/?token={config.token}"
         assert http_get(port, "/")[0] == 401
         assert http_get(port, f"/?token={config.token}")[0] == 200

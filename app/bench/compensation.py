@@ -86,7 +86,9 @@ def _entry_compensation_slider_long(ctx: BenchContext) -> tuple[dict, list[Figur
 
 @bench_entry("plot_cursor")
 def _entry_plot_cursor(ctx: BenchContext) -> tuple[dict, list[Figure]]:
-    if ctx.studio.ghosts.plots.torques is None:  # run alone: load the slider bench's motion
+    if (
+        ctx.studio.servo_rooms.ghosts.plots.torques is None
+    ):  # run alone: load the slider bench's motion
         _bench_compensation_slider(ctx.studio, repeats=1)
     row = _bench_plot_cursor(ctx.studio)
     return row, [
@@ -105,7 +107,7 @@ def _entry_plot_cursor(ctx: BenchContext) -> tuple[dict, list[Figure]]:
 def _bench_compensation_slider(studio: Studio, repeats: int = 20) -> dict:
     """A k slider moved on a 10 s motion (1000 samples): re-prediction, ghosts and plots."""
     motion_with_torques(studio, "servo_biped", "one_leg_squats")
-    panel = studio.compensation.panel
+    panel = studio.servo_rooms.compensation.panel
     assert studio.state.trajectory is not None
     times = timed_each(lambda k: set_value(panel.k, 1.0 + (k % 2)), range(repeats))
     return {"samples": studio.state.trajectory.n_samples, **percentiles_ms(times)}
@@ -117,7 +119,7 @@ def _bench_compensation_slider_long(studio: Studio, samples: int, repeats: int =
     from app.core.servo.model import predict
 
     _bench_compensation_slider(studio, repeats=1)  # the 10 s motion and its τ
-    session, robot = studio.compensation, studio.state.robot
+    session, robot = studio.servo_rooms.compensation, studio.state.robot
     base, feedforward = studio.state.trajectory, studio.state.work.torques
     assert robot is not None and base is not None and feedforward is not None
     copies = max(1, round(samples / base.n_samples))
@@ -157,7 +159,7 @@ def _bench_compensation_slider_long(studio: Studio, samples: int, repeats: int =
 def _bench_plot_cursor(studio: Studio, repeats: int = 20) -> dict:
     """The plots' cursor moved across the motion the compensation slider bench left loaded,
     against the same data pushes without a cursor (what a data push cost before it)."""
-    plots, trajectory = studio.ghosts.plots, studio.state.trajectory
+    plots, trajectory = studio.servo_rooms.ghosts.plots, studio.state.trajectory
     assert trajectory is not None and plots.torques is not None
 
     moved = timed_each(plots.show_time, list(np.linspace(0.0, trajectory.duration, repeats)))

@@ -80,7 +80,7 @@ def _bench_playback(studio: Studio, robot: str, seconds: float = 2.0) -> dict:
     studio.state.set_motion(trajectory, "bench", model)
     count, begin = 0, WALL()
     while WALL() - begin < seconds:  # as many pushes as fit in `seconds`
-        with studio.state.lock, studio.server.atomic():
+        with studio.state.lock, studio.web.server.atomic():
             studio.state.set_time((count * 0.01) % trajectory.duration)
         count += 1
     pushes_per_s = count / (WALL() - begin)
@@ -97,7 +97,7 @@ def _bench_playback_ghosts(studio: Studio, roban: Path, frames: int = 120) -> di
     from app.views.robot_view import RobotView
 
     motion_with_torques(studio, str(roban), "one_leg_stand")
-    session, trajectory = studio.ghosts, studio.state.trajectory
+    session, trajectory = studio.servo_rooms.ghosts, studio.state.trajectory
     assert trajectory is not None and session.view is not None
     shown = ("planned", "command", "without", "with")
     for name in shown:
@@ -105,7 +105,7 @@ def _bench_playback_ghosts(studio: Studio, roban: Path, frames: int = 120) -> di
     set_value(studio.playback.panel.traces, True)
 
     def push(count: int) -> None:
-        with studio.state.lock, studio.server.atomic():
+        with studio.state.lock, studio.web.server.atomic():
             studio.state.set_time(float(trajectory.t[count % trajectory.n_samples]))
 
     with stopwatch() as batched:
@@ -116,7 +116,7 @@ def _bench_playback_ghosts(studio: Studio, roban: Path, frames: int = 120) -> di
     robot = studio.state.robot
     assert robot is not None and studio.state.work.prediction is not None
     views = [
-        RobotView(studio.server, robot, root=f"/bench_ghosts/{name}", with_collision=False)
+        RobotView(studio.web.server, robot, root=f"/bench_ghosts/{name}", with_collision=False)
         for name in shown
     ]
     prediction = studio.state.work.prediction
@@ -124,7 +124,7 @@ def _bench_playback_ghosts(studio: Studio, roban: Path, frames: int = 120) -> di
         for count in range(frames):
             k = count % trajectory.n_samples
             push(count)
-            with studio.server.atomic():
+            with studio.web.server.atomic():
                 for view, q in zip(
                     views,
                     (

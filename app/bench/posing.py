@@ -139,7 +139,7 @@ def _bench_load(studio: Studio, robot: str, runs: int = 5) -> dict:
 
     def load(_run: int) -> None:
         loaded.append(studio.robots.load(robot))
-        studio.server.flush()
+        studio.web.server.flush()
 
     times = timed_each(load, range(runs))
     if not all(loaded):

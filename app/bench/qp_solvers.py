@@ -55,6 +55,7 @@ from app.core.dynamics.wbc import (
 )
 from app.core.dynamics.wbc_qp import MAX_ITERATIONS, TOLERANCE, WholeBodyQp
 from app.core.dynamics.wbc_reduced import DAQP_INFINITY, ReducedProblem
+from app.core.dynamics.wbc_terms import SampleInput
 from app.core.motions.library import run_motion
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.loading import load_robot
@@ -210,7 +211,9 @@ def same_qp(qp: WholeBodyQp, traj: Trajectory, passes: int = PASSES) -> SameQp:
                 begin = THREAD_CPU()
                 problems.append(
                     reduced.problem(
-                        qp.terms_at(batch, i), traj.v[k], traj.a[k], traj.contacts[k], no_error
+                        SampleInput(
+                            qp.terms_at(batch, i), traj.v[k], traj.a[k], traj.contacts[k], no_error
+                        )
                     )
                 )
                 assembly[k] = min(assembly[k], THREAD_CPU() - begin)
@@ -271,7 +274,7 @@ def studio_answers(
     answers, closed = [], 0
     for k, problem in enumerate(problems):
         terms = qp.kinematics(traj.q[k], traj.v[k], traj.a[k])
-        solution = qp.solve(terms, traj.v[k], traj.a[k], traj.contacts[k], np.zeros(6))
+        solution = qp.solve(SampleInput(terms, traj.v[k], traj.a[k], traj.contacts[k], np.zeros(6)))
         y = np.concatenate([solution.beta[problem.beta_columns], solution.qdd[6:]])
         answers.append(y if solution.ok else np.full_like(y, np.nan))
         closed += solution.ok and qp.last_reduced is None

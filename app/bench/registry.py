@@ -62,8 +62,8 @@ def free_port() -> int:
 def compute_torques(studio: Studio) -> None:
     """Compute the torques of the current motion and wait for them."""
     done = threading.Event()
-    disconnect = studio.torques.done.connect(lambda _result: done.set())
-    studio.torques.compute_torques()
+    disconnect = studio.servo_rooms.torques.done.connect(lambda _result: done.set())
+    studio.servo_rooms.torques.compute_torques()
     done.wait()
     disconnect()
 

@@ -103,7 +103,7 @@ def _bench_simulate_click(studio: Studio) -> dict:
     """The Simulate button on servo_biped's one-leg squats, torques computed and the worker
     started: from the click to the verdict, ghosts and plots shown."""
     motion_with_torques(studio, "servo_biped", "one_leg_squats")
-    session, panel = studio.simulation, studio.compensation.panel
+    session, panel = studio.servo_rooms.simulation, studio.servo_rooms.compensation.panel
     done = threading.Event()
     disconnect = session.runner.finished.connect(lambda _simulation: done.set())
 

@@ -63,7 +63,6 @@ def run(args: argparse.Namespace) -> int:
     from app.core.collocation.defaults import robot_gait_defaults
     from app.core.collocation.dircon import GaitProblem, read_settings_toml, to_trajectory
     from app.core.collocation.settings import GaitSettings
-    from app.core.collocation.table4 import LIFTED_BOUND_FACTOR, bound_binds, table4_comparison
     from app.core.motions.csv_files import write_trajectory_csv
 
     check_dt(args.dt, "--dt")  # before the solve, not after minutes of it
@@ -91,20 +90,7 @@ def run(args: argparse.Namespace) -> int:
         raise StudioError(f"{reason}; {result.blame}" if result.blame else reason)
     comparison = None
     if args.compare and not settings.baseline:
-        base_settings = dataclasses.replace(settings, baseline=True)
-        base = GaitProblem(problem.model, settings.knots, True).solve(base_settings)
-        if not base.converged:
-            blame = f"; {base.blame}" if base.blame else ""
-            raise StudioError(
-                f"baseline: {base.status.split(';')[0]} ({base.iterations} its){blame}"
-            )
-        unbounded = None
-        if bound_binds(base):  # its peak is the bound: solve again without it to read its own
-            lifted = dataclasses.replace(
-                base_settings, tau_max_Nm=LIFTED_BOUND_FACTOR * base_settings.tau_max_Nm
-            )
-            unbounded = GaitProblem(problem.model, settings.knots, True).solve(lifted)
-        comparison = table4_comparison(result, base, unbounded)
+        comparison = _table4_comparison(problem, settings, result)
     walk = None
     if args.steps > 0:
         from app.core.walking.walk import build_walk
@@ -126,16 +112,7 @@ def run(args: argparse.Namespace) -> int:
             "build_s": problem.build_s,
             "settings_notes": list(defaults.notes),
             "table4": comparison,
-            "walk": None
-            if walk is None
-            else {
-                "steps": args.steps,
-                "samples": walk.trajectory.n_samples,
-                "duration_s": walk.trajectory.duration,
-                "step_width_m": walk.step_width_m,
-                "footprints": [dataclasses.asdict(f) for f in walk.footprints],
-                "notes": list(walk.notes),
-            },
+            "walk": None if walk is None else _walk_json(walk, args.steps),
             "out": None if args.out is None else str(args.out),
         }
         print(json.dumps(report, indent=2))
@@ -164,6 +141,38 @@ def run(args: argparse.Namespace) -> int:
     for note in (*defaults.notes, *(() if walk is None else walk.notes)):
         print(f"note: {note}")
     return 0
+
+
+def _table4_comparison(problem, settings, result) -> dict[str, object]:
+    """The baseline solved beside the symmetric `result` (and again without its torque bound
+    where that bound sets its peak), compared as in the paper's Table 4."""
+    from app.core.collocation.dircon import GaitProblem
+    from app.core.collocation.table4 import LIFTED_BOUND_FACTOR, bound_binds, table4_comparison
+
+    base_settings = dataclasses.replace(settings, baseline=True)
+    base = GaitProblem(problem.model, settings.knots, True).solve(base_settings)
+    if not base.converged:
+        blame = f"; {base.blame}" if base.blame else ""
+        raise StudioError(f"baseline: {base.status.split(';')[0]} ({base.iterations} its){blame}")
+    unbounded = None
+    if bound_binds(base):  # its peak is the bound: solve again without it to read its own
+        lifted = dataclasses.replace(
+            base_settings, tau_max_Nm=LIFTED_BOUND_FACTOR * base_settings.tau_max_Nm
+        )
+        unbounded = GaitProblem(problem.model, settings.knots, True).solve(lifted)
+    return table4_comparison(result, base, unbounded)
+
+
+def _walk_json(walk, steps: int) -> dict:
+    """The walk's part of `plan --json`."""
+    return {
+        "steps": steps,
+        "samples": walk.trajectory.n_samples,
+        "duration_s": walk.trajectory.duration,
+        "step_width_m": walk.step_width_m,
+        "footprints": [dataclasses.asdict(f) for f in walk.footprints],
+        "notes": list(walk.notes),
+    }
 
 
 def _bound_line(comparison: dict) -> str:

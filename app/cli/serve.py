@@ -132,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
     if args.open_browser:
         webbrowser.open(url)
     try:
-        studio.server.sleep_forever()
+        studio.web.server.sleep_forever()
     finally:
         studio.stop()
     return 0

@@ -10,9 +10,12 @@ import contextlib
 import dataclasses
 import logging
 import threading
+from collections.abc import Callable, Iterator
 from typing import Literal
 
 import viser
+
+from app.core.errors import StudioError
 
 log = logging.getLogger(__name__)
 
@@ -92,3 +95,23 @@ class Progress:
             for handle in self._handles:
                 with contextlib.suppress(RuntimeError):
                     handle.remove()
+
+
+@contextlib.contextmanager
+def failure_told(
+    fail: Callable[[str, str, viser.ClientHandle | None], None],
+    title: str,
+    client: viser.ClientHandle | None,
+    logger: logging.Logger,
+) -> Iterator[None]:
+    """A worker thread's job (the callback guard does not reach there): a StudioError is told
+    through `fail(title, message, client)` as it is; anything else, a bug, is logged with its
+    traceback on `logger` and told in one line. Neither escapes: the caller still announces
+    the end."""
+    try:
+        yield
+    except StudioError as error:
+        fail(title, str(error), client)
+    except Exception as error:
+        logger.exception(title)
+        fail(title, f"{type(error).__name__}: {error}", client)

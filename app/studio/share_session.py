@@ -35,7 +35,7 @@ from app.core.replay.video import VideoError, VideoPlan, VideoWriter, plan_video
 from app.core.robot.model import RobotModel
 from app.replay_recorder import RecordedReplay, export_replay
 from app.studio.admission import Admission, Busy
-from app.studio.notifier import Notifier
+from app.studio.notifier import Notifier, failure_told
 from app.studio.signals import Signal
 from app.studio.state import StudioState
 from panels.share_panel import SharePanel
@@ -149,24 +149,25 @@ class ShareSession:
     ) -> None:
         result: RecordedReplay | None = None
         try:
-            title = title_card(
-                robot.name, trajectory.name, trajectory.duration, layers.parameters, layers.verdicts
-            )
-            scene = replay_scene(
-                robot,
-                trajectory,
-                title,
-                layers.prediction,
-                ghosts=layers.ghosts,
-                extra_ghosts=layers.extra_ghosts,
-                traces=layers.traces,
-            )
-            result = export_replay(robot, scene, out, make_zip, progress=self.panel.show_progress)
-        except StudioError as error:
-            self._fail("Replay export failed", str(error), client)
-        except Exception as error:  # a bug: say so in the panel, and still announce the end
-            log.exception("replay export")
-            self._fail("Replay export failed", f"{type(error).__name__}: {error}", client)
+            with failure_told(self._fail, "Replay export failed", client, log):
+                title = title_card(
+                    robot.name,
+                    trajectory.name,
+                    trajectory.duration,
+                    layers.parameters,
+                    layers.verdicts,
+                )
+                scene = replay_scene(
+                    robot,
+                    trajectory,
+                    title,
+                    layers.prediction,
+                    ghosts=layers.ghosts,
+                    extra_ghosts=layers.extra_ghosts,
+                    traces=layers.traces,
+                )
+                progress = self.panel.show_progress
+                result = export_replay(robot, scene, out, make_zip, progress=progress)
         finally:
             self.panel.show_progress(None)
         if result is not None:

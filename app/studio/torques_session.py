@@ -22,7 +22,7 @@ from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
 from app.core.servo.files import write_torque_csv
-from app.studio.notifier import Notifier
+from app.studio.notifier import Notifier, failure_told
 from app.studio.signals import Signal
 from app.studio.state import Motion, StudioState
 from panels.compensation_folder import CompensationFolder
@@ -91,18 +91,16 @@ class TorquesSession:
     ) -> None:
         kept: FeedForward | None = None
         try:
-            pool = self._warm_pool() if trajectory.n_samples >= self.pool_min_samples else None
-            result = torque_feedforward(
-                robot, trajectory, progress=self.panel.show_progress, pool=pool
-            )
-            with self._state.lock:  # dropped if the motion changed meanwhile
-                if robot is self._state.robot and self._state.work.set_torques(result, trajectory):
-                    kept = result
-        except StudioError as error:
-            self._fail("Torque feed-forward failed", str(error), client)
-        except Exception as error:  # a bug: say so in the panel, and still announce the end
-            log.exception("torque feed-forward")
-            self._fail("Torque feed-forward failed", f"{type(error).__name__}: {error}", client)
+            with failure_told(self._fail, "Torque feed-forward failed", client, log):
+                samples = trajectory.n_samples
+                pool = self._warm_pool() if samples >= self.pool_min_samples else None
+                result = torque_feedforward(
+                    robot, trajectory, progress=self.panel.show_progress, pool=pool
+                )
+                with self._state.lock:  # dropped if the motion changed meanwhile
+                    work = self._state.work
+                    if robot is self._state.robot and work.set_torques(result, trajectory):
+                        kept = result
         finally:
             self.panel.show_progress(None)
             self.done.emit(kept)

@@ -8,6 +8,7 @@ import numpy as np
 import viser
 
 from app.core.simulation.verdicts import Footstep
+from app.views.roots import NodeLayer
 
 RADIUS_M = 0.008
 HEIGHT_M = 0.004
@@ -15,7 +16,7 @@ HEIGHT_M = 0.004
 PLANNED_RGB = (245, 245, 245)
 
 
-class LandingsView:
+class LandingsView(NodeLayer):
     def __init__(
         self,
         server: viser.ViserServer,
@@ -61,12 +62,3 @@ class LandingsView:
     def count(self) -> int:
         """Scene nodes drawn."""
         return len(self._nodes)
-
-    def set_visible(self, visible: bool) -> None:
-        for node in self._nodes:
-            node.visible = visible
-
-    def remove(self) -> None:
-        for node in self._nodes:
-            node.remove()
-        self._nodes = []

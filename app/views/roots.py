@@ -35,3 +35,4 @@ class NodeLayer:
     def remove(self) -> None:
         for node in self._nodes:
             node.remove()
+        self._nodes = []

@@ -220,6 +220,31 @@ def type_number(page, label: str, value: float) -> None:
     box.press("Enter")
 
 
+def select_option(page, label: str, option: str) -> None:
+    """Open the dropdown `label` (a Mantine Select) and click `option` in its list."""
+    box = gui_row_input(page, label, "input.mantine-Select-input")
+    box.scroll_into_view_if_needed()
+    box.click()
+    page.get_by_role("option", name=option, exact=True).click()
+    wait_for(
+        f"the page's {label} to show {option}",
+        lambda: box.input_value() == option,
+        UI_TIMEOUT_S,
+    )
+
+
+def generate_motion(page, studio, motion: str, timeout_s: float = UI_TIMEOUT_S):
+    """Pick `motion` in the Motions folder and press *Generate*; the studio's trajectory."""
+    expand_folder(page, "Motions", "Generate")
+    select_option(page, "Motion", motion)
+    click_button(page, "Generate")
+    return wait_for(
+        f"the generated {motion}",
+        lambda: (t := studio.state.trajectory) is not None and t.name == motion and t,
+        timeout_s,
+    )
+
+
 def page_time_s(page) -> float:
     """The value the page shows in the number box beside the "Time [s]" slider."""
     text = gui_row_input(page, "Time [s]", "input.mantine-NumberInput-input").input_value()

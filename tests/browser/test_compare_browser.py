@@ -67,7 +67,7 @@ def test_each_ghost_toggle_shows_its_colour(page) -> None:
 
 
 def test_plan_vs_ticks_the_plan_and_one_ghost(page, studio: Studio) -> None:
-    boxes = studio.ghosts.panel.ghosts
+    boxes = studio.servo_rooms.ghosts.panel.ghosts
     assert {name for name, box in boxes.items() if box.value} == {"planned", "command"}
     choice = GHOSTS["with"][1]
     dropdown = gui_row_input(page, "Plan vs", "input.mantine-Select-input")
@@ -100,7 +100,7 @@ def expected_direction(studio: Studio, which: str) -> np.ndarray:
 
 
 def test_front_and_side_buttons_move_this_tabs_camera(page, studio: Studio) -> None:
-    (client,) = studio.server.get_clients().values()
+    (client,) = studio.web.server.get_clients().values()
     reports: list[tuple[np.ndarray, np.ndarray]] = []
     client.camera.on_update(
         lambda camera: reports.append((camera.position.copy(), camera.look_at.copy()))

@@ -34,6 +34,7 @@ from tests.browser.page_helpers import (
     open_studio,
     page_time_s,
     publish,
+    select_option,
     type_number,
     wait_for,
     wait_stable,
@@ -52,19 +53,6 @@ TARGET_OFFSET_DEG = 20.0
 # ~4.5 % and ~4 % of the view.
 MIN_GHOSTS_FRACTION = 0.01
 MIN_EDIT_FRACTION = 0.01
-
-
-def select_option(page, label: str, option: str) -> None:
-    """Open the dropdown `label` (a Mantine Select) and click `option` in its list."""
-    box = gui_row_input(page, label, "input.mantine-Select-input")
-    box.scroll_into_view_if_needed()
-    box.click()
-    page.get_by_role("option", name=option, exact=True).click()
-    wait_for(
-        f"the page's {label} to show {option}",
-        lambda: box.input_value() == option,
-        UI_TIMEOUT_S,
-    )
 
 
 def single_support_time(studio: Studio) -> float:
@@ -93,7 +81,7 @@ def test_generate_a_motion_and_compute_its_torques(
     page, studio: Studio, shots: dict[str, np.ndarray], tmp_path: Path
 ) -> None:
     session = studio.state.work
-    assert session.prediction is None and studio.ghosts.view is None
+    assert session.prediction is None and studio.servo_rooms.ghosts.view is None
 
     # Motions: pick the motion in the dropdown, wait for its parameters, generate it.
     expand_folder(page, "Motions", "Generate")
@@ -134,7 +122,7 @@ def test_generate_a_motion_and_compute_its_torques(
     feedforward = session.torques
     assert feedforward is not None
     # The ghosts session draws on the prediction's signal, after the prediction is stored.
-    wait_for("the ghosts view", lambda: studio.ghosts.view, UI_TIMEOUT_S)
+    wait_for("the ghosts view", lambda: studio.servo_rooms.ghosts.view, UI_TIMEOUT_S)
     assert feedforward.tau_Nm.shape == (trajectory.n_samples, len(prediction.joint_names))
     folder(page, "Compensation").get_by_text("max |τ|", exact=False).wait_for(
         state="visible", timeout=UI_TIMEOUT_S * 1000
@@ -155,7 +143,7 @@ def test_generate_a_motion_and_compute_its_torques(
 def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
     page, studio: Studio, shots: dict[str, np.ndarray], tmp_path: Path
 ) -> None:
-    session, panel = studio.state.work, studio.compensation.panel
+    session, panel = studio.state.work, studio.servo_rooms.compensation.panel
     feedforward, before = session.torques, session.prediction
     trajectory = studio.state.trajectory
     assert feedforward is not None and before is not None and trajectory is not None, (
@@ -214,7 +202,7 @@ def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
 
 
 def test_plots_show_the_torques(page, studio: Studio) -> None:
-    assert studio.ghosts.plots.torques is not None, "run with the previous tests"
+    assert studio.servo_rooms.ghosts.plots.torques is not None, "run with the previous tests"
     plots = folder(page, "Plots")
     canvas = plots.locator(".uplot canvas")
     if not canvas.first.is_visible():

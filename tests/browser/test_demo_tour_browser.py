@@ -28,15 +28,16 @@ from tests.browser.conftest import VIEWPORT
 from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
-    changed,
     click_button,
     expand_folder,
     folder,
+    generate_motion,
     not_blank,
     open_studio,
     record_texts,
     scene_canvas_box,
     screen_point,
+    select_option,
     static_server,
     studio_context,
     texts_seen,
@@ -45,8 +46,8 @@ from tests.browser.page_helpers import (
     wait_notified,
     wait_stable,
 )
-from tests.browser.test_compensation_browser import SIMULATE, SIMULATE_TIMEOUT_S, select_option
-from tests.browser.test_replay_browser import MOVED_FRACTION, view
+from tests.browser.test_compensation_browser import SIMULATE, SIMULATE_TIMEOUT_S
+from tests.browser.test_replay_browser import wait_until_playing
 
 MOTION = "com_shift"
 PAPER_TABLE3_K = {2: -4.0, 3: -650.0, 8: 20.0, 9: -1200.0}
@@ -74,7 +75,7 @@ def test_drag_the_pelvis_down_then_undo(page, studio: Studio) -> None:
     robot = studio.state.robot
     assert robot is not None and studio.pose.handles is not None
     wait_stable(page, "the studio's first render", not_blank)
-    (client,) = studio.server.get_clients().values()
+    (client,) = studio.web.server.get_clients().values()
     # From straight legs the pelvis cannot go down: bend the knees first, as docs/pose.md says.
     q_straight = studio.state.q.copy()
     expand_folder(page, "Pose (drag the feet)", "Ready pose (knees bent)")
@@ -135,14 +136,7 @@ def test_drag_the_pelvis_down_then_undo(page, studio: Studio) -> None:
 
 def test_torques_then_the_paper_table3_preset_then_simulate(page, studio: Studio) -> None:
     work = studio.state.work
-    expand_folder(page, "Motions", "Generate")
-    select_option(page, "Motion", MOTION)
-    click_button(page, "Generate")
-    wait_for(
-        f"the generated {MOTION}",
-        lambda: (t := studio.state.trajectory) is not None and t.name == MOTION,
-        UI_TIMEOUT_S,
-    )
+    generate_motion(page, studio, MOTION)
     expand_folder(page, "Compensation", "Compute torque feed-forward")
     click_button(page, "Compute torque feed-forward")
     wait_for("the torques and the prediction", lambda: work.prediction, RENDER_TIMEOUT_S)
@@ -261,15 +255,6 @@ def test_export_a_replay_from_the_tab_and_play_it_from_a_static_server(
     try:
         with static_server(replay) as url:
             viewer.goto(url)
-            first = wait_for(
-                "the replay's first render",
-                lambda: (lambda image: image if not_blank(image) else None)(view(viewer)),
-                RENDER_TIMEOUT_S,
-            )
-            wait_for(
-                "the replay to play",
-                lambda: changed(view(viewer), first).mean() > MOVED_FRACTION,
-                RENDER_TIMEOUT_S,
-            )
+            wait_until_playing(viewer)
     finally:
         context.close()

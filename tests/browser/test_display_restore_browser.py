@@ -41,7 +41,7 @@ def test_an_opened_project_puts_its_camera_in_the_tab(chromium, tmp_path):
         page.goto(studio.web.url)
         dismiss_software_webgl_warning(page)
         before = wait_stable(page, "the studio's first render", not_blank)
-        (client,) = studio.server.get_clients().values()
+        (client,) = studio.web.server.get_clients().values()
         reported: list[np.ndarray] = []
         client.camera.on_update(lambda camera: reported.append(camera.position.copy()))
 

@@ -60,8 +60,8 @@ def pixel_of(camera, box: dict, point: np.ndarray) -> np.ndarray:
 def test_dragging_a_foot_arrow_up_lifts_it_with_the_knees(page, studio: Studio) -> None:
     robot = studio.state.robot
     assert robot is not None and studio.pose.handles is not None
-    wait_for("the tab to register", lambda: studio.server.get_clients() or None, UI_TIMEOUT_S)
-    (client,) = studio.server.get_clients().values()
+    wait_for("the tab to register", lambda: studio.web.server.get_clients() or None, UI_TIMEOUT_S)
+    (client,) = studio.web.server.get_clients().values()
     camera = client.camera
     q_before = studio.state.q.copy()
     data = robot.model.createData()

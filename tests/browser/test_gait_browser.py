@@ -93,6 +93,18 @@ def page_now_ms(page) -> float:
     return float(page.evaluate("() => performance.now()"))
 
 
+def click_solve(page) -> float:
+    """Click *Solve* and wait for the page to show "Solving…"; when it was clicked (page ms)."""
+    clicked_ms = page_now_ms(page)
+    click_button(page, "Solve")
+    wait_for(
+        'the page to show "Solving…"',
+        lambda: seen_at(page, "Solving", clicked_ms) is not None,
+        UI_TIMEOUT_S,
+    )
+    return clicked_ms
+
+
 @pytest.fixture(scope="module")
 def page(browser_page, studio_url: str):
     """The studio page, loaded once and connected (its Playback folder is drawn), with the
@@ -113,16 +125,9 @@ def test_solve_shows_progress_then_results(page, studio: Studio) -> None:
     gait = folder(page, GAIT)
     assert not page.get_by_role("button", name="Walk this gait", exact=True).is_enabled()
 
-    clicked_ms = page_now_ms(page)
-    click_button(page, "Solve")
-
     # Progress: the status says "Solving…", then IPOPT's iterations arrive (the convergence
     # chart is added at the first one; the progress bar shows while the solve runs).
-    wait_for(
-        'the page to show "Solving…"',
-        lambda: seen_at(page, "Solving", clicked_ms) is not None,
-        UI_TIMEOUT_S,
-    )
+    clicked_ms = click_solve(page)
     gait.locator(".uplot canvas").first.or_(gait.locator(".mantine-Progress-root")).first.wait_for(
         state="visible", timeout=SOLVE_TIMEOUT_S * 1000
     )
@@ -203,13 +208,7 @@ def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio, st
         UI_TIMEOUT_S,
     )
 
-    clicked_ms = page_now_ms(page)
-    click_button(page, "Solve")
-    wait_for(
-        'the page to show "Solving…"',
-        lambda: seen_at(page, "Solving", clicked_ms) is not None,
-        UI_TIMEOUT_S,
-    )
+    clicked_ms = click_solve(page)
     assert session.solves.running is not None and session.solves.running.settings.knots == BIG_KNOTS
     folder(other, GAIT).get_by_text("Solving the symmetric gait", exact=False).wait_for(
         state="visible", timeout=UI_TIMEOUT_S * 1000

@@ -23,12 +23,13 @@ from tests.browser.page_helpers import (
     dismiss_software_webgl_warning,
     expand_folder,
     folder_title,
+    generate_motion,
     gui_row_input,
     open_studio,
+    select_option,
     wait_for,
     wait_notified,
 )
-from tests.browser.test_compensation_browser import select_option
 
 MOTION = "com_shift"
 NAME = "tour"
@@ -55,14 +56,7 @@ def title_shows(page, name: str):
 
 
 def test_save_as_reload_and_open_bring_the_work_back(page, studio: Studio) -> None:
-    expand_folder(page, "Motions", "Generate")
-    select_option(page, "Motion", MOTION)
-    click_button(page, "Generate")
-    saved = wait_for(
-        f"the generated {MOTION}",
-        lambda: (t := studio.state.trajectory) is not None and t.name == MOTION and t,
-        RENDER_TIMEOUT_S,
-    )
+    saved = generate_motion(page, studio, MOTION, RENDER_TIMEOUT_S)
     robot_saved = studio.state.robot.name
 
     expand_folder(page, "Project", "Save as")

@@ -60,6 +60,21 @@ def view(page) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
 
 
+def wait_until_playing(page) -> None:
+    """Wait for a replay page's first render, then for its view to change on its own: the
+    replay plays (the robot and its ghosts move)."""
+    first = wait_for(
+        "the replay's first render",
+        lambda: (lambda image: image if not_blank(image) else None)(view(page)),
+        RENDER_TIMEOUT_S,
+    )
+    wait_for(
+        "the replay to play",
+        lambda: changed(view(page), first).mean() > MOVED_FRACTION,
+        RENDER_TIMEOUT_S,
+    )
+
+
 def test_the_replay_plays_from_a_static_server(chromium, static_url: str):
     context = studio_context(chromium, viewport=VIEWPORT)
     page = context.new_page()
@@ -69,17 +84,7 @@ def test_the_replay_plays_from_a_static_server(chromium, static_url: str):
     try:
         page.goto(static_url)
         wait_for("index.html to open the viewer", lambda: "playbackPath=" in page.url, 30.0)
-        first = wait_for(
-            "the replay's first render",
-            lambda: (lambda image: image if not_blank(image) else None)(view(page)),
-            RENDER_TIMEOUT_S,
-        )
-        # Playing: the view changes on its own (the robot and its ghosts move).
-        wait_for(
-            "the replay to move",
-            lambda: changed(view(page), first).mean() > MOVED_FRACTION,
-            RENDER_TIMEOUT_S,
-        )
+        wait_until_playing(page)
         # Paused (space bar, viser's playback shortcut): the view stops changing, so the
         # change above came from playback, not from the page settling.
         page.keyboard.press("Space")
@@ -151,7 +156,9 @@ def test_screenshot_and_follow_presenter(chromium, tmp_path):
         wait_stable(viewer, "the viewer's first render", not_blank)
         folder_title(viewer, "Demo").click()
         viewer.get_by_label("Follow presenter").check()
-        wait_for("the follower to register", lambda: len(studio.demo.followers) == 1, 30.0)
+        wait_for(
+            "the follower to register", lambda: len(studio.presenting.demo.followers) == 1, 30.0
+        )
         before = wait_stable(page, "the presenter's view", not_blank)
         page.mouse.move(300, 400)
         page.mouse.down()

@@ -61,7 +61,7 @@ def test_a_tab_flooding_screenshot_does_not_stall_another_tabs_capture(
         a = open_share_page(hung, studio.web.url, "Screenshot")
         b = open_share_page(other, studio.web.url, "Screenshot")
         expand_folder(b, "Keyframes", "Capture pose")
-        sent, finished = collect(studio.share.screenshot_sent)
+        sent, finished = collect(studio.presenting.share.screenshot_sent)
         quiet = _capture(b, studio)  # for comparison: the same click with no flood
 
         click_button(a, "Screenshot")  # admitted: its render never comes back

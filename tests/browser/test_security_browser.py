@@ -9,6 +9,7 @@ viser's own, and it loads in seconds where the studio's scene takes much longer)
 
 from __future__ import annotations
 
+import contextlib
 import http.server
 import threading
 from collections.abc import Iterator
@@ -97,18 +98,25 @@ def test_without_the_token_only_the_notice_loads(context, web: GuardedServer) ->
         page.close()
 
 
-def test_with_the_token_the_page_works(context, web: GuardedServer) -> None:
+@contextlib.contextmanager
+def tokened_page(context, web: GuardedServer) -> Iterator:
+    """A tab on the server's tokened link, once viser's client shows the page; closed after."""
     page = context.new_page()
     page.set_default_timeout(UI_TIMEOUT_S * 1000)
     try:
         page.goto(web.url)
         page.get_by_text(BUTTON).wait_for(state="visible")  # viser's client connected
+        yield page
+    finally:
+        page.close()
+
+
+def test_with_the_token_the_page_works(context, web: GuardedServer) -> None:
+    with tokened_page(context, web):
         wait_for("the tab to register", lambda: web.server.get_clients() or None, UI_TIMEOUT_S)
         (cookie,) = context.cookies()
         assert cookie["httpOnly"] and cookie["sameSite"] == "Strict"
         assert cookie["value"] == web.policy.token
-    finally:
-        page.close()
 
 
 def test_a_page_of_another_origin_cannot_connect_or_frame(
@@ -141,11 +149,7 @@ def test_a_page_of_another_origin_cannot_connect_or_frame(
 
 
 def test_an_oversize_upload_is_refused_while_it_streams(context, web: GuardedServer) -> None:
-    page = context.new_page()
-    page.set_default_timeout(UI_TIMEOUT_S * 1000)
-    try:
-        page.goto(web.url)
-        page.get_by_text(BUTTON).wait_for(state="visible")
+    with tokened_page(context, web) as page:
         dropped = len(web.uploads.dropped)
         page.locator("input[type=file]").set_input_files(
             files=[{"name": "big.zip", "mimeType": "application/zip", "buffer": b"\0" * 3 * LIMIT}]
@@ -153,5 +157,3 @@ def test_an_oversize_upload_is_refused_while_it_streams(context, web: GuardedSer
         page.get_by_text("Upload refused").wait_for(state="visible")
         assert [d.filename for d in web.uploads.dropped[dropped:]] == ["big.zip"]
         assert web.uploads.held_bytes() == 0
-    finally:
-        page.close()

@@ -26,12 +26,13 @@ from tests.browser.page_helpers import (
     click_button,
     expand_folder,
     folder,
+    generate_motion,
     open_studio,
+    select_option,
     type_number,
     wait_for,
     wait_notified,
 )
-from tests.browser.test_compensation_browser import select_option
 from tests.studio.test_user_servos_in_studio import ERROR_GAIN, KP, KT, VIN, R, servo_toml
 
 MOTION = "one_leg_stand"
@@ -46,14 +47,7 @@ def page(browser_page, studio_url: str):
 
 
 def test_pick_a_catalogue_servo_for_a_joint(page, studio: Studio) -> None:
-    expand_folder(page, "Motions", "Generate")
-    select_option(page, "Motion", MOTION)
-    click_button(page, "Generate")
-    wait_for(
-        f"the generated {MOTION}",
-        lambda: (t := studio.state.trajectory) is not None and t.name == MOTION,
-        UI_TIMEOUT_S,
-    )
+    generate_motion(page, studio, MOTION)
     expand_folder(page, "Compensation", "Compute torque feed-forward")
     click_button(page, "Compute torque feed-forward")
     wait_for("the torques' quick estimate", lambda: studio.state.work.prediction, RENDER_TIMEOUT_S)
@@ -86,7 +80,7 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
     type_number(page, "Margin", MARGIN)
     wait_for(
         f"the margin {MARGIN}",
-        lambda: studio.servos.panel.margin.value == pytest.approx(MARGIN),
+        lambda: studio.servo_rooms.servos.panel.margin.value == pytest.approx(MARGIN),
         UI_TIMEOUT_S,
     )
     before = studio.state.work.parts
@@ -101,12 +95,12 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
     text = servos.inner_text()
     assert f"margin {MARGIN:.0%}" in text
     robot = studio.state.robot
-    _, works = studio.servos.last
+    _, works = studio.servo_rooms.servos.last
     (work,) = works.values()
     for j, name in enumerate(robot.joint_names):
         holding = sorted(
             (r.mass_kg, key)
-            for key, r in studio.servos.records.items()
+            for key, r in studio.servo_rooms.servos.records.items()
             if check_joint(r, work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, MARGIN).holds
         )
         expected = holding[0][1] if holding else ""
@@ -117,7 +111,7 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
             )
             assert line is not None, f"{name}'s choice is not in the page:\n{text}"
             check = check_joint(
-                studio.servos.records[expected], work.speed_rad_s[:, j], work.torque_Nm[:, j],
+                studio.servo_rooms.servos.records[expected], work.speed_rad_s[:, j], work.torque_Nm[:, j],
                 1.0, MARGIN,
             )  # fmt: skip
             shown_margin = float(line.group(1))
@@ -153,7 +147,7 @@ def test_a_user_servo_file_uploaded_is_offered_and_picked(page, studio: Studio) 
         state="visible", timeout=UI_TIMEOUT_S * 1000
     )
     assert studio.state.work.parts is before
-    assert "my_servo" not in studio.servos.records
+    assert "my_servo" not in studio.servo_rooms.servos.records
 
     upload(page, "mine.toml", servo_toml("my_servo"))
     servos.get_by_text("Added 1 servo(s) from mine.toml", exact=False).wait_for(

@@ -41,7 +41,7 @@ def test_an_open_tab_survives_a_restart_and_the_project_keeps_its_name(chromium,
         dismiss_software_webgl_warning(page)
         title = page.get_by_text(re.compile(r"^walker ● unsaved changes"))
         title.wait_for()
-        assert len(first.server.get_clients()) == 1
+        assert len(first.web.server.get_clients()) == 1
 
         first.stop()
         second = Studio(StudioConfig(port=port, data_dir=data, restore_autosave=True))
@@ -49,7 +49,7 @@ def test_an_open_tab_survives_a_restart_and_the_project_keeps_its_name(chromium,
         # Only the new studio greets a tab with the work it restored: the tab is connected to it.
         wait_notified(page, "Restored your work from", "walker", RENDER_TIMEOUT_S)
         title.wait_for()  # the restored project under its own name
-        assert len(second.server.get_clients()) == 1
+        assert len(second.web.server.get_clients()) == 1
 
         page.reload()  # the link the tab was opened with still works
         dismiss_software_webgl_warning(page)

@@ -73,7 +73,7 @@ def test_run_a_sweep_and_load_a_pareto_point(page, studio: Studio) -> None:
 
     # a click on a point of the plot in the 3D view picks it
     target = next(r.index for r in outcome.results if r.index != session.picker.selected)
-    (client,) = studio.server.get_clients().values()
+    (client,) = studio.web.server.get_clients().values()
     position = session.picker.board.world_position(target)
     assert position is not None
     click_button(page, "Pick on the plot in 3D")

@@ -26,23 +26,14 @@ from tests.browser.page_helpers import (
     click_button,
     expand_folder,
     folder,
-    gui_row_input,
     open_studio,
+    select_option,
     type_number,
     wait_for,
 )
 
 SOFT_DEG_PER_NM = 20.0
 """Two ankle pitch servos this soft give 2 × 2.9 N·m/rad against servo_biped's m·g·h ≈ 15."""
-
-
-def select_option(page, label: str, option: str) -> None:
-    """Open the dropdown `label` (a Mantine Select) and click `option` in its list."""
-    box = gui_row_input(page, label, "input.mantine-Select-input")
-    box.scroll_into_view_if_needed()
-    box.click()
-    page.get_by_role("option", name=option, exact=True).click()
-    wait_for(f"the page's {label} to show {option}", lambda: box.input_value() == option, 60)
 
 
 def page_text(page, folder_label: str) -> str:
@@ -65,7 +56,9 @@ def _set_ankles(page, studio: Studio, value: float) -> None:
     for joint in ("left_ankle_pitch", "right_ankle_pitch"):
         select_option(page, "Joint", joint)
         wait_for(
-            f"{joint} selected", lambda j=joint: studio.compensation.panel.joint.value == j, 60
+            f"{joint} selected",
+            lambda j=joint: studio.servo_rooms.compensation.panel.joint.value == j,
+            60,
         )
         type_number(page, "servo compliance [°/(N·m)]", value)
         i = studio.state.robot.joint_names.index(joint)
@@ -151,7 +144,7 @@ def test_the_43_mm_one_leg_stand_leans_without_compensation_in_the_page(page, st
     for result in run.results.values():
         assert result.verdict() in text  # the page shows the run's whole line
     assert "walked" not in text  # standing on one leg goes nowhere
-    lifted = studio.ghosts.plots.lifted
+    lifted = studio.servo_rooms.ghosts.plots.lifted
     assert lifted is not None and "no comp. leans from" in lifted.title
 
 
@@ -173,6 +166,9 @@ def test_a_walk_says_how_far_it_went_in_the_page(page, studio: Studio):
     landed = sum(len(result.outcome.travel.footsteps) for result in run.results.values())
     if landed:  # a run that falls before its first landing has no footstep to mark
         assert "landed" in text and "cm from the plan's" in text, text
-        assert studio.ghosts.landings is not None and studio.ghosts.landings.count > landed, text
+        assert (
+            studio.servo_rooms.ghosts.landings is not None
+            and studio.servo_rooms.ghosts.landings.count > landed
+        ), text
     else:
-        assert studio.ghosts.landings is None, text
+        assert studio.servo_rooms.ghosts.landings is None, text

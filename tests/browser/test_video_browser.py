@@ -40,7 +40,7 @@ def _decode(path: Path) -> list[np.ndarray]:
 def test_export_video_films_the_motion_from_the_tab(chromium, tmp_path):
     studio = Studio(StudioConfig(port=_free_port(), data_dir=tmp_path / "data"))
     context = studio_context(chromium, viewport=VIEWPORT)
-    saved, done = collect(studio.share.video_saved)
+    saved, done = collect(studio.presenting.share.video_saved)
     try:
         assert studio.motions.generate("com_shift", {})
         trajectory = studio.state.trajectory
@@ -53,8 +53,8 @@ def test_export_video_films_the_motion_from_the_tab(chromium, tmp_path):
         wait_for(
             "the settings to reach the server",
             lambda: (
-                studio.share.panel.video_fps.value == FPS
-                and studio.share.panel.video_width.value == WIDTH
+                studio.presenting.share.panel.video_fps.value == FPS
+                and studio.presenting.share.panel.video_width.value == WIDTH
             ),
             UI_TIMEOUT_S,
         )
@@ -62,7 +62,7 @@ def test_export_video_films_the_motion_from_the_tab(chromium, tmp_path):
         wait_for("the video", done.is_set, RENDER_TIMEOUT_S * 20)
         path = saved[0]
         assert path is not None and path.parent == tmp_path / "data" / "exports"
-        assert str(path) in studio.share.panel.status.content
+        assert str(path) in studio.presenting.share.panel.status.content
 
         frames = _decode(path)
         assert len(frames) == math.floor(trajectory.duration * FPS + 1e-9) + 1

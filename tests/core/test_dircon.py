@@ -54,14 +54,6 @@ def baseline(planar):
     return problem.solve(GaitSettings(baseline=True))
 
 
-@pytest.fixture(scope="module")
-def small(planar):
-    problem = GaitProblem(planar, knots=12)
-    result = problem.solve(GaitSettings(knots=12))
-    assert result.converged, result.status
-    return problem, result
-
-
 def planar_residual(full, planar, q_full, v_full, a_full, u, forces):
     """Gᵀ (RNEA(q, v, a) − Σ Jᵀ f) − B u: what the planar equations of motion miss."""
     model, data, frame_ids = full

@@ -18,12 +18,12 @@ import pinocchio as pin
 import placo
 import pytest
 
-from app.core.posing.drag import Posing
 from app.core.posing.ready_pose import ready_pose
 from app.core.robot.loading import load_robot
 from app.core.robot.model import RobotModel
 from app.core.robot.urdf_xml import canonical_urdf
 from tests.conftest import SIGMABAN_URDF
+from tests.core.foot_drags import drag_up, placement
 
 VIEWPORT_PX = 800
 """Height of the browser tests' page (tests/browser/conftest.py VIEWPORT)."""
@@ -78,12 +78,6 @@ def lift_of_60_px(bot: RobotModel) -> float:
     return float(lifts[np.searchsorted(moved, DRAG_PX)])
 
 
-def placement(bot: RobotModel, q: np.ndarray, link: str) -> pin.SE3:
-    data = bot.model.createData()
-    pin.framesForwardKinematics(bot.model, data, q)
-    return data.oMf[bot.model.getFrameId(link, pin.BODY)].copy()
-
-
 def tilt_deg(bot: RobotModel, q: np.ndarray) -> float:
     """Angle [°] between the torso's (root link's) z axis and the vertical."""
     R = placement(bot, q, bot.tree.root).rotation
@@ -109,19 +103,6 @@ def lifted_target(bot: RobotModel, lift_m: float) -> np.ndarray:
     T = placement(bot, bot.q_neutral, bot.foot("left").link).homogeneous
     T[2, 3] += lift_m
     return T
-
-
-def drag_up(bot: RobotModel, lift_m: float, events: int):
-    """The left foot dragged straight up from standing in `events` gizmo events."""
-    posing = Posing(bot)
-    q = bot.q_neutral.copy()
-    start = placement(bot, q, bot.foot("left").link).homogeneous
-    for k in range(1, events + 1):
-        target = start.copy()
-        target[2, 3] += lift_m * k / events
-        result = posing.drag(q, "left", target)
-        q = result.q
-    return result
 
 
 def placo_lift(bot: RobotModel, lift_m: float) -> np.ndarray:
@@ -179,7 +160,7 @@ def test_a_foot_lift_from_standing_bends_the_knees_upright(name: str, lift, even
     bot = robot(name)
     lift_m = lift_of_60_px(bot) if lift == "60 px" else float(lift)
     assert 0.05 < lift_m < 0.2  # 60 px is a lift of a few centimetres on these robots
-    result = drag_up(bot, lift_m, events)
+    result, _ = drag_up(bot, lift_m, events)
     q = result.q
     target = lifted_target(bot, lift_m)
     T = placement(bot, q, bot.foot("left").link)

@@ -17,7 +17,7 @@ import pytest
 
 import app.core.collocation.gait_problem as gait_problem
 from app.core.collocation.defaults import default_settings
-from app.core.collocation.dircon import GaitProblem, GaitSettings, PlanarModel
+from app.core.collocation.dircon import GaitProblem, PlanarModel
 from app.core.robot.loading import load_robot
 from app.studio.gait_text import Solve, status_line
 from tests.sole_frames import model_with_sole_edge_frames
@@ -89,14 +89,6 @@ def test_k0_2_after_a_k0_6_5_solve_converges_and_is_a_gait(servo):
         assert np.abs(heights[k, list(stance[int(mode)])]).max() < STANCE_TOL_M
     assert heights.min() > -STANCE_TOL_M  # no sole point below the floor at any node
     assert result.bound_check is not None and result.bound_check.holds
-
-
-@pytest.fixture(scope="module")
-def small(planar):
-    problem = GaitProblem(planar, knots=12)
-    result = problem.solve(GaitSettings(knots=12))
-    assert result.converged, result.status
-    return problem, result
 
 
 def test_a_warm_start_that_stalls_restarts_cold(small, monkeypatch):

@@ -22,6 +22,7 @@ from app.core.robot.loading import load_robot
 from app.core.robot.loops import close_loops, loop_residual
 from app.core.robot.model import RobotModel
 from tests.conftest import ROBAN_URDF, SIGMABAN_URDF
+from tests.core.foot_drags import placement
 
 REACH_M, REACH_RAD = 1e-3, np.deg2rad(0.5)
 STANCE_TOL_M = 1e-6
@@ -52,13 +53,6 @@ SERIAL = (*SIX_DOF_LEGS, "dircon_biped")
 @functools.cache
 def robot(name: str) -> RobotModel:
     return load_robot(SOURCES[name])
-
-
-def placement(robot: RobotModel, q: np.ndarray, link: str) -> pin.SE3:
-    """T_world_link by pinocchio's own forward kinematics."""
-    data = robot.model.createData()
-    pin.framesForwardKinematics(robot.model, data, q)
-    return data.oMf[robot.model.getFrameId(link, pin.BODY)].copy()
 
 
 def foot_error(robot: RobotModel, q: np.ndarray, side: str, T_target: np.ndarray):

@@ -17,6 +17,7 @@ from app.core.posing.drag import Posing
 from app.core.posing.ik import IkTargets, WholeBodyIK
 from app.core.robot.loading import load_robot
 from app.core.robot.model import RobotModel
+from tests.core.foot_drags import drag_up, placement
 
 NO_CLOSER_M = 0.005
 """placo's probe may lean the torso a little more than ours does (1.5° against 0.2°): a few
@@ -25,27 +26,9 @@ HELD_BACK = re.compile(r"held back by (\S+) at its (upper|lower) limit \((-?[\d.
 MISSED = re.compile(r"^left foot ([\d.]+) mm, ([\d.]+)° from its target$")
 
 
-def placement(bot: RobotModel, q: np.ndarray, link: str) -> pin.SE3:
-    data = bot.model.createData()
-    pin.framesForwardKinematics(bot.model, data, q)
-    return data.oMf[bot.model.getFrameId(link, pin.BODY)].copy()
-
-
 @pytest.fixture(scope="module")
 def servo_biped() -> RobotModel:
     return load_robot("servo_biped")
-
-
-def drag_up(bot: RobotModel, lift_m: float, events: int = 30):
-    posing = Posing(bot)
-    q = bot.q_neutral.copy()
-    start = placement(bot, q, bot.foot("left").link).homogeneous
-    for k in range(1, events + 1):
-        target = start.copy()
-        target[2, 3] += lift_m * k / events
-        result = posing.drag(q, "left", target)
-        q = result.q
-    return result, target
 
 
 def test_a_foot_dragged_beyond_the_knee_says_closest_reachable_and_why(servo_biped):

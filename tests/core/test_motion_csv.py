@@ -228,18 +228,20 @@ def test_unknown_joint_lists_unknown_and_known_names(servo, good_lines, tmp_path
     assert all(name in message for name in servo.joint_names)
 
 
+def without_column(lines: list[str], column: str) -> list[str]:
+    """The CSV lines with the column headed `column` taken out."""
+    drop = lines[0].split(",").index(column)
+    return [",".join(c for i, c in enumerate(line.split(",")) if i != drop) for line in lines]
+
+
 def test_missing_joint_is_named(servo, good_lines, tmp_path) -> None:
-    header = good_lines[0].split(",")
-    drop = header.index("q:right_knee [rad]")
-    lines = [",".join(c for i, c in enumerate(line.split(",")) if i != drop) for line in good_lines]
+    lines = without_column(good_lines, "q:right_knee [rad]")
     with pytest.raises(MotionFileError, match=r"1 column\(s\) missing .*: q:right_knee"):
         read_lines(lines, servo, tmp_path)
 
 
 def test_partial_derivative_columns_are_refused(servo, good_lines, tmp_path) -> None:
-    header = good_lines[0].split(",")
-    drop = header.index("a:left_knee [rad/s^2]")
-    lines = [",".join(c for i, c in enumerate(line.split(",")) if i != drop) for line in good_lines]
+    lines = without_column(good_lines, "a:left_knee [rad/s^2]")
     with pytest.raises(MotionFileError, match=r"a:left_knee.*all v: and a: columns or none"):
         read_lines(lines, servo, tmp_path)
 

@@ -12,20 +12,14 @@ from scipy.signal import find_peaks
 from app.core.errors import StudioError
 from app.core.motions.keyframes import interpolate
 from app.core.motions.library import MOTIONS, resolve_params, run_motion
-from app.core.robot.loading import load_robot
-from tests.conftest import ROBAN_URDF
+from tests.conftest import load_robots
 
 DT = 0.02
 
 
 @pytest.fixture(scope="module")
 def robots():
-    return {
-        "servo_biped": load_robot("servo_biped"),
-        "roban": load_robot(ROBAN_URDF),
-        "dircon_biped": load_robot("dircon_biped"),
-        "hybrid_leg_biped": load_robot("hybrid_leg_biped"),
-    }
+    return load_robots("servo_biped", "roban", "dircon_biped", "hybrid_leg_biped")
 
 
 def frame_positions(robot, q, link):

@@ -10,8 +10,7 @@ import pinocchio as pin
 import pytest
 
 from app.core.motions.library import SHIFT_S, SOLE_MARGIN_M, SQUAT_HALF_S, run_motion
-from app.core.robot.loading import load_robot
-from tests.conftest import ROBAN_URDF
+from tests.conftest import load_robots
 
 DT = 0.02
 LEGS = ("Left leg", "Right leg")
@@ -19,7 +18,7 @@ LEGS = ("Left leg", "Right leg")
 
 @pytest.fixture(scope="module")
 def robots():
-    return {"servo_biped": load_robot("servo_biped"), "roban": load_robot(ROBAN_URDF)}
+    return load_robots("servo_biped", "roban")
 
 
 @pytest.fixture(scope="module")

@@ -16,6 +16,7 @@ import pinocchio as pin
 import pytest
 
 from app.core.collocation.planar_model import CONTACT_NAMES, evaluate
+from tests.sole_frames import planar_contact_jacobian
 
 PAPER_TOTAL_MASS_KG = 18.532  # Table 2
 FOOT_LENGTH_M = 0.190  # Figure 2
@@ -111,7 +112,6 @@ def test_standing_soles_touch_the_ground(robot, planar):
 
 
 def test_contact_jacobians(planar, full):
-    model, data, frame_ids = full
     eps = 1e-6
     for q, _, _ in random_states(planar):
         J = evaluate(planar.contact_jacobian, q)
@@ -125,13 +125,7 @@ def test_contact_jacobians(planar, full):
             ) / (2 * eps)
             np.testing.assert_allclose(J[:, i], column, atol=1e-7)
         # Pinocchio's frame Jacobians (world-aligned linear rows x and z) through G.
-        q_full = planar.to_full_q(q)
-        pin.computeJointJacobians(model, data, q_full)
-        pin.updateFramePlacements(model, data)
-        G = planar.velocity_map(q)
-        for i, fid in enumerate(frame_ids):
-            J_full = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[[0, 2]]
-            np.testing.assert_allclose(J[2 * i : 2 * i + 2], J_full @ G, atol=1e-10)
+        np.testing.assert_allclose(J, planar_contact_jacobian(planar, full, q), atol=1e-10)
 
 
 def test_contact_jdot_v(planar, full):

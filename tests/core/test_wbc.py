@@ -20,20 +20,14 @@ from app.core.dynamics.wbc import FeedForward, WbcError, WbcParams, torque_feedf
 from app.core.errors import StudioError
 from app.core.motions.library import run_motion
 from app.core.motions.trajectory import Trajectory
-from app.core.robot.loading import load_robot
-from tests.conftest import ROBAN_URDF
+from tests.conftest import load_robots
 
 RESIDUAL_NM = 1e-6
 
 
 @pytest.fixture(scope="module")
 def robots():
-    return {
-        "servo_biped": load_robot("servo_biped"),
-        "roban": load_robot(ROBAN_URDF),
-        "dircon_biped": load_robot("dircon_biped"),
-        "hybrid_leg_biped": load_robot("hybrid_leg_biped"),
-    }
+    return load_robots("servo_biped", "roban", "dircon_biped", "hybrid_leg_biped")
 
 
 def static(robot, q, contacts, n=3) -> Trajectory:
@@ -333,11 +327,11 @@ def test_samples_without_a_solution_hold_the_nearest_solved_values(robots, monke
     original = wbc_qp.WholeBodyQp.solve
     calls = []
 
-    def solve(self, terms, v, qdd_des, contacts, com_error, **options):
+    def solve(self, sample, **options):
         calls.append(None)
         if len(calls) in (1, 4):  # samples 0 and 3 fail
             return wbc_qp.SampleSolution(False, "made to fail", *(np.zeros(0),) * 3)
-        return original(self, terms, v, qdd_des, contacts, com_error, **options)
+        return original(self, sample, **options)
 
     monkeypatch.setattr(wbc_qp.WholeBodyQp, "solve", solve)
     if solver == "reduced":  # no closed form anywhere: every sample goes through `solve`

@@ -11,6 +11,7 @@ import pytest
 
 from app.core.dynamics.lqr import B_COM
 from app.core.dynamics.wbc import WbcParams, make_qp
+from app.core.dynamics.wbc_terms import SampleInput
 from app.core.robot.loading import load_robot
 from tests.conftest import ROBAN_URDF
 
@@ -93,7 +94,7 @@ def test_vectorised_assembly_equals_the_plain_one(name):
         contacts = np.array([trial % 2 == 0, trial % 4 < 2])
         com_error = rng.normal(size=6) if trial % 3 == 0 else np.zeros(6)
         terms = qp.kinematics(q, v, qdd_des)
-        qp.solve(terms, v, qdd_des, contacts, com_error)
+        qp.solve(SampleInput(terms, v, qdd_des, contacts, com_error))
         A, p, lower, upper = plain_problem(qp, q, v, qdd_des, contacts, com_error)
         assert qp.last_problem is not None
         p_fast, l_fast, u_fast = qp.last_problem

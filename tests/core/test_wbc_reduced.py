@@ -23,9 +23,10 @@ from scipy.optimize import lsq_linear
 
 from app.core.dynamics.wbc import WbcParams, make_qp, torque_feedforward
 from app.core.dynamics.wbc_qp import N_CORNERS, N_EDGES
+from app.core.dynamics.wbc_terms import SampleInput
 from app.core.motions.library import run_motion
 from app.core.robot.loading import load_robot
-from tests.conftest import ROBAN_URDF
+from tests.conftest import load_robots
 
 CASES = [
     ("servo_biped", "one_leg_squats"),
@@ -37,7 +38,7 @@ CASES = [
 
 @pytest.fixture(scope="module")
 def robots():
-    return {"servo_biped": load_robot("servo_biped"), "roban": load_robot(ROBAN_URDF)}
+    return load_robots("servo_biped", "roban")
 
 
 @pytest.fixture(scope="module")
@@ -101,10 +102,10 @@ def test_reduced_answer_meets_the_full_qps_kkt_conditions(robots, trajectories, 
     for k in range(0, traj.n_samples, 3):
         q, v, a, contacts = traj.q[k], traj.v[k], traj.a[k], traj.contacts[k]
         terms = reduced.kinematics(q, v, a)
-        solution = reduced.solve(terms, v, a, contacts, np.zeros(6))
+        solution = reduced.solve(SampleInput(terms, v, a, contacts, np.zeros(6)))
         assert solution.ok
         paths.add("daqp" if reduced.last_reduced is not None else "closed form")
-        full.solve(full.kinematics(q, v, a), v, a, contacts, np.zeros(6))
+        full.solve(SampleInput(full.kinematics(q, v, a), v, a, contacts, np.zeros(6)))
         p, lower, upper = full.last_problem
         x = full_x(full, reduced, terms, v, contacts, solution.qdd, solution.beta)
         violation, gradient = kkt_residual(full.P, p, full.A, lower, upper, full.n_eq, x)
@@ -148,8 +149,9 @@ def test_closed_form_and_daqp_agree(robots, trajectories):
     for k in range(0, traj.n_samples, 2):
         q, v, a, contacts = traj.q[k], traj.v[k], traj.a[k], traj.contacts[k]
         terms = qp.kinematics(q, v, a)
-        closed = qp.reduced.unconstrained(terms, v, a, contacts, np.zeros(6))
-        problem = qp.reduced.problem(terms, v, a, contacts, np.zeros(6))
+        sample = SampleInput(terms, v, a, contacts, np.zeros(6))
+        closed = qp.reduced.unconstrained(sample)
+        problem = qp.reduced.problem(sample)
         answer = qp.reduced.solve(problem)
         assert answer.ok
         nb = len(problem.beta_columns)
@@ -209,7 +211,7 @@ def test_batched_chunk_equals_sample_by_sample(robots, trajectories, name, motio
     for k in range(0, traj.n_samples, 2):
         q, v, a, contacts = traj.q[k], traj.v[k], traj.a[k], traj.contacts[k]
         terms = qp.kinematics(q, v, a)
-        solution = qp.solve(terms, v, a, contacts, np.zeros(6))
+        solution = qp.solve(SampleInput(terms, v, a, contacts, np.zeros(6)))
         np.testing.assert_allclose(ff.qdd[k], solution.qdd, atol=1e-8, rtol=0)
         tau = qp.torques(terms, solution)
         np.testing.assert_allclose(ff.tau_Nm[k], tau, atol=1e-6 * max(1.0, np.abs(tau).max()))

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from app.core.dynamics.wbc import WbcParams, make_qp
+from app.core.dynamics.wbc_terms import SampleInput
 from app.core.motions.library import run_motion
 from app.core.robot.loading import load_robot
 
@@ -21,9 +22,9 @@ def solved_pairs():
         q, v, a = trajectory.q[k], trajectory.v[k], trajectory.a[k]
         contacts, x_bar = trajectory.contacts[k], np.zeros(6)
         terms = prox.kinematics(q, v, a)
-        sol_p = prox.solve(terms, v, a, contacts, x_bar)
+        sol_p = prox.solve(SampleInput(terms, v, a, contacts, x_bar))
         problem, A, duals, x_p = prox.last_problem, prox.A.copy(), prox.last_duals, prox.last_x
-        sol_o = osqp.solve(terms, v, a, contacts, x_bar)
+        sol_o = osqp.solve(SampleInput(terms, v, a, contacts, x_bar))
         assert sol_p.ok and sol_o.ok
         rows.append(
             {

@@ -57,8 +57,16 @@ def wait_for_signal(signal, start: Callable[[], object], accept=lambda _value: T
 
 def compute_torques(studio: Studio):
     """Compute the torque feed-forward of the current motion from the panel; its result."""
-    session = studio.torques
+    session = studio.servo_rooms.torques
     return wait_for_signal(session.done, lambda: setattr(session.panel.compute, "value", True))
+
+
+def with_stand_torques(studio: Studio) -> Studio:
+    """`studio` with the one-leg stand generated from the Motions panel and its torques."""
+    studio.motions.panel.motion.value = "one_leg_stand"
+    studio.motions.panel.generate.value = True
+    compute_torques(studio)
+    return studio
 
 
 def solve_gait(studio: Studio, button: str = "solve"):

@@ -32,16 +32,16 @@ def _click(tab: Tab, button) -> None:
 
 @pytest.mark.expected_traceback("app.web.callback_guard")
 def test_a_callback_that_raises_is_told_to_the_tab_that_clicked(studio, loop) -> None:
-    button = studio.server.gui.add_button("Fail on purpose")
+    button = studio.web.server.gui.add_button("Fail on purpose")
 
     @button.on_click
     def _(_event) -> None:
         raise RuntimeError("the part nobody foresaw\nsecond line stays in the log")
 
     clicker = Tab(studio, loop)
-    wait("the first tab", lambda: len(studio.server.get_clients()) == 1)
+    wait("the first tab", lambda: len(studio.web.server.get_clients()) == 1)
     bystander = Tab(studio, loop)
-    wait("the second tab", lambda: len(studio.server.get_clients()) == 2)
+    wait("the second tab", lambda: len(studio.web.server.get_clients()) == 2)
 
     _click(clicker, button)
     wait(
@@ -58,7 +58,7 @@ def test_a_callback_that_raises_is_told_to_the_tab_that_clicked(studio, loop) ->
 
     # The studio goes on: the same tab's next action works (alone, so no confirmation).
     bystander.close()
-    wait("the second tab to leave", lambda: len(studio.server.get_clients()) == 1)
+    wait("the second tab to leave", lambda: len(studio.web.server.get_clients()) == 1)
     robot_before = studio.state.robot
     _click(clicker, studio.robots.panel.load_builtin)
     wait(
@@ -72,7 +72,7 @@ def test_loading_from_a_tab_shows_the_robot_and_clears_the_loading_note(studio, 
     """The first click of the studio: *Load built-in* from a connected tab (it used to write
     its stage into the loading notification after removing it, raise, and stay "Loading…")."""
     tab = Tab(studio, loop)
-    wait("the tab", lambda: len(studio.server.get_clients()) == 1)
+    wait("the tab", lambda: len(studio.web.server.get_clients()) == 1)
     panel = studio.robots.panel
     tab.send(viser_messages.GuiUpdateMessage(panel.builtin._impl.uuid, {"value": "dircon_biped"}))
     wait("the dropdown's new value", lambda: panel.builtin.value == "dircon_biped")

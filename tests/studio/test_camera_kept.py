@@ -23,7 +23,7 @@ def test_a_camera_burst_is_kept_once_per_period_and_autosaved(tmp_path, loop):
     studio = Studio(StudioConfig(port=free_port(), data_dir=tmp_path / "data"))
     try:
         tab = Tab(studio, loop)
-        wait("the tab's starting view", lambda: len(studio.camera.tabs) == 1)
+        wait("the tab's starting view", lambda: len(studio.presenting.camera.tabs) == 1)
         assert studio.state.display.settings.camera is None
         assert studio.project.autosave.now() is None  # opening a tab is not work
 

@@ -8,21 +8,17 @@ import numpy as np
 import pytest
 
 from app.views.ghosts_view import ERROR_FULL_SCALE_M, GHOSTS
-from tests.studio.conftest import compute_torques, start_studio
+from tests.studio.conftest import with_stand_torques
 
 
 @pytest.fixture
-def studio(tmp_path):
-    studio = start_studio(tmp_path / "data")
-    studio.motions.panel.motion.value = "one_leg_stand"
-    studio.motions.panel.generate.value = True
-    compute_torques(studio)
-    yield studio
-    studio.stop()
+def studio(studio):
+    """The conftest's studio with the one-leg stand and its torques (each test its own)."""
+    return with_stand_torques(studio)
 
 
 def test_colour_by_error_follows_the_links_distance_from_the_plan(studio):
-    session = studio.ghosts
+    session = studio.servo_rooms.ghosts
     panel, ghosts = session.compare.panel, session.view
     panel.choice.value = GHOSTS["without"][1]
     shown = {name for name, box in session.panel.ghosts.items() if box.value}

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from app.core.simulation.on_plan import on_plan_stance
-from tests.studio.conftest import compute_torques, start_studio, wait_for_signal
+from tests.studio.conftest import compute_torques, start_studio, wait_for_signal, with_stand_torques
 
 
 def assert_ghost_at(ghosts, name, q):
@@ -24,18 +24,13 @@ def assert_ghost_at(ghosts, name, q):
 
 
 @pytest.fixture
-def studio(tmp_path):
-    """A studio with the one-leg stand and its torques (each test gets its own)."""
-    studio = start_studio(tmp_path / "data")
-    studio.motions.panel.motion.value = "one_leg_stand"
-    studio.motions.panel.generate.value = True
-    compute_torques(studio)
-    yield studio
-    studio.stop()
+def studio(studio):
+    """The conftest's studio with the one-leg stand and its torques (each test its own)."""
+    return with_stand_torques(studio)
 
 
 def test_torques_plots_and_ghosts_follow_the_motion(studio):
-    session = studio.ghosts
+    session = studio.servo_rooms.ghosts
     feedforward, prediction = studio.state.work.torques, studio.state.work.prediction
     assert feedforward is not None and prediction is not None
     assert feedforward.tau_Nm.shape == (
@@ -60,7 +55,7 @@ def test_torques_plots_and_ghosts_follow_the_motion(studio):
 def test_the_plots_time_cursor_follows_the_timeline(studio):
     """A seek moves every plot's cursor: a vertical line at the sample shown, over curves that
     keep the prediction's torques."""
-    session = studio.ghosts
+    session = studio.servo_rooms.ghosts
     seek_to = float(studio.state.trajectory.t[studio.state.trajectory.index_at(3.0)])
     wait_for_signal(
         session.cursor_shown, lambda: studio.playback.seek(seek_to), accept=lambda t: t == seek_to
@@ -86,7 +81,7 @@ def test_the_plots_time_cursor_follows_the_timeline(studio):
 
 
 def test_wide_plots_move_every_plot_into_a_window_and_back(studio):
-    plots = studio.ghosts.plots
+    plots = studio.servo_rooms.ghosts.plots
     before = {key: getattr(plots, key) for key in ("torques", "roll", "pitch", "offsets")}
     plots.wide.value = True
     assert plots.window is not None
@@ -114,7 +109,7 @@ def test_compensation_reduces_the_torso_error(studio):
 
 
 def test_a_k_slider_changes_the_command_by_k_tau_without_recomputing_torques(studio):
-    state, panel = studio.state, studio.compensation.panel
+    state, panel = studio.state, studio.servo_rooms.compensation.panel
     feedforward = state.work.torques
     panel.joint.value = "left_hip_roll"
     i = studio.state.robot.joint_names.index("left_hip_roll")
@@ -130,7 +125,7 @@ def test_a_k_slider_changes_the_command_by_k_tau_without_recomputing_torques(stu
 
 
 def test_export_servo_commands(studio):
-    content = studio.compensation.export_commands()
+    content = studio.servo_rooms.compensation.export_commands()
     rows = list(csv.reader(io.StringIO(content.decode())))
     header = rows[0]
     assert (
@@ -142,7 +137,7 @@ def test_export_servo_commands(studio):
     rad = float(rows[5][header.index("q_cmd:left_knee [rad]")])
     deg = float(rows[5][header.index("q_cmd:left_knee [deg]")])
     assert deg == pytest.approx(np.rad2deg(rad))
-    torques = studio.torques.export_torques()
+    torques = studio.servo_rooms.torques.export_torques()
     assert torques.decode().splitlines()[0].startswith("t [s],tau:")
 
 
@@ -158,7 +153,7 @@ def test_a_new_motion_drops_the_stale_torques(studio):
 def test_simulate_shows_a_verdict_ghosts_and_simulated_curves(studio):
     """Simulate from the panel: a real worker process runs MuJoCo; the verdict, two more
     ghosts (placed where the simulation has the robot) and the simulated roll/pitch curves."""
-    session, ghosts = studio.simulation, studio.ghosts
+    session, ghosts = studio.servo_rooms.simulation, studio.servo_rooms.ghosts
     ended = wait_for_signal(
         session.runner.finished, lambda: setattr(session.panel.simulate, "value", True)
     )
@@ -182,7 +177,7 @@ def test_simulate_shows_a_verdict_ghosts_and_simulated_curves(studio):
     assert_ghost_at(ghosts.view, "sim_with", with_.q[k] + shift)
     assert robot is ghosts.view.robot
     # A coefficient change marks the simulation stale, and keeps it.
-    k = studio.compensation.panel.k
+    k = studio.servo_rooms.compensation.panel.k
     k.value = float(k.value) + 0.5
     assert studio.state.work.simulation.stale and "Stale" in session.panel.verdict.content
     assert studio.state.work.simulation.run is ended
@@ -191,9 +186,9 @@ def test_simulate_shows_a_verdict_ghosts_and_simulated_curves(studio):
 def test_simulate_needs_torques(tmp_path):
     studio = start_studio(tmp_path / "data")
     try:
-        studio.simulation.simulate()
+        studio.servo_rooms.simulation.simulate()
         assert "compute the torque feed-forward first" in studio.notifier.last_error
-        assert studio.simulation.runner.running is None
+        assert studio.servo_rooms.simulation.runner.running is None
     finally:
         studio.stop()
 
@@ -203,7 +198,7 @@ def test_compute_torques_runs_on_the_studios_pool_and_equals_the_serial_run(stud
     in-process serial feed-forward to 1e-9 of the peak torque (as the CLI's check)."""
     from app.core.dynamics.wbc import torque_feedforward
 
-    session = studio.torques
+    session = studio.servo_rooms.torques
     assert studio.state.trajectory.n_samples < session.pool_min_samples
     assert session.feedforward_pool is None  # too short to pay: solved in the thread
     in_thread = studio.state.work.torques
@@ -231,9 +226,9 @@ def test_the_feedforward_pool_closes_with_the_studio(tmp_path):
     try:
         studio.motions.panel.motion.value = "one_leg_stand"
         studio.motions.panel.generate.value = True
-        studio.torques.pool_min_samples = 0
+        studio.servo_rooms.torques.pool_min_samples = 0
         assert compute_torques(studio) is not None
-        assert studio.torques.feedforward_pool is not None
+        assert studio.servo_rooms.torques.feedforward_pool is not None
     finally:
         studio.stop()
-    assert studio.torques.feedforward_pool is None
+    assert studio.servo_rooms.torques.feedforward_pool is None

@@ -95,7 +95,7 @@ def test_one_click_plans_walks_computes_torques_and_simulates(studio):
     result stays inspectable, and each belongs to the walk just planned."""
     panel = studio.gait.panel
     simulated = wait_for_signal(
-        studio.simulation.runner.finished,
+        studio.servo_rooms.simulation.runner.finished,
         lambda: setattr(panel.all_stages, "value", True),
     )
     assert studio.gait.results.symmetric is not None and studio.gait.walk is not None
@@ -107,7 +107,7 @@ def test_one_click_plans_walks_computes_torques_and_simulates(studio):
     assert state.work.prediction is not None
     assert simulated.error == "" and simulated.trajectory is walk
     assert state.work.simulation.run is simulated
-    assert "Simulated" in studio.simulation.panel.verdict.content
+    assert "Simulated" in studio.servo_rooms.simulation.panel.verdict.content
 
 
 def test_the_loaded_robots_default_problem_is_built_ahead_of_the_first_solve(tmp_path):

@@ -34,7 +34,7 @@ def link_origins(ghosts, name: str, link: str) -> np.ndarray:
 
 
 def test_one_click_shows_its_stages_then_ghosts_stand_on_the_robot(studio):
-    gait, simulation, state = studio.gait, studio.simulation, studio.state
+    gait, simulation, state = studio.gait, studio.servo_rooms.simulation, studio.state
     seen: list[tuple[str, str, bool]] = []
 
     def record(stage: str) -> None:
@@ -66,10 +66,10 @@ def test_one_click_shows_its_stages_then_ghosts_stand_on_the_robot(studio):
 
     # Every ghost drawn on the robot: the plan exactly, the others on the plan's stance foot.
     studio.playback.player.pause()
-    for box in studio.ghosts.panel.ghosts.values():
+    for box in studio.servo_rooms.ghosts.panel.ghosts.values():
         box.value = True
     robot, trajectory = studio.state.robot, studio.state.trajectory
-    ghosts = studio.ghosts.view
+    ghosts = studio.servo_rooms.ghosts.view
     data = robot.model.createData()
     right = stance_is_right(trajectory.contacts)
     for fraction in (0.0, 0.3, 0.55, 0.8, 1.0):
@@ -90,7 +90,7 @@ def test_one_click_shows_its_stages_then_ghosts_stand_on_the_robot(studio):
             assert np.linalg.norm(offset) < MM, (name, fraction, offset)
 
     # One figure per heading: the quick estimate in Plots, the simulation in its verdict.
-    quick, verdict = studio.ghosts.plots.info.content, simulation.panel.verdict.content
+    quick, verdict = studio.servo_rooms.ghosts.plots.info.content, simulation.panel.verdict.content
     assert "Quick estimate" in quick and "imulat" not in quick
     assert "Simulated** (MuJoCo)" in verdict and "quick estimate" not in verdict.lower()
     for label, run in simulated.results.items():
@@ -110,7 +110,7 @@ def test_one_click_says_where_it_stopped_when_the_simulation_cannot_start(studio
     from panels.quiet import set_value
 
     gait = studio.gait
-    set_value(studio.compensation.panel.preset, PRESETS["table3"].label)
+    set_value(studio.servo_rooms.compensation.panel.preset, PRESETS["table3"].label)
     stopped = wait_for_signal(
         studio.pipeline.shown,
         lambda: setattr(gait.panel.all_stages, "value", True),
@@ -119,4 +119,4 @@ def test_one_click_says_where_it_stopped_when_the_simulation_cannot_start(studio
     assert stopped == "stopped"
     line = studio.pipeline.line.content
     assert "stopped at simulating" in line and "outside the joint limits" in line
-    assert studio.simulation.runner.running is None
+    assert studio.servo_rooms.simulation.runner.running is None

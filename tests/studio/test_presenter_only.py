@@ -36,9 +36,9 @@ def _edit(studio: Studio, degrees: float) -> tuple[str, viser_messages.GuiUpdate
 
 def _two_tabs(studio: Studio, loop) -> tuple[Tab, Tab]:
     first = Tab(studio, loop)
-    wait("the first tab", lambda: len(studio.server.get_clients()) == 1)
+    wait("the first tab", lambda: len(studio.web.server.get_clients()) == 1)
     second = Tab(studio, loop)
-    wait("the second tab", lambda: len(studio.server.get_clients()) == 2)
+    wait("the second tab", lambda: len(studio.web.server.get_clients()) == 2)
     return first, second
 
 
@@ -46,14 +46,14 @@ def test_a_viewer_cannot_edit_but_the_presenter_can(tmp_path, loop):
     studio = _studio(tmp_path, presenter_only=True)
     try:
         presenter, viewer = _two_tabs(studio, loop)
-        assert studio.demo.editor == min(studio.server.get_clients())
+        assert studio.presenting.demo.editor == min(studio.web.server.get_clients())
         name, edit = _edit(studio, 12.0)
         slider = studio.joints.panel.sliders[name]
         q_before, value_before = studio.state.q.copy(), slider.value
         assert value_before != 12.0
 
         viewer.send(edit)
-        wait("the refusal", lambda: studio.demo.refused == 1)
+        wait("the refusal", lambda: studio.presenting.demo.refused == 1)
         assert np.array_equal(studio.state.q, q_before)
         assert slider.value == value_before
         # The viewer's slider is sent back the server's value.
@@ -71,11 +71,11 @@ def test_a_viewer_cannot_edit_but_the_presenter_can(tmp_path, loop):
         presenter.send(edit)
         wait("the presenter's edit", lambda: slider.value == 12.0)
         wait("the pose to follow", lambda: not np.array_equal(studio.state.q, q_before))
-        assert studio.demo.refused == 1
+        assert studio.presenting.demo.refused == 1
 
         # The presenter leaves: the viewer is now the oldest tab, and may edit.
         presenter.close()
-        wait("the presenter to leave", lambda: len(studio.server.get_clients()) == 1)
+        wait("the presenter to leave", lambda: len(studio.web.server.get_clients()) == 1)
         viewer.send(_edit(studio, -5.0)[1])
         wait("the new presenter's edit", lambda: slider.value == -5.0)
         viewer.close()
@@ -92,7 +92,7 @@ def test_without_the_setting_any_tab_edits(tmp_path, loop):
         second.send(edit)
         wait("the second tab's edit", lambda: studio.joints.panel.sliders[name].value == 12.0)
         wait("the pose to follow", lambda: not np.array_equal(studio.state.q, q_before))
-        assert studio.demo.refused == 0
+        assert studio.presenting.demo.refused == 0
         first.close()
         second.close()
     finally:

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import dataclasses
 import io
-import json
 import math
 import zipfile
 from pathlib import Path
@@ -20,6 +19,7 @@ from app.core.projects.display import CameraView, DisplaySettings
 from app.core.projects.files import read_project
 from app.core.servo.edits import SetBacklash, SetK
 from app.studio import Studio
+from tests.hostile.test_hostile_projects import rewrite
 from tests.same_values import assert_same
 from tests.studio.conftest import free_port, start_studio, wait_for_signal
 from tests.studio.ws_tab import CAMERA, Tab, loop, wait
@@ -40,16 +40,16 @@ def _set_display(a: Studio, tab: Tab) -> None:
     """Every display setting away from its default, as a user would: toggles, the camera."""
     for name, value in (("collision", True), ("frames", True), ("com", False), ("dark", True)):
         getattr(a.robots.display, name).value = value
-    a.ghosts.panel.ghosts["planned"].value = True
-    a.ghosts.panel.ghosts["with"].value = False
-    a.ghosts.plots.joints.value = "left leg"
-    a.ghosts.plots.wide.value = True
+    a.servo_rooms.ghosts.panel.ghosts["planned"].value = True
+    a.servo_rooms.ghosts.panel.ghosts["with"].value = False
+    a.servo_rooms.ghosts.plots.joints.value = "left leg"
+    a.servo_rooms.ghosts.plots.wide.value = True
     a.playback.panel.speed.value = "0.5"
     a.playback.panel.loop.value = False
     a.playback.panel.traces.value = False
     a.pose.panel.handles.value = False
     a.pose.panel.com_in_support.value = False
-    wait("the tab's starting view", lambda: len(a.camera.tabs) == 1)
+    wait("the tab's starting view", lambda: len(a.presenting.camera.tabs) == 1)
     wait_for_signal(
         a.state.on_display,
         lambda: tab.send(MOVED),
@@ -61,16 +61,17 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path, 
     a = studio
     # One click: plan a gait on servo_biped, walk it, compute torques, simulate.
     simulated = wait_for_signal(
-        a.simulation.runner.finished, lambda: setattr(a.gait.panel.all_stages, "value", True)
+        a.servo_rooms.simulation.runner.finished,
+        lambda: setattr(a.gait.panel.all_stages, "value", True),
     )
     assert simulated.error == "" and a.gait.results.symmetric is not None
     a.motions.capture(0.8)
     a.motions.capture(1.2)
     a.motions.rename(1, "lean")
     joint = a.state.work.coefficients.params.joint_names[3]
-    a.compensation.select_joint(joint)
-    a.compensation.edit(SetK(joint, 0.9))
-    a.compensation.edit(SetBacklash(joint, 1.5))  # the simulation is now stale
+    a.servo_rooms.compensation.select_joint(joint)
+    a.servo_rooms.compensation.edit(SetK(joint, 0.9))
+    a.servo_rooms.compensation.edit(SetBacklash(joint, 1.5))  # the simulation is now stale
     a.gait.panel.steps.value = 5
     _set_display(a, Tab(a, loop))
     a.playback.seek(1.3)
@@ -85,7 +86,7 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path, 
     b = start_studio(tmp_path / "elsewhere")
     try:
         tab = Tab(b, loop)
-        wait("b's tab", lambda: len(b.camera.tabs) == 1)
+        wait("b's tab", lambda: len(b.presenting.camera.tabs) == 1)
         assert b.project.open(str(path)), b.project.last_error
         sa, sb = a.state, b.state
         _assert_display_restored(a, b, tab)
@@ -102,16 +103,16 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path, 
         assert_same(sb.work.coefficients.servo, sa.work.coefficients.servo, "servo")
         # The prediction is recomputed from the restored inputs: the same numbers come out.
         assert_same(sb.work.prediction, sa.work.prediction, "prediction")
-        assert b.ghosts.view is not None
+        assert b.servo_rooms.ghosts.view is not None
         assert_same(sb.work.simulation.run.results, sa.work.simulation.run.results, "simulation")
-        verdict = b.simulation.panel.verdict.content
+        verdict = b.servo_rooms.simulation.panel.verdict.content
         assert sb.work.simulation.stale and sa.work.simulation.stale and "Stale" in verdict
         # The wait the user saw is kept, not "0.0 s".
         waited = sa.work.simulation.run.waited_s
         assert waited is not None and waited > 0 and sb.work.simulation.run.waited_s == waited
         assert f"(MuJoCo) in {waited:.1f} s" in verdict
-        b.compensation.select_joint(joint)
-        ca, cb = a.compensation, b.compensation
+        b.servo_rooms.compensation.select_joint(joint)
+        ca, cb = a.servo_rooms.compensation, b.servo_rooms.compensation
         for field in ("enabled", "k", "phi", "compliance", "backlash"):
             assert getattr(cb.panel, field).value == getattr(ca.panel, field).value, field
         for name, slider in a.joints.panel.sliders.items():
@@ -130,7 +131,9 @@ def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path, 
         )
         assert b.project.open(str(older)), b.project.last_error
         assert sb.work.simulation.run.waited_s is None
-        assert "(MuJoCo) restored from the project" in b.simulation.panel.verdict.content
+        assert (
+            "(MuJoCo) restored from the project" in b.servo_rooms.simulation.panel.verdict.content
+        )
         assert_same(sb.work.simulation.run.results, sa.work.simulation.run.results, "simulation")
     finally:
         b.stop()
@@ -146,13 +149,15 @@ def _assert_display_restored(a: Studio, b: Studio, tab: Tab) -> None:
     for name in ("visual", "collision", "frames", "com", "dark"):
         assert getattr(b.robots.display, name).value == getattr(a.robots.display, name).value
     assert b.robots.display.flags() == a.robots.display.flags() != type(a.robots.display.flags())()
-    for name, box in a.ghosts.panel.ghosts.items():
-        assert b.ghosts.panel.ghosts[name].value == box.value, name
-    assert b.ghosts.view is not None
-    shown = {name: b.ghosts.view.shown(name) for name in b.ghosts.view.names}
-    assert shown == {name: box.value for name, box in a.ghosts.panel.ghosts.items()}
-    assert b.ghosts.plots.joints.value == "left leg"
-    assert b.ghosts.plots.wide.value and b.ghosts.plots.window is not None
+    for name, box in a.servo_rooms.ghosts.panel.ghosts.items():
+        assert b.servo_rooms.ghosts.panel.ghosts[name].value == box.value, name
+    assert b.servo_rooms.ghosts.view is not None
+    shown = {
+        name: b.servo_rooms.ghosts.view.shown(name) for name in b.servo_rooms.ghosts.view.names
+    }
+    assert shown == {name: box.value for name, box in a.servo_rooms.ghosts.panel.ghosts.items()}
+    assert b.servo_rooms.ghosts.plots.joints.value == "left leg"
+    assert b.servo_rooms.ghosts.plots.wide.value and b.servo_rooms.ghosts.plots.window is not None
     panel = b.playback.panel
     assert (panel.speed.value, panel.speed_factor, panel.loop.value) == ("0.5", 0.5, False)
     assert not panel.traces.value and b.playback.traces is not None
@@ -164,11 +169,11 @@ def _assert_display_restored(a: Studio, b: Studio, tab: Tab) -> None:
     assert b.pose.handles is not None
     assert not any(control.visible for control in b.pose.handles._controls.values())
     # The tab's camera was put where a's was, and new tabs start there.
-    (client,) = b.server.get_clients().values()
+    (client,) = b.web.server.get_clients().values()
     assert np.allclose(client.camera.position, MOVED.position)
     assert np.allclose(client.camera.look_at, MOVED.look_at)
     assert client.camera.fov == pytest.approx(0.7)
-    assert np.allclose(b.server.initial_camera.look_at, MOVED.look_at)
+    assert np.allclose(b.web.server.initial_camera.look_at, MOVED.look_at)
     wait(
         "the tab to be sent the camera",
         lambda: any(
@@ -181,17 +186,8 @@ def _assert_display_restored(a: Studio, b: Studio, tab: Tab) -> None:
 
 
 def _crafted(data: bytes, edit) -> bytes:
-    source = zipfile.ZipFile(io.BytesIO(data))
-    out = io.BytesIO()
-    with zipfile.ZipFile(out, "w") as target:
-        for info in source.infolist():
-            content = source.read(info)
-            if info.filename == "manifest.json":
-                manifest = json.loads(content)
-                edit(manifest)
-                content = json.dumps(manifest).encode()
-            target.writestr(info.filename, content)
-    return out.getvalue()
+    """The saved project with `edit` applied to its manifest (a dict, edited in place)."""
+    return rewrite(data, manifest=edit)
 
 
 def _slip(data: bytes) -> bytes:

@@ -18,17 +18,13 @@ from app.core.servo.edits import SetK
 from app.core.servo.sizing import check_joint
 from app.core.simulation.part_law import PartLaw
 from app.studio.servo_parts import catalogue
-from tests.studio.conftest import compute_torques, start_studio, wait_for_signal
+from tests.studio.conftest import wait_for_signal, with_stand_torques
 
 
 @pytest.fixture
-def studio(tmp_path):
-    studio = start_studio(tmp_path / "data")
-    studio.motions.panel.motion.value = "one_leg_stand"
-    studio.motions.panel.generate.value = True
-    compute_torques(studio)
-    yield studio
-    studio.stop()
+def studio(studio):
+    """The conftest's studio with the one-leg stand and its torques (each test its own)."""
+    return with_stand_torques(studio)
 
 
 def closed_form_compliance_deg_per_Nm(key: str, kp: float | None = None) -> float:
@@ -47,14 +43,14 @@ def closed_form_compliance_deg_per_Nm(key: str, kp: float | None = None) -> floa
 
 
 def pick(studio, joint: str, key: str) -> None:
-    panel = studio.servos.panel
+    panel = studio.servo_rooms.servos.panel
     panel.joint.value = joint
     label = next(lab for lab in panel.servo.options if lab.startswith(key + " "))
     panel.servo.value = label
 
 
 def test_a_part_sets_k_and_the_virtual_servo_to_its_compliance(studio):
-    robot, session = studio.state.robot, studio.servos
+    robot, session = studio.state.robot, studio.servo_rooms.servos
     joint = robot.joint_names[3]
     i = robot.joint_names.index(joint)
     before = studio.state.work.coefficients
@@ -78,7 +74,7 @@ def test_a_part_sets_k_and_the_virtual_servo_to_its_compliance(studio):
     )
     # k edited on this part's joint stays when another joint gets a part (only the joints
     # whose servo changed take k = 1/K).
-    studio.compensation.edit(SetK(joint, 2.5))
+    studio.servo_rooms.compensation.edit(SetK(joint, 2.5))
     pick(studio, robot.joint_names[5], "mx106")
     assert studio.state.work.coefficients.params.k_deg_per_Nm[i] == 2.5
     session.panel.joint.value = joint
@@ -91,7 +87,7 @@ def test_a_part_sets_k_and_the_virtual_servo_to_its_compliance(studio):
 
 
 def test_size_servos_picks_the_lightest_that_holds_as_a_brute_force_does(studio):
-    robot, session = studio.state.robot, studio.servos
+    robot, session = studio.state.robot, studio.servo_rooms.servos
     session.panel.margin.value = 0.2
     sizing = wait_for_signal(session.sized, lambda: session.size_servos())
     assert not isinstance(sizing, str), sizing
@@ -131,15 +127,17 @@ def test_the_simulation_runs_the_parts_and_says_their_energy(studio):
     robot = studio.state.robot
     joint = robot.joint_names[3]
     pick(studio, joint, "mx106")
-    studio.servos.panel.battery.value = 10.0
-    record = wait_for_signal(studio.state.work.on_simulation, lambda: studio.simulation.simulate())
+    studio.servo_rooms.servos.panel.battery.value = 10.0
+    record = wait_for_signal(
+        studio.state.work.on_simulation, lambda: studio.servo_rooms.simulation.simulate()
+    )
     law = record.run.job.inputs[0].law
     assert isinstance(law, PartLaw)
     assert law.has_part is not None and list(np.flatnonzero(law.has_part)) == [3]
     energy = record.run.results["with compensation"].energy
     assert energy is not None
     assert np.all(energy.electrical_J[np.arange(robot.n_actuated) != 3] == 0.0)
-    text = studio.simulation.panel.verdict.content
+    text = studio.servo_rooms.simulation.panel.verdict.content
     assert "**Energy**" in text and "10 Wh pack lasts" in text
 
 
@@ -147,12 +145,12 @@ def test_a_project_keeps_the_parts_and_refuses_hostile_ones(studio, tmp_path):
     robot = studio.state.robot
     joint = robot.joint_names[2]
     pick(studio, joint, "mx64")
-    studio.servos.panel.settings["dead_band_deg"].value = 0.5
+    studio.servo_rooms.servos.panel.settings["dead_band_deg"].value = 0.5
     assert studio.project.save_as(str(tmp_path / "parts.bstudio"))
     project = read_project(tmp_path / "parts.bstudio")
     assert project.servo_parts.joint(joint) == JointServo("mx64", dead_band_deg=0.5)
-    studio.servos.panel.joint.value = joint
-    studio.servos.panel.servo.value = "ideal servo"
+    studio.servo_rooms.servos.panel.joint.value = joint
+    studio.servo_rooms.servos.panel.servo.value = "ideal servo"
     assert studio.state.work.parts.joint(joint).servo == ""
     assert studio.project.open(str(tmp_path / "parts.bstudio"))
     assert studio.state.work.parts.joint(joint) == JointServo("mx64", dead_band_deg=0.5)

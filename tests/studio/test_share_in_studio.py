@@ -7,19 +7,13 @@ import pytest
 
 from app.core.replay.folder import RECORDING
 from app.core.replay.viser_file import read_viser_file
-from tests.studio.conftest import compute_torques, start_studio, wait_for_signal
-
-
-@pytest.fixture
-def studio(tmp_path):
-    studio = start_studio(tmp_path / "data")
-    yield studio
-    studio.stop()
+from tests.studio.conftest import compute_torques, wait_for_signal
 
 
 def _export(studio):
     return wait_for_signal(
-        studio.share.exported, lambda: setattr(studio.share.panel.export, "value", True)
+        studio.presenting.share.exported,
+        lambda: setattr(studio.presenting.share.panel.export, "value", True),
     )
 
 
@@ -27,13 +21,13 @@ def test_export_records_what_is_shown_and_nothing_reaches_the_live_tabs(studio, 
     studio.motions.panel.motion.value = "com_shift"
     studio.motions.panel.generate.value = True
     compute_torques(studio)
-    ghosts = studio.ghosts.panel.ghosts
+    ghosts = studio.servo_rooms.ghosts.panel.ghosts
     ghosts["planned"].value = True
     ghosts["with"].value = True  # by default the plan and the command only
     ghosts["without"].value = False
     studio.playback.panel.traces.value = False
-    studio.share.panel.zip.value = True
-    live = studio.server.get_scene_serializer()  # everything the live tabs are sent from now
+    studio.presenting.share.panel.zip.value = True
+    live = studio.web.server.get_scene_serializer()  # everything the live tabs are sent from now
 
     result = _export(studio)
 
@@ -41,7 +35,7 @@ def test_export_records_what_is_shown_and_nothing_reaches_the_live_tabs(studio, 
     folder = result.folder.path
     assert folder.parent == tmp_path / "data" / "replays"
     assert folder.with_name(folder.name + ".zip").is_file()
-    assert str(folder) in studio.share.panel.status.content
+    assert str(folder) in studio.presenting.share.panel.status.content
     recording = read_viser_file((folder / RECORDING).read_bytes())
     names = recording.node_names()
     for shown in ("planned", "command", "with"):
@@ -64,6 +58,6 @@ def test_export_records_what_is_shown_and_nothing_reaches_the_live_tabs(studio, 
 def test_export_without_a_motion_says_so_and_changes_nothing(studio):
     assert studio.state.trajectory is None
     assert _export(studio) is None
-    assert "generate or build a motion first" in studio.share.panel.status.content
+    assert "generate or build a motion first" in studio.presenting.share.panel.status.content
     assert not (studio.config.data_dir / "replays").exists()
     assert studio.state.robot is not None

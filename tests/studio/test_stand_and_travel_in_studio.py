@@ -15,12 +15,12 @@ import pytest
 from app.core.posing.ready_pose import ready_pose
 from app.core.simulation.verdicts import LEAN_LOAD_FRACTION
 from app.studio.stand_checker import CHECKING
-from tests.studio.conftest import GUARD_S, compute_torques, start_studio, wait_for_signal
+from tests.studio.conftest import GUARD_S, compute_torques, wait_for_signal
 
 
 def stand_line(studio, accept=lambda _text: True) -> str:
     """The stand check's line once it is computed (and `accept`ed)."""
-    session = studio.simulation
+    session = studio.servo_rooms.simulation
     got: list[str] = []
     done = threading.Event()
 
@@ -61,13 +61,6 @@ def _ankle_bound_deg_per_Nm(robot) -> float:
     return math.degrees(2.0 / (robot.mass_kg * 9.81 * (com[2] - ankle)))
 
 
-@pytest.fixture
-def studio(tmp_path):
-    studio = start_studio(tmp_path / "data")
-    yield studio
-    studio.stop()
-
-
 def test_the_panel_says_before_any_motion_whether_the_robot_can_stand(studio):
     """servo_biped on its (paper) servos stands; the ankle limit shown lies under the rigid-
     knee textbook bound. Two ankle pitch servos made soft (typed into the panel) make it say
@@ -76,7 +69,7 @@ def test_the_panel_says_before_any_motion_whether_the_robot_can_stand(studio):
     assert first.startswith("✅") and "stands" in first, first
     limit = _needs(first)
     assert 1.4 < limit < _ankle_bound_deg_per_Nm(studio.state.robot)
-    panel = studio.compensation.panel
+    panel = studio.servo_rooms.compensation.panel
 
     def soften(value: float) -> None:
         for joint in ("left_ankle_pitch", "right_ankle_pitch"):
@@ -84,12 +77,16 @@ def test_the_panel_says_before_any_motion_whether_the_robot_can_stand(studio):
             panel.compliance.value = value
 
     soft = wait_for_signal(
-        studio.simulation.stand.checked, lambda: soften(20.0), lambda t: "cannot stand" in t
+        studio.servo_rooms.simulation.stand.checked,
+        lambda: soften(20.0),
+        lambda t: "cannot stand" in t,
     )
-    assert soft.startswith("⚠️") and studio.simulation.panel.stand.content == soft
+    assert soft.startswith("⚠️") and studio.servo_rooms.simulation.panel.stand.content == soft
     assert _needs(soft) == pytest.approx(limit, rel=0.02)  # the others unchanged
     back = wait_for_signal(
-        studio.simulation.stand.checked, lambda: soften(1.4), lambda t: t.startswith("✅")
+        studio.servo_rooms.simulation.stand.checked,
+        lambda: soften(1.4),
+        lambda t: t.startswith("✅"),
     )
     assert _needs(back) == pytest.approx(limit, rel=1e-3)
 
@@ -121,7 +118,7 @@ def test_a_simulated_walk_says_how_far_it_went_and_marks_its_landings(studio):
     motions.inputs["stride_m"].value = 0.04
     motions.generate.value = True
     compute_torques(studio)
-    session = studio.simulation
+    session = studio.servo_rooms.simulation
     ended = wait_for_signal(
         session.runner.finished, lambda: setattr(session.panel.simulate, "value", True)
     )
@@ -136,7 +133,7 @@ def test_a_simulated_walk_says_how_far_it_went_and_marks_its_landings(studio):
         assert f"{label}: walked **{travel.distance_covered_m:.2f} of {planned:.2f} m" in text
         steps += len(travel.footsteps)
         lines += bool(travel.footsteps)
-    ghosts = studio.ghosts
+    ghosts = studio.servo_rooms.ghosts
     assert ghosts.landings is not None
     # one white marker per planned landing, one per simulated landing, a line set per run
     # with landings (a run that falls early may land none)
@@ -170,7 +167,7 @@ def test_the_papers_43_mm_stand_leans_without_compensation_in_the_panel(studio):
     motions.inputs["shift_m"].value = 0.043
     motions.generate.value = True
     compute_torques(studio)
-    session = studio.simulation
+    session = studio.servo_rooms.simulation
     ended = wait_for_signal(
         session.runner.finished, lambda: setattr(session.panel.simulate, "value", True)
     )
@@ -178,5 +175,7 @@ def test_the_papers_43_mm_stand_leans_without_compensation_in_the_panel(studio):
     assert "without compensation: **leans on the lifted foot" in text
     assert "with compensation: **stays up" in text
     lean = ended.results["without compensation"].outcome.lean
-    assert f"no comp. leans from {lean.start_s:.2f} s" in studio.ghosts.plots.lifted.title
+    assert (
+        f"no comp. leans from {lean.start_s:.2f} s" in studio.servo_rooms.ghosts.plots.lifted.title
+    )
     assert "walked" not in text  # a one-leg stand does not travel

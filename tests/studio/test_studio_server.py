@@ -21,7 +21,7 @@ def _world_position(studio: Studio, link: str) -> np.ndarray:
 
 
 def test_serves_on_localhost_by_default(studio):
-    assert studio.server.get_host() == "127.0.0.1"
+    assert studio.web.server.get_host() == "127.0.0.1"
     assert studio.state.robot.name == "servo_biped"
 
 
@@ -343,7 +343,7 @@ def test_switching_robots_all_day_does_not_grow_what_a_new_tab_replays(studio):
     """viser keeps a replay buffer that every new tab receives; removed scene nodes and GUI
     elements leave messages in it. After one round of every built-in, more rounds must not add
     any (the buffer is viser's private state: read only to measure it)."""
-    buffer = studio.server._websock_server._broadcast_buffer
+    buffer = studio.web.server._websock_server._broadcast_buffer
 
     def round_of_loads() -> int:
         for name in ("dircon_biped", "hybrid_leg_biped", "servo_biped"):

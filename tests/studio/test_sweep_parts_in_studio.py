@@ -51,7 +51,10 @@ def point_of(part: dict | None):
 def test_a_loaded_point_keeps_its_parts(studio, tmp_path):
     assert studio.robots.load("dircon_biped")
     loader = PointLoader(
-        studio.server, studio.state, tmp_path / "variants", studio.compensation.set_servos
+        studio.web.server,
+        studio.state,
+        tmp_path / "variants",
+        studio.servo_rooms.compensation.set_servos,
     )
     engine = InProcess()
     loader.load(engine, point_of({"servo": "mx106", "kp": KP}))
@@ -69,13 +72,13 @@ def test_a_loaded_point_keeps_its_parts(studio, tmp_path):
     assert "mx106 at kp 40 on the legs" in studio.state.motion.summary
     # the Servos folder shows the part of its selected leg joint
     first_leg = robot.joint_names[int(np.flatnonzero(legs)[0])]
-    studio.servos.panel.joint.value = first_leg
-    assert studio.servos.panel.servo.value.startswith("mx106 ")
-    assert studio.servos.panel.settings["kp"].value == pytest.approx(KP)
+    studio.servo_rooms.servos.panel.joint.value = first_leg
+    assert studio.servo_rooms.servos.panel.servo.value.startswith("mx106 ")
+    assert studio.servo_rooms.servos.panel.settings["kp"].value == pytest.approx(KP)
 
     loader.load(engine, point_of(None))  # on the virtual servos: every joint ideal again
     assert studio.state.work.parts.chosen == ()
-    assert studio.servos.panel.servo.value == "ideal servo"
+    assert studio.servo_rooms.servos.panel.servo.value == "ideal servo"
 
 
 def test_the_sweep_panel_offers_the_servo_and_its_kp(studio):

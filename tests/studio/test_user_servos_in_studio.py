@@ -68,17 +68,21 @@ def studio(tmp_path):
 
 
 def labels_of(studio, key: str) -> list[str]:
-    return [label for label in studio.servos.panel.servo.options if label.startswith(key + " ")]
+    return [
+        label
+        for label in studio.servo_rooms.servos.panel.servo.options
+        if label.startswith(key + " ")
+    ]
 
 
 def pick(studio, joint: str, key: str) -> None:
-    panel = studio.servos.panel
+    panel = studio.servo_rooms.servos.panel
     panel.joint.value = joint
     (panel.servo.value,) = labels_of(studio, key)
 
 
 def test_an_added_file_offers_its_servo_with_k_from_its_own_motor_model(studio):
-    robot, session = studio.state.robot, studio.servos
+    robot, session = studio.state.robot, studio.servo_rooms.servos
     assert not labels_of(studio, "my_servo")
     assert session.add_servo_file("mine.toml", servo_toml().encode())
     assert labels_of(studio, "my_servo") == ["my_servo — Workshop Test servo my_servo"]
@@ -98,7 +102,7 @@ def test_an_added_file_offers_its_servo_with_k_from_its_own_motor_model(studio):
 
 
 def test_bad_files_are_refused_in_one_line_and_nothing_is_lost(studio):
-    session = studio.servos
+    session = studio.servo_rooms.servos
     assert session.add_servo_file("mine.toml", servo_toml().encode())
     joint = studio.state.robot.joint_names[1]
     pick(studio, joint, "my_servo")
@@ -127,7 +131,7 @@ def test_bad_files_are_refused_in_one_line_and_nothing_is_lost(studio):
 
 
 def test_a_file_of_the_same_name_replaces_the_earlier_and_a_datasheet_only_one_is_said(studio):
-    session = studio.servos
+    session = studio.servo_rooms.servos
     assert session.add_servo_file("mine.toml", servo_toml().encode())
     joint = studio.state.robot.joint_names[0]
     pick(studio, joint, "my_servo")
@@ -152,7 +156,7 @@ def test_a_file_of_the_same_name_replaces_the_earlier_and_a_datasheet_only_one_i
 
 
 def test_a_project_keeps_the_files_and_checks_them_on_open(studio, tmp_path):
-    session = studio.servos
+    session = studio.servo_rooms.servos
     assert session.add_servo_file("mine.toml", servo_toml().encode())
     joint = studio.state.robot.joint_names[3]
     pick(studio, joint, "my_servo")
@@ -179,7 +183,7 @@ def test_a_project_keeps_the_files_and_checks_them_on_open(studio, tmp_path):
 
 
 def test_the_folder_says_why_the_datasheet_only_servos_are_not_offered(studio):
-    note = studio.servos.panel.not_offered.content
+    note = studio.servo_rooms.servos.panel.not_offered.content
     for key in ("mx28", "xc430_w240", "xh430_w350", "xh540_v270", "xm540_w270", "xw540_t260"):
         assert key in note
         assert not labels_of(studio, key)
@@ -187,7 +191,7 @@ def test_the_folder_says_why_the_datasheet_only_servos_are_not_offered(studio):
 
 
 def test_a_file_with_firmware_but_no_motor_runs_a_dc_motor_from_its_datasheet(studio):
-    session = studio.servos
+    session = studio.servo_rooms.servos
     text = servo_toml("dc_servo", motor=False) + (
         f'firmware = "our firmware"\n\n[firmware]\nvin_V = 12.0\nkp = {KP}\n'
         f"error_gain = {ERROR_GAIN}\nmax_pwm = {MAX_PWM}\n"

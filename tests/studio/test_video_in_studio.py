@@ -27,22 +27,22 @@ def test_a_video_whose_tab_closes_leaves_the_studio_as_it_was(tmp_path, loop):
         duration = studio.state.trajectory.duration
         studio.playback.seek(duration / 2)
         tab = Tab(studio, loop)
-        wait("the tab", lambda: len(studio.server.get_clients()) == 1)
-        (client,) = studio.server.get_clients().values()
+        wait("the tab", lambda: len(studio.web.server.get_clients()) == 1)
+        (client,) = studio.web.server.get_clients().values()
         wait("the tab's camera", lambda: client.camera.image_width > 0)
         saved: list = []
         done = threading.Event()
-        studio.share.video_saved.connect(lambda path: (saved.append(path), done.set()))
-        studio.share.panel.video_fps.value = 5
-        studio.share.export_video(client)
+        studio.presenting.share.video_saved.connect(lambda path: (saved.append(path), done.set()))
+        studio.presenting.share.panel.video_fps.value = 5
+        studio.presenting.share.export_video(client)
         wait("the first frame asked", lambda: studio.state.time_s == 0.0)
         tab.close()
         assert done.wait(GUARD_S)
         assert saved == [None]
-        assert "Video export failed" in studio.share.panel.status.content
+        assert "Video export failed" in studio.presenting.share.panel.status.content
         assert list((tmp_path / "data" / "exports").glob("*")) == []
         assert studio.state.time_s == duration / 2
-        assert not studio.share.panel.video.disabled  # the button is back
+        assert not studio.presenting.share.panel.video.disabled  # the button is back
     finally:
         studio.stop()
 
@@ -54,22 +54,25 @@ def test_bad_video_settings_are_refused_with_the_bound(tmp_path, loop):
     try:
         assert studio.motions.generate("com_shift", {})
         tab = Tab(studio, loop)
-        wait("the tab", lambda: len(studio.server.get_clients()) == 1)
-        (client,) = studio.server.get_clients().values()
+        wait("the tab", lambda: len(studio.web.server.get_clients()) == 1)
+        (client,) = studio.web.server.get_clients().values()
         wait("the tab's camera", lambda: client.camera.image_width > 0)
         saved: list = []
-        studio.share.video_saved.connect(saved.append)
+        studio.presenting.share.video_saved.connect(saved.append)
         time_before = studio.state.time_s
-        studio.share.panel.video_width.value = 4000
-        studio.share.export_video(client)
+        studio.presenting.share.panel.video_width.value = 4000
+        studio.presenting.share.export_video(client)
         assert saved == [None]
-        assert "width 4000 px: give 16 to 1920 px" in studio.share.panel.status.content
-        studio.share.panel.video_width.value = 640
-        studio.share.panel.video_fps.value = 0
-        studio.share.export_video(client)
-        assert saved == [None, None] and "fps 0" in studio.share.panel.status.content
-        studio.share.export_video(None)
-        assert saved[-1] is None and "from a browser tab" in studio.share.panel.status.content
+        assert "width 4000 px: give 16 to 1920 px" in studio.presenting.share.panel.status.content
+        studio.presenting.share.panel.video_width.value = 640
+        studio.presenting.share.panel.video_fps.value = 0
+        studio.presenting.share.export_video(client)
+        assert saved == [None, None] and "fps 0" in studio.presenting.share.panel.status.content
+        studio.presenting.share.export_video(None)
+        assert (
+            saved[-1] is None
+            and "from a browser tab" in studio.presenting.share.panel.status.content
+        )
         assert studio.state.time_s == time_before
         assert not (tmp_path / "data" / "exports").exists()
         tab.close()
@@ -103,15 +106,17 @@ def test_a_filmed_video_is_sent_to_the_tab_and_decodes_to_its_frames(tmp_path, l
             return out.getvalue()
 
         tab.render = render
-        wait("the tab", lambda: len(studio.server.get_clients()) == 1)
-        (client,) = studio.server.get_clients().values()
+        wait("the tab", lambda: len(studio.web.server.get_clients()) == 1)
+        (client,) = studio.web.server.get_clients().values()
         wait("the tab's camera", lambda: client.camera.image_width > 0)
-        studio.share.panel.video_fps.value = 4
+        studio.presenting.share.panel.video_fps.value = 4
         saved: list = []
         done = threading.Event()
-        studio.share.video_saved.connect(lambda path: (saved.append(path), done.set()))
-        studio.share.export_video(client)
-        assert done.wait(GUARD_S) and saved[0] is not None, studio.share.panel.status.content
+        studio.presenting.share.video_saved.connect(lambda path: (saved.append(path), done.set()))
+        studio.presenting.share.export_video(client)
+        assert done.wait(GUARD_S) and saved[0] is not None, (
+            studio.presenting.share.panel.status.content
+        )
         path = saved[0]
         wait("the download", lambda: tab.download() is not None)
         start, content = tab.download()

@@ -41,7 +41,7 @@ class Tab:
     def __init__(self, studio: Studio, loop: asyncio.AbstractEventLoop) -> None:
         self.received: list[dict] = []
         self._loop = loop
-        port = studio.server.get_port()
+        port = studio.web.server.get_port()
 
         async def connect():
             return await websockets.connect(

@@ -37,7 +37,7 @@ import numpy as np
 
 from app.core.dynamics.lqr import lqr_com
 from app.core.dynamics.wbc_qp import N_CORNERS, N_EDGES, QpSolver, QpWeights, WholeBodyQp
-from app.core.dynamics.wbc_terms import TermsBatch
+from app.core.dynamics.wbc_terms import SampleInput, TermsBatch
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
@@ -301,7 +301,7 @@ def solve_chunk(qp: WholeBodyQp, chunk: ChunkInput, params: WbcParams) -> ChunkR
         q, v, a = chunk.q[k], chunk.v[k], chunk.a[k]
         begin = time.perf_counter()
         terms = qp.kinematics(q, v, a)
-        solution = qp.solve(terms, v, a, chunk.contacts[k], chunk.x_bar[k])
+        solution = qp.solve(SampleInput(terms, v, a, chunk.contacts[k], chunk.x_bar[k]))
         times[k] = time.perf_counter() - begin
         solver_times[k] = qp.last_solver_s
         if not solution.ok:
@@ -362,9 +362,8 @@ def _solve_reduced_chunk(
     for k in np.flatnonzero(~ok):
         begin = time.perf_counter()
         terms = qp.terms_at(batch, k)
-        solution = qp.solve(
-            terms, chunk.v[k], chunk.a[k], chunk.contacts[k], chunk.x_bar[k], closed_form=False
-        )
+        sample = SampleInput(terms, chunk.v[k], chunk.a[k], chunk.contacts[k], chunk.x_bar[k])
+        solution = qp.solve(sample, closed_form=False)
         times[k] += time.perf_counter() - begin
         solver_times[k] += qp.last_solver_s
         if solution.ok:

@@ -46,7 +46,7 @@ from scipy.linalg.lapack import dposv
 
 from app.core.dynamics.lqr import B_COM
 from app.core.dynamics.wbc_reduced import ReducedProblem, ReducedQp, ReducedSolution, reducible
-from app.core.dynamics.wbc_terms import Terms, TermsBatch
+from app.core.dynamics.wbc_terms import SampleInput, Terms, TermsBatch
 from app.core.robot.model import RobotModel
 
 N_EDGES = 4
@@ -505,31 +505,18 @@ class WholeBodyQp:
         )
         return G
 
-    def solve(
-        self,
-        terms: Terms,
-        v: np.ndarray,
-        qdd_des: np.ndarray,
-        contacts: np.ndarray,
-        com_error: np.ndarray,
-        *,
-        closed_form: bool = True,
-    ) -> SampleSolution:
+    def solve(self, sample: SampleInput, *, closed_form: bool = True) -> SampleSolution:
         """The QP of one sample: the reduced one when it applies (in closed form when no
         inequality is active, unless `closed_form` is False, else by DAQP), otherwise the
         full one (ProxQP or OSQP, warm from the last sample)."""
         if self.reduced is not None:
             begin = time.perf_counter()
-            closed = (
-                self.reduced.unconstrained(terms, v, qdd_des, contacts, com_error)
-                if closed_form
-                else None
-            )
+            closed = self.reduced.unconstrained(sample) if closed_form else None
             if closed is not None:
                 self.last_solver_s = time.perf_counter() - begin
                 self.last_reduced = None
                 return SampleSolution(True, closed.status, closed.qdd, closed.beta, self._no_drift)
-            problem = self.reduced.problem(terms, v, qdd_des, contacts, com_error)
+            problem = self.reduced.problem(sample)
             begin = time.perf_counter()
             answer = self.reduced.solve(problem)
             self.last_solver_s = time.perf_counter() - begin
@@ -537,20 +524,14 @@ class WholeBodyQp:
             if answer.ok:
                 return SampleSolution(True, answer.status, answer.qdd, answer.beta, self._no_drift)
             spent = self.last_solver_s
-            solution = self.solve_full(terms, v, qdd_des, contacts, com_error)
+            solution = self.solve_full(sample)
             self.last_solver_s += spent
             return solution
-        return self.solve_full(terms, v, qdd_des, contacts, com_error)
+        return self.solve_full(sample)
 
-    def solve_full(
-        self,
-        terms: Terms,
-        v: np.ndarray,
-        qdd_des: np.ndarray,
-        contacts: np.ndarray,
-        com_error: np.ndarray,
-    ) -> SampleSolution:
+    def solve_full(self, sample: SampleInput) -> SampleSolution:
         """The full QP of eqs. 12–18 (the module docstring) with ProxQP or OSQP."""
+        terms, v, contacts, com_error = sample.terms, sample.v, sample.contacts, sample.com_error
         w, r, c = self.weights, self.rows, self.cols
         self._fill(terms.M, terms.Phi, terms.J_feet, terms.J_loop, out=self.A)
         state = (bool(contacts[0]), bool(contacts[1]))
@@ -575,7 +556,7 @@ class WholeBodyQp:
         # V (eq. 5): ūᵀH_uū + 2 g_uᵀū with ū = G_u β + d, d = g − c̈_des.
         d = self.gravity - terms.com_acc
         p = np.zeros(self.n)
-        p[c["qdd"]] = self._qdd_weight * qdd_des
+        p[c["qdd"]] = self._qdd_weight * sample.qdd_des
         if com_error.any():
             g_u = w.a * w.q_lqr * com_error[:3] + B_COM.T @ w.S @ com_error
             p[c["beta"]] = 2.0 * self.G_u.T @ (self.H_u @ d + g_u)

@@ -35,7 +35,7 @@ import daqp
 import numpy as np
 from scipy.linalg.lapack import dposv
 
-from app.core.dynamics.wbc_terms import Terms, TermsBatch
+from app.core.dynamics.wbc_terms import SampleInput, Terms, TermsBatch
 
 DAQP_INFINITY = 1e30
 """DAQP's stand-in for an infinite bound."""
@@ -157,18 +157,12 @@ class ReducedQp:
             diagonal = np.arange(nb, ny)
             self._diagonal[nb] = (diagonal, diagonal)
 
-    def problem(
-        self,
-        terms: Terms,
-        v: np.ndarray,
-        qdd_des: np.ndarray,
-        contacts: np.ndarray,
-        com_error: np.ndarray,
-    ) -> ReducedProblem:
+    def problem(self, sample: SampleInput) -> ReducedProblem:
         """The reduced QP of one sample (see the module docstring).
 
         T = [X; 0 I] (X the base rows, 6 × ny), so Tᵀ T = XᵀX + [0 0; 0 I] and every
         product with T touches only its 6 base rows and an identity block."""
+        terms, v, qdd_des, contacts = sample.terms, sample.v, sample.qdd_des, sample.contacts
         state = (bool(contacts[0]), bool(contacts[1]))
         columns, rows, P_bb = self._states[state]
         nb, nv = len(columns), self.nv
@@ -196,7 +190,7 @@ class ReducedQp:
         H[self._diagonal[nb]] += 2.0 * self.w_qdd
         f = -(K.T @ k)
         f[nb:] -= (2.0 * self.w_qdd) * qdd_des[6:]
-        f[:nb] += self._beta_cost(terms, com_error)[columns]
+        f[:nb] += self._beta_cost(terms, sample.com_error)[columns]
         # τ_lim = M_lim q̈ + h_lim − Φ_lim β = A_tau y + tau0, then η = JT y + eta0.
         lim = self.limited_v
         A = np.empty((len(lim) + len(rows), nb + self.na))
@@ -217,14 +211,7 @@ class ReducedQp:
         t[:6] = t_b
         return ReducedProblem(H, f, A, lower, upper, T, t, columns, JT, eta0)
 
-    def unconstrained(
-        self,
-        terms: Terms,
-        v: np.ndarray,
-        qdd_des: np.ndarray,
-        contacts: np.ndarray,
-        com_error: np.ndarray,
-    ) -> ReducedSolution | None:
+    def unconstrained(self, sample: SampleInput) -> ReducedSolution | None:
         """The QP's answer in closed form when no inequality is active at it, else None.
 
         Over x = [q̈, β_down] with only the 6 base rows E x = M_b q̈ − Φ_b β = −h_b, the
@@ -233,6 +220,7 @@ class ReducedQp:
         w I + J Jᵀ and P_ββ⁻¹ fixed per contact state. If that x has β ≥ 0, torques and η
         within their bounds, it meets the full QP's KKT conditions with zero multipliers on
         every inequality: it is the QP's (unique) minimiser."""
+        terms, v, qdd_des, contacts = sample.terms, sample.v, sample.qdd_des, sample.contacts
         state = (bool(contacts[0]), bool(contacts[1]))
         columns, rows, _ = self._states[state]
         P_inverse = self._P_inverse[state]
@@ -252,7 +240,7 @@ class ReducedQp:
             QB = (B - J.T @ inner) * (0.5 / w)
         else:
             QB = B * (0.5 / w)
-        c_beta = self._beta_cost(terms, com_error)[columns]
+        c_beta = self._beta_cost(terms, sample.com_error)[columns]
         Phi_b = Phi_down[:6]
         W = Phi_b @ P_inverse  # Φ_b P_ββ⁻¹, shape (6, nb)
         schur = M[:6] @ QB[:, :6] + W @ Phi_b.T

@@ -1,5 +1,6 @@
 """The configuration-dependent terms of the whole-body QP, one sample or a batch of them
-(shared by the full QP, app.core.dynamics.wbc_qp, and the reduced one, wbc_reduced)."""
+and one sample's whole input (shared by the full QP, app.core.dynamics.wbc_qp, and the reduced
+one, wbc_reduced)."""
 
 from __future__ import annotations
 
@@ -28,6 +29,21 @@ class Terms:
     """J̇_loop q̇, shape (3 * n_loops,)."""
     com_acc: np.ndarray
     """The plan's CoM acceleration [m/s²], shape (3,)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SampleInput:
+    """What the QP of one sample is asked: its terms, the state and what the plan wants."""
+
+    terms: Terms
+    v: np.ndarray
+    """Generalised velocity, shape (nv,)."""
+    qdd_des: np.ndarray
+    """The plan's generalised acceleration, shape (nv,)."""
+    contacts: np.ndarray
+    """(left, right) sole on the floor, shape (2,) of bool."""
+    com_error: np.ndarray
+    """x̄, the CoM state's error fed back by the LQR, shape (6,); zero for a feed-forward."""
 
 
 @dataclasses.dataclass(frozen=True)
