@@ -20,12 +20,15 @@ from typing import TypeVar
 import numpy as np
 import pytest
 from PIL import Image
+from playwright.sync_api import Error as PlaywrightError
 
 # Bounds on hangs, not expectations: on a busy 2-core machine with software WebGL a click
 # was seen to take 30 s to land, so these are generous (a wait ends as soon as the page shows).
 RENDER_TIMEOUT_S = 240.0
 UI_TIMEOUT_S = 120.0
 POLL_S = 0.25
+# How often an action is tried again on an input the page replaced under it.
+DETACHED_RETRIES = 5
 # A pixel "differs" when a channel moves by more than this (0-255): well above the noise of
 # antialiasing and of SwiftShader, well below a robot part against the grid.
 PIXEL_DELTA = 40
@@ -214,10 +217,19 @@ def click_button(page, name: str) -> None:
 
 
 def type_number(page, label: str, value: float) -> None:
-    box = gui_row_input(page, label, "input.mantine-NumberInput-input")
-    box.scroll_into_view_if_needed()
-    box.fill(f"{value:g}")
-    box.press("Enter")
+    """Type `value` into the number input `label` and press Enter. The panel may redraw its
+    inputs while the page settles (a motion's parameters after a pick): an input replaced
+    between finding it and typing is found again."""
+    for attempt in range(DETACHED_RETRIES):
+        box = gui_row_input(page, label, "input.mantine-NumberInput-input")
+        try:
+            box.scroll_into_view_if_needed()
+            box.fill(f"{value:g}")
+            box.press("Enter")
+            return
+        except PlaywrightError as error:
+            if "not attached" not in str(error) or attempt == DETACHED_RETRIES - 1:
+                raise
 
 
 def select_option(page, label: str, option: str) -> None:
