@@ -23,7 +23,8 @@ from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CLEARANCE_SIGNS, CompensationParams, disabled_params
 from app.core.servo.edits import JointEdit
 from app.core.servo.files import write_command_csv
-from app.core.servo.model import Predictor, ServoModel, joint_angles
+from app.core.servo.model import ServoModel, joint_angles
+from app.core.servo.predictor import Predictor
 from app.core.servo.preset_safety import implausible_prediction, scaled_to_limits
 from app.core.servo.presets import PRESETS, preset_params
 from app.core.servo.scaling import scaled_servo_model

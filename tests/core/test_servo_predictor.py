@@ -15,7 +15,8 @@ from app.core.quaternions import matrices_to_xyzquat, xyzquat_to_matrices
 from app.core.robot.loading import load_robot
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.grounding import LegChains
-from app.core.servo.model import Prediction, Predictor, ServoModel, command_configuration, predict
+from app.core.servo.model import Prediction, ServoModel, command_configuration, predict
+from app.core.servo.predictor import Predictor
 
 ROBAN = Path(__file__).resolve().parents[1] / "third_party/roban_s14/urdf/robanS14.urdf"
 ARRAYS = [f.name for f in dataclasses.fields(Prediction) if f.name != "joint_names"]
@@ -84,7 +85,7 @@ def test_the_predictor_in_blocks_equals_the_uncached_prediction(monkeypatch, blo
     """The predictor grounds a block of samples at a time: blocks that split the stance
     phases (one foot throughout, or both feet within a block) give the uncached prediction,
     and the last, shorter block too."""
-    from app.core.servo import model
+    from app.core.servo import predictor as model
 
     robot, trajectory, tau, params, servo = setup("servo_biped", "one_leg_squats")
     assert trajectory.n_samples % block != 0

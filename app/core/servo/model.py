@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -38,15 +38,12 @@ import pinocchio as pin
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.posing.stance import anchor_on_foot, stance_link
-from app.core.quaternions import matrices_to_xyzquat, xyzquat_to_matrices
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import (
     MAX_ABS_K_DEG_PER_NM,
     CompensationParams,
-    checked_command,
     compensated_command,
 )
-from app.core.servo.grounding import LegChains, se3_inverse
 
 
 class ServoModelError(StudioError):
@@ -140,10 +137,10 @@ def servo_response(q_cmd_rad: np.ndarray, tau_Nm: np.ndarray, model: ServoModel)
         )
     if not (np.all(np.isfinite(q_cmd)) and np.all(np.isfinite(tau))):
         raise ServoModelError("commands or torques contain NaN or infinite values")
-    return _settled(q_cmd, tau, model)
+    return settled(q_cmd, tau, model)
 
 
-def _settled(q_cmd: np.ndarray, tau: np.ndarray, model: ServoModel) -> np.ndarray:
+def settled(q_cmd: np.ndarray, tau: np.ndarray, model: ServoModel) -> np.ndarray:
     """`servo_response`'s equation alone, on float arrays it has accepted."""
     out = q_cmd - np.deg2rad(model.compliance_deg_per_Nm) * tau
     out -= np.deg2rad(0.5 * model.backlash_deg) * np.sign(tau)
@@ -317,7 +314,7 @@ def predict(
     servos may name a subset of the joints (the others are uncompensated / rigid).
     `planned_placements` (from `planned_stance_placements`, which depends on the plan only)
     saves recomputing them when only the coefficients or servos change."""
-    _check_inputs(robot, trajectory, tau_Nm)
+    check_inputs(robot, trajectory, tau_Nm)
     tau = np.asarray(tau_Nm, dtype=float)
     params = comp_params.for_joints(robot.joint_names)
     servos = servo.for_joints(robot.joint_names)
@@ -352,7 +349,7 @@ def predict(
     )
 
 
-def _check_inputs(robot: RobotModel, trajectory: Trajectory, tau_Nm: np.ndarray) -> None:
+def check_inputs(robot: RobotModel, trajectory: Trajectory, tau_Nm: np.ndarray) -> None:
     if tuple(trajectory.joint_names) != robot.joint_names:
         raise ServoModelError(
             f"trajectory {trajectory.name!r} was made for other joints than {robot.name}'s"
@@ -377,135 +374,3 @@ def command_configuration(
     foot = stance_link(robot, trajectory.contacts[k])
     data = robot.model.createData()
     return anchor_on_foot(robot, q, foot, robot.link_placements(planned, data)[foot], data)
-
-
-BLOCK_SAMPLES = 8192
-"""Samples grounded at a time by `Predictor`: a block's arrays (≈ 200 kB each) stay in a
-core's cache, and the blocks are few enough that numpy's per-call cost does not weigh
-(measured on 60 000 samples: 2 048 a block is slower than 8 192, the whole motion at once
-slower still)."""
-
-
-class Predictor:
-    """`predict` for one plan and its torques, fast enough to follow a coefficient slider.
-
-    What the coefficients cannot change is computed once: the planned joint angles, the plan's
-    stance-foot placements and attitude, and (for the last servos asked for) the uncompensated
-    prediction. The grounding's forward kinematics runs over all samples at once
-    (app.core.servo.grounding) where the legs allow it, else sample by sample as `predict` does.
-    The result equals `predict`'s to round-off.
-    """
-
-    def __init__(self, robot: RobotModel, trajectory: Trajectory, tau_Nm: np.ndarray) -> None:
-        _check_inputs(robot, trajectory, tau_Nm)
-        if not robot.floating_base:
-            raise ServoModelError(
-                f"{robot.name} has a fixed base: the torso cannot tilt, there is nothing to predict"
-            )
-        self.robot, self.trajectory = robot, trajectory
-        self.tau = np.asarray(tau_Nm, dtype=float)
-        self.q_plan = joint_angles(robot, trajectory.q)
-        self.roll_plan, self.pitch_plan = base_roll_pitch(trajectory.q)
-        self._finite = bool(np.isfinite(self.q_plan).all() and np.isfinite(self.tau).all())
-        self._right = stance_is_right(trajectory.contacts)
-        self._chains = LegChains.of(robot)
-        self._placements: list[pin.SE3] = []
-        self._placement_matrices = np.empty((0, 4, 4))
-        if self._chains is None:
-            self._placements = planned_stance_placements(robot, trajectory)
-        else:
-            self._placement_matrices = xyzquat_to_matrices(
-                trajectory.q[:, :7]
-            ) @ self._chains.stance_to_base(self._right, trajectory.q)
-        self._uncompensated: tuple[ServoModel, np.ndarray, tuple[np.ndarray, ...]] | None = None
-
-    @property
-    def vectorised(self) -> bool:
-        """Whether the grounding runs over all samples at once (else sample by sample)."""
-        return self._chains is not None
-
-    def grounded(self, q_joints: np.ndarray) -> np.ndarray:
-        """`grounded_configurations` of this plan for joint angles (T, n)."""
-        return self._grounded_attitude(q_joints)[0]
-
-    def _grounded_attitude(
-        self, q_joints: np.ndarray | Callable[[slice], np.ndarray]
-    ) -> tuple[np.ndarray, ...]:
-        """`grounded` and its base's roll and pitch [rad] (`base_roll_pitch`), (T, nq), (T,),
-        (T,), for joint angles (T, n) or a function giving those of a slice of samples.
-        Vectorised, a block of `BLOCK_SAMPLES` samples at a time: the dozens of elementwise
-        passes of the legs' kinematics then stay in the CPU's cache (over a long motion at
-        once, each pass streams megabytes from memory)."""
-        angles = (lambda rows: q_joints[rows]) if isinstance(q_joints, np.ndarray) else q_joints
-        n = self.trajectory.n_samples
-        if self._chains is None:
-            q_all = angles(slice(0, n))
-            out = grounded_configurations(self.robot, self.trajectory, q_all, self._placements)
-            return (out, *base_roll_pitch(out))
-        out = np.empty((n, self.trajectory.q.shape[1]))
-        roll, pitch = np.empty(n), np.empty(n)
-        for begin in range(0, n, BLOCK_SAMPLES):
-            rows = slice(begin, min(n, begin + BLOCK_SAMPLES))
-            block = with_joint_angles(self.robot, self.trajectory.q[rows], angles(rows))
-            T_base_foot = self._chains.stance_to_base(self._right[rows], block)
-            block[:, :7] = matrices_to_xyzquat(
-                self._placement_matrices[rows] @ se3_inverse(T_base_foot)
-            )
-            out[rows] = block
-            roll[rows], pitch[rows] = base_roll_pitch(block)
-        return out, roll, pitch
-
-    def _compensated(
-        self, params: CompensationParams, servos: ServoModel
-    ) -> tuple[np.ndarray, ...]:
-        """q_cmd (eq 7, 23), the servos' response to it, and its grounding and attitude,
-        computed a block of samples at a time (`_grounded_attitude`); plan and torques were
-        checked once, each block's commands are."""
-        q_cmd, q_comp = np.empty_like(self.tau), np.empty_like(self.tau)
-
-        def angles(rows: slice) -> np.ndarray:
-            q_cmd[rows] = checked_command(self.q_plan[rows], self.tau[rows], params)
-            if not np.isfinite(q_cmd[rows]).all():
-                servo_response(q_cmd[rows], self.tau[rows], servos)  # raises its error
-            q_comp[rows] = _settled(q_cmd[rows], self.tau[rows], servos)
-            return q_comp[rows]
-
-        return (q_cmd, q_comp, *self._grounded_attitude(angles))
-
-    def predict(self, comp_params: CompensationParams, servo: ServoModel) -> Prediction:
-        params = comp_params.for_joints(self.robot.joint_names)
-        servos = servo.for_joints(self.robot.joint_names)
-        cached = self._uncompensated
-        if (
-            cached is not None
-            and np.array_equal(cached[0].compliance_deg_per_Nm, servos.compliance_deg_per_Nm)
-            and np.array_equal(cached[0].backlash_deg, servos.backlash_deg)
-        ):
-            _, q_unc, (world_unc, roll_unc, pitch_unc) = cached
-        else:
-            q_unc = servo_response(self.q_plan, self.tau, servos)
-            world_unc, roll_unc, pitch_unc = self._grounded_attitude(q_unc)
-            self._uncompensated = (servos, q_unc, (world_unc, roll_unc, pitch_unc))
-        if self._finite:
-            q_cmd, q_comp, world_comp, roll_comp, pitch_comp = self._compensated(params, servos)
-        else:
-            q_cmd = compensated_command(self.q_plan, self.tau, params)  # its error
-            q_comp = servo_response(q_cmd, self.tau, servos)
-            world_comp, roll_comp, pitch_comp = self._grounded_attitude(q_comp)
-        return Prediction(
-            joint_names=self.robot.joint_names,
-            t=self.trajectory.t,
-            tau_Nm=self.tau,
-            q_plan_rad=self.q_plan,
-            q_cmd_rad=q_cmd,
-            q_actual_uncompensated_rad=q_unc,
-            q_actual_compensated_rad=q_comp,
-            q_world_uncompensated=world_unc,
-            q_world_compensated=world_comp,
-            roll_planned_rad=self.roll_plan,
-            pitch_planned_rad=self.pitch_plan,
-            roll_uncompensated_rad=roll_unc,
-            pitch_uncompensated_rad=pitch_unc,
-            roll_compensated_rad=roll_comp,
-            pitch_compensated_rad=pitch_comp,
-        )

@@ -1,0 +1,161 @@
+"""The quick estimate fast enough to follow a coefficient slider: `predict` (app.core.servo.model)
+for one plan and its torques, with what the coefficients cannot change computed once and the
+grounding vectorised a block of samples at a time."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pinocchio as pin
+
+from app.core.motions.trajectory import Trajectory
+from app.core.quaternions import matrices_to_xyzquat, xyzquat_to_matrices
+from app.core.robot.model import RobotModel
+from app.core.servo.compensation import CompensationParams, checked_command, compensated_command
+from app.core.servo.grounding import LegChains, se3_inverse
+from app.core.servo.model import (
+    Prediction,
+    ServoModel,
+    ServoModelError,
+    base_roll_pitch,
+    check_inputs,
+    grounded_configurations,
+    joint_angles,
+    planned_stance_placements,
+    servo_response,
+    settled,
+    stance_is_right,
+    with_joint_angles,
+)
+
+BLOCK_SAMPLES = 8192
+"""Samples grounded at a time by `Predictor`: a block's arrays (≈ 200 kB each) stay in a
+core's cache, and the blocks are few enough that numpy's per-call cost does not weigh
+(measured on 60 000 samples: 2 048 a block is slower than 8 192, the whole motion at once
+slower still)."""
+
+
+class Predictor:
+    """`predict` for one plan and its torques, fast enough to follow a coefficient slider.
+
+    What the coefficients cannot change is computed once: the planned joint angles, the plan's
+    stance-foot placements and attitude, and (for the last servos asked for) the uncompensated
+    prediction. The grounding's forward kinematics runs over all samples at once
+    (app.core.servo.grounding) where the legs allow it, else sample by sample as `predict` does.
+    The result equals `predict`'s to round-off.
+    """
+
+    def __init__(self, robot: RobotModel, trajectory: Trajectory, tau_Nm: np.ndarray) -> None:
+        check_inputs(robot, trajectory, tau_Nm)
+        if not robot.floating_base:
+            raise ServoModelError(
+                f"{robot.name} has a fixed base: the torso cannot tilt, there is nothing to predict"
+            )
+        self.robot, self.trajectory = robot, trajectory
+        self.tau = np.asarray(tau_Nm, dtype=float)
+        self.q_plan = joint_angles(robot, trajectory.q)
+        self.roll_plan, self.pitch_plan = base_roll_pitch(trajectory.q)
+        self._finite = bool(np.isfinite(self.q_plan).all() and np.isfinite(self.tau).all())
+        self._right = stance_is_right(trajectory.contacts)
+        self._chains = LegChains.of(robot)
+        self._placements: list[pin.SE3] = []
+        self._placement_matrices = np.empty((0, 4, 4))
+        if self._chains is None:
+            self._placements = planned_stance_placements(robot, trajectory)
+        else:
+            self._placement_matrices = xyzquat_to_matrices(
+                trajectory.q[:, :7]
+            ) @ self._chains.stance_to_base(self._right, trajectory.q)
+        self._uncompensated: tuple[ServoModel, np.ndarray, tuple[np.ndarray, ...]] | None = None
+
+    @property
+    def vectorised(self) -> bool:
+        """Whether the grounding runs over all samples at once (else sample by sample)."""
+        return self._chains is not None
+
+    def grounded(self, q_joints: np.ndarray) -> np.ndarray:
+        """`grounded_configurations` of this plan for joint angles (T, n)."""
+        return self._grounded_attitude(q_joints)[0]
+
+    def _grounded_attitude(
+        self, q_joints: np.ndarray | Callable[[slice], np.ndarray]
+    ) -> tuple[np.ndarray, ...]:
+        """`grounded` and its base's roll and pitch [rad] (`base_roll_pitch`), (T, nq), (T,),
+        (T,), for joint angles (T, n) or a function giving those of a slice of samples.
+        Vectorised, a block of `BLOCK_SAMPLES` samples at a time: the dozens of elementwise
+        passes of the legs' kinematics then stay in the CPU's cache (over a long motion at
+        once, each pass streams megabytes from memory)."""
+        angles = (lambda rows: q_joints[rows]) if isinstance(q_joints, np.ndarray) else q_joints
+        n = self.trajectory.n_samples
+        if self._chains is None:
+            q_all = angles(slice(0, n))
+            out = grounded_configurations(self.robot, self.trajectory, q_all, self._placements)
+            return (out, *base_roll_pitch(out))
+        out = np.empty((n, self.trajectory.q.shape[1]))
+        roll, pitch = np.empty(n), np.empty(n)
+        for begin in range(0, n, BLOCK_SAMPLES):
+            rows = slice(begin, min(n, begin + BLOCK_SAMPLES))
+            block = with_joint_angles(self.robot, self.trajectory.q[rows], angles(rows))
+            T_base_foot = self._chains.stance_to_base(self._right[rows], block)
+            block[:, :7] = matrices_to_xyzquat(
+                self._placement_matrices[rows] @ se3_inverse(T_base_foot)
+            )
+            out[rows] = block
+            roll[rows], pitch[rows] = base_roll_pitch(block)
+        return out, roll, pitch
+
+    def _compensated(
+        self, params: CompensationParams, servos: ServoModel
+    ) -> tuple[np.ndarray, ...]:
+        """q_cmd (eq 7, 23), the servos' response to it, and its grounding and attitude,
+        computed a block of samples at a time (`_grounded_attitude`); plan and torques were
+        checked once, each block's commands are."""
+        q_cmd, q_comp = np.empty_like(self.tau), np.empty_like(self.tau)
+
+        def angles(rows: slice) -> np.ndarray:
+            q_cmd[rows] = checked_command(self.q_plan[rows], self.tau[rows], params)
+            if not np.isfinite(q_cmd[rows]).all():
+                servo_response(q_cmd[rows], self.tau[rows], servos)  # raises its error
+            q_comp[rows] = settled(q_cmd[rows], self.tau[rows], servos)
+            return q_comp[rows]
+
+        return (q_cmd, q_comp, *self._grounded_attitude(angles))
+
+    def predict(self, comp_params: CompensationParams, servo: ServoModel) -> Prediction:
+        params = comp_params.for_joints(self.robot.joint_names)
+        servos = servo.for_joints(self.robot.joint_names)
+        cached = self._uncompensated
+        if (
+            cached is not None
+            and np.array_equal(cached[0].compliance_deg_per_Nm, servos.compliance_deg_per_Nm)
+            and np.array_equal(cached[0].backlash_deg, servos.backlash_deg)
+        ):
+            _, q_unc, (world_unc, roll_unc, pitch_unc) = cached
+        else:
+            q_unc = servo_response(self.q_plan, self.tau, servos)
+            world_unc, roll_unc, pitch_unc = self._grounded_attitude(q_unc)
+            self._uncompensated = (servos, q_unc, (world_unc, roll_unc, pitch_unc))
+        if self._finite:
+            q_cmd, q_comp, world_comp, roll_comp, pitch_comp = self._compensated(params, servos)
+        else:
+            q_cmd = compensated_command(self.q_plan, self.tau, params)  # its error
+            q_comp = servo_response(q_cmd, self.tau, servos)
+            world_comp, roll_comp, pitch_comp = self._grounded_attitude(q_comp)
+        return Prediction(
+            joint_names=self.robot.joint_names,
+            t=self.trajectory.t,
+            tau_Nm=self.tau,
+            q_plan_rad=self.q_plan,
+            q_cmd_rad=q_cmd,
+            q_actual_uncompensated_rad=q_unc,
+            q_actual_compensated_rad=q_comp,
+            q_world_uncompensated=world_unc,
+            q_world_compensated=world_comp,
+            roll_planned_rad=self.roll_plan,
+            pitch_planned_rad=self.pitch_plan,
+            roll_uncompensated_rad=roll_unc,
+            pitch_uncompensated_rad=pitch_unc,
+            roll_compensated_rad=roll_comp,
+            pitch_compensated_rad=pitch_comp,
+        )
