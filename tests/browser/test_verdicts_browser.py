@@ -4,8 +4,9 @@
    the planned distance, ≥ 90 % with compensation on the drive torque (the default); with
    *Compensate* switched to the load torque τ in the page, well short. First, on the robot's
    own servos (the next test makes two ankles soft and back).
-2. The stand check (computed whatever the motion): servo_biped stands on its servos; two ankle servos made
-   soft by typing into the page, the panel says it cannot stand and what the ankles need.
+2. The stand check (computed whatever the motion): servo_biped stands on its servos; two ankle
+   servos made soft by typing into the page, the panel says it cannot stand and what the
+   ankles need.
 3. The paper's one-leg stand at the 4.3 cm shift (typed into the motion's parameters), its
    torques, then *Simulate*: the page shows "leans on the lifted foot" without compensation
    and "stays up" with eq 7 (the audit of issue 26 and tests/core/test_simulation_verdicts.py
