@@ -21,6 +21,7 @@ import viser
 
 from app.core.dynamics.wbc import FeedForward
 from app.core.errors import StudioError
+from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CLEARANCE_SIGNS, CompensationParams, disabled_params
 from app.core.servo.edits import JointEdit
@@ -91,12 +92,13 @@ class CompensationSession:
         if feedforward is not None and trajectory is not None:
             lower = np.array([j.lower for j in robot.joints])
             upper = np.array([j.upper for j in robot.joints])
+            try:  # scaled on the torque it will multiply (the drive torque by default)
+                tau_Nm = self._compensated_torque(robot, trajectory, feedforward, current)
+            except StudioError as error:
+                self._fail("Preset not available", str(error), None)
+                return
             params, scale = scaled_to_limits(
-                params,
-                joint_angles(robot, trajectory.q),
-                np.nan_to_num(feedforward.tau_Nm),
-                lower,
-                upper,
+                params, joint_angles(robot, trajectory.q), tau_Nm, lower, upper
             )
             if scale < 1.0:
                 self.panel.status.content = f"⚠️ {params.notes[-1]}"
@@ -174,19 +176,7 @@ class CompensationSession:
             if robot is None or trajectory is None or feedforward is None or coefficients is None:
                 return
             try:
-                law = (  # the servos the simulation runs: their D and J
-                    simulation_law(robot, coefficients.servo, self._state.work.parts)
-                    if coefficients.torque == "drive"
-                    else None
-                )
-                tau_Nm = compensated_torque_Nm(
-                    robot,
-                    trajectory,
-                    np.nan_to_num(feedforward.tau_Nm),
-                    coefficients.torque,
-                    coefficients.servo,
-                    law,
-                )
+                tau_Nm = self._compensated_torque(robot, trajectory, feedforward, coefficients)
                 cached = self._predictor
                 if (
                     cached is None
@@ -203,6 +193,29 @@ class CompensationSession:
             if absurd:
                 self.panel.status.content = "⚠️ " + "; ".join(absurd) + " (quick estimate)"
             self._state.work.set_prediction(prediction, feedforward, coefficients)
+
+    def _compensated_torque(
+        self,
+        robot: RobotModel,
+        trajectory: Trajectory,
+        feedforward: FeedForward,
+        coefficients: Coefficients,
+    ) -> np.ndarray:
+        """The torque eq 7 multiplies [N·m], (T, n): τ, or its drive torque with the D and J of
+        the servos the simulation runs (virtual, or the parts chosen)."""
+        law = (
+            simulation_law(robot, coefficients.servo, self._state.work.parts)
+            if coefficients.torque == "drive"
+            else None
+        )
+        return compensated_torque_Nm(
+            robot,
+            trajectory,
+            np.nan_to_num(feedforward.tau_Nm),
+            coefficients.torque,
+            coefficients.servo,
+            law,
+        )
 
     # --- files ---------------------------------------------------------------------------------
 
