@@ -1,8 +1,8 @@
 """The "Compensation" folder: one folder in the GUI, built by three sessions' panels.
 
 Top to bottom: the torques (button, bar, the folder's status line), the coefficients (preset,
-clearance sign, joint, the selected joint's values), the simulation's sub-folder, the ghosts'
-toggles, the two exports and the help. Each panel adds its own rows inside `folder` at the
+the torque compensated, clearance sign, joint, the selected joint's values), the simulation's
+sub-folder, the ghosts' toggles, the two exports and the help. Each panel adds its own rows inside `folder` at the
 places `ORDER` gives them, whichever panel is built first.
 """
 
@@ -15,6 +15,7 @@ ORDER = {
     "progress": 1.1,
     "status": 1.2,
     "preset": 2.0,
+    "compensate": 2.05,
     "clearance": 2.1,
     "joint": 2.2,
     "selected": 2.3,

@@ -1,4 +1,5 @@
-"""The coefficients' rows of the Compensation folder: the preset, the clearance sign, the
+"""The coefficients' rows of the Compensation folder: the preset, the torque compensated (the
+load τ or the servos' drive torque), the clearance sign, the
 spring/clearance compensation coefficients of the selected joint, the virtual servos' true
 compliance and backlash, *Export servo commands CSV* and the help.
 
@@ -38,6 +39,7 @@ class CompensationActions(Protocol):
     def export_commands(self, client: viser.ClientHandle | None) -> bytes | None: ...
     def apply_preset(self, key: str) -> None: ...
     def set_clearance_sign(self, sign: str) -> None: ...
+    def set_compensated_torque(self, torque: str) -> None: ...
     def select_joint(self, joint: str) -> None: ...
     def edit(self, edit: JointEdit) -> None: ...
 
@@ -48,7 +50,16 @@ is offset by k·τ so that it lands on the plan. k is in °/(N·m) as in the pap
 **+ φ·sign(·)** (eq. 23): a servo's gear play (dead band) adds φ in the direction the load
 pushes. The paper takes the sign of q + k·τ; the *torque* variant takes the sign of τ,
 which is the exact inverse of a dead band loaded by τ (see `app/core/servo/model.py`).
-The servo model below is the virtual robot: its true compliance and backlash."""
+The servo model below is the virtual robot: its true compliance and backlash.
+**Compensate: drive torque** puts the servo's whole drive torque τ + D·q̇ + J·q̈ in eq 7 (D its
+back-EMF damping, J its rotor, as the simulation's servos have them): on the load τ alone a
+moving joint lags its plan by c·D·q̇ and a walk comes up short. For a slow motion both agree."""
+
+COMPENSATED_TORQUE_LABELS = {
+    "drive": "drive torque τ + D·q̇ + J·q̈",
+    "load": "load torque τ (eq 7 as printed)",
+}
+"""The *Compensate* dropdown's options, by app.core.simulation.drive's names."""
 
 
 class CompensationPanel:
@@ -64,6 +75,15 @@ class CompensationPanel:
             self._preset_keys = {preset.label: key for key, preset in PRESETS.items()}
             self.preset = gui.add_dropdown(
                 "Preset", labels, initial_value=labels[0], order=ORDER["preset"]
+            )
+            torques = tuple(COMPENSATED_TORQUE_LABELS.values())
+            self.compensate = gui.add_dropdown(
+                "Compensate",
+                torques,
+                initial_value=torques[0],
+                order=ORDER["compensate"],
+                hint="Which torque eq 7 multiplies: the servo's whole drive torque (its back-EMF "
+                "damping and rotor, as simulated) or the load τ alone (a walk then lags its plan)",
             )
             self.clearance_sign = gui.add_dropdown(
                 "Clearance sign",
@@ -91,6 +111,13 @@ class CompensationPanel:
                 None
                 if self._quiet.is_quiet()
                 else session.apply_preset(self._preset_keys[self.preset.value])
+            )
+        )
+        self.compensate.on_update(
+            lambda _: (
+                None
+                if self._quiet.is_quiet()
+                else session.set_compensated_torque(self._torque_of(self.compensate.value))
             )
         )
         self.clearance_sign.on_update(
@@ -167,6 +194,15 @@ class CompensationPanel:
                 self._session.edit(edit(self.joint.value, handle.value))
 
         return callback
+
+    @staticmethod
+    def _torque_of(label: str) -> str:
+        return next(k for k, v in COMPENSATED_TORQUE_LABELS.items() if v == label)
+
+    def show_compensated_torque(self, torque: str) -> None:
+        """Show which torque is compensated without calling back."""
+        with self._quiet.quietly():
+            set_value(self.compensate, COMPENSATED_TORQUE_LABELS[torque])
 
     def show_joints(self, joint_names: tuple[str, ...], selected: str) -> None:
         with self._quiet.quietly():

@@ -115,3 +115,26 @@ def test_simulate_reads_the_project_and_a_project_without_a_motion_is_refused(wo
     refused = run(tmp_path, "feedforward", str(empty))
     assert refused.returncode != 0
     assert "holds no motion" in refused.stderr and "Traceback" not in refused.stderr
+
+
+def test_simulate_compensates_the_torque_the_projects_studio_chose(work, tmp_path):
+    """A project whose compensation is on the drive torque (the studio's default) simulates as
+    `--drive-torque` does on the same inputs as files."""
+    import dataclasses
+
+    from app.core.projects.files import read_project
+
+    folder, _robot, _motion = work
+    drive = tmp_path / "drive.bstudio"
+    project = read_project(folder / "work.bstudio")
+    save_project(drive, dataclasses.replace(project, compensation_torque="drive"))
+    simulated = run(tmp_path, "simulate", str(drive), "--json")
+    assert simulated.returncode == 0, simulated.stderr
+    as_files = run(
+        tmp_path, "simulate", str(folder / "motion.csv"), "--robot", "servo_biped",
+        "--preset", "uniform", "--tau", str(folder / "tau.csv"), "--drive-torque", "--json",
+    )  # fmt: skip
+    assert as_files.returncode == 0, as_files.stderr
+    a, b = json.loads(simulated.stdout), json.loads(as_files.stdout)
+    assert a["label"] == b["label"] == "with compensation (drive torque)"
+    assert a["max_abs_pitch_deg"] == pytest.approx(b["max_abs_pitch_deg"], abs=1e-6)

@@ -129,6 +129,9 @@ class MotionInputs:
     feedforward: FeedForward | None = None
     compensation: CompensationParams | None = None
     servo: ServoModel | None = None
+    compensation_torque: str = "load"
+    """The torque the project's compensation multiplies ("drive" or "load",
+    app.core.simulation.drive)."""
 
 
 def checked_project(path: Path, package_roots: tuple[Path, ...]) -> tuple[Project, RobotModel]:
@@ -160,5 +163,11 @@ def motion_inputs(args: argparse.Namespace) -> MotionInputs:
     if feedforward is not None and feedforward.tau_Nm.shape[0] != project.motion.n_samples:
         feedforward = None  # torques of an earlier motion: recomputed where they are needed
     return MotionInputs(
-        robot, project.motion, str(path), feedforward, project.compensation, project.servo
+        robot,
+        project.motion,
+        str(path),
+        feedforward,
+        project.compensation,
+        project.servo,
+        project.compensation_torque,
     )

@@ -57,7 +57,8 @@ def add_parser(sub) -> None:
         action="store_true",
         help="compensate the servo's whole drive torque τ + D·q̇ + J·q̈ (its back-EMF damping "
         "and rotor inertia, as simulated), not τ alone: a fast motion (a walk) lags its plan "
-        "otherwise; same as eq 7 for a slow one",
+        "otherwise; same as eq 7 for a slow one (a project's compensation uses the torque "
+        "its studio chose)",
     )
     simulate.add_argument(
         "--servo",
@@ -151,20 +152,6 @@ def _stand_check(robot, traj, servo) -> str | None:
         return None
 
 
-def _drive_torque(robot, traj, tau, servo, law, options):
-    """τ + D·q̇ + J·q̈ with the D and J the simulation gives each joint (`drive_torque_Nm`)."""
-    from app.core.servo.compensation import drive_torque_Nm
-    from app.core.simulation.run import robot_servo_law
-
-    if law is None:
-        law = robot_servo_law(robot, servo)
-    columns = [joint.idx_v for joint in robot.joints]
-    rotor = getattr(law, "armature_kgm2", options.armature_kgm2)
-    return drive_torque_Nm(
-        tau, traj.v[:, columns], traj.a[:, columns], law.damping_Nms_per_rad, rotor
-    )
-
-
 def _commands(
     args: argparse.Namespace,
     robot,
@@ -173,6 +160,7 @@ def _commands(
     parts,
     from_project: bool,
     load: Callable[[], np.ndarray],
+    drive: bool,
 ):
     """The servo commands to simulate, by label (the plan uncompensated first with
     --baseline), and the label of the main one."""
@@ -189,7 +177,7 @@ def _commands(
         if parts is None:
             raise StudioError('--preset parts needs a --servo file that names servos (servo = "…")')
         q_cmd = compensated_command(q_plan, load(), parts.compensation())
-        label = "with compensation" + (" (drive torque)" if args.drive_torque else "")
+        label = "with compensation" + (" (drive torque)" if drive else "")
     else:
         params = (
             inputs.compensation
@@ -197,7 +185,7 @@ def _commands(
             else coefficients_from_args(robot, args.preset, args.clearance, args.compensation)
         )
         q_cmd = compensated_command(q_plan, load(), params)
-        label = "with compensation" + (" (drive torque)" if args.drive_torque else "")
+        label = "with compensation" + (" (drive torque)" if drive else "")
     commands = {label: q_cmd}
     if args.baseline and args.preset != "plan":
         commands = {"without compensation": q_plan, **commands}
@@ -252,11 +240,16 @@ def run(args: argparse.Namespace) -> int:
     if args.drive_torque and (args.cmd is not None or args.preset == "plan"):
         raise StudioError("--drive-torque goes with a compensation (--preset, --compensation)")
 
-    def load() -> np.ndarray:
-        tau = _torques(args, robot, traj, inputs)
-        return _drive_torque(robot, traj, tau, servo, law, options) if args.drive_torque else tau
+    # a project's compensation on the torque its studio compensated
+    drive = args.drive_torque or (from_project and inputs.compensation_torque == "drive")
 
-    commands, label = _commands(args, robot, traj, inputs, parts, from_project, load)
+    def load() -> np.ndarray:
+        from app.core.simulation.drive import plan_drive_torque_Nm
+
+        tau = _torques(args, robot, traj, inputs)
+        return plan_drive_torque_Nm(robot, traj, tau, servo, law, options) if drive else tau
+
+    commands, label = _commands(args, robot, traj, inputs, parts, from_project, load, drive)
     stand = _stand_check(robot, traj, servo)
     results = simulate_commands(robot, traj, commands, servo, options, law=law)
     main = results[label]

@@ -1,6 +1,8 @@
 """Compensation in the studio: the coefficients (eq 7, eq 23) and the virtual servos, their
-presets and typed per-joint edits, the quick estimate of the motion with and without
-compensation, and the servo command file.
+presets and typed per-joint edits, the torque eq 7 multiplies (the servos' drive torque by
+default, with the D and J of the servo law the simulation runs: app.core.simulation.drive, as
+`simulate --drive-torque`), the quick estimate of the motion with and without compensation
+(its commands are the ones simulated), and the servo command file.
 
 Coefficients, servos and the estimate live in the state (`StudioState.set_coefficients`,
 `set_prediction`); this session re-predicts when the torques or the coefficients change.
@@ -19,6 +21,7 @@ import viser
 
 from app.core.dynamics.wbc import FeedForward
 from app.core.errors import StudioError
+from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CLEARANCE_SIGNS, CompensationParams, disabled_params
 from app.core.servo.edits import JointEdit
@@ -28,8 +31,10 @@ from app.core.servo.predictor import Predictor
 from app.core.servo.preset_safety import implausible_prediction, scaled_to_limits
 from app.core.servo.presets import PRESETS, preset_params
 from app.core.servo.scaling import scaled_servo_model
+from app.core.simulation.drive import COMPENSATED_TORQUES, compensated_torque_Nm
 from app.studio.coalesce import Coalescer
 from app.studio.notifier import Notifier
+from app.studio.servo_parts import simulation_law
 from app.studio.state import LoadedRobot, StudioState
 from app.studio.work import Coefficients
 from panels.compensation_folder import CompensationFolder
@@ -49,12 +54,14 @@ class CompensationSession:
         self._selected = ""
         """The joint the per-joint controls show."""
         self._predictions: Coalescer[str, None] = Coalescer(lambda _key, _value: self.predict())
-        self._predictor: tuple[FeedForward, Predictor] | None = None
-        """The current torques and their predictor: what the coefficients do not change, computed once
-        per motion and τ."""
+        self._predictor: tuple[FeedForward, np.ndarray, Predictor] | None = None
+        """The current torques, the torque compensated and its predictor: what the coefficients
+        do not change, computed once per motion and compensated torque."""
         state.on_robot.connect(self._on_robot)
         state.work.on_coefficients.connect(self._on_coefficients)
         state.work.on_torques.connect(lambda _torques: self.predict())
+        # servo parts change the drive torque's D and J (set after their coefficients)
+        state.work.on_parts.connect(lambda _choice: self._predictions.submit("predict", None))
 
     def _on_robot(self, loaded: LoadedRobot) -> None:
         robot = loaded.robot
@@ -65,7 +72,8 @@ class CompensationSession:
         self.panel.show_joints(robot.joint_names, self._selected)
         self._state.work.set_coefficients(params, servo, "robot")
 
-    def _on_coefficients(self, _coefficients: Coefficients) -> None:
+    def _on_coefficients(self, coefficients: Coefficients) -> None:
+        self.panel.show_compensated_torque(coefficients.torque)
         self._show_selected()
         self._predictions.submit("predict", None)
 
@@ -85,12 +93,13 @@ class CompensationSession:
         if feedforward is not None and trajectory is not None:
             lower = np.array([j.lower for j in robot.joints])
             upper = np.array([j.upper for j in robot.joints])
+            try:  # scaled on the torque it will multiply (the drive torque by default)
+                tau_Nm = self._compensated_torque(robot, trajectory, feedforward, current)
+            except StudioError as error:
+                self._fail("Preset not available", str(error), None)
+                return
             params, scale = scaled_to_limits(
-                params,
-                joint_angles(robot, trajectory.q),
-                np.nan_to_num(feedforward.tau_Nm),
-                lower,
-                upper,
+                params, joint_angles(robot, trajectory.q), tau_Nm, lower, upper
             )
             if scale < 1.0:
                 self.panel.status.content = f"⚠️ {params.notes[-1]}"
@@ -116,6 +125,13 @@ class CompensationSession:
             return
         params = dataclasses.replace(current.params, clearance_sign=sign)  # type: ignore[arg-type]
         self._state.work.set_coefficients(params, current.servo, "edit")
+
+    def set_compensated_torque(self, torque: str) -> None:
+        """Compensate the servos' drive torque ("drive") or the load τ ("load")."""
+        current = self._state.work.coefficients
+        if torque not in COMPENSATED_TORQUES or current is None:
+            return
+        self._state.work.set_coefficients(current.params, current.servo, "edit", torque)
 
     def select_joint(self, joint: str) -> None:
         self._selected = joint
@@ -161,11 +177,16 @@ class CompensationSession:
             if robot is None or trajectory is None or feedforward is None or coefficients is None:
                 return
             try:
-                if self._predictor is None or self._predictor[0] is not feedforward:
-                    tau_Nm = np.nan_to_num(feedforward.tau_Nm)
-                    self._predictor = (feedforward, Predictor(robot, trajectory, tau_Nm))
-                predictor = self._predictor[1]
-                prediction = predictor.predict(coefficients.params, coefficients.servo)
+                tau_Nm = self._compensated_torque(robot, trajectory, feedforward, coefficients)
+                cached = self._predictor
+                if (
+                    cached is None
+                    or cached[0] is not feedforward
+                    or not np.array_equal(cached[1], tau_Nm)
+                ):
+                    cached = (feedforward, tau_Nm, Predictor(robot, trajectory, tau_Nm))
+                    self._predictor = cached
+                prediction = cached[2].predict(coefficients.params, coefficients.servo)
             except StudioError as error:
                 self._fail("Cannot predict the motion", str(error), None)
                 return
@@ -173,6 +194,29 @@ class CompensationSession:
             if absurd:
                 self.panel.status.content = "⚠️ " + "; ".join(absurd) + " (quick estimate)"
             self._state.work.set_prediction(prediction, feedforward, coefficients)
+
+    def _compensated_torque(
+        self,
+        robot: RobotModel,
+        trajectory: Trajectory,
+        feedforward: FeedForward,
+        coefficients: Coefficients,
+    ) -> np.ndarray:
+        """The torque eq 7 multiplies [N·m], (T, n): τ, or its drive torque with the D and J of
+        the servos the simulation runs (virtual, or the parts chosen)."""
+        law = (
+            simulation_law(robot, coefficients.servo, self._state.work.parts)
+            if coefficients.torque == "drive"
+            else None
+        )
+        return compensated_torque_Nm(
+            robot,
+            trajectory,
+            np.nan_to_num(feedforward.tau_Nm),
+            coefficients.torque,
+            coefficients.servo,
+            law,
+        )
 
     # --- files ---------------------------------------------------------------------------------
 

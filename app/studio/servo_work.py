@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from app.core.projects.project import Project
+from app.core.simulation.drive import DEFAULT_COMPENSATED_TORQUE
 from app.core.simulation.result import SimulationResult
 from app.core.simulation.worker import SimulationJob
 from app.studio.simulation_runner import WITH, WITHOUT, Simulation, simulation_record
@@ -28,6 +29,9 @@ class ServoWork:
                 "feedforward": state.work.torques,
                 "compensation": coefficients.params if coefficients is not None else None,
                 "servo": coefficients.servo if coefficients is not None else None,
+                "compensation_torque": (
+                    coefficients.torque if coefficients is not None else DEFAULT_COMPENSATED_TORQUE
+                ),
                 "servo_parts": state.work.parts,
                 "simulation": runs,
                 "simulation_stale": record.stale if runs and record is not None else False,
@@ -47,6 +51,7 @@ class ServoWork:
                     project.compensation or current.params,
                     project.servo or current.servo,
                     "project",
+                    project.compensation_torque,
                 )
             elif current is not None and (
                 project.compensation is not None or project.servo is not None
@@ -55,6 +60,7 @@ class ServoWork:
                     project.compensation or current.params,
                     project.servo or current.servo,
                     "project",
+                    project.compensation_torque,
                 )
             if project.feedforward is None or robot is None or trajectory is None:
                 return

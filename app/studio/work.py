@@ -22,6 +22,7 @@ from app.core.robot.model import RobotModel
 from app.core.servo.choice import ServoChoice
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import Prediction, ServoModel
+from app.core.simulation.drive import DEFAULT_COMPENSATED_TORQUE, CompensatedTorque
 from app.studio.signals import Signal
 
 if TYPE_CHECKING:
@@ -30,13 +31,14 @@ if TYPE_CHECKING:
 
 @dataclasses.dataclass(frozen=True)
 class Coefficients:
-    """The compensation coefficients (eq 7, eq 23) and the virtual servos they are tried on, and
-    who set them: "robot" (the defaults of a loaded robot), "preset", "edit", "sweep" or
-    "project"."""
+    """The compensation coefficients (eq 7, eq 23) and the virtual servos they are tried on, who
+    set them: "robot" (the defaults of a loaded robot), "preset", "edit", "sweep" or
+    "project", and the torque eq 7 multiplies (app.core.simulation.drive)."""
 
     params: CompensationParams
     servo: ServoModel
     origin: str
+    torque: CompensatedTorque = DEFAULT_COMPENSATED_TORQUE
 
 
 class MotionWork:
@@ -81,17 +83,32 @@ class MotionWork:
             self.on_torques.emit(feedforward)
             return True
 
-    def set_coefficients(self, params: CompensationParams, servo: ServoModel, origin: str) -> None:
-        """New coefficients and virtual servos; raises StudioError for another robot's joints."""
+    def set_coefficients(
+        self,
+        params: CompensationParams,
+        servo: ServoModel,
+        origin: str,
+        torque: CompensatedTorque | None = None,
+    ) -> None:
+        """New coefficients and virtual servos, and the torque they multiply (None: the current
+        choice); raises StudioError for another robot's joints."""
         with self._lock:
             robot = self._current()[0]
             if robot is None or not robot.joint_names == params.joint_names == servo.joint_names:
                 raise StudioError("they are for another robot's joints")
-            self.coefficients = Coefficients(params, servo, origin)
+            if torque is None:
+                current = self.coefficients
+                torque = current.torque if current is not None else DEFAULT_COMPENSATED_TORQUE
+            self.coefficients = Coefficients(params, servo, origin, torque)
             self.on_coefficients.emit(self.coefficients)
 
     def set_parts(
-        self, choice: ServoChoice, params: CompensationParams, servo: ServoModel, origin: str
+        self,
+        choice: ServoChoice,
+        params: CompensationParams,
+        servo: ServoModel,
+        origin: str,
+        torque: CompensatedTorque | None = None,
     ) -> None:
         """A new servo per joint with the coefficients and virtual servos that follow from it
         (k = 1/K, the part's dead band), installed together; raises StudioError for another
@@ -100,7 +117,7 @@ class MotionWork:
             robot = self._current()[0]
             if robot is None or choice.joint_names != robot.joint_names:
                 raise StudioError("the servo parts are for another robot's joints")
-            self.set_coefficients(params, servo, origin)
+            self.set_coefficients(params, servo, origin, torque)
             self.parts = choice
             self.on_parts.emit(choice)
 

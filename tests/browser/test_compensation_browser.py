@@ -20,6 +20,7 @@ import pytest
 from PIL import Image
 
 from app.core.motions.library import MOTIONS
+from app.core.simulation.mjcf import SimOptions
 from app.studio import Studio
 from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
@@ -179,10 +180,18 @@ def test_editing_k_moves_the_command_by_k_tau_without_recomputing(
         UI_TIMEOUT_S,
     )
 
-    # The command of that joint moved by Δk·τ (eq 7), the others did not; τ was not recomputed.
+    # The command of that joint moved by Δk·τ_drive (eq 7 on the drive torque τ + D·q̇ + J·q̈,
+    # the studio's default: D = τ_max/ω_max of the joint's URDF limits, J the simulation's
+    # armature), the others did not; τ was not recomputed.
+    joint = studio.state.robot.joints[i]
+    drive = (
+        tau
+        + joint.effort / joint.velocity * trajectory.v[:, joint.idx_v]
+        + SimOptions().armature_kgm2 * trajectory.a[:, joint.idx_v]
+    )
     delta = np.deg2rad(k_after - k_before)
     np.testing.assert_allclose(
-        after.q_cmd_rad[:, i] - before.q_cmd_rad[:, i], delta * tau, rtol=0, atol=1e-9
+        after.q_cmd_rad[:, i] - before.q_cmd_rad[:, i], delta * drive, rtol=0, atol=1e-9
     )
     others = np.arange(len(after.joint_names)) != i
     np.testing.assert_array_equal(after.q_cmd_rad[:, others], before.q_cmd_rad[:, others])

@@ -1,12 +1,16 @@
 """End to end in a real headless Chromium: what the Simulation rows say, read in the page.
 
-1. The stand check before any motion: servo_biped stands on its servos; two ankle servos made
-   soft by typing into the page, the panel says it cannot stand and what the ankles need.
-2. The paper's one-leg stand at the 4.3 cm shift (typed into the motion's parameters), its
+1. The planned walk (the Gait folder's one click): the page says how far each run walked of
+   the planned distance, ≥ 90 % with compensation on the drive torque (the default); with
+   *Compensate* switched to the load torque τ in the page, well short. First, on the robot's
+   own servos (the next test makes two ankles soft and back).
+2. The stand check (computed whatever the motion): servo_biped stands on its servos; two ankle
+   servos made soft by typing into the page, the panel says it cannot stand and what the
+   ankles need.
+3. The paper's one-leg stand at the 4.3 cm shift (typed into the motion's parameters), its
    torques, then *Simulate*: the page shows "leans on the lifted foot" without compensation
    and "stays up" with eq 7 (the audit of issue 26 and tests/core/test_simulation_verdicts.py
    see the same on the squats), and the lifted-foot plot.
-3. Two 4 cm steps forward: the page says how far each run walked of the planned distance.
 
 The page is loaded once for the module (software WebGL is slow) and each test continues from
 the previous one: run them together, in file order.
@@ -20,6 +24,7 @@ import numpy as np
 import pytest
 
 from app.studio import Studio
+from panels.compensation_panel import COMPENSATED_TORQUE_LABELS
 from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
@@ -32,6 +37,10 @@ from tests.browser.page_helpers import (
     wait_for,
 )
 
+GAIT = "Gait (DIRCON)"
+ONE_CLICK = "Plan → walk → torques → simulate"
+ONE_CLICK_TIMEOUT_S = 600.0
+"""A gait solve, the walk, its torques on every sample, two MuJoCo runs: minutes when busy."""
 SOFT_DEG_PER_NM = 20.0
 """Two ankle pitch servos this soft give 2 × 2.9 N·m/rad against servo_biped's m·g·h ≈ 15."""
 
@@ -49,6 +58,101 @@ def shows(page, folder_label: str, pattern: str) -> str | None:
 @pytest.fixture(scope="module")
 def page(browser_page, studio_url: str):
     return open_studio(browser_page, studio_url)
+
+
+def _walked(text: str, label: str) -> tuple[float, float, int]:
+    """(covered, planned, percent) of the page's travel line of run `label`."""
+    match = re.search(rf"(?:^|\n){label}: walked ([0-9.-]+) of ([0-9.]+) m \((-?\d+) %\)", text)
+    assert match, text
+    return float(match.group(1)), float(match.group(2)), int(match.group(3))
+
+
+def _root_covered(result, trajectory) -> tuple[float, float]:
+    """(covered, planned) along x [m]: MuJoCo's root body, and the plan's base."""
+    root = result.root_position_m
+    return float(root[-1, 0] - root[0, 0]), float(trajectory.q[-1, 0] - trajectory.q[0, 0])
+
+
+def _travel_shown(page, run) -> str:
+    """The Simulation rows' text once they show `run`'s travel lines (not stale)."""
+    expected = [
+        f"{label}: walked {result.outcome.travel.distance_covered_m:.2f} of "
+        f"{result.outcome.travel.distance_planned_m:.2f} m"
+        for label, result in run.results.items()
+    ]
+    return wait_for(
+        "the travel lines in the page",
+        lambda: (
+            text
+            if all(line in (text := page_text(page, "Simulation (MuJoCo)")) for line in expected)
+            and "Stale" not in text
+            else None
+        ),
+        RENDER_TIMEOUT_S,
+    )
+
+
+def _check_landings(text: str, run, studio: Studio) -> None:
+    landed = sum(len(result.outcome.travel.footsteps) for result in run.results.values())
+    if landed:  # a run that falls before its first landing has no footstep to mark
+        assert "landed" in text and "cm from the plan's" in text, text
+        assert (
+            studio.servo_rooms.ghosts.landings is not None
+            and studio.servo_rooms.ghosts.landings.count > landed
+        ), text
+    else:
+        assert studio.servo_rooms.ghosts.landings is None, text
+
+
+def test_the_planned_walk_walks_on_the_drive_torque_in_the_page(page, studio: Studio):
+    """The one click (plan → walk → torques → simulate) from the Gait folder: the travel line
+    says the compensated walk covered ≥ 90 % of its planned distance (MuJoCo's root body
+    agrees); *Compensate* switched to the load torque τ in the page and simulated again: it
+    falls short (the swing legs lag by c·D·q̇)."""
+    assert (
+        studio.servo_rooms.compensation.panel.compensate.value == COMPENSATED_TORQUE_LABELS["drive"]
+    )
+    servo = studio.state.work.coefficients.servo  # servo_biped's own
+    assert np.all(servo.compliance_deg_per_Nm == 1.4), servo.compliance_deg_per_Nm
+    expand_folder(page, "Compensation", "Compute torque feed-forward")
+    expand_folder(page, GAIT, ONE_CLICK)
+    before = studio.state.work.simulation
+    click_button(page, ONE_CLICK)
+    folder(page, GAIT).get_by_text("One click ✅", exact=False).first.wait_for(
+        state="visible", timeout=ONE_CLICK_TIMEOUT_S * 1000
+    )
+    record = wait_for(
+        "the walk's simulation",
+        lambda: (s := studio.state.work.simulation) is not None and s is not before and s,
+        RENDER_TIMEOUT_S,
+    )
+    walk = studio.gait.walk.trajectory
+    assert record.run.trajectory is walk is studio.state.trajectory
+    text = _travel_shown(page, record.run)
+    covered, planned, percent = _walked(text, "with compensation")
+    root_covered, root_planned = _root_covered(record.run.results["with compensation"], walk)
+    assert planned == pytest.approx(root_planned, abs=0.006) and planned > 0.3, text
+    assert covered == pytest.approx(root_covered, abs=0.006), text
+    assert percent >= 90 and root_covered >= 0.9 * root_planned, text
+    _check_landings(text, record.run, studio)
+
+    select_option(page, "Compensate", COMPENSATED_TORQUE_LABELS["load"])
+    wait_for(
+        "the load torque compensated",
+        lambda: studio.state.work.coefficients.torque == "load",
+        UI_TIMEOUT_S,
+    )
+    wait_for(
+        "the page to mark the walk's simulation stale",
+        lambda: shows(page, "Simulation (MuJoCo)", r"Stale"),
+        RENDER_TIMEOUT_S,
+    )
+    run = _simulate(page, studio)
+    text = _travel_shown(page, run)
+    covered, _planned, percent = _walked(text, "with compensation")
+    root_covered, _ = _root_covered(run.results["with compensation"], walk)
+    assert covered == pytest.approx(root_covered, abs=0.006)
+    assert percent < 90 and root_covered < 0.9 * root_planned, text
 
 
 def _set_ankles(page, studio: Studio, value: float) -> None:
@@ -146,29 +250,3 @@ def test_the_43_mm_one_leg_stand_leans_without_compensation_in_the_page(page, st
     assert "walked" not in text  # standing on one leg goes nowhere
     lifted = studio.servo_rooms.ghosts.plots.lifted
     assert lifted is not None and "no comp. leans from" in lifted.title
-
-
-def test_a_walk_says_how_far_it_went_in_the_page(page, studio: Studio):
-    _generate(page, studio, "step_in_place", {"steps": 2, "stride_m [m]": 0.04})
-    run = _simulate(page, studio)
-    text = wait_for(
-        "the travel line in the page",
-        lambda: shows(page, "Simulation (MuJoCo)", r"walked [0-9.-]+ of [0-9.]+ m \("),
-        RENDER_TIMEOUT_S,
-    )
-    trajectory = studio.state.trajectory
-    planned = float(np.linalg.norm(trajectory.q[-1, :2] - trajectory.q[0, :2]))
-    assert planned > 0.02
-    for label, result in run.results.items():
-        travel = result.outcome.travel
-        # covered: MuJoCo's root body, start to end, along the planned direction
-        assert f"{label}: walked {travel.distance_covered_m:.2f} of {planned:.2f} m" in text
-    landed = sum(len(result.outcome.travel.footsteps) for result in run.results.values())
-    if landed:  # a run that falls before its first landing has no footstep to mark
-        assert "landed" in text and "cm from the plan's" in text, text
-        assert (
-            studio.servo_rooms.ghosts.landings is not None
-            and studio.servo_rooms.ghosts.landings.count > landed
-        ), text
-    else:
-        assert studio.servo_rooms.ghosts.landings is None, text

@@ -8,7 +8,9 @@ import io
 import numpy as np
 import pytest
 
+from app.core.simulation.mjcf import SimOptions
 from app.core.simulation.on_plan import on_plan_stance
+from panels.compensation_panel import COMPENSATED_TORQUE_LABELS
 from tests.studio.conftest import compute_torques, start_studio, wait_for_signal, with_stand_torques
 
 
@@ -118,8 +120,20 @@ def test_a_k_slider_changes_the_command_by_k_tau_without_recomputing_torques(stu
     panel.enabled.value = True
     panel.k.value = k_before + 10.0
     after = state.work.prediction.q_cmd_rad[:, i]
+    # eq 7 on the drive torque τ + D·q̇ + J·q̈ (the default): D = τ_max/ω_max of the joint's
+    # URDF limits, J the simulation's armature
+    joint, motion = studio.state.robot.joints[i], state.trajectory
+    damping, rotor = joint.effort / joint.velocity, SimOptions().armature_kgm2
     tau = feedforward.tau_Nm[:, i]
-    np.testing.assert_allclose(after - before, np.deg2rad(10.0) * tau, atol=1e-12)  # eq 7
+    drive = tau + damping * motion.v[:, joint.idx_v] + rotor * motion.a[:, joint.idx_v]
+    np.testing.assert_allclose(after - before, np.deg2rad(10.0) * drive, atol=1e-12)
+    # on the load torque, eq 7 as printed
+    panel.compensate.value = COMPENSATED_TORQUE_LABELS["load"]
+    load = state.work.prediction.q_cmd_rad[:, i].copy()
+    panel.k.value = k_before + 20.0
+    np.testing.assert_allclose(
+        state.work.prediction.q_cmd_rad[:, i] - load, np.deg2rad(10.0) * tau, atol=1e-12
+    )
     assert state.work.torques is feedforward
     assert "rad/(N·m)" in panel.k_rad.content
 

@@ -19,6 +19,7 @@ from app.core.projects.display import CameraView, DisplaySettings
 from app.core.projects.files import read_project
 from app.core.servo.edits import SetBacklash, SetK
 from app.studio import Studio
+from panels.compensation_panel import COMPENSATED_TORQUE_LABELS
 from tests.hostile.test_hostile_projects import rewrite
 from tests.same_values import assert_same
 from tests.studio.conftest import free_port, start_studio, wait_for_signal
@@ -454,5 +455,33 @@ def test_a_sweep_travels_with_the_project(studio, tmp_path):
         assert "3 solved, 1 failed, 0 cancelled" in panel.status.content
         assert not panel.load_button.disabled
         assert fresh.project.project().sweep is session.record  # saved again as it came
+    finally:
+        fresh.stop()
+
+
+def test_the_compensated_torque_travels_and_an_older_file_opens_on_the_load(studio, tmp_path):
+    """*Compensate* (drive torque by default) is kept in the file; a file saved before the
+    choice existed was compensated on the load torque τ and opens so."""
+    studio.motions.generate("com_shift", {})
+    panel = studio.servo_rooms.compensation.panel
+    assert studio.state.work.coefficients.torque == "drive"
+    assert studio.project.save_as(str(tmp_path / "drive.bstudio"))
+    panel.compensate.value = COMPENSATED_TORQUE_LABELS["load"]
+    assert studio.state.work.coefficients.torque == "load"
+    assert studio.project.save_as(str(tmp_path / "load.bstudio"))
+    fresh = start_studio(tmp_path / "fresh")
+    try:
+        assert fresh.state.work.coefficients.torque == "drive"  # a fresh studio's default
+        assert fresh.project.open(str(tmp_path / "load.bstudio")), fresh.project.last_error
+        assert fresh.state.work.coefficients.torque == "load"
+        assert fresh.compensation.panel.compensate.value == COMPENSATED_TORQUE_LABELS["load"]
+        assert fresh.project.open(str(tmp_path / "drive.bstudio")), fresh.project.last_error
+        assert fresh.state.work.coefficients.torque == "drive"
+        assert fresh.compensation.panel.compensate.value == COMPENSATED_TORQUE_LABELS["drive"]
+        older = tmp_path / "older.bstudio"
+        saved = (tmp_path / "drive.bstudio").read_bytes()
+        older.write_bytes(_crafted(saved, lambda m: m["project"].pop("compensation_torque")))
+        assert fresh.project.open(str(older)), fresh.project.last_error
+        assert fresh.state.work.coefficients.torque == "load"
     finally:
         fresh.stop()

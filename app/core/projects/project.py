@@ -25,6 +25,7 @@ from app.core.robot.model import RobotModel
 from app.core.servo.choice import ServoChoice
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
+from app.core.simulation.drive import CompensatedTorque
 from app.core.simulation.result import SimulationResult
 from app.core.sweeps.results import SweepRecord
 from app.core.walking.walk import Walk
@@ -71,6 +72,9 @@ class Project:
     """The servo of each joint (ideal, or a catalogue servo and its firmware settings); None
     in files saved before parts were kept (every joint ideal). `compensation` and `servo`
     already hold what follows from it (k = 1/K, the part's dead band)."""
+    compensation_torque: CompensatedTorque = "load"
+    """The torque `compensation` multiplies: "drive" (τ + D·q̇ + J·q̈ of the simulated servos,
+    app.core.simulation.drive) or "load" (τ; files saved before the choice was kept)."""
     gait_settings: GaitSettings | None = None
     """The gait panel's settings."""
     gait_steps: int = 0

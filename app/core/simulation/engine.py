@@ -165,8 +165,7 @@ def start(inp: EngineInput) -> tuple[Any, Any, np.ndarray, int]:
         head, tail = xml.rsplit("</mujoco>", 1)
         xml = head + actuators + "</mujoco>" + tail
     m = mujoco.MjModel.from_xml_string(xml)
-    if isinstance(law, PartLaw):  # the parts' rotor inertia, back-EMF and friction
-        law.set_joint_dynamics(m, sim.actuated_dof)
+    law.set_joint_dynamics(m, sim.actuated_dof)  # its back-EMF (a part's rotor, friction)
     d = mujoco.MjData(m)
     dt = float(m.opt.timestep)
     ticks = round(inp.dt_cmd_s / dt)

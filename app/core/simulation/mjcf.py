@@ -17,7 +17,8 @@ The MJCF mirrors the pinocchio model joint by joint, so the two have the same dy
 
 Geoms collide with the floor only (no self-collision). The servos' reflected rotor inertia
 is each actuated joint's `armature`, their back-EMF damping its `damping` (integrated
-implicitly, so it stays stable at any stiffness); the rest of the servo law acts through
+implicitly, so it stays stable at any stiffness; a run writes its servo law's D over it,
+`ServoLaw.set_joint_dynamics`); the rest of the servo law acts through
 `qfrc_applied` in the step loop (`app.core.simulation.servo_law`). This module uses pinocchio; the step loop
 (`engine`) needs only the `SimModel` it returns, which pickles (worker processes).
 """

@@ -55,21 +55,22 @@ class PartLaw(ServoLaw):
     """Their m6 parameters, shape (len(m6_joints), 11), columns in `M6` order."""
     has_part: np.ndarray | None = None
     """(n,) bool: the joints with a servo part (`mixed_servo_law`); None: every joint. The
-    others tick the ideal servo's law, keep the model's own armature, damping and friction,
-    and draw no energy."""
+    others tick the ideal servo's law with its damping, keep the model's own armature and
+    friction, and draw no energy."""
 
     @property
     def back_emf_Nms_per_rad(self) -> np.ndarray:
         return self.kt_Nm_per_A**2 / self.R_ohm
 
     def set_joint_dynamics(self, model, dofs: np.ndarray) -> None:
-        """Write the parts' armature, damping (back-EMF + viscous) and friction into a MuJoCo
-        model's actuated dofs."""
+        """Write the damping of every joint (the parts' back-EMF + viscous, the ideal law's
+        τ_max/ω_max elsewhere) and the parts' armature and friction into a MuJoCo model's
+        actuated dofs."""
+        dofs = np.asarray(dofs)
+        model.dof_damping[dofs] = self.damping_Nms_per_rad
         mine = slice(None) if self.has_part is None else self.has_part
-        dofs = np.asarray(dofs)[mine]
-        model.dof_armature[dofs] = self.armature_kgm2[mine]
-        model.dof_damping[dofs] = self.damping_Nms_per_rad[mine]
-        model.dof_frictionloss[dofs] = self.frictionloss_Nm[mine]
+        model.dof_armature[dofs[mine]] = self.armature_kgm2[mine]
+        model.dof_frictionloss[dofs[mine]] = self.frictionloss_Nm[mine]
 
 
 def part_servo_law(parts: ServoParts) -> PartLaw:
@@ -171,17 +172,11 @@ def law_with_parts(
     servos' law itself)."""
     if parts is None:
         return None
-    from app.core.simulation.servo_law import servo_law
+    from app.core.simulation.servo_law import robot_servo_law
 
     if parts.joint_names == robot.joint_names:
         return part_servo_law(parts)
-    ideal = servo_law(
-        servo,
-        robot.joint_names,
-        [joint.effort for joint in robot.joints],
-        [joint.velocity for joint in robot.joints],
-    )
-    return mixed_servo_law(ideal, parts, robot.joint_names)
+    return mixed_servo_law(robot_servo_law(robot, servo), parts, robot.joint_names)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -21,12 +21,11 @@ from app.core.parent_watch import die_with_parent
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams, compensated_command
 from app.core.servo.model import ServoModel, base_roll_pitch, joint_angles
-from app.core.servo.scaling import scaled_ideal_servo
 from app.core.simulation.engine import EngineInput, EngineRun, run_engine
 from app.core.simulation.errors import SimulationInputError
 from app.core.simulation.mjcf import SimOptions, build_sim_model
 from app.core.simulation.result import SimulationResult, slip_m
-from app.core.simulation.servo_law import ServoLaw, servo_law
+from app.core.simulation.servo_law import ServoLaw, robot_servo_law
 from app.core.simulation.sim_model import SimModel
 from app.core.simulation.verdicts import judge
 
@@ -274,19 +273,6 @@ def simulate_commands(
 def _scaled(progress: Callable[[float], None], i: int, n: int) -> Callable[[float], None]:
     """Progress of run i of n as a fraction of all n."""
     return lambda fraction: progress((i + fraction) / n)
-
-
-def robot_servo_law(robot: RobotModel, servo: ServoModel):
-    """The ideal servos' law on `robot`: its joints' efforts and speeds, the robot's sized
-    torque where the URDF gives no effort (what a run simulates, and what the drive torque
-    compensates)."""
-    return servo_law(
-        servo,
-        robot.joint_names,
-        [joint.effort for joint in robot.joints],
-        [joint.velocity for joint in robot.joints],
-        scaled_ideal_servo(robot).torque_limit_Nm,  # where the URDF gives no effort
-    )
 
 
 def simulate_plan_and_compensated(

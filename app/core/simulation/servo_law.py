@@ -17,8 +17,9 @@ DC motor's back-EMF damping (stall torque over no-load speed; Dynamixel XM430: 4
 saturated the joint follows a DC motor's torque-speed line τ = τ_max·(1 − q̇/ω_max), so no
 joint turns faster than ω_max under its own drive. The damping term is MuJoCo's joint
 damping (integrated implicitly, `mjcf`); the rest is computed here. τ_max and ω_max are the
-URDF's effort and velocity limits (DEFAULT_EFFORT_NM, DEFAULT_VELOCITY_RAD_S where the URDF
-gives none).
+URDF's effort and velocity limits (where the URDF gives none, the torque of the servo sized to
+the robot, `app.core.servo.scaling`, or DEFAULT_EFFORT_NM, and DEFAULT_VELOCITY_RAD_S); D
+follows from the τ_max the law uses.
 
 At rest (q̇ = 0, |τ| < τ_max) under a load torque τ: q = q_cmd − c·τ − (b/2)·sign(τ),
 exactly the quasi-static model of `app.core.servo.model`, so both take the same parameters.
@@ -34,6 +35,7 @@ import numpy as np
 from app.core.simulation.errors import SimulationInputError
 
 if TYPE_CHECKING:  # the step loop's workers need numpy only, not pinocchio
+    from app.core.robot.model import RobotModel
     from app.core.servo.model import ServoModel
 
 RIGID_COMPLIANCE_DEG_PER_NM = 0.02
@@ -55,6 +57,12 @@ class ServoLaw:
     effort_Nm: np.ndarray
     velocity_rad_s: np.ndarray
     notes: tuple[str, ...] = ()
+
+    def set_joint_dynamics(self, model, dofs: np.ndarray) -> None:
+        """Write the law's back-EMF damping D into a MuJoCo model's actuated dofs (MuJoCo
+        integrates it implicitly): the run's D is the law's, the one the drive torque
+        compensates (`app.core.simulation.drive`)."""
+        model.dof_damping[np.asarray(dofs)] = self.damping_Nms_per_rad
 
 
 class ServoLoop:
@@ -136,15 +144,25 @@ def servo_law(
     return ServoLaw(
         stiffness_Nm_per_rad=1.0 / compliance_rad,
         half_backlash_rad=np.deg2rad(0.5 * np.asarray(servos.backlash_deg, dtype=float)),
-        damping_Nms_per_rad=np.array(
-            [
-                servo_damping_Nms_per_rad(e, v)
-                for e, v in zip(effort_Nm, velocity_rad_s, strict=True)
-            ]
-        ),
+        damping_Nms_per_rad=effort / velocity,  # τ_max/ω_max with the defaults filled in
         effort_Nm=effort,
         velocity_rad_s=velocity,
         notes=tuple(notes),
+    )
+
+
+def robot_servo_law(robot: RobotModel, servo: ServoModel) -> ServoLaw:
+    """The virtual servos' law on `robot`: its joints' efforts and speeds, the torque of the
+    servo sized to the robot where the URDF gives no effort (what a run simulates, and what
+    the drive torque compensates: `app.core.simulation.drive`)."""
+    from app.core.servo.scaling import scaled_ideal_servo  # pinocchio: not in the workers
+
+    return servo_law(
+        servo,
+        robot.joint_names,
+        [joint.effort for joint in robot.joints],
+        [joint.velocity for joint in robot.joints],
+        scaled_ideal_servo(robot).torque_limit_Nm,  # where the URDF gives no effort
     )
 
 
