@@ -474,10 +474,16 @@ def test_the_compensated_torque_travels_and_an_older_file_opens_on_the_load(stud
         assert fresh.state.work.coefficients.torque == "drive"  # a fresh studio's default
         assert fresh.project.open(str(tmp_path / "load.bstudio")), fresh.project.last_error
         assert fresh.state.work.coefficients.torque == "load"
-        assert fresh.servo_rooms.compensation.panel.compensate.value == COMPENSATED_TORQUE_LABELS["load"]
+        assert (
+            fresh.servo_rooms.compensation.panel.compensate.value
+            == COMPENSATED_TORQUE_LABELS["load"]
+        )
         assert fresh.project.open(str(tmp_path / "drive.bstudio")), fresh.project.last_error
         assert fresh.state.work.coefficients.torque == "drive"
-        assert fresh.servo_rooms.compensation.panel.compensate.value == COMPENSATED_TORQUE_LABELS["drive"]
+        assert (
+            fresh.servo_rooms.compensation.panel.compensate.value
+            == COMPENSATED_TORQUE_LABELS["drive"]
+        )
         older = tmp_path / "older.bstudio"
         saved = (tmp_path / "drive.bstudio").read_bytes()
         older.write_bytes(_crafted(saved, lambda m: m["project"].pop("compensation_torque")))
