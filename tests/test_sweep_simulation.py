@@ -17,6 +17,7 @@ from app.core.servo.commands import servo_commands
 from app.core.servo.compensation import disabled_params
 from app.core.servo.model import ServoModel, joint_angles
 from app.core.servo.presets import uniform_preset
+from app.core.simulation.drive import plan_drive_torque_Nm
 from app.core.simulation.run import simulate
 from app.core.sweeps.results import SIMULATION_COLUMNS, columns, results_csv
 from app.core.sweeps.sampling import sweep_points
@@ -72,11 +73,13 @@ def by_hand(swept):
         k, compensated = point.values
         # compensation on: a calibrated servo, k of eq 7 = its true compliance
         params = uniform_preset(robot, k) if compensated else disabled_params(robot.joint_names)
-        commands = servo_commands(robot, walk.trajectory, tau, params)
-        if not compensated:
-            assert np.array_equal(commands.q_cmd_rad, joint_angles(robot, walk.trajectory.q))
         legs = uniform_preset(robot).enabled
         servo = ServoModel(robot.joint_names, np.where(legs, k, 0.0), np.zeros(robot.n_actuated))
+        # on the servos' drive torque τ + D·q̇ + J·q̈ (`simulate --drive-torque`, the studio's default)
+        drive = plan_drive_torque_Nm(robot, walk.trajectory, tau, servo)
+        commands = servo_commands(robot, walk.trajectory, drive, params)
+        if not compensated:
+            assert np.array_equal(commands.q_cmd_rad, joint_angles(robot, walk.trajectory.q))
         try:
             sim = simulate(robot, walk.trajectory, commands.q_cmd_rad, servo)
         except StudioError as error:

@@ -170,6 +170,7 @@ def walk_and_simulate(planar: Any, gait: Any, setup: SimulationSetup) -> tuple[A
     limits, a simulation that diverges)."""
     from app.core.dynamics.wbc import torque_feedforward
     from app.core.servo.commands import servo_commands
+    from app.core.simulation.drive import compensated_torque_Nm
     from app.core.simulation.run import simulate
     from app.core.walking.walk import build_walk
 
@@ -177,14 +178,19 @@ def walk_and_simulate(planar: Any, gait: Any, setup: SimulationSetup) -> tuple[A
     walk = build_walk(planar, gait, steps=setup.walk_steps)
     feedforward = torque_feedforward(robot, walk.trajectory)
     params, servo = servo_settings(robot, setup)
-    commands = servo_commands(robot, walk.trajectory, feedforward.tau_Nm, params)
-    if setup.part is None:
-        result = simulate(robot, walk.trajectory, commands.q_cmd_rad, servo)
-    else:
+    law = None
+    if setup.part is not None:
         from app.core.simulation.part_law import law_with_parts
-        from app.core.simulation.run import simulate_commands
 
         law = law_with_parts(robot, servo, leg_parts(robot, setup.part))
+    # eq 7 on the servos' drive torque, as the studio compensates by default
+    tau = compensated_torque_Nm(robot, walk.trajectory, feedforward.tau_Nm, "drive", servo, law)
+    commands = servo_commands(robot, walk.trajectory, tau, params)
+    if law is None:
+        result = simulate(robot, walk.trajectory, commands.q_cmd_rad, servo)
+    else:
+        from app.core.simulation.run import simulate_commands
+
         runs = {"simulated": commands.q_cmd_rad}
         result = simulate_commands(robot, walk.trajectory, runs, servo, parallel=False, law=law)[
             "simulated"
