@@ -24,11 +24,6 @@ from tests.conftest import ROBAN_URDF
 D = math.radians
 
 
-@pytest.fixture(scope="module")
-def servo_biped():
-    return load_robot("servo_biped")
-
-
 def params(k, phi=None, enabled=None, sign="command", names=None):
     n = len(k)
     return CompensationParams(
