@@ -22,12 +22,7 @@ from app.core.servo.catalogue import (
 from app.core.servo.choice import ServoChoice, choice_parts, offered_catalogue, simulatable
 from app.core.servo.model import ServoModel
 from app.core.servo.user_files import UserServoFile, records
-from app.core.simulation.battery import (
-    MIN_DISTANCE_M,
-    energy_figures,
-    horizontal_travel_m,
-    positive_work_J,
-)
+from app.core.simulation.battery import run_energy_figures
 from app.core.simulation.result import SimulationResult
 from app.core.simulation.servo_law import ServoLaw
 
@@ -74,20 +69,12 @@ def energy_line(
         vin[robot.joint_names.index(name)] = joint.vin_V or (
             firmware.vin_V if firmware is not None else 1.0
         )
-    planned_xy = trajectory.q[:, :2]
-    work = float("nan")
-    if torques is not None and horizontal_travel_m(planned_xy) >= MIN_DISTANCE_M:
-        speed = trajectory.v[:, [j.idx_v for j in robot.joints]]
-        work = positive_work_J(np.nan_to_num(torques.tau_Nm), speed, trajectory.dt)
-    shown = result.t <= result.simulated_until_s
-    f = energy_figures(
-        energy,
+    f = run_energy_figures(
+        result,
+        robot,
+        trajectory,
         vin,
-        robot.mass_kg,
-        float(np.linalg.norm(robot.model.gravity.linear)),
-        result.q[shown, :2],
-        planned_xy,
-        work,
+        lambda: None if torques is None else np.nan_to_num(torques.tau_Nm),
         choice.battery_Wh,
     )
     sr = (
