@@ -11,12 +11,10 @@ import numpy as np
 from app.core.errors import StudioError, refuse_unknown_joints
 
 
-def per_joint(
-    label: str, value: object, n: int, error: type[StudioError], dtype: type = float
-) -> np.ndarray:
+def per_joint(label: str, value: object, n: int, error: type[StudioError]) -> np.ndarray:
     """`value` as a read-only array of shape (n,), or `error` saying what is wrong with it."""
     try:
-        array = np.array(value, dtype=dtype).reshape(-1)
+        array: np.ndarray = np.array(value, dtype=float).reshape(-1)
     except (TypeError, ValueError) as failure:
         raise error(f"{label} must be numbers: {failure}") from None
     if array.shape != (n,):
