@@ -42,8 +42,6 @@ from app.core.motions.trajectory import Trajectory
 from app.core.walking.lift import LegLifter
 from app.core.walking.sway import lateral_sway, smoothstep
 
-EPS_S = 1e-3
-"""Finite-difference step [s]."""
 MAX_STEPS = 100
 STOP_BALANCE = 0.5
 """Where the walk comes to rest, between the end of a steady deceleration from the gait's
@@ -352,7 +350,14 @@ def build_walk(
             "sway and its CoM stays between the feet; in single support it is not over the "
             "stance sole, so the whole-body QP cannot balance those samples"
         )
-    q, v, a, contacts = _samples(walk, lifter, t, which, y, dt)
+    q, v, a, contacts = lifter.samples(
+        lambda i, tk: walk.at(walk.segments[i], tk),
+        [(seg.t0, seg.t1, seg.contacts) for seg in walk.segments],
+        t,
+        which,
+        y,
+        dt,
+    )
     footprints = _footprints(walk, lifter, width, total)
     notes = walk.notes + notes
     if lifter.residual_m_rad > 1e-6:
@@ -438,38 +443,3 @@ def _zmp_reference(
         else:
             p_ref[k] = foot_y["left" if seg.contacts[0] else "right"]
     return p_ref
-
-
-def _samples(
-    walk: _PlanarWalk, lifter: LegLifter, t: np.ndarray, which: np.ndarray, y: np.ndarray,
-    dt: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
-    """q, v, a and contacts of the whole-body walk at times `t`, the base swayed by `y` [m];
-    v and a by finite differences of configurations EPS_S apart (inside each segment)."""
-    yd = np.gradient(y, dt)
-    ydd = np.gradient(yd, dt)
-    model = walk.planar.robot.model
-    q = np.empty((len(t), model.nq))
-    v = np.empty((len(t), model.nv))
-    a = np.empty((len(t), model.nv))
-    contacts = np.empty((len(t), 2), dtype=bool)
-    for k, tk in enumerate(t):
-        seg = walk.segments[which[k]]
-        if tk - EPS_S < seg.t0 - 1e-12:
-            offsets = np.array([0.0, 1.0, 2.0]) * EPS_S
-        elif tk + EPS_S > seg.t1 + 1e-12:
-            offsets = np.array([-2.0, -1.0, 0.0]) * EPS_S
-        else:
-            offsets = np.array([-1.0, 0.0, 1.0]) * EPS_S
-        configs = [
-            lifter.lift(walk.at(seg, tk + o), y[k] + yd[k] * o + 0.5 * ydd[k] * o * o)
-            for o in offsets
-        ]
-        here = int(np.argmin(np.abs(offsets)))
-        q[k] = configs[here]
-        d01 = pin.difference(model, configs[0], configs[1]) / EPS_S
-        d12 = pin.difference(model, configs[1], configs[2]) / EPS_S
-        a[k] = (d12 - d01) / EPS_S
-        v[k] = (d01, 0.5 * (d01 + d12), d12)[here] + (here - 1) * 0.5 * EPS_S * a[k]
-        contacts[k] = seg.contacts
-    return q, v, a, contacts
