@@ -147,6 +147,12 @@ class SweepPanel:
             set_value(low, defaults.get(initial, (0.0, 0.0))[0])
             set_value(high, defaults.get(initial, (0.0, 0.0))[1])
 
+    def offer_servos(self, defaults: dict[str, tuple[float, float]], robot_line: str) -> None:
+        """The servos offered changed (the robot's choices otherwise the same): new first
+        ranges and robot line; the rows keep what they hold."""
+        self._defaults = defaults
+        self.robot_line.content = robot_line
+
     def show_spec(self, data: dict) -> None:
         """Show a sweep's data (as `spec_values` gives it, checked already): its parameters and
         ranges, samples, knots and metrics. Choices this panel does not offer are left as
