@@ -128,16 +128,16 @@ def run(args: argparse.Namespace) -> int:
         f"after {first_s:.1f} s); Pareto set of {metrics}: {len(front)} points "
         f"{list(front)}{output_target(args.out)}"
     )
-    metrics = [m for m, _ in spec.pareto]
+    shown_metrics = [m for m, _ in spec.pareto]
     if spec.servos:  # the parts' axes beside the two traded off
         from app.core.sweeps.part_metrics import PART_METRICS
 
-        metrics += [m for m in PART_METRICS if m not in metrics]
+        shown_metrics += [m for m in PART_METRICS if m not in shown_metrics]
     for i in front:
         r = by_index[i]
         values = ", ".join(
             f"{p.name} = {p.shown(v)}" for p, v in zip(spec.parameters, r.values, strict=True)
         )
-        shown = ", ".join(f"{m} = {r.metric(m):.4g}" for m in metrics)
+        shown = ", ".join(f"{m} = {r.metric(m):.4g}" for m in shown_metrics)
         print(f"  #{i}: {values} → {shown}")
     return 0

@@ -219,17 +219,23 @@ def simulation_metrics(planar: Any, gait: Any, setup: SimulationSetup) -> Simula
         walk, feedforward, _commands, _servo, result = walk_and_simulate(planar, gait, setup)
     except StudioError as error:
         return not_simulated(f"not simulated: {error}", time.perf_counter() - start)
-    parts: dict[str, float] = {}
-    if setup.part is not None:
-        from app.core.sweeps.part_metrics import part_metrics
-
-        parts = part_metrics(planar.robot, setup.part, walk, feedforward, result.energy)
     out = metrics_of_simulation(
         result,
         joint_angles(planar.robot, walk.trajectory.q),
         time.perf_counter() - start,
     )
-    return dataclasses.replace(out, **parts)
+    if setup.part is None:
+        return out
+    from app.core.sweeps.part_metrics import part_metrics
+
+    m = part_metrics(planar.robot, setup.part, walk, feedforward, result.energy)
+    return dataclasses.replace(
+        out,
+        servo_mass_kg=m["servo_mass_kg"],
+        servo_cost=m["servo_cost"],
+        electrical_energy_J=m["electrical_energy_J"],
+        servo_margin=m["servo_margin"],
+    )
 
 
 def metrics_of_simulation(result: Any, q_plan: np.ndarray, seconds: float) -> SimulationMetrics:
