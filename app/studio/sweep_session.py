@@ -317,7 +317,8 @@ class SweepSession:
         try:
             if engine is None:  # a sweep restored from a project: start the workers now
                 engine = self._workers.engine_for(1)
-            self._loader.load(engine, point)
+            outcome = self.outcome
+            self._loader.load(engine, point, outcome.spec.user_servos if outcome else ())
         except Exception as error:  # a thread boundary: bad input, or a worker lost meanwhile
             if not isinstance(error, StudioError):
                 log.exception("loading a sweep point failed")

@@ -148,3 +148,37 @@ def test_the_sweep_panel_offers_the_projects_servo_files_and_the_part_axes(studi
     # shown again (a project's sweep) as the same rows
     shown = panel_data(data, studio.state.work.parts.user_servos)["parameter"][0]
     assert (shown["min"], shown["max"]) == (at - 1.0, float(at))
+
+
+def test_a_loaded_point_on_a_users_servo_brings_its_file_back(studio, tmp_path):
+    from app.core.servo.user_files import UserServoFile
+    from tests.test_sweep_part_axes import user_mx106
+
+    assert studio.robots.load("dircon_biped")
+    assert studio.state.work.parts is None or not studio.state.work.parts.user_servos
+    file = UserServoFile("mine.toml", user_mx106())
+    data = {
+        "sampling": "grid",
+        "gait": {"knots": 14},
+        "simulate": True,
+        "walk_steps": 1,
+        "user_servos": [{"name": file.name, "text": file.text}],
+        "parameter": [{"kind": "part", "name": "servo", "choices": ["my106"]}],
+    }
+    spec = SweepSpec.from_mapping(data)
+    (point,) = sweep_points(spec)
+    loader = PointLoader(
+        studio.web.server,
+        studio.state,
+        tmp_path / "variants",
+        studio.servo_rooms.compensation.set_servos,
+    )
+    loader.load(InProcess(), point, spec.user_servos)
+    parts = studio.state.work.parts
+    assert parts.user_servos == (file,)
+    robot = studio.state.robot
+    legs = uniform_preset(robot).enabled
+    assert {parts.joint(n).servo for n, on in zip(robot.joint_names, legs, strict=True) if on} == {
+        "my106"
+    }
+    assert "my106" in studio.servo_rooms.servos.records  # offered in the Servos folder again
