@@ -27,7 +27,7 @@ from app.core.servo.catalogue import load_catalogue
 from app.core.servo.presets import uniform_preset
 from app.core.sweeps.robot_variants import SweepSpecError
 from app.core.sweeps.sampling import sweep_points
-from app.core.sweeps.spec import read_sweep_toml
+from app.core.sweeps.spec import SweepSpec, read_sweep_toml
 from tests.core.test_sweep_pareto import brute_force
 
 REPO = Path(__file__).resolve().parents[1]
@@ -184,3 +184,54 @@ def test_cost_with_every_servo_priced_is_accepted(tmp_path):
     spec = read_sweep_toml(write_sweep(tmp_path, sweep, servo))
     assert spec.servos == ("my106", "my107")
     assert spec.pareto[0] == ("servo_cost", "min")
+
+
+def test_a_project_keeps_a_part_sweep_with_its_users_servo_file(tmp_path):
+    """The sweep's spec (the user's file's text with it, at the size limit and full of
+    non-ASCII sources) and the parts' metrics (NaN cost included) come back from a project."""
+    import dataclasses
+
+    from app.core.projects.files import read_project, save_project
+    from app.core.projects.project import Project
+    from app.core.projects.robot_files import robot_source
+    from app.core.sweeps.evaluate import PointResult
+    from app.core.sweeps.part_parameters import MAX_USER_JSON_CHARS
+    from app.core.sweeps.results import SweepRecord
+
+    text = user_mx106()
+    padding = "# " + "·" * 80 + "\n"  # 6 JSON characters each: the limit is on the JSON
+    spare = MAX_USER_JSON_CHARS - len(json.dumps([{"name": "mine.toml", "text": text}]))
+    text += padding * (spare // len(json.dumps(padding)[1:-1]))
+    data = json.loads(json.dumps(SWEEP_DATA)) | {
+        "user_servos": [{"name": "mine.toml", "text": text}]
+    }
+    point = PointResult(0, (1.0,), True, "solved", "", 0.2, 0.2, 3.0, 4.0, 1.0, 9, 0.3, 0.0, "h")
+    point = dataclasses.replace(
+        point, fell=0.0, servo_mass_kg=1.2, servo_cost=math.nan, electrical_energy_J=55.0,
+        servo_margin=-0.25,
+    )  # fmt: skip
+    robot = load_robot("dircon_biped")
+    project = Project(
+        robot_source(robot), robot.q_neutral.copy(), sweep=SweepRecord.of(data, [point])
+    )
+    save_project(tmp_path / "p.bstudio", project)
+    opened = read_project(tmp_path / "p.bstudio").sweep
+    assert opened is not None and opened.spec() == project.sweep.spec()
+    assert opened.spec().user_servos[0].text == text
+    (back,) = opened.results
+    assert (back.servo_mass_kg, back.electrical_energy_J, back.servo_margin) == (1.2, 55.0, -0.25)
+    assert math.isnan(back.servo_cost)
+    # past the limit: refused when the sweep is made, in one line
+    data["user_servos"][0]["text"] = text + padding * 2
+    with pytest.raises(SweepSpecError, match="characters as a project keeps them"):
+        SweepSpec.from_mapping(data)
+
+
+SWEEP_DATA = {
+    "robot": "dircon_biped",
+    "sampling": "grid",
+    "simulate": True,
+    "walk_steps": 1,
+    "pareto": {"servo_mass_kg": "min", "electrical_energy_J": "min"},
+    "parameter": [{"kind": "part", "name": "servo", "choices": ["mx106", "my106"]}],
+}

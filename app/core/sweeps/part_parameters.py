@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -45,8 +46,9 @@ PART_NAMES = ("servo", "kp")
 MAX_CHOICES = 64
 
 
-MAX_USER_TEXT_CHARS = 64 * 1024
-"""Most characters of user servo files one sweep carries (a project keeps them in its spec)."""
+MAX_USER_JSON_CHARS = 80_000
+"""Most characters the user servo files of one sweep take as JSON (a project keeps them in its
+sweep's spec, a text of at most 100 000 characters: app.core.projects.codec)."""
 
 
 @functools.cache
@@ -93,10 +95,11 @@ def user_servo_files(value: Any, source: str) -> tuple[Any, ...]:
         ):
             raise SweepSpecError(f"{source}: user_servos {i + 1} is not a {{name, text}} table")
         files.append(UserServoFile(entry["name"], entry["text"]))
-    if sum(len(f.text) for f in files) > MAX_USER_TEXT_CHARS:
+    size = len(json.dumps(value))
+    if size > MAX_USER_JSON_CHARS:
         raise SweepSpecError(
-            f"{source}: user servo files of over {MAX_USER_TEXT_CHARS // 1024} KiB in all; give "
-            "the sweep only the files it chooses from"
+            f"{source}: the user servo files take {size} characters as a project keeps them; "
+            f"at most {MAX_USER_JSON_CHARS} (give the sweep only the servos it chooses from)"
         )
     offered_servos(tuple(files))  # every record checked, no key taken twice
     return tuple(files)
