@@ -1,7 +1,8 @@
 """What the simulation takes from the servo parts in the state (`StudioState.work.parts`): the
 servo law to run (`simulation_law`, the CLI's `part_law` functions) and the energy line of a
 run on parts (`energy_line`), and what the Servos folder says of a user's servo file
-(`added_text`) and does when one is removed (`without_file`, `removed_text`). Not a session: the simulation and servos sessions call these hooks.
+(`added_text`) and does when one is removed (`without_file`, `removed_text`), and the sizing's
+text (`sizing_text`). Not a session: the simulation and servos sessions call these hooks.
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ from app.core.servo.choice import (
 )
 from app.core.servo.model import ServoModel
 from app.core.servo.parts import ServoPartsError
+from app.core.servo.sizing import Sizing, totals
+from app.core.servo.sizing_work import Work
 from app.core.servo.user_files import UserServoFile, records
 from app.core.simulation.battery import (
     MIN_DISTANCE_M,
@@ -188,3 +191,32 @@ def removed_text(name: str, keys: list[str], reset: list[str]) -> str:
         text + f"; {len(reset)} joint(s) were on its servos and are back on the **ideal servo**: "
         f"{', '.join(reset)}. *Undo* puts the file and their servos back."
     )
+
+
+def sizing_text(
+    sizing: Sizing, works: dict[str, Work], records: dict[str, ServoRecord], total: int
+) -> str:
+    """The per-joint choice with its margins, the joints no servo holds, and what the chosen
+    servos add up to (markdown); `records`: the servos sized over."""
+    held = len(sizing.joints) - len(sizing.unsized)
+    lines = [
+        f"**Sized** against {', '.join(works)} over {len(records)} servos the simulation can run "
+        f"(of {total} in the catalogue), margin {sizing.margin:.0%}: {held} of "
+        f"{len(sizing.joints)} joints"
+    ]
+    for joint in sizing.joints:
+        if joint.choice is not None:
+            c = joint.check(joint.choice)
+            lines.append(
+                f"{joint.joint}: **{c.servo}**, peak margin {c.peak_margin:+.0%}, RMS "
+                f"{c.rms_torque_Nm:.3g} of {c.continuous_torque_Nm:.3g} N·m"
+            )
+        else:
+            best = max(joint.checks, key=lambda c: min(c.peak_margin, c.thermal_margin))
+            lines.append(
+                f"⚠️ {joint.joint}: **no servo holds it** (left on the ideal servo); closest "
+                f"{best.servo}: " + "; ".join(best.violations())
+            )
+    lines.append(f"**Total**: {totals(sizing, records).line()}")
+    lines += [f"note: {note}" for note in sizing.notes]
+    return "  \n".join(lines)

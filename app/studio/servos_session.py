@@ -36,7 +36,7 @@ from app.core.servo.choice import (
     take_joints,
     with_parts,
 )
-from app.core.servo.sizing import Sizing, check_joint, envelope, totals
+from app.core.servo.sizing import Sizing, check_joint, envelope
 from app.core.servo.sizing_work import Work, gait_work, motion_work, size_works
 from app.core.servo.user_files import UserServoFile, adding, records, user_file
 from app.studio.notifier import Notifier
@@ -45,6 +45,7 @@ from app.studio.servo_parts import (
     catalogue,
     not_offered_text,
     removed_text,
+    sizing_text,
     users_of_files,
     without_file,
 )
@@ -391,32 +392,3 @@ class ServosSession:
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
         self.panel.status.content = f"⚠️ {body}"
         self._notifier.error(title, body, client)
-
-
-def sizing_text(
-    sizing: Sizing, works: dict[str, Work], records: dict[str, ServoRecord], total: int
-) -> str:
-    """The per-joint choice with its margins, the joints no servo holds, and what the chosen
-    servos add up to (markdown); `records`: the servos sized over."""
-    held = len(sizing.joints) - len(sizing.unsized)
-    lines = [
-        f"**Sized** against {', '.join(works)} over {len(records)} servos the simulation can run "
-        f"(of {total} in the catalogue), margin {sizing.margin:.0%}: {held} of "
-        f"{len(sizing.joints)} joints"
-    ]
-    for joint in sizing.joints:
-        if joint.choice is not None:
-            c = joint.check(joint.choice)
-            lines.append(
-                f"{joint.joint}: **{c.servo}**, peak margin {c.peak_margin:+.0%}, RMS "
-                f"{c.rms_torque_Nm:.3g} of {c.continuous_torque_Nm:.3g} N·m"
-            )
-        else:
-            best = max(joint.checks, key=lambda c: min(c.peak_margin, c.thermal_margin))
-            lines.append(
-                f"⚠️ {joint.joint}: **no servo holds it** (left on the ideal servo); closest "
-                f"{best.servo}: " + "; ".join(best.violations())
-            )
-    lines.append(f"**Total**: {totals(sizing, records).line()}")
-    lines += [f"note: {note}" for note in sizing.notes]
-    return "  \n".join(lines)
