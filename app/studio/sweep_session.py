@@ -38,6 +38,7 @@ import viser
 from app.core.errors import StudioError
 from app.core.projects.project import Project
 from app.core.sweeps.evaluate import PointResult
+from app.core.sweeps.part_metrics import MAXIMISED
 from app.core.sweeps.results import SweepRecord, pareto_indices
 from app.core.sweeps.sampling import SweepPoint, start_point, sweep_points
 from app.core.sweeps.spec import METRICS, SweepSpec
@@ -123,6 +124,7 @@ class SweepSession:
             offered,
             "Robot: none loaded yet.",
             cost_line,
+            MAXIMISED,
         )
         self._view = SweepView(server, panel)
         state.on_robot.connect(self._on_robot)

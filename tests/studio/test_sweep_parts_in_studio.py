@@ -142,6 +142,10 @@ def test_the_sweep_panel_offers_the_projects_servo_files_and_the_part_axes(studi
     assert spec.pareto == (("servo_mass_kg", "min"), ("electrical_energy_J", "min"))
     mine = [p for p in sweep_points(spec) if p.simulation.part.servo == "my106"]
     assert mine and all([r.key for r in p.simulation.part.records] == ["my106"] for p in mine)
+    # the margin is better large: the panel's front maximises it
+    panel.metric_y.value = "servo_margin"
+    assert session.panel_sweep()["pareto"] == {"servo_mass_kg": "min", "servo_margin": "max"}
+    panel.metric_y.value = "electrical_energy_J"
     # a sweep of built-in servos only carries no file
     panel.min_a.value, panel.max_a.value = 0, 1
     assert "user_servos" not in session.panel_sweep()

@@ -36,6 +36,9 @@ PART_METRICS = {
     "torque–speed points (0.3: 30 % headroom; < 0: the part cannot hold the plan)",
 }
 """Metrics of a sweep with servo parts, with what they mean."""
+MAXIMISED = ("servo_margin",)
+"""The metrics that are better large: a Pareto front wants them "max" (the Sweep folder sets
+that sense for them)."""
 
 
 def check_part_metrics(
