@@ -227,6 +227,57 @@ def test_a_project_keeps_a_part_sweep_with_its_users_servo_file(tmp_path):
         SweepSpec.from_mapping(data)
 
 
+@pytest.mark.parametrize(
+    ("user_servos", "words"),
+    [
+        ([{"name": "mine.toml", "text": "key = "}], "not valid TOML"),
+        ([{"name": "mine.toml", "text": user_mx106().replace("mass_kg = 0.2", "mass_kg = nan")}],
+         "mass_kg is nan"),
+        ([{"name": "mine.toml", "text": user_mx106("mx106")}], "key 'mx106' is already used"),
+        ([{"name": "mine.toml"}], "not a {name, text} table"),
+        ("mine.toml", "user_servos is a list"),
+    ],
+)  # fmt: skip
+def test_a_projects_sweep_with_a_hostile_servo_file_is_refused_naming_it(
+    tmp_path, user_servos, words
+):
+    """A saved project whose sweep's user servo file was edited: refused on open, one line
+    naming the sweep and what is wrong with the file."""
+    import io
+    import zipfile
+
+    from app.core.projects.codec import ProjectError
+    from app.core.projects.files import parse_project, save_project
+    from app.core.projects.project import Project
+    from app.core.projects.robot_files import robot_source
+    from app.core.sweeps.evaluate import PointResult
+    from app.core.sweeps.results import SweepRecord
+
+    data = json.loads(json.dumps(SWEEP_DATA)) | {
+        "user_servos": [{"name": "mine.toml", "text": user_mx106()}]
+    }
+    point = PointResult(0, (1.0,), False, "failed", "x", *[math.nan] * 5, 0, 0.0, 0.0, "")
+    robot = load_robot("dircon_biped")
+    project = Project(
+        robot_source(robot), robot.q_neutral.copy(), sweep=SweepRecord.of(data, [point])
+    )
+    path = tmp_path / "p.bstudio"
+    save_project(path, project)
+    with zipfile.ZipFile(path) as archive:
+        entries = {name: archive.read(name) for name in archive.namelist()}
+    manifest = json.loads(entries["manifest.json"])
+    manifest["project"]["sweep"]["spec_json"] = json.dumps(data | {"user_servos": user_servos})
+    entries["manifest.json"] = json.dumps(manifest).encode()
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        for name, content in entries.items():
+            archive.writestr(name, content)
+    with pytest.raises(ProjectError) as refused:
+        parse_project(buffer.getvalue(), "edited.bstudio")
+    said = str(refused.value)
+    assert "project.sweep" in said and words in said and "\n" not in said
+
+
 SWEEP_DATA = {
     "robot": "dircon_biped",
     "sampling": "grid",
