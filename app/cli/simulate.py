@@ -256,6 +256,9 @@ def run(args: argparse.Namespace) -> int:
     figures = None
     if parts is not None and main.energy is not None:
         figures = _energy_figures(args, robot, traj, inputs, parts, main)
+    ideal = None
+    if law is None:  # the ideal servo: electrical energy from the stated default motor
+        ideal = _ideal_energy(args, robot, traj, inputs, servo, options, main)
     if args.out is not None:
         write_simulation_csv(args.out, main)
     if args.json:
@@ -263,13 +266,67 @@ def run(args: argparse.Namespace) -> int:
             json.dumps(
                 _json_report(
                     args, robot, traj, results, main, parts, figures, stand, mass_note, sized
-                ),
+                )
+                | ({} if ideal is None else {"ideal_servo_energy": ideal}),
                 indent=2,
             )
         )
         return 0
     _print_report(args, robot, traj, results, main, figures, stand, mass_note, sized)
+    if ideal is not None and ideal["sr_planned"] is not None:
+        print(_ideal_line(ideal))
     return 0
+
+
+def _ideal_energy(args, robot, traj, inputs: MotionInputs, servo, options, main) -> dict:
+    """The run's electrical energy on the ideal servo from the default motor
+    (`app.core.simulation.ideal_energy`), its SR beside the planned work's (a motion that
+    travels), as JSON."""
+    import numpy as np
+
+    from app.core.simulation.battery import (
+        MIN_DISTANCE_M,
+        horizontal_travel_m,
+        positive_work_J,
+        specific_resistance,
+    )
+    from app.core.simulation.ideal_energy import default_motor, run_ideal_energy
+    from app.core.simulation.servo_law import robot_servo_law
+
+    law = robot_servo_law(robot, servo)
+    dofs = np.array([joint.idx_v for joint in robot.joints])
+    energy = run_ideal_energy(
+        main, law, dofs, default_motor(law.effort_Nm), options.timestep_s,
+        options.command_hold == "linear",
+    )  # fmt: skip
+    gravity = float(np.linalg.norm(robot.model.gravity.linear))
+    shown = main.t <= main.simulated_until_s
+    distance = horizontal_travel_m(main.q[shown, :2])
+    planned = horizontal_travel_m(traj.q[:, :2])
+    work = None
+    if planned >= MIN_DISTANCE_M:
+        tau = _torques(args, robot, traj, inputs)
+        work = positive_work_J(tau, traj.v[:, dofs], traj.dt)
+    total = float(energy.electrical_J.sum())
+    return {
+        **energy.to_json(),
+        "distance_m": distance,
+        "planned_distance_m": planned,
+        "planned_work_J": work,
+        "sr_electrical": specific_resistance(total, robot.mass_kg, distance, gravity),
+        "sr_planned": None
+        if work is None
+        else specific_resistance(work, robot.mass_kg, planned, gravity),
+    }
+
+
+def _ideal_line(ideal: dict) -> str:
+    return (
+        f"energy on the ideal servo over {ideal['duration_s']:.2f} s: "
+        f"{ideal['total_electrical_J']:.1f} J electrical ({ideal['total_mechanical_J']:.1f} J "
+        f"mechanical, {ideal['total_joule_J']:.1f} J I²R); SR {_sr(ideal['sr_electrical'])} "
+        f"electrical, {_sr(ideal['sr_planned'])} planned work ({ideal['motor']})"
+    )
 
 
 def _json_report(
