@@ -290,7 +290,11 @@ def _ideal_energy(args, robot, traj, inputs: MotionInputs, servo, options, main)
         positive_work_J,
         specific_resistance,
     )
-    from app.core.simulation.ideal_energy import default_motor, run_ideal_energy
+    from app.core.simulation.ideal_energy import (
+        default_motor,
+        energy_until_s,
+        run_ideal_energy,
+    )
     from app.core.simulation.servo_law import robot_servo_law
 
     law = robot_servo_law(robot, servo)
@@ -300,8 +304,8 @@ def _ideal_energy(args, robot, traj, inputs: MotionInputs, servo, options, main)
         options.command_hold == "linear",
     )  # fmt: skip
     gravity = float(np.linalg.norm(robot.model.gravity.linear))
-    shown = main.t <= main.simulated_until_s
-    distance = horizontal_travel_m(main.q[shown, :2])
+    until = energy_until_s(main)
+    distance = horizontal_travel_m(main.q[main.t <= until, :2])
     planned = horizontal_travel_m(traj.q[:, :2])
     work = None
     if planned >= MIN_DISTANCE_M:
@@ -310,6 +314,8 @@ def _ideal_energy(args, robot, traj, inputs: MotionInputs, servo, options, main)
     total = float(energy.electrical_J.sum())
     return {
         **energy.to_json(),
+        "until_s": until,
+        "fell": main.fell,
         "distance_m": distance,
         "planned_distance_m": planned,
         "planned_work_J": work,
@@ -322,7 +328,9 @@ def _ideal_energy(args, robot, traj, inputs: MotionInputs, servo, options, main)
 
 def _ideal_line(ideal: dict) -> str:
     return (
-        f"energy on the ideal servo over {ideal['duration_s']:.2f} s: "
+        f"energy on the ideal servo over {ideal['duration_s']:.2f} s"
+        + (" (up to the fall)" if ideal["fell"] else "")
+        + ": "
         f"{ideal['total_electrical_J']:.1f} J electrical ({ideal['total_mechanical_J']:.1f} J "
         f"mechanical, {ideal['total_joule_J']:.1f} J I²R); SR {_sr(ideal['sr_electrical'])} "
         f"electrical, {_sr(ideal['sr_planned'])} planned work ({ideal['motor']})"

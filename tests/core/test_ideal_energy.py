@@ -38,3 +38,34 @@ def test_the_default_motor_is_the_nearest_identified_servo_geared_to_the_limit()
     )
     assert motor.R_ohm == pytest.approx([mx64.R_ohm, mx106.R_ohm, xl320.R_ohm])
     assert "mx64" in motor.text and "mx106" in motor.text
+
+
+def test_a_held_joint_draws_the_servo_laws_torque_squared_up_to_the_fall():
+    # Two joints held still 2° short of their commands: the law's torque is
+    # K·(e − b/2) (joint 0, under its limit) and τ_max (joint 1, saturated), constant; no
+    # speed, so no mechanical work and no damping. The run falls at 0.5 s of 1 s.
+    from types import SimpleNamespace
+
+    from app.core.simulation.ideal_energy import run_ideal_energy
+    from app.core.simulation.servo_law import ServoLaw
+
+    law = ServoLaw(
+        stiffness_Nm_per_rad=np.array([40.0, 400.0]),
+        half_backlash_rad=np.radians([0.25, 0.25]),
+        damping_Nms_per_rad=np.array([1.0, 1.0]),
+        effort_Nm=np.array([6.0, 6.0]),
+        velocity_rad_s=np.array([6.0, 6.0]),
+    )
+    t = np.arange(101) * 0.01
+    q = np.zeros((101, 2))
+    result = SimpleNamespace(
+        t=t, q_joints_rad=q, v=np.zeros((101, 2)), q_cmd_rad=q + np.radians(2.0),
+        fell=True, fall_time_s=0.5, simulated_until_s=1.0,
+    )  # fmt: skip
+    motor = DefaultMotor(np.array([1.2, 1.2]), np.array([2.0, 2.0]), "test")
+    e = run_ideal_energy(result, law, np.array([0, 1]), motor)
+    tau = np.array([40.0 * np.radians(1.75), 6.0])
+    assert e.duration_s == pytest.approx(0.5)
+    assert e.joule_J == pytest.approx((tau / 1.2) ** 2 * 2.0 * 0.5)
+    assert e.electrical_J == pytest.approx(e.joule_J)
+    assert e.mechanical_J == pytest.approx([0.0, 0.0])

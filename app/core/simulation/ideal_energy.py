@@ -16,7 +16,7 @@ the run recorded, per joint j and sample interval k (the hold after sample k, dt
     electrical   P = max(P_m + P_J, 0)  no regeneration credit: a braking joint draws nothing
                                         and gives nothing back (a hobby servo's H-bridge
                                         burns it)
-    E = Σ_k Σ_j P_jk·dt                 over the stretch simulated (a fall ends it)
+    E = Σ_k Σ_j P_jk·dt                 over the stretch simulated, up to the fall if it falls
 
 The default motor (`default_motor`): per joint, the catalogue servo with an identified motor
 model (BAM's m1/m6 fits: MX-64, MX-106, XL-320, XL330) whose datasheet stall torque is closest
@@ -130,6 +130,12 @@ def ideal_servo_energy(
     )
 
 
+def energy_until_s(result) -> float:
+    """The end of the stretch a run's energy covers [s]: its fall, else all it simulated
+    (after a fall the physics runs on a little, and the robot lies on the floor)."""
+    return result.fall_time_s if result.fell else result.simulated_until_s
+
+
 def run_ideal_energy(
     result,
     law: ServoLaw,
@@ -144,7 +150,7 @@ def run_ideal_energy(
     and the torque at each tick the law's (`ServoLoop`, the recorded commands held or ramped
     as the run held them) less D·q̇ (module docstring)."""
     t = result.t
-    done = int(np.searchsorted(t, result.simulated_until_s, side="right"))
+    done = int(np.searchsorted(t, energy_until_s(result), side="right"))
     dt = float(t[1] - t[0])
     ticks = round(dt / physics_dt_s)
     h = dt / ticks
