@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import json
 import sys
 from collections.abc import Callable
@@ -243,10 +244,14 @@ def run(args: argparse.Namespace) -> int:
     # a project's compensation on the torque its studio compensated
     drive = args.drive_torque or (from_project and inputs.compensation_torque == "drive")
 
+    @functools.cache
+    def planned_tau() -> np.ndarray:  # the whole-body QP of a walk: once per command
+        return _torques(args, robot, traj, inputs)
+
     def load() -> np.ndarray:
         from app.core.simulation.drive import plan_drive_torque_Nm
 
-        tau = _torques(args, robot, traj, inputs)
+        tau = planned_tau()
         return plan_drive_torque_Nm(robot, traj, tau, servo, law, options) if drive else tau
 
     commands, label = _commands(args, robot, traj, inputs, parts, from_project, load, drive)
@@ -258,7 +263,7 @@ def run(args: argparse.Namespace) -> int:
         figures = _energy_figures(args, robot, traj, inputs, parts, main)
     ideal = None
     if law is None:  # the ideal servo: electrical energy from the stated default motor
-        ideal = _ideal_energy(args, robot, traj, inputs, servo, options, main)
+        ideal = _ideal_energy(robot, traj, servo, options, main, planned_tau)
     if args.out is not None:
         write_simulation_csv(args.out, main)
     if args.json:
@@ -278,7 +283,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _ideal_energy(args, robot, traj, inputs: MotionInputs, servo, options, main) -> dict:
+def _ideal_energy(robot, traj, servo, options, main, planned_tau: Callable[[], np.ndarray]) -> dict:
     """The run's electrical energy on the ideal servo from the default motor
     (`app.core.simulation.ideal_energy`), its SR beside the planned work's (a motion that
     travels), as JSON."""
@@ -309,8 +314,7 @@ def _ideal_energy(args, robot, traj, inputs: MotionInputs, servo, options, main)
     planned = horizontal_travel_m(traj.q[:, :2])
     work = None
     if planned >= MIN_DISTANCE_M:
-        tau = _torques(args, robot, traj, inputs)
-        work = positive_work_J(tau, traj.v[:, dofs], traj.dt)
+        work = positive_work_J(planned_tau(), traj.v[:, dofs], traj.dt)
     total = float(energy.electrical_J.sum())
     return {
         **energy.to_json(),
