@@ -136,6 +136,7 @@ def bare_mujoco_cpu_s(inp: EngineInput, repeats: int = 3) -> tuple[float, int]:
     from mujoco import rollout
 
     m, d, ctrl_joint, ticks = start(inp)
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_SENSOR)  # the physics alone
     commands = np.asarray(inp.q_cmd_rad, dtype=float)
     dt = float(m.opt.timestep)
     setpoints = Setpoints(inp.law, dt, commands[0])

@@ -47,6 +47,7 @@ from app.core.simulation.recording import (
     first_fall,
     qpos_to_pin,
     qvel_to_pin,
+    sensors_xml,
 )
 from app.core.simulation.servo_law import ServoLaw, ServoLoop, Setpoints, actuators_xml
 from app.core.simulation.sim_model import SimModel
@@ -155,16 +156,17 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
 def start(inp: EngineInput) -> tuple[Any, Any, np.ndarray, int]:
     """The run's MuJoCo model and data at its first configuration (put down on the floor with
     `on_floor`), the joint of each actuator's ctrl (`servo_law.actuators_xml`; none when the
-    law runs in Python) and the physics ticks per command sample."""
+    law runs in Python) and the physics ticks per command sample. The model carries the
+    recording's sensors (`recording.sensors_xml`), on as compiled; they change no physics."""
     import mujoco
 
     sim, law = inp.sim, inp.law
-    xml, ctrl_joint = sim.xml, np.zeros(0, dtype=int)
+    extra, ctrl_joint = sensors_xml(sim), np.zeros(0, dtype=int)
     if inp.servo_in_mujoco and not isinstance(law, PartLaw):
         actuators, ctrl_joint = actuators_xml(law, sim.joint_names)
-        head, tail = xml.rsplit("</mujoco>", 1)
-        xml = head + actuators + "</mujoco>" + tail
-    m = mujoco.MjModel.from_xml_string(xml)
+        extra += actuators
+    head, tail = sim.xml.rsplit("</mujoco>", 1)
+    m = mujoco.MjModel.from_xml_string(head + extra + "</mujoco>" + tail)
     law.set_joint_dynamics(m, sim.actuated_dof)  # its back-EMF (a part's rotor, friction)
     d = mujoco.MjData(m)
     dt = float(m.opt.timestep)
@@ -286,7 +288,13 @@ class _Stepper:
         self._qfrc_applied, self._qfrc_actuator = d.qfrc_applied, d.qfrc_actuator
         self._ctrl, self._opt = d.ctrl, m.opt
         self._tau_view = d.qfrc_actuator[av[0] : av[-1] + 1] if _contiguous(av) else None
-        self._actuation_off = int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
+        flags = int(m.opt.disableflags)
+        # The recording's sensors run only in a sample's forward pass (`sample`), not in the
+        # steps between samples; the forces under the step before's torque: actuators off.
+        self._flags_sample = flags & ~int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
+        self._flags_forces = self._flags_sample | int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
+        self._flags_steps = flags | int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
+        m.opt.disableflags = self._flags_steps
         self._stage_vel = mujoco.mjtStage.mjSTAGE_VEL
 
     def settle(self) -> None:
@@ -316,16 +324,18 @@ class _Stepper:
             rows = self.setpoints.ramp(command, commands[min(k + 1, len(commands) - 1)], ticks)
         else:
             rows = self.setpoints.hold_sample(commands, k, ticks)
+        opt = self._opt
+        opt.disableflags = self._flags_sample
         mj.mj_step1(m, d)  # positions, contacts, velocities at the sample: mj_step's first half
         recorder.kinematics(k)
         # The forces under the torque of the step before the sample, as the Python law
-        # leaves it: the actuators off, that torque applied, MuJoCo's last stages alone.
-        opt, off = self._opt, self._actuation_off
+        # leaves it: the actuators off, that torque applied, MuJoCo's last stages alone
+        # (and the acceleration-stage sensors).
         self._qfrc_applied[:] = self._qfrc_actuator
-        opt.disableflags |= off
-        mj.mj_forwardSkip(m, d, self._stage_vel, 1)
+        opt.disableflags = self._flags_forces
+        mj.mj_forwardSkip(m, d, self._stage_vel, 0)
         recorder.forces()
-        opt.disableflags &= ~off
+        opt.disableflags = self._flags_steps
         self._qfrc_applied[:] = 0.0
         if last:
             return
@@ -338,7 +348,9 @@ class _Stepper:
         """`sample` with the law in Python: the forward pass sees the torque the law left in
         qfrc_applied, then `ticks` steps with the law at every one."""
         mj, m, d, ticks, commands = self._mj, self.m, self.d, self.ticks, self.commands
+        self._opt.disableflags = self._flags_sample
         mj.mj_forward(m, d)
+        self._opt.disableflags = self._flags_steps
         recorder.kinematics(k)
         recorder.forces()
         if last:

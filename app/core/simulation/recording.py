@@ -6,7 +6,11 @@ samples at a time on what was recorded.
 At sample k the step loop calls `kinematics(k)` once MuJoCo's position and velocity stages
 have run at the sample's state (positions, velocities, bodies, sites and the contact list)
 and `forces()` once the constraint forces are solved there under the servo torque of the
-step before the sample (the torque the servo applies as the sample is taken).
+step before the sample (the torque the servo applies as the sample is taken), with the
+recording's sensors on (`sensors_xml`): MuJoCo sums each foot body's floor contacts in C (net
+force in the world, `mj_contactForce`'s per contact) and counts the floor's contacts, so a
+sample costs one copy of `sensordata`; the contact list is read in Python only at a sample
+where some floor contact is not a foot's (to name the first such link, as before).
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from typing import Any
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
@@ -28,6 +33,30 @@ MAX_SPEED = 1e3
 """Any generalised speed beyond this [m/s or rad/s] is a blown-up simulation."""
 NON_FOOT = 2
 """`Scene.side_of_geom` of a geom on neither foot."""
+FLOOR_SENSOR = "recording_floor_contacts"
+
+
+def _foot_sides(sim: SimModel) -> dict[str, int]:
+    """Each foot body's side (0 left, 1 right; a body on both feet counts as the right's, as
+    in `Scene.side_of_geom`)."""
+    return {name: side for side, names in enumerate(sim.foot_bodies) for name in names}
+
+
+def _foot_sensor(i: int) -> str:
+    return f"recording_foot_{i}"
+
+
+def sensors_xml(sim: SimModel) -> str:
+    """The recording's MuJoCo sensors (read once per sample, `Recorder.forces`): per foot
+    body, its floor contacts' count and net force (world frame; MuJoCo gives the force the
+    body exerts on the floor), and the count of all the floor's contacts."""
+    rows = [
+        f"<contact name={quoteattr(_foot_sensor(i))} body1={quoteattr(body)} "
+        'geom2="floor" data="found force" reduce="netforce"/>'
+        for i, body in enumerate(_foot_sides(sim))
+    ]
+    rows.append(f'<contact name="{FLOOR_SENSOR}" geom1="floor" data="found"/>')
+    return f"<sensor>{''.join(rows)}</sensor>"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -45,6 +74,11 @@ class Scene:
     """Bodies (not the world) on neither foot."""
     body_names: tuple[str, ...]
     """Per body, the URDF link it carries (or its MuJoCo name), to name it in a verdict."""
+    foot_force_adr: tuple[tuple[int, ...], tuple[int, ...]]
+    """`sensordata` address of each (left, right) foot body's net floor force (3 values)."""
+    touch_weights: np.ndarray
+    """(nsensordata,): +1 at the floor's contact count, −1 at each foot body's: the dot
+    product with `sensordata` counts the floor contacts that are not a foot's."""
 
     @classmethod
     def of(cls, sim: SimModel, m: Any) -> Scene:
@@ -53,14 +87,22 @@ class Scene:
         def body(name: str) -> int:
             return int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name))
 
-        side_of_body = {
-            body(name): side for side, names in enumerate(sim.foot_bodies) for name in names
-        }
+        side_of_body = {body(name): side for name, side in _foot_sides(sim).items()}
+
+        def sensor(name: str) -> int:
+            return int(m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, name)])
+
         link_of = dict(sim.body_links)
         names = []
         for b in range(m.nbody):
             name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body {b}"
             names.append(link_of.get(name, name))
+        found: tuple[list[int], list[int]] = ([], [])
+        for i, side in enumerate(_foot_sides(sim).values()):
+            found[side].append(sensor(_foot_sensor(i)))
+        weights = np.zeros(m.nsensordata)
+        weights[sensor(FLOOR_SENSOR)] = 1.0
+        weights[found[0] + found[1]] = -1.0
         return cls(
             floor=int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")),
             root=body(sim.root_body) if sim.floating_base else 0,
@@ -72,6 +114,8 @@ class Scene:
             ],
             non_foot=np.array([b for b in range(1, m.nbody) if b not in side_of_body], dtype=int),
             body_names=tuple(names),
+            foot_force_adr=(tuple(a + 1 for a in found[0]), tuple(a + 1 for a in found[1])),
+            touch_weights=weights,
         )
 
 
@@ -89,6 +133,8 @@ class Recorder:
         self.body_xpos = np.zeros((n_samples, m.nbody, 3))
         self.tau = np.zeros((n_samples, n_joints))
         self.warnings = np.zeros((n_samples, int(mujoco.mjtWarning.mjNWARNING)), dtype=int)
+        self.sensed = np.zeros((n_samples, m.nsensordata))
+        """The recording's sensors at each sample (`sensors_xml`)."""
         self.touched_body = np.full(n_samples, -1, dtype=int)
         """The body of the first non-foot geom found touching the floor at a sample, −1 if none."""
         # MjData's fixed arrays, bound once (each attribute read builds a new numpy view).
@@ -96,23 +142,12 @@ class Recorder:
         self._d_xmat_root = d.xmat[scene.root]
         self._d_soles = [d.site_xpos[site] for site in scene.sites]
         self._d_warnings = d.warning.number
-        self._con: Any = None  # MjData's contact list of the last `kinematics`
-        self._contacts: list[int] = []  # the foot contacts of the last sample,
-        self._sides: list[int] = []  # their foot (0 left, 1 right)
-        self._signs: list[float] = []  # and +1 if the floor is the first geom, else −1
+        self._d_sensordata = d.sensordata
+        self._touch_weights = scene.touch_weights
         self._k = 0
-        capacity = 8 * n_samples
-        self._sample = np.zeros(capacity, dtype=int)  # per foot contact
-        self._side = np.zeros(capacity, dtype=int)
-        self._sign = np.zeros(capacity)
-        self._wrench = np.zeros((capacity, 6))  # mj_contactForce: contact frame
-        self._frame = np.zeros((capacity, 9))  # the contact frame (rows: normal, tangents)
-        self._count = 0
-        self._contact_force = mujoco.mj_contactForce
 
     def kinematics(self, k: int) -> None:
-        """Sample k's state, bodies and contact list (after `mj_step1`)."""
-        d, scene = self.d, self.scene
+        """Sample k's state, bodies and sites (after `mj_step1`)."""
         self.qpos[k] = self._d_qpos
         self.qvel[k] = self._d_qvel
         self.xmat_root[k] = self._d_xmat_root
@@ -121,55 +156,25 @@ class Recorder:
         self.body_xpos[k] = self._d_xpos
         self.warnings[k] = self._d_warnings
         self._k = k
-        contacts, sides, signs = self._contacts, self._sides, self._signs
-        contacts.clear()
-        sides.clear()
-        signs.clear()
-        if d.ncon == 0:
-            return
-        floor, side_of, touched = scene.floor, scene.side_of_geom, -1
-        self._con = con = d.contact  # valid until the next collision pass (mj_step1)
-        for c, (g1, g2) in enumerate(con.geom.tolist()):
-            if g1 == floor:
-                other, sign = g2, 1.0
-            elif g2 == floor:
-                other, sign = g1, -1.0
-            else:
-                continue
-            side = side_of[other]
-            if side == NON_FOOT:
-                if touched < 0:
-                    touched = int(self.m.geom_bodyid[other])
-                continue
-            contacts.append(c)
-            sides.append(side)
-            signs.append(sign)
-        self.touched_body[k] = touched
 
     def forces(self) -> None:
-        """The foot contacts' forces of the constraint solve just done, at the state of the
-        last `kinematics`."""
-        contacts = self._contacts
-        if not contacts:
-            return
-        begin, end = self._count, self._count + len(contacts)
-        if end > len(self._sample):
-            self._grow(2 * end)
-        m, d, wrench, force = self.m, self.d, self._wrench, self._contact_force
-        for i, c in enumerate(contacts, begin):
-            force(m, d, c, wrench[i])
-        self._frame[begin:end] = self._con.frame[contacts]
-        self._sample[begin:end] = self._k
-        self._side[begin:end] = self._sides
-        self._sign[begin:end] = self._signs
-        self._count = end
+        """The sensors of the constraint solve just done, at the state of the last
+        `kinematics`; where a floor contact is not a foot's, the first such body from
+        MuJoCo's contact list (still the sample's)."""
+        sensed = self.sensed[self._k]
+        sensed[:] = self._d_sensordata
+        if sensed.dot(self._touch_weights) > 0.5:
+            self.touched_body[self._k] = self._first_non_foot_body()
 
-    def _grow(self, capacity: int) -> None:
-        for name in ("_sample", "_side", "_sign", "_wrench", "_frame"):
-            old = getattr(self, name)
-            new = np.zeros((capacity, *old.shape[1:]), dtype=old.dtype)
-            new[: len(old)] = old
-            setattr(self, name, new)
+    def _first_non_foot_body(self) -> int:
+        """The body of the first contact in MuJoCo's list between the floor and a geom on
+        neither foot, −1 if none."""
+        floor, side_of = self.scene.floor, self.scene.side_of_geom
+        for g1, g2 in self.d.contact.geom.tolist():
+            other = g2 if g1 == floor else g1 if g2 == floor else -1
+            if other >= 0 and side_of[other] == NON_FOOT:
+                return int(self.m.geom_bodyid[other])
+        return -1
 
     def first_diverged(self, begin: int, end: int) -> int:
         """First sample in [begin, end) that has blown up (NaN, a runaway speed, or MuJoCo's
@@ -215,14 +220,12 @@ class Recorder:
         return self.scene.body_names[body] if body >= 0 else ""
 
     def contact_forces(self, n_samples: int) -> np.ndarray:
-        """Floor force on each sole, world frame (T, 2, 3) [N]."""
+        """Floor force on each sole, world frame (T, 2, 3) [N]: minus the force the foot's
+        bodies exert on the floor, summed over them."""
         forces = np.zeros((n_samples, 2, 3))
-        count = self._count
-        keep = self._sample[:count] < n_samples
-        frames = self._frame[:count][keep].reshape(-1, 3, 3)
-        world = np.einsum("nji,nj->ni", frames, self._wrench[:count][keep, :3])
-        world *= self._sign[:count][keep, None]
-        np.add.at(forces, (self._sample[:count][keep], self._side[:count][keep]), world)
+        for side, addresses in enumerate(self.scene.foot_force_adr):
+            for adr in addresses:
+                forces[:, side] -= self.sensed[:n_samples, adr : adr + 3]
         return forces
 
 
