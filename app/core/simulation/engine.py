@@ -16,11 +16,13 @@ can run in a worker process without pinocchio. Sequence:
    `FALL_HEIGHT_FRACTION` of its planned height. After a fall the simulation goes on for
    `POST_FALL_S` and stops; later samples repeat the last state.
 
-A sample is recorded inside the first physics step of its hold (`recording`): `mj_step1`
-(positions, contacts, velocities), the contact forces under the previous step's servo torque
-(MuJoCo's acceleration and constraint stages alone, `mj_forwardSkip`), `mj_step2`; the rows
-are preallocated and converted in bulk, and the verdicts run on them a block of samples at a
-time (no longer than `POST_FALL_S`, so a fall never needs a sample the block has not made).
+Samples run a block at a time (no longer than `POST_FALL_S`, so a fall never needs a sample
+the block has not made), each block's verdicts checked on its recorded rows (`recording`).
+With the ideal servo in MuJoCo's actuators a block is two calls into C (`blocks`): every
+physics tick in one `mujoco.rollout`, then the samples' forward passes batched; a law in
+Python (`ServoLoop`, servo parts' `PartLoop`) steps tick by tick and records each sample
+after its own forward pass. Both record at sample k the forces under the servo torque of the
+step before it (the torque applied as the sample is taken).
 """
 
 from __future__ import annotations
@@ -33,11 +35,13 @@ from typing import Any
 
 import numpy as np
 
+from app.core.simulation.blocks import Blocks
 from app.core.simulation.errors import SimulationDiverged, SimulationInputError
 from app.core.simulation.part_law import PartEnergy, PartLaw, PartLoop
 from app.core.simulation.recording import (
     FALL_HEIGHT_FRACTION,
     FALL_TILT_DEG,
+    FORWARD_TOLERANCE,
     MAX_SPEED,
     NON_FOOT_CLEARANCE_M,
     Recorder,
@@ -93,7 +97,7 @@ class EngineInput:
     detect_falls: bool = True
     servo_in_mujoco: bool = True
     """The ideal servo's torque computed by MuJoCo's actuators (`servo_law.actuators_xml`),
-    several steps per call where the set point holds; False: the law in Python at every
+    a block of samples per call (`blocks`); False: the law in Python at every
     tick into `qfrc_applied` (`ServoLoop`, the reference the tests compare with). Servo
     parts (`PartLaw`) always run in Python."""
 
@@ -194,7 +198,9 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
     stepper.settle()
     _check(d, -inp.settle_s)
     n_samples = len(stepper.commands)
-    recorder = Recorder(m, d, Scene.of(inp.sim, m), n_samples, stepper.commands.shape[1])
+    recorder = Recorder(
+        m, d, Scene.of(inp.sim, m), n_samples, stepper.commands.shape[1], inp.dt_cmd_s
+    )
     planned = (inp.roll_planned_rad, inp.pitch_planned_rad, inp.root_height_planned_m)
     post = max(1, round(POST_FALL_S / inp.dt_cmd_s))
     # A block no longer than the post-fall time: a fall found at a block's end never needs
@@ -206,8 +212,7 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
             progress(k0 / n_samples)
             next_report = k0 + every
         k1 = min(stop, k0 + block)
-        for k in range(k0, k1):
-            stepper.sample(k, recorder, last=k == n_samples - 1)
+        stepper.block(k0, k1, recorder)
         check_diverged(recorder, k0, k1, inp.dt_cmd_s)
         if fall_index < 0 and inp.detect_falls:
             fall_index, reason = first_fall(recorder, k0, k1, inp.sim, planned)
@@ -260,10 +265,9 @@ def _engine_run(
 
 
 class _Stepper:
-    """The physics a hold at a time: the ideal servo's law in MuJoCo's actuators (set points
-    as ctrl, `mj_step(n)` where they hold), or a law in Python at every tick (`ServoLoop`,
-    `PartLoop`) into qfrc_applied. `sample(k)` records sample k inside the hold's first
-    physics step (split into `mj_step1` / `mj_step2`, the same computation as `mj_step`)."""
+    """The physics a block of samples at a time: the ideal servo's law in MuJoCo's actuators
+    (`blocks.Blocks`: set points as ctrl, every tick in C), or a law in Python at every tick
+    (`ServoLoop`, `PartLoop`) into qfrc_applied, a sample at a time."""
 
     def __init__(self, inp: EngineInput, m: Any, d: Any, ctrl_joint: np.ndarray, ticks: int):
         import mujoco
@@ -285,17 +289,13 @@ class _Stepper:
         self._qpos = d.qpos[aq[0] : aq[-1] + 1] if _contiguous(aq) else None
         self._qfrc = d.qfrc_applied[av[0] : av[-1] + 1] if _contiguous(av) else None
         self._aq, self._av = aq, av
-        self._qfrc_applied, self._qfrc_actuator = d.qfrc_applied, d.qfrc_actuator
         self._ctrl, self._opt = d.ctrl, m.opt
-        self._tau_view = d.qfrc_actuator[av[0] : av[-1] + 1] if _contiguous(av) else None
         flags = int(m.opt.disableflags)
-        # The recording's sensors run only in a sample's forward pass (`sample`), not in the
-        # steps between samples; the forces under the step before's torque: actuators off.
+        # The recording's sensors run only in a sample's forward pass, not in the steps.
         self._flags_sample = flags & ~int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
-        self._flags_forces = self._flags_sample | int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
         self._flags_steps = flags | int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
         m.opt.disableflags = self._flags_steps
-        self._stage_vel = mujoco.mjtStage.mjSTAGE_VEL
+        self._blocks: Blocks | None = None
 
     def settle(self) -> None:
         """Hold the first command for `settle_s` (not recorded)."""
@@ -311,48 +311,41 @@ class _Stepper:
         if isinstance(self.servo, PartLoop):
             self.servo.reset_energy()
 
-    def sample(self, k: int, recorder: Recorder, last: bool) -> None:
-        """Record sample k, then hold its command for `ticks` steps (ramped to the next one
-        with `linear_hold`); `last`: record only."""
-        if not self.in_mujoco:
-            self._python_sample(k, recorder, last)
-            return
-        mj, m, d, ticks, commands = self._mj, self.m, self.d, self.ticks, self.commands
-        command = commands[k]
-        rows: np.ndarray | None
-        if self.inp.linear_hold:
-            rows = self.setpoints.ramp(command, commands[min(k + 1, len(commands) - 1)], ticks)
+    def block(self, k0: int, k1: int, recorder: Recorder) -> None:
+        """Record samples [k0, k1), each then holding its command for `ticks` steps (ramped
+        to the next one with `linear_hold`), but the motion's last (record only)."""
+        if self.in_mujoco:
+            if self._blocks is None:  # after the settling: its last torque is the first's
+                sim = self.inp.sim
+                self._blocks = Blocks(
+                    self.m,
+                    self.d,
+                    self.ctrl_joint,
+                    self.ticks,
+                    self.setpoints,
+                    self.commands,
+                    (sim.actuated_qpos, sim.actuated_dof),
+                    self.inp.linear_hold,
+                )
+            self._blocks.run(k0, k1, recorder)
         else:
-            rows = self.setpoints.hold_sample(commands, k, ticks)
-        opt = self._opt
-        opt.disableflags = self._flags_sample
-        mj.mj_step1(m, d)  # positions, contacts, velocities at the sample: mj_step's first half
-        recorder.kinematics(k)
-        # The forces under the torque of the step before the sample, as the Python law
-        # leaves it: the actuators off, that torque applied, MuJoCo's last stages alone
-        # (and the acceleration-stage sensors).
-        self._qfrc_applied[:] = self._qfrc_actuator
-        opt.disableflags = self._flags_forces
-        mj.mj_forwardSkip(m, d, self._stage_vel, 0)
-        recorder.forces()
-        opt.disableflags = self._flags_steps
-        self._qfrc_applied[:] = 0.0
-        if last:
-            return
-        self._ctrl[:] = (command if rows is None else rows[0])[self.ctrl_joint]
-        mj.mj_step2(m, d)  # the hold's first step, second half
-        self._ctrl_steps(rows, command, 1, ticks)
-        recorder.tau[k] = self._actuator_tau()
+            for k in range(k0, k1):
+                self._python_sample(k, recorder, last=k == len(self.commands) - 1)
+        recorder.derive(k0, k1)
 
     def _python_sample(self, k: int, recorder: Recorder, last: bool) -> None:
-        """`sample` with the law in Python: the forward pass sees the torque the law left in
+        """Sample k with the law in Python: the forward pass sees the torque the law left in
         qfrc_applied, then `ticks` steps with the law at every one."""
         mj, m, d, ticks, commands = self._mj, self.m, self.d, self.ticks, self.commands
-        self._opt.disableflags = self._flags_sample
+        opt = self._opt
+        opt.disableflags, tolerance, opt.tolerance = (
+            self._flags_sample,
+            opt.tolerance,
+            FORWARD_TOLERANCE,
+        )
         mj.mj_forward(m, d)
-        self._opt.disableflags = self._flags_steps
-        recorder.kinematics(k)
-        recorder.forces()
+        opt.disableflags, opt.tolerance = self._flags_steps, tolerance
+        recorder.record(k)
         if last:
             return
         command, after = commands[k], commands[min(k + 1, len(commands) - 1)]
@@ -381,12 +374,6 @@ class _Stepper:
         if rest > 0:
             ctrl[:] = command[self.ctrl_joint]
             mj.mj_step(m, d, rest)
-
-    def _actuator_tau(self) -> np.ndarray:
-        """The actuators' torque on the actuated joints [N·m] (n,), MuJoCo's last step's."""
-        if self._tau_view is None:
-            return self._qfrc_actuator[self._av]
-        return self._tau_view
 
     def _apply_torque(self) -> None:
         """The Python law's torque at the current joint angles into qfrc_applied."""
