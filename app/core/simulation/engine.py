@@ -142,7 +142,8 @@ def pin_to_qpos(sim: SimModel, q_pin: np.ndarray, qpos: np.ndarray) -> None:
 
 
 def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None) -> EngineRun:
-    """Simulate the motion (module docstring). `progress(fraction)` is called about 50 times;
+    """Simulate the motion (module docstring). `progress(fraction)` is called at most about
+    50 times (between blocks);
     raising from it stops the run. MuJoCo's warnings are kept in memory for the run (by
     default MuJoCo appends them to MUJOCO_LOG.TXT in the working folder); a blow-up is
     reported as SimulationDiverged."""
@@ -205,7 +206,8 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
     post = max(1, round(POST_FALL_S / inp.dt_cmd_s))
     # A block no longer than the post-fall time: a fall found at a block's end never needs
     # samples the block has not simulated, nor stops before those it has.
-    block, every = max(1, min(post, n_samples // 50)), max(1, n_samples // 50)
+    # A block per call into C: as long as that allows (Python's cost is per block).
+    block, every = post, max(1, n_samples // 50)
     fall_index, reason, stop, k0, next_report = -1, "", n_samples, 0, 0
     while k0 < stop:
         if progress is not None and k0 >= next_report:
