@@ -1,5 +1,5 @@
 """The "Servos" folder: a servo per joint (the ideal servo, or a catalogue servo with its
-firmware settings; the user's own servo files added by upload), the stiffness K and compliance k = 1/K that follow beside the paper's k,
+firmware settings; the user's own servo files added by upload, and removed), the stiffness K and compliance k = 1/K that follow beside the paper's k,
 *Size servos* with its margin, the per-joint choice and its violations, the battery, and a
 torque–speed plot of the selected joint (its planned points over its servo's envelope).
 
@@ -26,6 +26,7 @@ SETTING_LABELS = {
 }
 """The firmware settings' rows, by JointServo field."""
 NO_PLOT = "Size servos to draw the selected joint's planned torque–speed points here."
+NO_FILE = "(none added)"
 
 
 class ServosActions(Protocol):
@@ -38,6 +39,7 @@ class ServosActions(Protocol):
     def add_servo_file(
         self, name: str, content: bytes, client: viser.ClientHandle | None
     ) -> bool: ...
+    def remove_servo_file(self, name: str, client: viser.ClientHandle | None) -> bool: ...
     def size_servos(self, client: viser.ClientHandle | None) -> None: ...
 
 
@@ -64,6 +66,16 @@ class ServosPanel:
                 hint="Your own servos: a TOML file with the catalogue's fields (one record or "
                 "[[servo]] tables, every figure with its source; at most 64 KiB). Kept with the "
                 "project; a file of the same name replaces the earlier one",
+            )
+            self.user_file = gui.add_dropdown(
+                "Servo file", (NO_FILE,), initial_value=NO_FILE, disabled=True
+            )
+            self.remove_file = gui.add_button(
+                "Remove servo file",
+                icon=viser.Icon.TRASH,
+                disabled=True,
+                hint="Takes the selected file's servos out of those offered; joints on them go "
+                "back to the ideal servo (named here). Undo puts them back",
             )
             self.settings = {
                 name: gui.add_number(label, 0.0, min=0.0, step=0.01, disabled=True)
@@ -111,6 +123,12 @@ class ServosPanel:
             uploaded = self.upload.value
             session.add_servo_file(uploaded.name, uploaded.content, event.client)
 
+        @self.remove_file.on_click
+        def _(event: viser.GuiEvent) -> None:
+            name = str(self.user_file.value)
+            if name != NO_FILE:
+                session.remove_servo_file(name, event.client)
+
         @self.battery.on_update
         def _(_event: viser.GuiEvent) -> None:
             if not self._quiet.is_quiet():
@@ -127,6 +145,13 @@ class ServosPanel:
         with self._quiet.quietly():
             self.servo.options = tuple(self._labels)
         self.not_offered.content = not_offered
+
+    def show_user_files(self, names: Sequence[str]) -> None:
+        """The user's servo files kept (the last added selected); Remove is off without one."""
+        with self._quiet.quietly():
+            self.user_file.options = tuple(names) or (NO_FILE,)
+            set_value(self.user_file, names[-1] if names else NO_FILE)
+        self.user_file.disabled = self.remove_file.disabled = not names
 
     def show_joints(self, joints: Sequence[str], selected: str) -> None:
         with self._quiet.quietly():

@@ -52,11 +52,14 @@ class SweepPanel:
         defaults: dict[str, tuple[float, float]],
         robot_line: str,
         cost: Callable[[int], str],
+        maximised: Sequence[str] = (),
     ) -> None:
         """`parameters`: "kind:name" choices (robot, gait and servo); `defaults[choice]` its
         initial (min, max); `robot_line`: which robot is swept (`offer` changes these three);
-        `cost(steps)`: the simulation's cost per point, shown beside its switch."""
+        `cost(steps)`: the simulation's cost per point, shown beside its switch; `maximised`:
+        the metrics a front wants large (every other is minimised)."""
         self._gui = gui
+        self._maximised = tuple(maximised)
         self._defaults = defaults
         self._cost = cost
         self.folder = gui.add_folder("Sweep", order=7, expand_by_default=False)
@@ -91,11 +94,14 @@ class SweepPanel:
             )
             self.walk_steps = gui.add_number("Walk steps", 2, min=1, max=8, step=1)
             self.cost_line = gui.add_markdown(cost(2))
+            better = "minimised" + (
+                f"; {', '.join(maximised)} maximised (larger is better)" if maximised else ""
+            )
             self.metric_x = gui.add_dropdown(
-                "Metric x (min)", tuple(metrics), initial_value=metrics[0]
+                "Metric x", tuple(metrics), initial_value=metrics[0], hint=better
             )
             self.metric_y = gui.add_dropdown(
-                "Metric y (min)", tuple(metrics), initial_value=metrics[2]
+                "Metric y", tuple(metrics), initial_value=metrics[2], hint=better
             )
             self.run_button = gui.add_button("Run sweep")
             self.cancel_button = gui.add_button("Cancel sweep", disabled=True)
@@ -146,6 +152,12 @@ class SweepPanel:
             set_value(choice, initial)
             set_value(low, defaults.get(initial, (0.0, 0.0))[0])
             set_value(high, defaults.get(initial, (0.0, 0.0))[1])
+
+    def offer_servos(self, defaults: dict[str, tuple[float, float]], robot_line: str) -> None:
+        """The servos offered changed (the robot's choices otherwise the same): new first
+        ranges and robot line; the rows keep what they hold."""
+        self._defaults = defaults
+        self.robot_line.content = robot_line
 
     def show_spec(self, data: dict) -> None:
         """Show a sweep's data (as `spec_values` gives it, checked already): its parameters and
@@ -203,7 +215,10 @@ class SweepPanel:
             "sampling": "latin",
             "samples": _whole_or_as_is(samples),
             "gait": {"knots": _whole_or_as_is(knots)},
-            "pareto": {str(self.metric_x.value): "min", str(self.metric_y.value): "min"},
+            "pareto": {
+                str(handle.value): "max" if handle.value in self._maximised else "min"
+                for handle in (self.metric_x, self.metric_y)
+            },
             "parameter": parameters,
         }
         if self.simulate.value:

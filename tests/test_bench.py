@@ -33,6 +33,17 @@ def test_ratio_is_value_over_baseline_and_absent_without_one():
     assert Figure("x", 3.0, "ms", "", None, 0.0, "b").ratio is None
 
 
+def test_an_upper_bound_target_reads_and_holds_as_written_by_hand():
+    assert Figure.at_most("x", 3.0, "s", 10.0, 1.5, "b", "n") == Figure(
+        "x", 3.0, "s", "≤ 10 s", True, 1.5, "b", "n"
+    )
+    assert Figure.at_most("x", 0.3, "ms", 0.25, None, "", stat="p95") == Figure(
+        "x", 0.3, "ms", "p95 ≤ 0.25 ms", False, None, ""
+    )
+    assert Figure.at_most("x", 10.0, "s", 10.0, None, "").ok  # the bound itself meets it
+    assert not Figure.at_most("x", 1.0, "s", 10.0, None, "", met=False).ok
+
+
 def test_markdown_table_has_a_row_per_figure_and_names_the_machine():
     figures = [
         Figure("drag", 4.0, "ms", "p95 ≤ 5 ms", True, 2.0, "placo"),

@@ -93,3 +93,51 @@ def test_the_results_table_names_each_points_servo(swept):
     for point, line in zip(points, lines[1:], strict=True):
         servo, kp = line.split(",")[:2]
         assert (servo, float(kp)) == (point.simulation.part.servo, point.simulation.part.kp)
+
+
+def test_the_parts_axes_follow_from_the_catalogue_and_the_envelopes_closed_form(swept):
+    """servo_mass_kg is the catalogue mass on every leg joint; servo_margin is recomputed here
+    from the motor law's closed forms (stall τ_s = kt·vin·max_pwm/R, no-load ω_0 =
+    vin·max_pwm/kt, the line τ = τ_s − (τ_s/ω_0)·ω, the current limit kt·I_lim) and the RMS
+    torque against the continuous rating, over the point's own walk and torques."""
+    from app.core.dynamics.peaks import over_speed_samples
+    from app.core.servo.sizing import CONTINUOUS_FRACTION_OF_STALL
+
+    _spec, points, results, cache = swept
+    robot = load_robot("dircon_biped")
+    legs = np.flatnonzero(uniform_preset(robot).enabled)
+    for point in points:
+        key = point.simulation.part.servo
+        record = load_catalogue()[key]
+        result = results[point.index]
+        assert result.servo_mass_kg == pytest.approx(len(legs) * record.mass_kg, rel=1e-12)
+        assert math.isnan(result.servo_cost)  # no built-in servo publishes a price
+        walk, ff, _commands, _servo, sim = walk_and_simulate(
+            PlanarModel(robot), solve_point(point, cache), point.simulation
+        )
+        assert result.electrical_energy_J == pytest.approx(
+            float(np.sum(sim.energy.electrical_J[legs])), rel=1e-9
+        )
+        motor, firmware = record.fit("m1").motor, record.firmware
+        kt, r = motor.kt_Nm_per_A, motor.R_ohm
+        stall = kt * firmware.vin_V * firmware.max_pwm / r
+        no_load = firmware.vin_V * firmware.max_pwm / kt
+        limit = math.inf if firmware.current_limit_A is None else kt * firmware.current_limit_A
+        rating = record.continuous_torque_Nm or CONTINUOUS_FRACTION_OF_STALL * stall
+        skipped = {k for k, s in enumerate(ff.status) if s != "solved"}
+        skipped |= set(over_speed_samples(robot, walk.trajectory))
+        keep = [k for k in range(walk.trajectory.n_samples) if k not in skipped]
+        margins = []
+        for j in legs:
+            w = walk.trajectory.v[keep, robot.joints[j].idx_v]
+            tau = ff.tau_Nm[keep, j]
+            scale = [
+                min(
+                    stall / abs(t + stall / no_load * s) if t + stall / no_load * s else math.inf,
+                    limit / abs(t) if t else math.inf,
+                )
+                for s, t in zip(w, tau, strict=True)
+            ]
+            rms = math.sqrt(float(np.mean(tau**2)))
+            margins.append(min(min(scale) - 1.0, rating / rms - 1.0))
+        assert result.servo_margin == pytest.approx(min(margins), rel=1e-9), (key, point.index)

@@ -42,6 +42,33 @@ class Figure:
     baseline_what: str
     note: str = ""
 
+    @classmethod
+    def at_most(
+        cls,
+        what: str,
+        value: float,
+        unit: str,
+        target: float,
+        baseline: float | None,
+        baseline_what: str,
+        note: str = "",
+        *,
+        stat: str = "",
+        met: bool = True,
+    ) -> Figure:
+        """A figure whose target is value ≤ `target` in `unit` ("p95 ≤ 5 ms" with `stat`
+        "p95"); `met` False fails it whatever its value (a solve that did not converge)."""
+        return cls(
+            what,
+            value,
+            unit,
+            f"{stat + ' ' if stat else ''}≤ {target:g} {unit}",
+            met and value <= target,
+            baseline,
+            baseline_what,
+            note,
+        )
+
     @property
     def ratio(self) -> float | None:
         """value / baseline (how many baselines the figure costs)."""

@@ -326,29 +326,11 @@ def _energy_figures(args, robot, traj, inputs: MotionInputs, parts, result):
     """Currents, SR (electrical beside planned) and the battery figure of a run on parts."""
     import numpy as np
 
-    from app.core.simulation.battery import (
-        MIN_DISTANCE_M,
-        energy_figures,
-        horizontal_travel_m,
-        positive_work_J,
-    )
+    from app.core.simulation.battery import run_energy_figures
 
-    assert result.energy is not None
-    shown = result.t <= result.simulated_until_s
-    planned_xy = traj.q[:, :2]
-    work = float("nan")
-    if horizontal_travel_m(planned_xy) >= MIN_DISTANCE_M:  # SR only for a motion that travels
-        tau = _torques(args, robot, traj, inputs)
-        work = positive_work_J(tau, traj.v[:, [j.idx_v for j in robot.joints]], traj.dt)
-    return energy_figures(
-        result.energy,
-        np.array([p.firmware.vin_V for p in parts.parts]),
-        robot.mass_kg,
-        float(np.linalg.norm(robot.model.gravity.linear)),
-        result.q[shown, :2],
-        planned_xy,
-        work,
-        args.battery_Wh,
+    vin = np.array([p.firmware.vin_V for p in parts.parts])
+    return run_energy_figures(
+        result, robot, traj, vin, lambda: _torques(args, robot, traj, inputs), args.battery_Wh
     )
 
 

@@ -85,6 +85,15 @@ def run(args: argparse.Namespace) -> int:
                     f"point {len(results)}/{len(points)} (#{result.index}): {what}", file=sys.stderr
                 )
         notes = list(engine.notes)
+    if spec.servos:
+        from app.core.sweeps.part_metrics import cost_note
+        from app.core.sweeps.part_parameters import offered_servos
+
+        note = cost_note(spec.servos, offered_servos(spec.user_servos))
+        if note:
+            notes.append(note)
+            if not args.json:
+                print(f"note: {note}", file=sys.stderr)
     wall = time.perf_counter() - start
     front = pareto_indices(spec, results)
     counts = tally(results, len(points), spec.simulate, finished=True)
@@ -119,11 +128,16 @@ def run(args: argparse.Namespace) -> int:
         f"after {first_s:.1f} s); Pareto set of {metrics}: {len(front)} points "
         f"{list(front)}{output_target(args.out)}"
     )
+    shown_metrics = [m for m, _ in spec.pareto]
+    if spec.servos:  # the parts' axes beside the two traded off
+        from app.core.sweeps.part_metrics import PART_METRICS
+
+        shown_metrics += [m for m in PART_METRICS if m not in shown_metrics]
     for i in front:
         r = by_index[i]
         values = ", ".join(
             f"{p.name} = {p.shown(v)}" for p, v in zip(spec.parameters, r.values, strict=True)
         )
-        shown = ", ".join(f"{m} = {r.metric(m):.4g}" for m, _ in spec.pareto)
+        shown = ", ".join(f"{m} = {r.metric(m):.4g}" for m in shown_metrics)
         print(f"  #{i}: {values} → {shown}")
     return 0

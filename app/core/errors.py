@@ -6,6 +6,8 @@ Anything else escaping the core is a bug in the studio, not in the user's input.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+
 
 class StudioError(Exception):
     """Base of every error caused by input: a file, a value, a request."""
@@ -40,3 +42,21 @@ def finite_float(cell: str, where: str, error: type[StudioError] = StudioError) 
     if value != value or value in (float("inf"), float("-inf")):
         raise error(f"{where} is {cell!r}; give a finite number")
     return value
+
+
+def refuse_unknown_joints(
+    names: Iterable[str],
+    joint_names: Sequence[str],
+    error: type[StudioError] = StudioError,
+    *,
+    where: str = "",
+    robot: str = "this robot",
+) -> None:
+    """`error` naming every one of `names` that is not in `joint_names`, and the joints there
+    are (a typo must never silently drop a value). `where` (a file, a table) starts the line."""
+    unknown = [name for name in names if name not in joint_names]
+    if unknown:
+        raise error(
+            f"{where + ': ' if where else ''}no joint named {', '.join(map(repr, unknown))} on "
+            f"{robot}; its joints are: {', '.join(joint_names)}"
+        )

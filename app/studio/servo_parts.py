@@ -1,11 +1,13 @@
 """What the simulation takes from the servo parts in the state (`StudioState.work.parts`): the
 servo law to run (`simulation_law`, the CLI's `part_law` functions) and the energy line of a
 run on parts (`energy_line`), and what the Servos folder says of a user's servo file
-(`added_text`). Not a session: the simulation and servos sessions call these hooks.
+(`added_text`) and does when one is removed (`without_file`, `removed_text`), and the sizing's
+text (`sizing_text`). Not a session: the simulation and servos sessions call these hooks.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -19,15 +21,19 @@ from app.core.servo.catalogue import (
     load_catalogue,
     why_not_simulated,
 )
-from app.core.servo.choice import ServoChoice, choice_parts, offered_catalogue, simulatable
-from app.core.servo.model import ServoModel
-from app.core.servo.user_files import UserServoFile, records
-from app.core.simulation.battery import (
-    MIN_DISTANCE_M,
-    energy_figures,
-    horizontal_travel_m,
-    positive_work_J,
+from app.core.servo.choice import (
+    JointServo,
+    ServoChoice,
+    choice_parts,
+    offered_catalogue,
+    simulatable,
 )
+from app.core.servo.model import ServoModel
+from app.core.servo.parts import ServoPartsError
+from app.core.servo.sizing import Sizing, totals
+from app.core.servo.sizing_work import Work
+from app.core.servo.user_files import UserServoFile, records
+from app.core.simulation.battery import run_energy_figures
 from app.core.simulation.result import SimulationResult
 from app.core.simulation.servo_law import ServoLaw
 
@@ -74,20 +80,12 @@ def energy_line(
         vin[robot.joint_names.index(name)] = joint.vin_V or (
             firmware.vin_V if firmware is not None else 1.0
         )
-    planned_xy = trajectory.q[:, :2]
-    work = float("nan")
-    if torques is not None and horizontal_travel_m(planned_xy) >= MIN_DISTANCE_M:
-        speed = trajectory.v[:, [j.idx_v for j in robot.joints]]
-        work = positive_work_J(np.nan_to_num(torques.tau_Nm), speed, trajectory.dt)
-    shown = result.t <= result.simulated_until_s
-    f = energy_figures(
-        energy,
+    f = run_energy_figures(
+        result,
+        robot,
+        trajectory,
         vin,
-        robot.mass_kg,
-        float(np.linalg.norm(robot.model.gravity.linear)),
-        result.q[shown, :2],
-        planned_xy,
-        work,
+        lambda: None if torques is None else np.nan_to_num(torques.tau_Nm),
         choice.battery_Wh,
     )
     sr = (
@@ -150,3 +148,62 @@ def users_of_files(choice: ServoChoice, besides: list[str]) -> list[str]:
         for name, joint in zip(choice.joint_names, choice.joints, strict=True)
         if joint.servo in keys and name not in besides
     ]
+
+
+def without_file(choice: ServoChoice, name: str) -> tuple[ServoChoice, list[str]]:
+    """`choice` without the user's servo file `name`, every joint on one of its servos put
+    back on the ideal servo, and those joints; ServoPartsError when no file has that name."""
+    file = next((f for f in choice.user_servos if f.name == name), None)
+    if file is None:
+        kept = ", ".join(f.name for f in choice.user_servos) or "none"
+        raise ServoPartsError(f"no servo file named {name!r} is kept (kept: {kept})")
+    keys = {record.key for record in records(file)}
+    reset = [n for n, j in zip(choice.joint_names, choice.joints, strict=True) if j.servo in keys]
+    return (
+        dataclasses.replace(
+            choice,
+            user_servos=tuple(f for f in choice.user_servos if f.name != name),
+            joints=tuple(JointServo() if j.servo in keys else j for j in choice.joints),
+        ),
+        reset,
+    )
+
+
+def removed_text(name: str, keys: list[str], reset: list[str]) -> str:
+    """What the Servos folder says of a user's file just removed (markdown)."""
+    text = f"Removed **{name}** ({', '.join(keys)})"
+    if not reset:
+        return text + "; no joint was on its servos. *Undo* puts it back."
+    return (
+        text + f"; {len(reset)} joint(s) were on its servos and are back on the **ideal servo**: "
+        f"{', '.join(reset)}. *Undo* puts the file and their servos back."
+    )
+
+
+def sizing_text(
+    sizing: Sizing, works: dict[str, Work], records: dict[str, ServoRecord], total: int
+) -> str:
+    """The per-joint choice with its margins, the joints no servo holds, and what the chosen
+    servos add up to (markdown); `records`: the servos sized over."""
+    held = len(sizing.joints) - len(sizing.unsized)
+    lines = [
+        f"**Sized** against {', '.join(works)} over {len(records)} servos the simulation can run "
+        f"(of {total} in the catalogue), margin {sizing.margin:.0%}: {held} of "
+        f"{len(sizing.joints)} joints"
+    ]
+    for joint in sizing.joints:
+        if joint.choice is not None:
+            c = joint.check(joint.choice)
+            lines.append(
+                f"{joint.joint}: **{c.servo}**, peak margin {c.peak_margin:+.0%}, RMS "
+                f"{c.rms_torque_Nm:.3g} of {c.continuous_torque_Nm:.3g} N·m"
+            )
+        else:
+            best = max(joint.checks, key=lambda c: min(c.peak_margin, c.thermal_margin))
+            lines.append(
+                f"⚠️ {joint.joint}: **no servo holds it** (left on the ideal servo); closest "
+                f"{best.servo}: " + "; ".join(best.violations())
+            )
+    lines.append(f"**Total**: {totals(sizing, records).line()}")
+    lines += [f"note: {note}" for note in sizing.notes]
+    return "  \n".join(lines)

@@ -36,11 +36,19 @@ from app.core.servo.choice import (
     take_joints,
     with_parts,
 )
-from app.core.servo.sizing import Sizing, check_joint, envelope, totals
+from app.core.servo.sizing import Sizing, check_joint, envelope
 from app.core.servo.sizing_work import Work, gait_work, motion_work, size_works
-from app.core.servo.user_files import UserServoFile, adding, user_file
+from app.core.servo.user_files import UserServoFile, adding, records, user_file
 from app.studio.notifier import Notifier
-from app.studio.servo_parts import added_text, catalogue, not_offered_text, users_of_files
+from app.studio.servo_parts import (
+    added_text,
+    catalogue,
+    not_offered_text,
+    removed_text,
+    sizing_text,
+    users_of_files,
+    without_file,
+)
 from app.studio.signals import Signal
 from app.studio.state import LoadedRobot, StudioState
 from app.studio.work import Coefficients
@@ -114,6 +122,7 @@ class ServosSession:
             [(k, f"{k} — {r.maker} {r.model}") for k, r in sorted(self.records.items())],
             not_offered_text(offered),
         )
+        self.panel.show_user_files([f.name for f in files])
 
     def _on_coefficients(self, _coefficients: Coefficients) -> None:
         self._show_selected()
@@ -170,6 +179,27 @@ class ServosSession:
         if not self._apply(replace(choice, user_servos=files), "parts", client):
             return False
         self.panel.status.content = added_text(file, offered)
+        return True
+
+    def remove_servo_file(self, name: str, client: viser.ClientHandle | None = None) -> bool:
+        """The user's servo file `name` taken out of those offered; the joints on its servos
+        go back to the ideal servo (keeping the compliance they had) and are named in the
+        folder and to the tab. *Undo* puts the file and their servos back."""
+        choice = self.choice()
+        if choice is None:
+            return False
+        try:
+            file = next((f for f in choice.user_servos if f.name == name), None)
+            keys = [r.key for r in records(file)] if file is not None else []
+            changed, reset = without_file(choice, name)
+        except StudioError as error:
+            self._fail("Servo file not removed", str(error), client)
+            return False
+        if not self._apply(changed, "parts", client):
+            return False
+        said = removed_text(name, keys, reset)
+        self.panel.status.content = said
+        self._notifier.notify("Servo file removed", said.replace("**", ""), client, "blue")
         return True
 
     def restore_parts(self, choice: ServoChoice | None, coefficients: tuple[Any, Any]) -> None:
@@ -362,32 +392,3 @@ class ServosSession:
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
         self.panel.status.content = f"⚠️ {body}"
         self._notifier.error(title, body, client)
-
-
-def sizing_text(
-    sizing: Sizing, works: dict[str, Work], records: dict[str, ServoRecord], total: int
-) -> str:
-    """The per-joint choice with its margins, the joints no servo holds, and what the chosen
-    servos add up to (markdown); `records`: the servos sized over."""
-    held = len(sizing.joints) - len(sizing.unsized)
-    lines = [
-        f"**Sized** against {', '.join(works)} over {len(records)} servos the simulation can run "
-        f"(of {total} in the catalogue), margin {sizing.margin:.0%}: {held} of "
-        f"{len(sizing.joints)} joints"
-    ]
-    for joint in sizing.joints:
-        if joint.choice is not None:
-            c = joint.check(joint.choice)
-            lines.append(
-                f"{joint.joint}: **{c.servo}**, peak margin {c.peak_margin:+.0%}, RMS "
-                f"{c.rms_torque_Nm:.3g} of {c.continuous_torque_Nm:.3g} N·m"
-            )
-        else:
-            best = max(joint.checks, key=lambda c: min(c.peak_margin, c.thermal_margin))
-            lines.append(
-                f"⚠️ {joint.joint}: **no servo holds it** (left on the ideal servo); closest "
-                f"{best.servo}: " + "; ".join(best.violations())
-            )
-    lines.append(f"**Total**: {totals(sizing, records).line()}")
-    lines += [f"note: {note}" for note in sizing.notes]
-    return "  \n".join(lines)

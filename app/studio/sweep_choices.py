@@ -6,7 +6,10 @@ values into the sweep data `SweepSpec.from_mapping` reads.
 
 The servo parts: "part:servo" is categorical, its min and max the first and last of the
 servos the simulation can run in key order (`part_servos`: 0 is the first), "part:kp" the
-firmware's P gain on them (app.core.sweeps.part_parameters).
+firmware's P gain on them (app.core.sweeps.part_parameters). The project's own servo files
+(the Servos folder's *Add servo file*) are offered too: their servos join `part_servos`, and
+the sweep data carries the files whose servos it chooses (`user_servos`: name and text), so
+the workers and the project's saved sweep have them.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ import numpy as np
 
 from app.core.collocation.controls import CONTROLS
 from app.core.errors import StudioError
+from app.core.servo.user_files import UserServoFile, records
 from app.core.sweeps.part_parameters import runnable_servos
 from app.core.sweeps.robot_variants import ROBOT_PARAMETERS, sweep_robot_of
 from app.core.sweeps.servo_metrics import SERVO_PARAMETERS, simulation_cost_s
@@ -47,9 +51,13 @@ class SweptRobot:
     defaults: Any = None
     """The loaded robot's planner defaults (GaitSettings), or the StudioError why the
     planner cannot walk it."""
+    user_servos: tuple[Any, ...] = ()
+    """The project's own servo files (UserServoFile), offered beside the catalogue."""
 
     @classmethod
-    def of(cls, robot: Any, package_roots: tuple[str, ...]) -> SweptRobot:
+    def of(
+        cls, robot: Any, package_roots: tuple[str, ...], user_servos: tuple[Any, ...] = ()
+    ) -> SweptRobot:
         """The sweep of a loaded RobotModel `robot`."""
         from app.core.collocation.defaults import default_settings
 
@@ -63,6 +71,7 @@ class SweptRobot:
             (robot.foot("left").link, robot.foot("right").link),
             package_roots,
             defaults,
+            user_servos,
         )
 
     def shown_defaults(self) -> Any:
@@ -80,8 +89,14 @@ class SweptRobot:
         if self.robot not in BUILTIN_ROBOTS and self.feet is not None:
             data |= {"package_roots": list(self.package_roots), "feet": list(self.feet)}
         values = dict(values)
+        keys = part_servos(self.user_servos)
         if "parameter" in values:
-            values["parameter"] = [_with_choices(p) for p in values["parameter"]]
+            values["parameter"] = [_with_choices(p, keys) for p in values["parameter"]]
+        chosen = {k for p in values.get("parameter", []) for k in p.get("choices", ())}
+        chosen |= {dict(values.get("part", {})).get("servo")}
+        files = [f for f in self.user_servos if chosen & {r.key for r in records(f)}]
+        if files:
+            data["user_servos"] = [{"name": f.name, "text": f.text} for f in files]
         return {**data, **values}
 
     def planner_defaults(self) -> Any:
@@ -95,7 +110,7 @@ class SweptRobot:
     def line(self) -> str:
         """Which robot the panel sweeps, why robot parameters are missing where they are, and
         the servos part:servo's min … max index."""
-        servos = ", ".join(f"{i} {key}" for i, key in enumerate(part_servos()))
+        servos = ", ".join(f"{i} {key}" for i, key in enumerate(part_servos(self.user_servos)))
         parts = f"  \npart:servo (on the legs, min … max of): {servos}; needs *Simulate*."
         if self.robot in ROBOT_PARAMETERS:
             return f"Robot: **{self.robot}** (the loaded robot) and its variants." + parts
@@ -114,10 +129,13 @@ class SweptRobot:
         )
 
 
-def choices(robot: str, defaults: Any) -> dict[str, tuple[float, float]]:
+def choices(
+    robot: str, defaults: Any, user_servos: tuple[Any, ...] = ()
+) -> dict[str, tuple[float, float]]:
     """The panel's parameters for sweep robot `robot` (sweep_robot_of) with their first ranges:
     step length and gait time around the robot's planner `defaults`, the other gait settings
-    over their sliders' ranges, a built-in's robot parameters over what its builder accepts."""
+    over their sliders' ranges, a built-in's robot parameters over what its builder accepts,
+    part:servo over every servo offered (the project's `user_servos` files' included)."""
     out = {f"gait:{c.field}": (float(c.minimum), float(c.maximum)) for c in CONTROLS}
     step, h = defaults.step_length_m, defaults.H_s
     out["gait:step_length_m"] = (round(step * STEP_RANGE[0], 4), round(step * STEP_RANGE[1], 4))
@@ -126,20 +144,24 @@ def choices(robot: str, defaults: Any) -> dict[str, tuple[float, float]]:
         out[f"robot:{p.name}"] = (p.minimum, p.maximum)
     for s in SERVO_PARAMETERS.values():
         out[f"servo:{s.name}"] = (s.minimum, s.maximum)
-    out["part:servo"] = (0.0, float(len(part_servos()) - 1))
+    out["part:servo"] = (0.0, float(len(part_servos(user_servos)) - 1))
     out["part:kp"] = KP_RANGE
     return out
 
 
-def part_servos() -> tuple[str, ...]:
-    """The servos a sweep's part:servo row picks from, by index: those the simulation can run."""
-    return tuple(sorted(runnable_servos()))
+def part_servos(user_servos: tuple[Any, ...] = ()) -> tuple[str, ...]:
+    """The servos a sweep's part:servo row picks from, by index: those the simulation can run,
+    the user's files' (UserServoFile) included; a file that cannot be used offers none (the
+    Servos folder said why when it was added)."""
+    try:
+        return tuple(sorted(runnable_servos(tuple(user_servos))))
+    except StudioError:
+        return tuple(sorted(runnable_servos()))
 
 
-def _with_choices(parameter: dict[str, Any]) -> dict[str, Any]:
+def _with_choices(parameter: dict[str, Any], keys: tuple[str, ...]) -> dict[str, Any]:
     if (parameter.get("kind"), parameter.get("name")) != ("part", "servo"):
         return parameter
-    keys = part_servos()
     lo, hi = (parameter.get(k) for k in ("min", "max"))
     if not all(isinstance(v, float | int) and np.isfinite(v) for v in (lo, hi)):
         raise StudioError(f"part:servo: min and max are indices 0 … {len(keys) - 1}")
@@ -152,10 +174,12 @@ def _with_choices(parameter: dict[str, Any]) -> dict[str, Any]:
     return {"kind": "part", "name": "servo", "choices": list(keys[first : last + 1])}
 
 
-def panel_data(data: dict[str, Any]) -> dict[str, Any]:
+def panel_data(data: dict[str, Any], user_servos: tuple[Any, ...] = ()) -> dict[str, Any]:
     """A sweep's data as the panel shows it: a part:servo parameter's choices as its min and
-    max indices (of `part_servos`)."""
-    keys = part_servos()
+    max indices (of `part_servos` of the project's `user_servos` and the sweep's own files)."""
+    names = {f.name for f in user_servos}
+    own = [UserServoFile(f["name"], f["text"]) for f in data.get("user_servos", ())]
+    keys = part_servos((*user_servos, *(f for f in own if f.name not in names)))
     shown = []
     for p in data.get("parameter", []):
         if "choices" in p:

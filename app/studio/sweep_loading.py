@@ -4,7 +4,9 @@ The point's gait is solved again on a worker (the NLP is warm there); the varian
 with `StudioState.set_robot` and a walk of the gait played with `set_motion`. A point of a
 simulated sweep also hands its servo settings (the compliance, dead band and compensation it was
 simulated with) to the Compensation panel through the `servos` callback, and its servo parts
-(a catalogue servo and kp on the legs, or the ideal servo everywhere) to the state's parts.
+(a catalogue servo and kp on the legs, or the ideal servo everywhere) to the state's parts,
+with the sweep's own user servo files the project does not keep yet (a file removed since
+comes back with the point that runs its servo).
 """
 
 from __future__ import annotations
@@ -40,8 +42,9 @@ class PointLoader:
     """Where the URDFs of loaded sweep designs are kept (the data folder's variants/)."""
     servos: ServoSettings | None = None
 
-    def load(self, engine: Any, point: SweepPoint) -> None:
-        """Solve `point`'s gait on `engine` and load its robot and walk (StudioError: why not)."""
+    def load(self, engine: Any, point: SweepPoint, user_servos: tuple[Any, ...] = ()) -> None:
+        """Solve `point`'s gait on `engine` and load its robot and walk (StudioError: why not);
+        `user_servos`: the sweep's own servo files (UserServoFile)."""
         from app.core.collocation.planar_model import PlanarModel
         from app.core.robot.report import robot_report
         from app.core.walking.walk import build_walk
@@ -84,13 +87,16 @@ class PointLoader:
         if servos is not None and self.servos is not None:
             self.servos(*servos)  # after the robot: loading it reset the servos
         if servos is not None and point.simulation is not None:
-            self._keep_parts(robot, point.simulation, servos)
+            self._keep_parts(robot, point.simulation, servos, user_servos)
         self.state.on_play.emit(None)
 
-    def _keep_parts(self, robot: RobotModel, setup: Any, servos: tuple[Any, Any]) -> None:
+    def _keep_parts(
+        self, robot: RobotModel, setup: Any, servos: tuple[Any, Any], user_servos: tuple[Any, ...]
+    ) -> None:
         """The point's parts into the state: its servo and kp on the legs (the ideal servo
         elsewhere), or every joint ideal for a point simulated on the virtual servos."""
-        from app.core.servo.choice import JointServo, ideal_choice
+        from app.core.servo.choice import JointServo, ideal_choice, offered_catalogue
+        from app.studio.servo_parts import catalogue
 
         with self.state.lock:
             if self.state.robot is not robot:
@@ -100,6 +106,17 @@ class PointLoader:
             if current is not None:
                 choice = dataclasses.replace(choice, user_servos=current.user_servos)
             part = setup.part
+            kept = {f.name for f in choice.user_servos}
+            missing = tuple(f for f in user_servos if f.name not in kept)
+            if part is not None and part.servo not in offered_catalogue(choice, catalogue()):
+                with_sweeps = dataclasses.replace(
+                    choice, user_servos=(*choice.user_servos, *missing)
+                )
+                try:  # the sweep's file back, unless its keys clash with the project's own
+                    offered_catalogue(with_sweeps, catalogue())
+                    choice = with_sweeps
+                except StudioError:
+                    pass  # the part then says which servo is unknown, in one line
             if part is not None:
                 for name in leg_parts(robot, part).joint_names:
                     joint = JointServo(part.servo, kp=part.kp, dead_band_deg=part.dead_band_deg)

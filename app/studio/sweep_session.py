@@ -38,6 +38,7 @@ import viser
 from app.core.errors import StudioError
 from app.core.projects.project import Project
 from app.core.sweeps.evaluate import PointResult
+from app.core.sweeps.part_metrics import MAXIMISED
 from app.core.sweeps.results import SweepRecord, pareto_indices
 from app.core.sweeps.sampling import SweepPoint, start_point, sweep_points
 from app.core.sweeps.spec import METRICS, SweepSpec
@@ -123,9 +124,11 @@ class SweepSession:
             offered,
             "Robot: none loaded yet.",
             cost_line,
+            MAXIMISED,
         )
         self._view = SweepView(server, panel)
         state.on_robot.connect(self._on_robot)
+        state.work.on_parts.connect(self._on_parts)
 
     @property
     def panel(self) -> SweepPanel:
@@ -142,15 +145,25 @@ class SweepSession:
         """A robot loaded: sweep it. The panel's choices start again for it; a running sweep
         (of the robot before) is cancelled."""
         robot = loaded.robot
-        self._swept = swept = SweptRobot.of(robot, self._swept.package_roots)
+        self._swept = swept = SweptRobot.of(
+            robot, self._swept.package_roots, self._swept.user_servos
+        )
         if self._running.alive():
             self._running.changed_to = robot.name
             self.cancel()
         self.picker.place(robot)
-        offered = choices(swept.robot, swept.shown_defaults())
+        offered = choices(swept.robot, swept.shown_defaults(), swept.user_servos)
         self.panel.offer(ordered(offered), offered, swept.line())
         self.on_choices.emit(swept.robot)
         self._workers.robot_loaded()
+
+    def _on_parts(self, choice: Any) -> None:
+        """The servo parts changed: the project's own servo files join part:servo's choices."""
+        if choice.user_servos == self._swept.user_servos:
+            return
+        self._swept = swept = dataclasses.replace(self._swept, user_servos=choice.user_servos)
+        offered = choices(swept.robot, swept.shown_defaults(), swept.user_servos)
+        self.panel.offer_servos(offered, swept.line())
 
     @property
     def prepared_s(self) -> dict[str, float]:
@@ -206,7 +219,7 @@ class SweepSession:
             if running.alive():
                 return
             try:
-                data = self._swept.spec_data(self.panel.spec_values())
+                data = self.panel_sweep()
                 spec = SweepSpec.from_mapping(data, "sweep panel")
                 workers = whole(self.panel.workers.value, "workers")
                 points = sweep_points(spec, self._swept.planner_defaults())
@@ -221,6 +234,11 @@ class SweepSession:
                 target=self._sweep, args=(spec, points, workers, client), name="sweep-runner"
             )
             running.thread.start()
+
+    def panel_sweep(self) -> dict[str, Any]:
+        """The sweep data the panel's rows make now, for the robot swept and the project's
+        own servo files (what Run checks); StudioError for rows that make none."""
+        return self._swept.spec_data(self.panel.spec_values())
 
     def cancel(self) -> None:
         self._running.cancelling = True  # before reading the run: a run starting now sees it
@@ -301,7 +319,8 @@ class SweepSession:
         try:
             if engine is None:  # a sweep restored from a project: start the workers now
                 engine = self._workers.engine_for(1)
-            self._loader.load(engine, point)
+            outcome = self.outcome
+            self._loader.load(engine, point, outcome.spec.user_servos if outcome else ())
         except Exception as error:  # a thread boundary: bad input, or a worker lost meanwhile
             if not isinstance(error, StudioError):
                 log.exception("loading a sweep point failed")
@@ -333,7 +352,9 @@ class SweepSession:
         else:
             self.points = {}
         self.outcome = SweepOutcome(spec, results, front, record.cancelled)
-        self._view.restored(record, front, loadable=bool(self.points))
+        self._view.restored(
+            record, front, loadable=bool(self.points), user_servos=self._swept.user_servos
+        )
 
     def close(self) -> None:
         self.cancel()

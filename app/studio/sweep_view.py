@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import viser
@@ -75,11 +76,18 @@ class SweepView:
         if self.picker.selected is None:
             self.picker.pick_first(front, self.panel.point.value)
 
-    def restored(self, record: SweepRecord, front: tuple[int, ...], loadable: bool) -> None:
-        """A project's sweep: its spec in the panel, its points plotted; Load point is off
-        while its points cannot be loaded (`loadable`: a URDF's sweep before that robot)."""
+    def restored(
+        self,
+        record: SweepRecord,
+        front: tuple[int, ...],
+        loadable: bool,
+        user_servos: tuple[Any, ...] = (),
+    ) -> None:
+        """A project's sweep: its spec in the panel (part:servo indices over the project's
+        `user_servos` too), its points plotted; Load point is off while its points cannot be
+        loaded (`loadable`: a URDF's sweep before that robot)."""
         spec, results = record.spec(), record.results
-        self.panel.show_spec(panel_data(json.loads(record.spec_json)))
+        self.panel.show_spec(panel_data(json.loads(record.spec_json), user_servos))
         solved = [r for r in results if r.solved]
         counts = tally(results, spec.n_points, spec.simulate, finished=True).line()
         self.say(

@@ -164,6 +164,9 @@ def _parts_edit(before: ServoChoice | None, after: ServoChoice | None) -> str:
     ]
     files = before.user_servos if before is not None else ()
     if after.user_servos != files:
+        gone = sorted({f.name for f in files} - {f.name for f in after.user_servos})
+        if gone and len(after.user_servos) < len(files):
+            return f"servo file {', '.join(gone)} removed"
         names = ", ".join(f.name for f in after.user_servos) or "none"
         return f"servo files ({names})"
     if not changed:

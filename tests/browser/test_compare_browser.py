@@ -5,7 +5,6 @@ Side buttons move this tab's camera to look at the robot from its front and its 
 
 from __future__ import annotations
 
-import contextlib
 import io
 import re
 
@@ -17,15 +16,13 @@ from PIL import Image
 from app.studio import Studio
 from app.views.ghosts_view import GHOSTS
 from tests.browser.page_helpers import (
-    RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
     changed,
     click_button,
-    dismiss_software_webgl_warning,
     expand_folder,
-    folder_title,
     gui_row_input,
     not_blank,
+    open_studio,
     wait_for,
     wait_stable,
 )
@@ -38,13 +35,7 @@ DIRECTION_TOLERANCE = 0.02
 
 @pytest.fixture(scope="module")
 def page(browser_page, studio_url: str):
-    browser_page.goto(studio_url)
-    folder_title(browser_page, "Playback").wait_for(
-        state="visible", timeout=RENDER_TIMEOUT_S * 1000
-    )
-    with contextlib.suppress(Exception):  # cosmetic: a notice left open must not fail a test
-        dismiss_software_webgl_warning(browser_page)
-    return browser_page
+    return open_studio(browser_page, studio_url)
 
 
 def label_of(page, text: str):

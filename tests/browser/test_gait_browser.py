@@ -31,6 +31,7 @@ from tests.browser.page_helpers import (
     folder,
     folder_title,
     not_blank,
+    open_studio,
     publish,
     type_number,
     wait_for,
@@ -107,15 +108,11 @@ def click_solve(page) -> float:
 
 @pytest.fixture(scope="module")
 def page(browser_page, studio_url: str):
-    """The studio page, loaded once and connected (its Playback folder is drawn), with the
-    status recorder installed."""
-    browser_page.goto(studio_url)
-    folder_title(browser_page, "Playback").wait_for(
-        state="visible", timeout=RENDER_TIMEOUT_S * 1000
-    )
-    dismiss_software_webgl_warning(browser_page)
-    browser_page.evaluate(RECORDER_JS, list(MARKERS))
-    return browser_page
+    """The studio page, loaded once and connected (`open_studio`), with the status recorder
+    installed."""
+    page = open_studio(browser_page, studio_url)
+    page.evaluate(RECORDER_JS, list(MARKERS))
+    return page
 
 
 def test_solve_shows_progress_then_results(page, studio: Studio) -> None:

@@ -1,7 +1,10 @@
 """End to end in a real headless Chromium: run a small sweep from the "Sweep" folder, see the
 counts and the Pareto plot drawn, turn the camera to the plot in the 3D view and click a point
 on it (the panel shows the point picked), then type a point of the front and load it (its robot
-and a walk of its gait).
+and a walk of its gait). Then the servo parts, by the page: the user's own servo file uploaded
+in the Servos folder joins the Sweep folder's part:servo choices, whose rows, simulation switch
+and the parts' Pareto axes set on the page reach the studio's sweep; the file removed in the
+Servos folder puts the joint on its servo back on the ideal servo, and Undo brings it back.
 
 viser's GUI plots report no clicks, so the clickable plot is a board of scene nodes beside the
 robot: the test projects a point's position through the camera the tab reports (the pinhole
@@ -25,10 +28,13 @@ from tests.browser.page_helpers import (
     expand_folder,
     folder,
     folder_title,
+    gui_row_input,
     scene_canvas_box,
     screen_point,
+    select_option,
     type_number,
     wait_for,
+    wait_notified,
 )
 
 SWEEP = "Sweep"
@@ -109,3 +115,97 @@ def test_run_a_sweep_and_load_a_pareto_point(page, studio: Studio) -> None:
     assert robot is not None and robot.name == "dircon_biped"
     motion = studio.state.motion
     assert motion is not None and f"sweep point #{best}" in motion.summary
+
+
+def test_a_users_servo_file_in_a_sweep_over_parts_and_removed(page, studio: Studio) -> None:
+    from app.core.servo.catalogue import load_catalogue
+    from app.core.servo.choice import simulatable
+    from app.core.sweeps.spec import SweepSpec
+    from tests.browser.test_servos_browser import upload
+    from tests.test_sweep_part_axes import user_mx106
+
+    expand_folder(page, "Servos", "Add servo file (.toml)")
+    servos = folder(page, "Servos")
+    upload(page, "mine.toml", user_mx106())
+    servos.get_by_text("Added 1 servo(s) from mine.toml", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    keys = sorted([*simulatable(load_catalogue()), "my106"])
+    at = keys.index("my106")
+
+    # the Sweep folder: the user's servo among part:servo's choices, set from the page
+    expand_folder(page, SWEEP, "Run sweep")
+    sweep = folder(page, SWEEP)
+    sweep.get_by_text(f"{at} my106", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    select_option(page, "Parameter 1", "part:servo")
+    type_number(page, "1: min", at - 1)
+    type_number(page, "1: max", at)
+    select_option(page, "Parameter 2", "part:kp")
+    type_number(page, "2: min", 16)
+    type_number(page, "2: max", 48)
+    if not studio.sweep.panel.simulate.value:
+        gui_row_input(page, "Simulate each point", "input[type=checkbox]").click()
+    select_option(page, "Metric x", "servo_mass_kg")
+    select_option(page, "Metric y", "electrical_energy_J")
+
+    def spec() -> SweepSpec | None:
+        try:
+            return SweepSpec.from_mapping(studio.sweep.panel_sweep())
+        except Exception:  # the page's rows still on their way
+            return None
+
+    swept = wait_for(
+        "the page's parts sweep in the studio",
+        lambda: (
+            (s := spec()) is not None
+            and s.parameters[0].choices == (keys[at - 1], "my106")
+            and (s.parameters[1].minimum, s.parameters[1].maximum) == (16.0, 48.0)
+            and s.pareto == (("servo_mass_kg", "min"), ("electrical_energy_J", "min"))
+            and s
+        ),
+        UI_TIMEOUT_S,
+    )
+    assert swept.simulate and [f.name for f in swept.user_servos] == ["mine.toml"]
+
+    # the user's servo on a joint, then its file removed: the joint back on the ideal servo
+    joint = studio.state.robot.joint_names[0]
+    select_option(page, "Servo of joint", joint)
+    select_option(page, "Servo", "my106 — ROBOTIS Dynamixel MX-106T/R")
+    wait_for(
+        f"my106 on {joint}",
+        lambda: (p := studio.state.work.parts) is not None and p.joint(joint).servo == "my106",
+        UI_TIMEOUT_S,
+    )
+    history = studio.project.undo_steps.history
+    wait_for(
+        "my106 on the joint to be an undo step",
+        lambda: history.past and history.past[-1].servo_parts is studio.state.work.parts,
+        UI_TIMEOUT_S,
+    )
+    select_option(page, "Servo file", "mine.toml")
+    click_button(page, "Remove servo file")
+    wait_notified(page, "Servo file removed", f"back on the ideal servo: {joint}", UI_TIMEOUT_S)
+    parts = studio.state.work.parts
+    assert parts.joint(joint).is_ideal and not parts.user_servos
+    sweep.get_by_text(f"{at} my106", exact=False).wait_for(
+        state="hidden", timeout=UI_TIMEOUT_S * 1000
+    )
+
+    wait_for(
+        "the removal to be an undo step",
+        lambda: history.past[-1].servo_parts is studio.state.work.parts,
+        UI_TIMEOUT_S,
+    )
+    expand_folder(page, "Project", "Undo")
+    click_button(page, "Undo")
+    wait_notified(page, "Undid: servo file mine.toml removed", "", UI_TIMEOUT_S)
+    parts = wait_for(
+        "Undo to put the file and the joint's servo back",
+        lambda: (
+            (p := studio.state.work.parts) is not None and p.joint(joint).servo == "my106" and p
+        ),
+        UI_TIMEOUT_S,
+    )
+    assert [f.name for f in parts.user_servos] == ["mine.toml"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from app.core.simulation.battery import (
     battery_minutes,
     energy_figures,
     positive_work_J,
+    run_energy_figures,
     specific_resistance,
 )
 from app.core.simulation.part_law import PartEnergy
@@ -63,3 +65,40 @@ def test_positive_work_is_the_integral_of_the_positive_power():
 def test_a_bad_pack_is_one_clear_error(pack):
     with pytest.raises(BatteryError, match="Wh"):
         battery_minutes(pack, 3.0)
+
+
+def _run_of(planned_x_m: float):
+    """A 1-joint robot of 6 kg, a plan of 5 samples 0.5 s apart moving the base `planned_x_m`
+    along x with the joint at 2 rad/s, and a run that covered 3 m before falling at 1 s."""
+    robot = SimpleNamespace(
+        joints=[SimpleNamespace(idx_v=6)],
+        mass_kg=6.0,
+        model=SimpleNamespace(gravity=SimpleNamespace(linear=np.array([0.0, 0.0, -9.81]))),
+    )
+    t = np.arange(5) * 0.5
+    q = np.zeros((5, 8))
+    q[:, 0] = np.linspace(0.0, planned_x_m, 5)
+    v = np.zeros((5, 7))
+    v[:, 6] = 2.0
+    plan = SimpleNamespace(q=q, v=v, dt=0.5)
+    ran = np.zeros((5, 8))
+    ran[:, 0] = [0.0, 1.5, 3.0, 0.0, 0.0]  # after the fall (t > 1 s) the base is not counted
+    result = SimpleNamespace(
+        energy=_energy([30.0], 1.0, peaks=(1.0,)), t=t, simulated_until_s=1.0, q=ran
+    )
+    return robot, plan, result
+
+
+def test_a_run_counts_its_simulated_stretch_and_asks_for_torques_only_when_it_travels():
+    robot, plan, result = _run_of(6.0)
+    tau = np.full((5, 1), 1.5)
+    f = run_energy_figures(result, robot, plan, np.array([12.0]), lambda: tau, pack_Wh=None)
+    assert f.distance_m == pytest.approx(3.0) and f.planned_distance_m == pytest.approx(6.0)
+    assert f.sr_electrical == pytest.approx(30.0 / (6.0 * 9.81 * 3.0))
+    work = 1.5 * 2.0 * 2.0  # 3 W for the plan's 2 s
+    assert f.planned_work_J == pytest.approx(work)
+    assert f.sr_planned == pytest.approx(work / (6.0 * 9.81 * 6.0))
+
+    robot, plan, result = _run_of(0.05)  # in place: no SR, the torques never asked for
+    f = run_energy_figures(result, robot, plan, np.array([12.0]), lambda: pytest.fail("asked"))
+    assert f.sr_planned is None

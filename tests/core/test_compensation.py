@@ -24,11 +24,6 @@ from tests.conftest import ROBAN_URDF
 D = math.radians
 
 
-@pytest.fixture(scope="module")
-def servo_biped():
-    return load_robot("servo_biped")
-
-
 def params(k, phi=None, enabled=None, sign="command", names=None):
     n = len(k)
     return CompensationParams(
@@ -286,7 +281,10 @@ def test_read_torque_csv_by_column_names():
         ("tau:a [N·m]\n1\n", r"no 't \[s\]' column"),
         ("t [s],tau:a [rad]\n0,1\n", "must be in N·m"),
         ("t [s],tau:a [N·m]\n0,1\n", "no tau:<joint> column for b"),
-        ("t [s],tau:a [N·m],tau:b [N·m],tau:c [N·m]\n0,1,2,3\n", "does not have: c"),
+        (
+            "t [s],tau:a [N·m],tau:b [N·m],tau:c [N·m]\n0,1,2,3\n",
+            "no joint named 'c' on this robot",
+        ),
         ("t [s],tau:a [N·m],tau:b [N·m]\n0,1,2\n0.1,x,2\n", "line 3: tau:a \\[N·m\\] 'x'"),
         ("t [s],tau:a [N·m],tau:b [N·m]\n0,1,nan\n", "line 2: tau:b \\[N·m\\] is 'nan'"),
         ("t [s],tau:a [N·m],tau:b [N·m]\n", "no samples"),

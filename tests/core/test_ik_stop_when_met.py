@@ -15,22 +15,19 @@ from __future__ import annotations
 
 import numpy as np
 import pinocchio as pin
-import placo
 import pytest
 
 from app.core.posing.drag import Posing
 from app.core.posing.ik import (
-    DAMPING_MIN,
     REACHED_M,
     REACHED_RAD,
     TORSO_TURN_RAD,
-    TORSO_WEIGHT,
     IkTargets,
     WholeBodyIK,
 )
 from app.core.robot.loading import load_robot
-from app.core.robot.urdf_xml import canonical_urdf
 from tests.conftest import ROBAN_URDF
+from tests.core.foot_drags import placo_fixed_point
 
 SAME_POSE = 1e-2
 """[rad, m] per configuration entry (0.6°): the steps the rule skips move the joints along the
@@ -78,49 +75,6 @@ def _errors(robot, q, target, R_torso):
     )
 
 
-def _placo_fixed_point(robot, posing: Posing, q_from, posture_q, R_torso, target):
-    """placo alone on the drag event's problem (left foot soft, right held hard, torso hold,
-    posture towards the gesture's start, damping, CoM in the right sole's polygon), QP steps
-    from q_from applied until |dq| < 1e-11: (configuration, iterations; a million when the QP
-    is infeasible, the CoM starting outside the polygon, which the studio pulls in first)."""
-    wrapper = placo.RobotWrapper("", 0, canonical_urdf(robot.tree))
-    solver = placo.KinematicsSolver(wrapper)
-    solver.enable_joint_limits(True)
-    solver.enable_velocity_limits(False)
-    left, right = (foot.link for foot in robot.feet)
-    left_task = solver.add_frame_task(left, np.eye(4))
-    left_task.configure("left", "soft", 1.0, 1.0)
-    right_task = solver.add_frame_task(right, np.eye(4))
-    right_task.configure("right", "hard", 1.0, 1.0)
-    torso = solver.add_orientation_task(robot.tree.root, np.eye(3))
-    torso.configure("torso", "soft", TORSO_WEIGHT)
-    torso.R_world_frame = R_torso
-    posture = solver.add_joints_task()
-    posture.configure("posture", "soft", posing.ik.posture_weight)
-    posture.set_joints(
-        {j.name: float(posture_q[j.idx_q]) for j in robot.joints if j.kind != "continuous"}
-    )
-    solver.add_regularization_task(DAMPING_MIN)
-    polygon = posing.ik.support_polygon(q_from, "right")[::-1]  # placo wants it clockwise
-    constraint = solver.add_com_polygon_constraint(
-        [np.array(p) for p in polygon], posing.ik.com_margin_m
-    )
-    constraint.configure("com polygon", "hard", 1.0)
-    wrapper.state.q = q_from.copy()
-    wrapper.update_kinematics()
-    right_task.T_world_frame = wrapper.get_T_world_frame(right)
-    left_task.T_world_frame = target
-    for iterations in range(1, 501):  # noqa: B007 - returned
-        try:
-            dq = solver.solve(True)
-        except RuntimeError:  # the CoM outside the polygon at the start: infeasible
-            return q_from, 10**6
-        wrapper.update_kinematics()
-        if np.linalg.norm(dq) < 1e-11:
-            break
-    return wrapper.state.q.copy(), iterations
-
-
 @pytest.mark.parametrize("name", ["servo_biped", "roban"])
 def test_the_drag_stopping_rule_gives_the_pose_of_the_full_convergence_test(name):
     robot = load_robot(str(ROBAN_URDF) if name == "roban" else name)
@@ -149,7 +103,9 @@ def test_the_drag_stopping_rule_gives_the_pose_of_the_full_convergence_test(name
             assert abs(foot_m - old_foot_m) < SAME_MISS_M, k
         fewer_qps += a.iterations < b.iterations
         assert a.iterations <= b.iterations, k
-        fixed, iterations = _placo_fixed_point(robot, new, q_from, gesture.q_start, R_torso, target)
+        fixed, iterations = placo_fixed_point(
+            robot, new.ik, q_from, target, gesture.q_start, R_torso
+        )
         if a.reached and iterations < CONVERGED_WITHIN:
             fixed_foot_m = _errors(robot, fixed, target, R_torso)[0]
             assert foot_m < fixed_foot_m + MET_M, k

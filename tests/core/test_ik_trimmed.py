@@ -14,13 +14,12 @@ the same start:
 from __future__ import annotations
 
 import numpy as np
-import placo
 import pytest
 
-from app.core.posing.ik import DAMPING_MIN, IkTargets, WholeBodyIK
+from app.core.posing.ik import IkTargets, WholeBodyIK
 from app.core.robot.loading import load_robot
-from app.core.robot.urdf_xml import canonical_urdf
 from tests.conftest import ROBAN_URDF
+from tests.core.foot_drags import placo_fixed_point
 from tests.oracles import previous_ik
 
 SAME_FIXED_POINT = 5e-6
@@ -43,41 +42,6 @@ def _circle(robot, q, events=40):
         yield target
 
 
-def _plain_fixed_point(robot, ik, q, target) -> tuple[np.ndarray, int]:
-    """placo alone on the drag problem from q: the left foot soft to target, the right held
-    hard, the posture task towards q, damping, the CoM in the right sole's polygon; QP steps
-    applied until |dq| < 1e-11 (or 500)."""
-    wrapper = placo.RobotWrapper("", 0, canonical_urdf(robot.tree))
-    solver = placo.KinematicsSolver(wrapper)
-    solver.enable_joint_limits(True)
-    solver.enable_velocity_limits(False)
-    solver.mask_fbase(not robot.floating_base)
-    left, right = (foot.link for foot in robot.feet)
-    left_task = solver.add_frame_task(left, np.eye(4))
-    left_task.configure("left", "soft", 1.0, 1.0)
-    right_task = solver.add_frame_task(right, np.eye(4))
-    right_task.configure("right", "hard", 1.0, 1.0)
-    posture = solver.add_joints_task()
-    posture.configure("posture", "soft", ik.posture_weight)
-    posture.set_joints(
-        {joint.name: float(q[joint.idx_q]) for joint in robot.joints if joint.kind != "continuous"}
-    )
-    solver.add_regularization_task(DAMPING_MIN)
-    polygon = ik.support_polygon(q, "right")[::-1]  # placo wants it clockwise
-    constraint = solver.add_com_polygon_constraint([np.array(p) for p in polygon], ik.com_margin_m)
-    constraint.configure("com polygon", "hard", 1.0)
-    wrapper.state.q = q.copy()
-    wrapper.update_kinematics()
-    right_task.T_world_frame = wrapper.get_T_world_frame(right)
-    left_task.T_world_frame = target
-    for iterations in range(1, 501):  # noqa: B007 - returned
-        dq = solver.solve(True)
-        wrapper.update_kinematics()
-        if np.linalg.norm(dq) < 1e-11:
-            break
-    return wrapper.state.q.copy(), iterations
-
-
 @pytest.mark.parametrize("name", ["servo_biped", "roban"])
 def test_drag_events_land_on_placos_own_fixed_point(name):
     robot = load_robot(str(ROBAN_URDF) if name == "roban" else name)
@@ -90,7 +54,7 @@ def test_drag_events_land_on_placos_own_fixed_point(name):
         assert a.reached == b.reached and a.warnings == b.warnings
         assert a.joints_near_limit == b.joints_near_limit
         assert a.com_margin_m == pytest.approx(b.com_margin_m, abs=1e-4)  # 0.1 mm
-        fixed, iterations = _plain_fixed_point(robot, new, q, target)
+        fixed, iterations = placo_fixed_point(robot, new, q, target, q)
         # Event 0 lifts the foot 3.6 cm (beyond one step: the IK approaches through
         # intermediate targets, the plain loop does not), so the two may settle apart along
         # the posture's weak directions; from there on each event is a few mm.

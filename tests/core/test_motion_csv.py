@@ -246,34 +246,22 @@ def test_partial_derivative_columns_are_refused(servo, good_lines, tmp_path) -> 
         read_lines(lines, servo, tmp_path)
 
 
-def test_nan_names_line_and_column(servo, good_lines, tmp_path) -> None:
-    lines = set_cell(good_lines, 3, 5, "nan")
-    with pytest.raises(MotionFileError, match=r"line 3, column 5 \(base_qx\): nan is not a finite"):
-        read_lines(lines, servo, tmp_path)
-    lines = set_cell(good_lines, 6, 12, "inf")
-    with pytest.raises(MotionFileError, match=r"line 6, column 12 .*inf is not a finite"):
-        read_lines(lines, servo, tmp_path)
-
-
-def test_non_numeric_names_line_and_column(servo, good_lines, tmp_path) -> None:
-    lines = set_cell(good_lines, 4, 9, "0.1o")
-    with pytest.raises(
-        MotionFileError,
-        match=r"line 4, column 9 \(q:left_hip_yaw \[rad\]\): '0.1o' is not a number",
-    ):
-        read_lines(lines, servo, tmp_path)
-
-
-def test_non_uniform_time_is_refused(servo, good_lines, tmp_path) -> None:
-    lines = set_cell(good_lines, 5, 1, "0.0312")
-    with pytest.raises(MotionFileError, match=r"line 5: time step .* differs .*evenly spaced"):
-        read_lines(lines, servo, tmp_path)
-
-
-def test_non_increasing_time_is_refused(servo, good_lines, tmp_path) -> None:
-    lines = set_cell(good_lines, 3, 1, "0.0")
-    with pytest.raises(MotionFileError, match=r"line 3: time 0 s does not increase"):
-        read_lines(lines, servo, tmp_path)
+@pytest.mark.parametrize(
+    "line, column, text, message",
+    [
+        (3, 5, "nan", r"line 3, column 5 \(base_qx\): nan is not a finite"),
+        (6, 12, "inf", r"line 6, column 12 .*inf is not a finite"),
+        (4, 9, "0.1o", r"line 4, column 9 \(q:left_hip_yaw \[rad\]\): '0.1o' is not a number"),
+        (5, 1, "0.0312", r"line 5: time step .* differs .*evenly spaced"),
+        (3, 1, "0.0", r"line 3: time 0 s does not increase"),
+    ],
+    ids=["nan", "inf", "not a number", "uneven time", "time going back"],
+)
+def test_a_spoiled_cell_is_named_by_line_and_column(
+    servo, good_lines, tmp_path, line, column, text, message
+) -> None:
+    with pytest.raises(MotionFileError, match=message):
+        read_lines(set_cell(good_lines, line, column, text), servo, tmp_path)
 
 
 def test_too_few_rows_is_refused(servo, good_lines, tmp_path) -> None:

@@ -26,6 +26,7 @@ from app.core.simulation.engine import run_engine
 from app.core.simulation.files import default_servos
 from app.core.simulation.run import prepare
 from app.core.simulation.servo_law import ServoLaw, Setpoints, actuators_xml
+from tests.trajectory_slices import first_samples
 
 PENDULUM = (
     """<mujoco><option gravity="0 0 0"/><worldbody>{bodies}</worldbody>{actuators}</mujoco>"""
@@ -114,12 +115,6 @@ def squats():
     return robot, traj, joint_angles(robot, traj.q)[:keep]
 
 
-def _first(traj, n: int):
-    return dataclasses.replace(
-        traj, t=traj.t[:n], q=traj.q[:n], v=traj.v[:n], a=traj.a[:n], contacts=traj.contacts[:n]
-    )
-
-
 def _both(inp):
     new = run_engine(inp)
     old = run_engine(dataclasses.replace(inp, servo_in_mujoco=False))
@@ -129,7 +124,7 @@ def _both(inp):
 @pytest.mark.parametrize("case", ["hold", "ramps", "jumps"])
 def test_law_in_mujoco_gives_the_python_laws_trajectories(squats, case):
     robot, traj, q_cmd = squats
-    traj = _first(traj, len(q_cmd))
+    traj = first_samples(traj, len(q_cmd))
     servo = default_servos(robot)
     if case == "jumps":  # every 20th command 0.05 rad off: the slew takes several ticks
         q_cmd = q_cmd.copy()
@@ -156,7 +151,7 @@ def test_rigid_servos_on_roban_too():
     robot = load_robot(str(urdf))
     traj = run_motion(robot, "one_leg_squats").trajectory
     q_cmd = joint_angles(robot, traj.q)[:150]
-    traj = _first(traj, 150)
+    traj = first_samples(traj, 150)
     inp = prepare(robot, traj, q_cmd, ServoModel.rigid(robot.joint_names))
     new, old = _both(inp)
     assert new.fall_index == old.fall_index

@@ -21,8 +21,6 @@ recurrence in test_servo_in_mujoco), in C, with no recording. Each recorded colu
 
 from __future__ import annotations
 
-import dataclasses
-
 import mujoco
 import numpy as np
 import pytest
@@ -35,6 +33,7 @@ from app.core.simulation.engine import run_engine, start
 from app.core.simulation.files import default_servos
 from app.core.simulation.run import prepare
 from app.core.simulation.servo_law import Setpoints
+from tests.trajectory_slices import first_samples
 
 SAMPLES = 200
 ACTUATION_OFF = int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
@@ -43,15 +42,7 @@ ACTUATION_OFF = int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
 @pytest.fixture(scope="module")
 def squats_input():
     robot = load_robot("servo_biped")
-    traj = run_motion(robot, "one_leg_squats").trajectory
-    traj = dataclasses.replace(
-        traj,
-        t=traj.t[:SAMPLES],
-        q=traj.q[:SAMPLES],
-        v=traj.v[:SAMPLES],
-        a=traj.a[:SAMPLES],
-        contacts=traj.contacts[:SAMPLES],
-    )
+    traj = first_samples(run_motion(robot, "one_leg_squats").trajectory, SAMPLES)
     q_cmd = joint_angles(robot, traj.q).copy()
     q_cmd[15::25] += 0.04  # jumps the set point's slew needs several ticks for
     return prepare(robot, traj, q_cmd, default_servos(robot))

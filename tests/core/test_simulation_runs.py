@@ -5,8 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.core.motions.library import run_motion
-from app.core.robot.loading import load_robot
 from app.core.servo.model import joint_angles
 from app.core.simulation.errors import SimulationInputError
 from app.core.simulation.experiments import PAPER_EXPERIMENTS, compensations
@@ -14,27 +12,19 @@ from app.core.simulation.files import default_servos, read_servo_toml
 from app.core.simulation.run import simulate_commands
 
 
-@pytest.fixture(scope="module")
-def robot():
-    return load_robot("servo_biped")
-
-
-@pytest.fixture(scope="module")
-def traj(robot):
-    return run_motion(robot, "com_shift").trajectory
-
-
-def test_runs_in_worker_processes_equal_runs_in_this_one(robot, traj):
+def test_runs_in_worker_processes_equal_runs_in_this_one(servo_biped, com_shift):
     """The step loop is deterministic and its inputs pickle: two spawned workers give the
     sequential results bit for bit; progress reaches 1."""
-    q_plan = joint_angles(robot, traj.q)
-    lower = [joint.lower for joint in robot.joints]
-    upper = [joint.upper for joint in robot.joints]
+    q_plan = joint_angles(servo_biped, com_shift.q)
+    lower = [joint.lower for joint in servo_biped.joints]
+    upper = [joint.upper for joint in servo_biped.joints]
     commands = {"plan": q_plan, "shifted": np.clip(q_plan + np.deg2rad(1.0), lower, upper)}
-    servo = default_servos(robot)
+    servo = default_servos(servo_biped)
     seen: list[float] = []
-    here = simulate_commands(robot, traj, commands, servo, parallel=False, progress=seen.append)
-    there = simulate_commands(robot, traj, commands, servo, parallel=True)
+    here = simulate_commands(
+        servo_biped, com_shift, commands, servo, parallel=False, progress=seen.append
+    )
+    there = simulate_commands(servo_biped, com_shift, commands, servo, parallel=True)
     for label in commands:
         np.testing.assert_array_equal(here[label].q, there[label].q)
         assert here[label].label == label
@@ -42,48 +32,48 @@ def test_runs_in_worker_processes_equal_runs_in_this_one(robot, traj):
     assert seen == sorted(seen) and seen[-1] == 1.0 and min(seen) < 0.5
 
 
-def test_servo_toml_defaults_and_overrides(robot, tmp_path):
+def test_servo_toml_defaults_and_overrides(servo_biped, tmp_path):
     path = tmp_path / "servo.toml"
     path.write_text(
         "compliance_deg_per_Nm = 2.0\nbacklash_deg = 1.0\nlegs_only = false\n"
         "[joints.left_knee]\ncompliance_deg_per_Nm = 0.5\n"
     )
-    servo = read_servo_toml(path, robot)
-    knee = robot.joint_names.index("left_knee")
+    servo = read_servo_toml(path, servo_biped)
+    knee = servo_biped.joint_names.index("left_knee")
     assert servo.compliance_deg_per_Nm[knee] == 0.5 and servo.backlash_deg[knee] == 1.0
     others = np.delete(servo.compliance_deg_per_Nm, knee)
     assert np.all(others == 2.0)
     path.write_text("compliance_deg_per_Nm = 'soft'\n")
     with pytest.raises(SimulationInputError, match="finite number"):
-        read_servo_toml(path, robot)
+        read_servo_toml(path, servo_biped)
     path.write_text("stiffness = 3\n")
     with pytest.raises(SimulationInputError, match="unknown key"):
-        read_servo_toml(path, robot)
+        read_servo_toml(path, servo_biped)
 
 
-def test_default_servos_are_on_the_legs(robot):
-    servo = default_servos(robot)
+def test_default_servos_are_on_the_legs(servo_biped):
+    servo = default_servos(servo_biped)
     assert np.all(servo.compliance_deg_per_Nm == 1.4)  # servo_biped has legs only
     assert np.all(servo.backlash_deg == 0.5)
 
 
-def test_the_compared_compensations_invert_the_servo_model(robot):
+def test_the_compared_compensations_invert_the_servo_model(servo_biped):
     """eq 23 with the torque sign and φ = b/2 is the exact inverse of the quasi-static servo
     (q = q_cmd − c·τ − (b/2)·sign τ): applied to random torques it returns the plan."""
     from app.core.servo.compensation import compensated_command
     from app.core.servo.model import servo_response
 
-    servo = default_servos(robot)
+    servo = default_servos(servo_biped)
     rng = np.random.default_rng(3)
-    q = rng.uniform(-0.5, 0.5, (20, robot.n_actuated))
-    tau = rng.uniform(-3, 3, (20, robot.n_actuated))
+    q = rng.uniform(-0.5, 0.5, (20, servo_biped.n_actuated))
+    tau = rng.uniform(-3, 3, (20, servo_biped.n_actuated))
     params = compensations(servo)["eq 23, sign(τ)"]
     assert params is not None
     np.testing.assert_allclose(servo_response(compensated_command(q, tau, params), tau, servo), q)
     assert {e.paper_without for e in PAPER_EXPERIMENTS} == {"stays up", "falls"}
 
 
-def test_the_studio_worker_runs_a_simulation_job(robot, traj):
+def test_the_studio_worker_runs_a_simulation_job(servo_biped, com_shift):
     """Through app.jobs.SolverWorker (a spawned process): progress arrives, and the finished
     results equal the same runs made here."""
     import threading
@@ -91,9 +81,9 @@ def test_the_studio_worker_runs_a_simulation_job(robot, traj):
     from app.core.simulation.worker import SIMULATION_KEY, finish_job, simulation_job
     from app.jobs import SolverWorker
 
-    q_plan = joint_angles(robot, traj.q)
-    servo = default_servos(robot)
-    job = simulation_job(robot, traj, {"without": q_plan}, servo)
+    q_plan = joint_angles(servo_biped, com_shift.q)
+    servo = default_servos(servo_biped)
+    job = simulation_job(servo_biped, com_shift, {"without": q_plan}, servo)
     ended = threading.Event()
     events: list[tuple] = []
     worker = SolverWorker("app.core.simulation.worker:build_simulation_problem")
@@ -108,7 +98,7 @@ def test_the_studio_worker_runs_a_simulation_job(robot, traj):
     assert events[-1][0] == "done", events[-1]
     fractions = [e[1] for e in events if e[0] == "p"]
     assert fractions and fractions[-1] == 1.0
-    results = finish_job(robot, traj, job, events[-1][1])
-    here = simulate_commands(robot, traj, {"without": q_plan}, servo, parallel=False)
+    results = finish_job(servo_biped, com_shift, job, events[-1][1])
+    here = simulate_commands(servo_biped, com_shift, {"without": q_plan}, servo, parallel=False)
     np.testing.assert_array_equal(results["without"].q, here["without"].q)
     assert results["without"].verdict() == here["without"].verdict()

@@ -98,16 +98,6 @@ def test_an_arm_on_a_compliant_servo_hangs_at_the_closed_form_angle(
     assert total == pytest.approx(robot.mass_kg * G, rel=2e-3)
 
 
-@pytest.fixture(scope="module")
-def servo_biped():
-    return load_robot("servo_biped")
-
-
-@pytest.fixture(scope="module")
-def com_shift(servo_biped):
-    return run_motion(servo_biped, "com_shift").trajectory
-
-
 def test_a_very_stiff_servo_tracks_the_com_shift(servo_biped, com_shift):
     q_plan = joint_angles(servo_biped, com_shift.q)
     result = simulate(

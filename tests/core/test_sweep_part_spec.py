@@ -153,3 +153,14 @@ def test_the_example_sweep_file_reads():
     spec = read_sweep_toml(Path(__file__).parents[2] / "examples" / "sweep_servo_parts.toml")
     assert [p.kind for p in spec.parameters] == ["part", "part"]
     assert spec.n_points == 6
+
+
+def test_the_example_sweep_over_the_parts_axes_reads_with_its_servo_file():
+    from pathlib import Path
+
+    from app.core.sweeps.spec import read_sweep_toml
+
+    spec = read_sweep_toml(Path(__file__).parents[2] / "examples" / "sweep_servo_axes.toml")
+    assert spec.servos == ("shop_mx64", "shop_mx106")
+    assert [f.name for f in spec.user_servos] == ["workshop_servos.toml"]
+    assert spec.pareto[0] == ("servo_cost", "min") and spec.n_points == 4

@@ -22,8 +22,9 @@ from app.core.dynamics.parallel import (
 )
 from app.core.dynamics.wbc import CHUNK_SAMPLES, WbcParams, chunk_bounds, torque_feedforward
 from app.core.motions.library import run_motion
-from app.core.motions.trajectory import Trajectory, repeated
+from app.core.motions.trajectory import repeated
 from app.core.robot.loading import load_robot
+from tests.trajectory_slices import first_samples
 
 
 @pytest.fixture(scope="module")
@@ -91,22 +92,11 @@ def test_chunk_runs_cover_every_chunk_once_in_order():
             assert not sizes or max(sizes) - min(sizes) <= 1
 
 
-def _first(trajectory: Trajectory, n: int) -> Trajectory:
-    return dataclasses.replace(
-        trajectory,
-        t=trajectory.t[:n],
-        q=trajectory.q[:n],
-        v=trajectory.v[:n],
-        a=trajectory.a[:n],
-        contacts=trajectory.contacts[:n],
-    )
-
-
 def test_uneven_runs_equal_serial(pool):
     """9 chunks (the last one short) over 2 workers: runs of one and of two chunks; the
     in-process serial run gives the same torques, statuses and a progress that ends at 1."""
     robot = load_robot("servo_biped")
-    trajectory = _first(run_motion(robot, "one_leg_squats", dt=0.01).trajectory, 831)
+    trajectory = first_samples(run_motion(robot, "one_leg_squats", dt=0.01).trajectory, 831)
     n_chunks = len(chunk_bounds(trajectory.n_samples))
     assert n_chunks % pool.workers != 0
     assert {stop - start for start, stop in chunk_runs(n_chunks, pool.workers)} == {1, 2}
@@ -125,7 +115,7 @@ def test_a_long_motion_over_the_pool_equals_serial(pool):
     _same(serial, torque_feedforward(robot, trajectory, pool=pool))
     # The motion repeated: each repetition's torques are the single motion's (chunks that
     # straddle a seam are solved sample by sample too, so the seam changes nothing).
-    single = torque_feedforward(robot, _first(trajectory, trajectory.n_samples // 3))
+    single = torque_feedforward(robot, first_samples(trajectory, trajectory.n_samples // 3))
     n = single.tau_Nm.shape[0]
     scale = max(1.0, float(np.nanmax(np.abs(single.tau_Nm))))
     for k in range(3):

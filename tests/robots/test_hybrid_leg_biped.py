@@ -81,27 +81,32 @@ def side_from_angle(a: float, b: float, angle_rad: float) -> float:
     return math.sqrt(a * a + b * b - 2 * a * b * math.cos(angle_rad))
 
 
+def four_bar(
+    ground: float, crank: float, coupler: float, rocker: float, crank_angle_rad: float
+) -> tuple[float, float, float]:
+    """Convex four-bar with the crank turning `crank_angle_rad` from the ground: its interior
+    angles at the rocker's pivot (ground-rocker), the crank's tip (crank-coupler) and the
+    coupler-rocker joint [rad], by the law of cosines through the diagonal pivot-to-crank tip."""
+    diagonal = side_from_angle(ground, crank, crank_angle_rad)
+    return (
+        law_of_cosines_angle(ground, diagonal, crank)
+        + law_of_cosines_angle(rocker, diagonal, coupler),
+        law_of_cosines_angle(crank, diagonal, ground)
+        + law_of_cosines_angle(coupler, diagonal, rocker),
+        law_of_cosines_angle(rocker, coupler, diagonal),
+    )
+
+
 def knee_closed_form(angle_adc_rad: float, L: dict[str, float]) -> dict[str, float]:
     """Four-bar ABCD with ground AD and crank DC: angles BAD, DCB, ABC [rad] (convex A-B-C-D)."""
-    ac = side_from_angle(L["AD"], L["CD"], angle_adc_rad)
-    return {
-        "BAD": law_of_cosines_angle(L["AD"], ac, L["CD"])
-        + law_of_cosines_angle(L["AB"], ac, L["BC"]),
-        "DCB": law_of_cosines_angle(L["CD"], ac, L["AD"])
-        + law_of_cosines_angle(L["BC"], ac, L["AB"]),
-        "ABC": law_of_cosines_angle(L["AB"], L["BC"], ac),
-    }
+    angles = four_bar(L["AD"], L["CD"], L["BC"], L["AB"], angle_adc_rad)
+    return dict(zip(("BAD", "DCB", "ABC"), angles, strict=True))
 
 
 def ankle_closed_form(angle_egh_rad: float, L: dict[str, float]) -> dict[str, float]:
     """Four-bar EGHI with ground EG (shin) and crank GH: angles GEI and GHI [rad]."""
-    eh = side_from_angle(L["EG"], L["GH"], angle_egh_rad)
-    return {
-        "GEI": law_of_cosines_angle(L["EG"], eh, L["GH"])
-        + law_of_cosines_angle(L["EI"], eh, L["HI"]),
-        "GHI": law_of_cosines_angle(L["GH"], eh, L["EG"])
-        + law_of_cosines_angle(L["HI"], eh, L["EI"]),
-    }
+    angles = four_bar(L["EG"], L["GH"], L["HI"], L["EI"], angle_egh_rad)
+    return {"GEI": angles[0], "GHI": angles[1]}
 
 
 def q_index(model: pin.Model, name: str) -> int:

@@ -61,6 +61,22 @@ def compute_torques(studio: Studio):
     return wait_for_signal(session.done, lambda: setattr(session.panel.compute, "value", True))
 
 
+def simulate(studio: Studio):
+    """Press *Simulate without / with compensation* and wait for the runs; the simulation."""
+    session = studio.servo_rooms.simulation
+    return wait_for_signal(
+        session.runner.finished, lambda: setattr(session.panel.simulate, "value", True)
+    )
+
+
+def one_click(studio: Studio):
+    """Press the Gait panel's *Plan → walk → torques → simulate* and wait for its simulation."""
+    return wait_for_signal(
+        studio.servo_rooms.simulation.runner.finished,
+        lambda: setattr(studio.gait.panel.all_stages, "value", True),
+    )
+
+
 def with_stand_torques(studio: Studio) -> Studio:
     """`studio` with the one-leg stand generated from the Motions panel and its torques."""
     studio.motions.panel.motion.value = "one_leg_stand"

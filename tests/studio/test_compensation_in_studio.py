@@ -11,7 +11,13 @@ import pytest
 from app.core.simulation.mjcf import SimOptions
 from app.core.simulation.on_plan import on_plan_stance
 from panels.compensation_panel import COMPENSATED_TORQUE_LABELS
-from tests.studio.conftest import compute_torques, start_studio, wait_for_signal, with_stand_torques
+from tests.studio.conftest import (
+    compute_torques,
+    simulate,
+    start_studio,
+    wait_for_signal,
+    with_stand_torques,
+)
 
 
 def assert_ghost_at(ghosts, name, q):
@@ -168,9 +174,7 @@ def test_simulate_shows_a_verdict_ghosts_and_simulated_curves(studio):
     """Simulate from the panel: a real worker process runs MuJoCo; the verdict, two more
     ghosts (placed where the simulation has the robot) and the simulated roll/pitch curves."""
     session, ghosts = studio.servo_rooms.simulation, studio.servo_rooms.ghosts
-    ended = wait_for_signal(
-        session.runner.finished, lambda: setattr(session.panel.simulate, "value", True)
-    )
+    ended = simulate(studio)
     assert ended.error == "" and studio.state.work.simulation.run is ended
     without, with_ = ended.results["without compensation"], ended.results["with compensation"]
     for run in (without, with_):

@@ -8,7 +8,7 @@ import numpy as np
 
 from app.core.papers import TABLE4
 from tests.sole_frames import model_with_sole_edge_frames
-from tests.studio.conftest import GUARD_S, solve_gait, wait_for_signal
+from tests.studio.conftest import GUARD_S, one_click, solve_gait, wait_for_signal
 
 
 def test_solve_for_the_loaded_robot_then_walk_it(studio):
@@ -93,11 +93,7 @@ def test_cancel_keeps_the_last_good_gait(studio):
 def test_one_click_plans_walks_computes_torques_and_simulates(studio):
     """Plan → walk → torques → compensation → simulation from one button: every stage's
     result stays inspectable, and each belongs to the walk just planned."""
-    panel = studio.gait.panel
-    simulated = wait_for_signal(
-        studio.servo_rooms.simulation.runner.finished,
-        lambda: setattr(panel.all_stages, "value", True),
-    )
+    simulated = one_click(studio)
     assert studio.gait.results.symmetric is not None and studio.gait.walk is not None
     walk = studio.gait.walk.trajectory
     assert studio.state.trajectory is walk

@@ -22,7 +22,7 @@ from app.studio import Studio
 from panels.compensation_panel import COMPENSATED_TORQUE_LABELS
 from tests.hostile.test_hostile_projects import rewrite
 from tests.same_values import assert_same
-from tests.studio.conftest import free_port, start_studio, wait_for_signal
+from tests.studio.conftest import free_port, one_click, start_studio, wait_for_signal
 from tests.studio.ws_tab import CAMERA, Tab, loop, wait
 
 __all__ = ["loop"]  # the fixture, used by name
@@ -61,10 +61,7 @@ def _set_display(a: Studio, tab: Tab) -> None:
 def test_save_then_open_in_a_fresh_studio_restores_everything(studio, tmp_path, loop):
     a = studio
     # One click: plan a gait on servo_biped, walk it, compute torques, simulate.
-    simulated = wait_for_signal(
-        a.servo_rooms.simulation.runner.finished,
-        lambda: setattr(a.gait.panel.all_stages, "value", True),
-    )
+    simulated = one_click(a)
     assert simulated.error == "" and a.gait.results.symmetric is not None
     a.motions.capture(0.8)
     a.motions.capture(1.2)

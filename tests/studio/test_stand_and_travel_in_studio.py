@@ -15,7 +15,7 @@ import pytest
 from app.core.posing.ready_pose import ready_pose
 from app.core.simulation.verdicts import LEAN_LOAD_FRACTION
 from app.studio.stand_checker import CHECKING
-from tests.studio.conftest import GUARD_S, compute_torques, wait_for_signal
+from tests.studio.conftest import GUARD_S, compute_torques, simulate, wait_for_signal
 
 
 def stand_line(studio, accept=lambda _text: True) -> str:
@@ -119,9 +119,7 @@ def test_a_simulated_walk_says_how_far_it_went_and_marks_its_landings(studio):
     motions.generate.value = True
     compute_torques(studio)
     session = studio.servo_rooms.simulation
-    ended = wait_for_signal(
-        session.runner.finished, lambda: setattr(session.panel.simulate, "value", True)
-    )
+    ended = simulate(studio)
     assert ended.error == ""
     text = session.panel.verdict.content
     robot, trajectory = studio.state.robot, studio.state.trajectory
@@ -168,9 +166,7 @@ def test_the_papers_43_mm_stand_leans_without_compensation_in_the_panel(studio):
     motions.generate.value = True
     compute_torques(studio)
     session = studio.servo_rooms.simulation
-    ended = wait_for_signal(
-        session.runner.finished, lambda: setattr(session.panel.simulate, "value", True)
-    )
+    ended = simulate(studio)
     text = session.panel.verdict.content
     assert "without compensation: **leans on the lifted foot" in text
     assert "with compensation: **stays up" in text

@@ -115,3 +115,74 @@ def test_the_sweep_panel_offers_the_servo_and_its_kp(studio):
     # and shown again (a project's sweep) as the same rows
     shown = panel_data(data)["parameter"][0]
     assert (shown["min"], shown["max"]) == (1.0, 2.0)
+
+
+def test_the_sweep_panel_offers_the_projects_servo_files_and_the_part_axes(studio):
+    from app.core.servo.choice import simulatable
+    from app.core.sweeps.part_metrics import PART_METRICS
+    from app.studio.sweep_choices import panel_data
+    from tests.test_sweep_part_axes import user_mx106
+
+    assert studio.robots.load("dircon_biped")
+    session, panel = studio.sweep, studio.sweep.panel
+    assert set(PART_METRICS) <= set(panel.metric_x.options)  # the parts' Pareto axes
+    assert studio.servo_rooms.servos.add_servo_file("mine.toml", user_mx106().encode())
+    keys = sorted([*simulatable(load_catalogue()), "my106"])
+    assert f"{keys.index('my106')} my106" in panel.robot_line.content
+    panel.param_a.value = "part:servo"  # its range: the built-in servos and the project's
+    assert (panel.min_a.value, panel.max_a.value) == (0, len(keys) - 1)
+    at = keys.index("my106")
+    panel.min_a.value, panel.max_a.value = at - 1, at
+    panel.simulate.value = True
+    panel.metric_x.value, panel.metric_y.value = "servo_mass_kg", "electrical_energy_J"
+    data = session.panel_sweep()
+    assert [f["name"] for f in data["user_servos"]] == ["mine.toml"]  # the file it chooses from
+    spec = SweepSpec.from_mapping(data)
+    assert spec.parameters[0].choices == (keys[at - 1], "my106")
+    assert spec.pareto == (("servo_mass_kg", "min"), ("electrical_energy_J", "min"))
+    mine = [p for p in sweep_points(spec) if p.simulation.part.servo == "my106"]
+    assert mine and all([r.key for r in p.simulation.part.records] == ["my106"] for p in mine)
+    # the margin is better large: the panel's front maximises it
+    panel.metric_y.value = "servo_margin"
+    assert session.panel_sweep()["pareto"] == {"servo_mass_kg": "min", "servo_margin": "max"}
+    panel.metric_y.value = "electrical_energy_J"
+    # a sweep of built-in servos only carries no file
+    panel.min_a.value, panel.max_a.value = 0, 1
+    assert "user_servos" not in session.panel_sweep()
+    # shown again (a project's sweep) as the same rows
+    shown = panel_data(data, studio.state.work.parts.user_servos)["parameter"][0]
+    assert (shown["min"], shown["max"]) == (at - 1.0, float(at))
+
+
+def test_a_loaded_point_on_a_users_servo_brings_its_file_back(studio, tmp_path):
+    from app.core.servo.user_files import UserServoFile
+    from tests.test_sweep_part_axes import user_mx106
+
+    assert studio.robots.load("dircon_biped")
+    assert studio.state.work.parts is None or not studio.state.work.parts.user_servos
+    file = UserServoFile("mine.toml", user_mx106())
+    data = {
+        "sampling": "grid",
+        "gait": {"knots": 14},
+        "simulate": True,
+        "walk_steps": 1,
+        "user_servos": [{"name": file.name, "text": file.text}],
+        "parameter": [{"kind": "part", "name": "servo", "choices": ["my106"]}],
+    }
+    spec = SweepSpec.from_mapping(data)
+    (point,) = sweep_points(spec)
+    loader = PointLoader(
+        studio.web.server,
+        studio.state,
+        tmp_path / "variants",
+        studio.servo_rooms.compensation.set_servos,
+    )
+    loader.load(InProcess(), point, spec.user_servos)
+    parts = studio.state.work.parts
+    assert parts.user_servos == (file,)
+    robot = studio.state.robot
+    legs = uniform_preset(robot).enabled
+    assert {parts.joint(n).servo for n, on in zip(robot.joint_names, legs, strict=True) if on} == {
+        "my106"
+    }
+    assert "my106" in studio.servo_rooms.servos.records  # offered in the Servos folder again

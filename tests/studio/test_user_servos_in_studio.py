@@ -207,3 +207,52 @@ def test_a_file_with_firmware_but_no_motor_runs_a_dc_motor_from_its_datasheet(st
     k = studio.state.work.coefficients.params.k_deg_per_Nm[i]
     assert k == pytest.approx(math.degrees(1.0 / stiffness), rel=1e-12)
     assert "stall 4.20 N·m" in session.panel.stiffness.content
+
+
+def test_removing_a_file_puts_its_joints_on_the_ideal_servo_and_undo_brings_it_back(studio):
+    robot, session = studio.state.robot, studio.servo_rooms.servos
+    panel = session.panel
+    assert panel.remove_file.disabled  # nothing to remove yet
+    assert session.add_servo_file("mine.toml", servo_toml().encode())
+    assert session.add_servo_file("other.toml", servo_toml("other").encode())
+    assert panel.user_file.options == ("mine.toml", "other.toml")
+    assert not panel.remove_file.disabled
+    joint, kept = robot.joint_names[2], robot.joint_names[3]
+    i = robot.joint_names.index(joint)
+    pick(studio, joint, "my_servo")
+    pick(studio, kept, "other")
+    studio.project.autosave.now()  # the work with both files: a step
+    one_over_k = math.degrees(R / (KT * VIN * ERROR_GAIN * KP))  # 1/K of the file's part
+
+    assert session.remove_servo_file("mine.toml")
+    parts = studio.state.work.parts
+    assert parts.joint(joint).is_ideal and parts.joint(kept).servo == "other"
+    assert [f.name for f in parts.user_servos] == ["other.toml"]
+    assert not labels_of(studio, "my_servo") and labels_of(studio, "other")
+    assert panel.user_file.options == ("other.toml",)
+    said = panel.status.content
+    assert "Removed **mine.toml** (my_servo)" in said and joint in said and kept not in said
+    assert "ideal servo" in said and "\n" not in said
+    assert studio.notifier.last.title == "Servo file removed"
+    # back on the ideal servo, the joint keeps the compliance its part had (1/K)
+    servo = studio.state.work.coefficients.servo
+    assert servo.compliance_deg_per_Nm[i] == pytest.approx(one_over_k, rel=1e-12)
+
+    studio.project.autosave.now()
+    assert studio.project.undo()
+    parts = studio.state.work.parts
+    assert parts.joint(joint).servo == "my_servo"
+    assert [f.name for f in parts.user_servos] == ["mine.toml", "other.toml"]
+    assert labels_of(studio, "my_servo")
+    assert "Undid: servo file mine.toml removed" in studio.project.panel.status.content
+
+
+def test_removing_a_file_that_is_not_kept_is_refused_in_one_line(studio):
+    session = studio.servo_rooms.servos
+    assert session.add_servo_file("mine.toml", servo_toml().encode())
+    before = studio.state.work.parts
+    assert not session.remove_servo_file("nope.toml")
+    assert (
+        "no servo file named 'nope.toml' is kept (kept: mine.toml)" in session.panel.status.content
+    )
+    assert studio.state.work.parts is before

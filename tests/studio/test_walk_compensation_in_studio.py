@@ -17,7 +17,7 @@ from app.core.servo.model import joint_angles
 from app.core.simulation.drive import plan_drive_torque_Nm
 from app.studio.simulation_runner import WITH
 from panels.compensation_panel import COMPENSATED_TORQUE_LABELS
-from tests.studio.conftest import wait_for_signal
+from tests.studio.conftest import one_click, simulate
 
 
 def _covered(result, trajectory) -> tuple[float, float]:
@@ -27,12 +27,9 @@ def _covered(result, trajectory) -> tuple[float, float]:
 
 
 def test_the_one_click_walk_covers_its_distance_only_with_the_drive_torque(studio):
-    panel, compensation = studio.gait.panel, studio.servo_rooms.compensation.panel
+    compensation = studio.servo_rooms.compensation.panel
     assert compensation.compensate.value == COMPENSATED_TORQUE_LABELS["drive"]  # the default
-    drive = wait_for_signal(
-        studio.servo_rooms.simulation.runner.finished,
-        lambda: setattr(panel.all_stages, "value", True),
-    )
+    drive = one_click(studio)
     assert drive.error == ""
     walk, robot = studio.gait.walk.trajectory, studio.state.robot
     assert drive.trajectory is walk
@@ -55,10 +52,7 @@ def test_the_one_click_walk_covers_its_distance_only_with_the_drive_torque(studi
     compensation.compensate.value = COMPENSATED_TORQUE_LABELS["load"]
     assert studio.state.work.coefficients.torque == "load"
     assert studio.state.work.simulation.stale
-    session = studio.servo_rooms.simulation
-    load = wait_for_signal(
-        session.runner.finished, lambda: setattr(session.panel.simulate, "value", True)
-    )
+    load = simulate(studio)
     assert load.error == ""
     covered_load, _ = _covered(load.results[WITH], walk)
     assert covered_load < 0.9 * planned, f"walked {covered_load:.3f} of {planned:.3f} m"
@@ -69,4 +63,4 @@ def test_the_one_click_walk_covers_its_distance_only_with_the_drive_torque(studi
     )
     # the travel line says it, per run
     fraction = load.results[WITH].outcome.travel.fraction
-    assert f"({100 * fraction:.0f} %)" in session.panel.verdict.content
+    assert f"({100 * fraction:.0f} %)" in studio.servo_rooms.simulation.panel.verdict.content

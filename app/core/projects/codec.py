@@ -64,6 +64,10 @@ NONFINITE_FIELDS = frozenset(
         "PointResult.max_torso_error_deg",
         "PointResult.max_tracking_error_deg",
         "PointResult.rms_joint_error_deg",
+        "PointResult.servo_mass_kg",
+        "PointResult.servo_cost",
+        "PointResult.electrical_energy_J",
+        "PointResult.servo_margin",
     }
 )
 """Class.field names whose values may be NaN or infinite (everything else must be finite)."""

@@ -29,6 +29,7 @@ import numpy as np
 
 from app.core.errors import StudioError
 from app.core.papers import PHI_DEG
+from app.core.servo.per_joint import check_range, laid_out, per_joint
 
 ClearanceSign: TypeAlias = Literal["command", "torque"]
 CLEARANCE_SIGNS: tuple[str, ...] = ("command", "torque")
@@ -75,41 +76,37 @@ class CompensationParams:
         if len(set(names)) != n:
             dup = sorted({name for name in names if names.count(name) > 1})
             raise CompensationError(f"joint names given more than once: {', '.join(dup)}")
-        arrays = {}
-        for label, value in (("k_deg_per_Nm", self.k_deg_per_Nm), ("phi_deg", self.phi_deg)):
-            try:
-                array = np.array(value, dtype=float).reshape(-1)
-            except (TypeError, ValueError) as error:
-                raise CompensationError(f"{label} must be numbers: {error}") from None
-            if array.shape != (n,):
-                raise CompensationError(
-                    f"{label} has {array.size} value(s) for {n} joint(s); give one per joint"
-                )
-            arrays[label] = array
+        k = per_joint("k_deg_per_Nm", self.k_deg_per_Nm, n, CompensationError)
+        phi = per_joint("phi_deg", self.phi_deg, n, CompensationError)
         enabled = np.array(self.enabled, dtype=bool).reshape(-1)
         if enabled.shape != (n,):
             raise CompensationError(
                 f"enabled has {enabled.size} value(s) for {n} joint(s); give one per joint"
             )
-        k, phi = arrays["k_deg_per_Nm"], arrays["phi_deg"]
-        for i, name in enumerate(names):
-            if not math.isfinite(k[i]) or abs(k[i]) > MAX_ABS_K_DEG_PER_NM:
-                raise CompensationError(
-                    f"k of {name} is {float(k[i]):g} °/(N·m); it must be a number within "
-                    f"±{MAX_ABS_K_DEG_PER_NM:g} (the paper's largest is 1200)"
-                )
-            if not math.isfinite(phi[i]) or not 0.0 <= phi[i] <= MAX_PHI_DEG:
-                raise CompensationError(
-                    f"φ of {name} is {float(phi[i]):g}°; it must be between 0 and {MAX_PHI_DEG:g}° "
-                    "(the paper's is 8°; its direction comes from the sign rule)"
-                )
+        enabled.flags.writeable = False
+        check_range(
+            "k",
+            k,
+            names,
+            (-MAX_ABS_K_DEG_PER_NM, MAX_ABS_K_DEG_PER_NM),
+            " °/(N·m)",
+            CompensationError,
+            " (the paper's largest is 1200)",
+        )
+        check_range(
+            "φ",
+            phi,
+            names,
+            (0.0, MAX_PHI_DEG),
+            "°",
+            CompensationError,
+            " (the paper's is 8°; its direction comes from the sign rule)",
+        )
         if self.clearance_sign not in CLEARANCE_SIGNS:
             raise CompensationError(
                 f"clearance_sign is {self.clearance_sign!r}; it must be 'command' (the paper's "
                 "sign(q + k·τ)) or 'torque' (sign(τ))"
             )
-        for array in (k, phi, enabled):
-            array.flags.writeable = False
         object.__setattr__(self, "joint_names", names)
         object.__setattr__(self, "k_deg_per_Nm", k)
         object.__setattr__(self, "phi_deg", phi)
@@ -127,25 +124,15 @@ class CompensationParams:
         is an error, so a typo never silently drops a coefficient.
         """
         joint_names = tuple(joint_names)
-        unknown = [name for name in self.joint_names if name not in joint_names]
-        if unknown:
-            shown = ", ".join(joint_names[:16]) + (" …" if len(joint_names) > 16 else "")
-            raise CompensationError(
-                f"no joint named {', '.join(repr(u) for u in unknown)} on this robot; "
-                f"its joints are: {shown}"
-            )
         if joint_names == self.joint_names:
             return self
-        index = {name: i for i, name in enumerate(self.joint_names)}
-        k, phi, on = np.zeros(len(joint_names)), np.zeros(len(joint_names)), []
-        for j, name in enumerate(joint_names):
-            i = index.get(name)
-            if i is not None:
-                k[j], phi[j] = self.k_deg_per_Nm[i], self.phi_deg[i]
-            on.append(i is not None and bool(self.enabled[i]))
-        return CompensationParams(
-            joint_names, k, phi, np.array(on), self.clearance_sign, self.notes
+        k, phi, on = laid_out(
+            self.joint_names,
+            joint_names,
+            (self.k_deg_per_Nm, self.phi_deg, self.enabled),
+            CompensationError,
         )
+        return CompensationParams(joint_names, k, phi, on, self.clearance_sign, self.notes)
 
     def to_toml(self) -> str:
         """The coefficients as a k.toml file (see `read_coefficients_toml`)."""

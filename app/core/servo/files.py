@@ -16,7 +16,7 @@ from app.core import input_gate
 from app.core.atomic_write import write_atomically
 from app.core.budgets import MAX_SAMPLES
 from app.core.dynamics.wbc import FeedForward
-from app.core.errors import finite_float
+from app.core.errors import finite_float, refuse_unknown_joints
 from app.core.file_types import BinaryPathOrFile
 from app.core.servo.compensation import CompensationError, CompensationParams
 
@@ -168,12 +168,7 @@ def _read_torque(file: IO[str], source: str, joint_names: Sequence[str]) -> Torq
             tau_cols[name[4:]] = i
     if time_col is None:
         raise CompensationError(f"{source}, line 1: no 't [s]' column")
-    unknown = [name for name in tau_cols if name not in joint_names]
-    if unknown:
-        raise CompensationError(
-            f"{source}: torque column(s) for joint(s) this robot does not have: "
-            f"{', '.join(unknown)}; its joints are: {', '.join(joint_names)}"
-        )
+    refuse_unknown_joints(tau_cols, joint_names, CompensationError, where=f"{source}: tau:<joint>")
     missing = [name for name in joint_names if name not in tau_cols]
     if missing:
         raise CompensationError(

@@ -23,7 +23,7 @@ from collections.abc import Mapping
 import numpy as np
 import pinocchio as pin
 
-from app.core.errors import StudioError
+from app.core.errors import StudioError, refuse_unknown_joints
 from app.core.robot.model import RobotModel
 
 
@@ -50,12 +50,7 @@ class MassSwap:
 
 
 def _masses(robot: RobotModel, values: Mapping[str, float], what: str) -> np.ndarray:
-    strange = [name for name in values if name not in robot.joint_names]
-    if strange:
-        raise ServoMassError(
-            f"{what}: no joint named {strange[0]!r} on {robot.name}; its joints are: "
-            f"{', '.join(robot.joint_names)}"
-        )
+    refuse_unknown_joints(values, robot.joint_names, ServoMassError, where=what, robot=robot.name)
     out = np.zeros(len(robot.joint_names))
     for i, name in enumerate(robot.joint_names):
         value = float(values.get(name, 0.0))

@@ -44,6 +44,7 @@ from app.core.servo.compensation import (
     CompensationParams,
     compensated_command,
 )
+from app.core.servo.per_joint import check_range, laid_out, per_joint
 
 
 class ServoModelError(StudioError):
@@ -63,29 +64,13 @@ class ServoModel:
     def __post_init__(self) -> None:
         names = tuple(self.joint_names)
         n = len(names)
-        arrays = []
-        for label, value in (
-            ("compliance_deg_per_Nm", self.compliance_deg_per_Nm),
-            ("backlash_deg", self.backlash_deg),
-        ):
-            array = np.array(value, dtype=float).reshape(-1)
-            if array.shape != (n,):
-                raise ServoModelError(
-                    f"{label} has {array.size} value(s) for {n} joint(s); give one per joint"
-                )
-            array.flags.writeable = False
-            arrays.append(array)
-        compliance, backlash = arrays
-        for i, name in enumerate(names):
-            if not math.isfinite(compliance[i]) or abs(compliance[i]) > MAX_ABS_K_DEG_PER_NM:
-                raise ServoModelError(
-                    f"compliance of {name} is {float(compliance[i]):g} °/(N·m); it must be a number "
-                    f"within ±{MAX_ABS_K_DEG_PER_NM:g}"
-                )
-            if not math.isfinite(backlash[i]) or not 0.0 <= backlash[i] <= 90.0:
-                raise ServoModelError(
-                    f"backlash of {name} is {float(backlash[i]):g}°; it must be between 0 and 90°"
-                )
+        compliance = per_joint(
+            "compliance_deg_per_Nm", self.compliance_deg_per_Nm, n, ServoModelError
+        )
+        backlash = per_joint("backlash_deg", self.backlash_deg, n, ServoModelError)
+        limit = (-MAX_ABS_K_DEG_PER_NM, MAX_ABS_K_DEG_PER_NM)
+        check_range("compliance", compliance, names, limit, " °/(N·m)", ServoModelError)
+        check_range("backlash", backlash, names, (0.0, 90.0), "°", ServoModelError)
         object.__setattr__(self, "joint_names", names)
         object.__setattr__(self, "compliance_deg_per_Nm", compliance)
         object.__setattr__(self, "backlash_deg", backlash)
@@ -110,19 +95,14 @@ class ServoModel:
     def for_joints(self, joint_names: Sequence[str]) -> ServoModel:
         """The same servos laid out on `joint_names`; joints not named here are rigid."""
         joint_names = tuple(joint_names)
-        unknown = [name for name in self.joint_names if name not in joint_names]
-        if unknown:
-            raise ServoModelError(
-                f"no joint named {', '.join(repr(u) for u in unknown)} on this robot; its "
-                f"joints are: {', '.join(joint_names)}"
-            )
         if joint_names == self.joint_names:
             return self
-        index = {name: i for i, name in enumerate(self.joint_names)}
-        compliance, backlash = np.zeros(len(joint_names)), np.zeros(len(joint_names))
-        for j, name in enumerate(joint_names):
-            if (i := index.get(name)) is not None:
-                compliance[j], backlash[j] = self.compliance_deg_per_Nm[i], self.backlash_deg[i]
+        compliance, backlash = laid_out(
+            self.joint_names,
+            joint_names,
+            (self.compliance_deg_per_Nm, self.backlash_deg),
+            ServoModelError,
+        )
         return ServoModel(joint_names, compliance, backlash)
 
 
@@ -286,6 +266,40 @@ class Prediction:
     pitch_compensated_rad: np.ndarray
     """Torso (root link) roll and pitch in the world [rad], shape (T,) each (ZYX)."""
 
+    @classmethod
+    def of(
+        cls,
+        joint_names: tuple[str, ...],
+        t: np.ndarray,
+        tau_Nm: np.ndarray,
+        q_plan_rad: np.ndarray,
+        q_cmd_rad: np.ndarray,
+        planned_attitude: tuple[np.ndarray, np.ndarray],
+        uncompensated: tuple[np.ndarray, ...],
+        compensated: tuple[np.ndarray, ...],
+    ) -> Prediction:
+        """A prediction from the plan's (roll, pitch) and, without and with compensation, the
+        servos' (joint angles, grounded configurations, roll, pitch)."""
+        q_unc, world_unc, roll_unc, pitch_unc = uncompensated
+        q_comp, world_comp, roll_comp, pitch_comp = compensated
+        return cls(
+            joint_names=joint_names,
+            t=t,
+            tau_Nm=tau_Nm,
+            q_plan_rad=q_plan_rad,
+            q_cmd_rad=q_cmd_rad,
+            q_actual_uncompensated_rad=q_unc,
+            q_actual_compensated_rad=q_comp,
+            q_world_uncompensated=world_unc,
+            q_world_compensated=world_comp,
+            roll_planned_rad=planned_attitude[0],
+            pitch_planned_rad=planned_attitude[1],
+            roll_uncompensated_rad=roll_unc,
+            pitch_uncompensated_rad=pitch_unc,
+            roll_compensated_rad=roll_comp,
+            pitch_compensated_rad=pitch_comp,
+        )
+
     def attitude_errors_deg(self) -> dict[str, float]:
         """Largest |roll − planned roll| and |pitch − planned pitch| [°], without and with."""
 
@@ -325,27 +339,20 @@ def predict(
     placements = planned_placements
     if placements is None or len(placements) != trajectory.n_samples:
         placements = planned_stance_placements(robot, trajectory)
-    world_unc = grounded_configurations(robot, trajectory, q_unc, placements)
-    world_comp = grounded_configurations(robot, trajectory, q_comp, placements)
-    roll_plan, pitch_plan = base_roll_pitch(trajectory.q)
-    roll_unc, pitch_unc = base_roll_pitch(world_unc)
-    roll_comp, pitch_comp = base_roll_pitch(world_comp)
-    return Prediction(
-        joint_names=robot.joint_names,
-        t=trajectory.t,
-        tau_Nm=tau,
-        q_plan_rad=q_plan,
-        q_cmd_rad=q_cmd,
-        q_actual_uncompensated_rad=q_unc,
-        q_actual_compensated_rad=q_comp,
-        q_world_uncompensated=world_unc,
-        q_world_compensated=world_comp,
-        roll_planned_rad=roll_plan,
-        pitch_planned_rad=pitch_plan,
-        roll_uncompensated_rad=roll_unc,
-        pitch_uncompensated_rad=pitch_unc,
-        roll_compensated_rad=roll_comp,
-        pitch_compensated_rad=pitch_comp,
+
+    def grounded(q_joints: np.ndarray) -> tuple[np.ndarray, ...]:
+        world = grounded_configurations(robot, trajectory, q_joints, placements)
+        return (q_joints, world, *base_roll_pitch(world))
+
+    return Prediction.of(
+        robot.joint_names,
+        trajectory.t,
+        tau,
+        q_plan,
+        q_cmd,
+        base_roll_pitch(trajectory.q),
+        grounded(q_unc),
+        grounded(q_comp),
     )
 
 

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from app.core import input_gate
-from app.core.errors import StudioError
+from app.core.errors import StudioError, refuse_unknown_joints
 from app.core.servo import motor_law
 from app.core.servo.catalogue import ServoRecord, why_not_simulated
 from app.core.servo.compensation import CompensationParams
@@ -206,12 +206,7 @@ def parts_from_mapping(
     joints = data.get("joints", {})
     if not isinstance(joints, dict):
         raise ServoPartsError(f"{source}: [joints] must be tables [joints.<name>]")
-    strange = [name for name in joints if name not in joint_names]
-    if strange:
-        raise ServoPartsError(
-            f"{source}: no joint named {strange[0]!r} on this robot; its joints are: "
-            f"{', '.join(joint_names)}"
-        )
+    refuse_unknown_joints(joints, joint_names, ServoPartsError, where=source)
     default_servo = data.get("servo")
     if default_servo is not None and not isinstance(default_servo, str):
         raise ServoPartsError(f"{source}: servo must be a catalogue key, as text")

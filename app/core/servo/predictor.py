@@ -67,7 +67,7 @@ class Predictor:
             self._placement_matrices = xyzquat_to_matrices(
                 trajectory.q[:, :7]
             ) @ self._chains.stance_to_base(self._right, trajectory.q)
-        self._uncompensated: tuple[ServoModel, np.ndarray, tuple[np.ndarray, ...]] | None = None
+        self._uncompensated: tuple[ServoModel, tuple[np.ndarray, ...]] | None = None
 
     @property
     def vectorised(self) -> bool:
@@ -131,31 +131,24 @@ class Predictor:
             and np.array_equal(cached[0].compliance_deg_per_Nm, servos.compliance_deg_per_Nm)
             and np.array_equal(cached[0].backlash_deg, servos.backlash_deg)
         ):
-            _, q_unc, (world_unc, roll_unc, pitch_unc) = cached
+            uncompensated = cached[1]
         else:
             q_unc = servo_response(self.q_plan, self.tau, servos)
-            world_unc, roll_unc, pitch_unc = self._grounded_attitude(q_unc)
-            self._uncompensated = (servos, q_unc, (world_unc, roll_unc, pitch_unc))
+            uncompensated = (q_unc, *self._grounded_attitude(q_unc))
+            self._uncompensated = (servos, uncompensated)
         if self._finite:
-            q_cmd, q_comp, world_comp, roll_comp, pitch_comp = self._compensated(params, servos)
+            q_cmd, *compensated = self._compensated(params, servos)
         else:
             q_cmd = compensated_command(self.q_plan, self.tau, params)  # its error
             q_comp = servo_response(q_cmd, self.tau, servos)
-            world_comp, roll_comp, pitch_comp = self._grounded_attitude(q_comp)
-        return Prediction(
-            joint_names=self.robot.joint_names,
-            t=self.trajectory.t,
-            tau_Nm=self.tau,
-            q_plan_rad=self.q_plan,
-            q_cmd_rad=q_cmd,
-            q_actual_uncompensated_rad=q_unc,
-            q_actual_compensated_rad=q_comp,
-            q_world_uncompensated=world_unc,
-            q_world_compensated=world_comp,
-            roll_planned_rad=self.roll_plan,
-            pitch_planned_rad=self.pitch_plan,
-            roll_uncompensated_rad=roll_unc,
-            pitch_uncompensated_rad=pitch_unc,
-            roll_compensated_rad=roll_comp,
-            pitch_compensated_rad=pitch_comp,
+            compensated = [q_comp, *self._grounded_attitude(q_comp)]
+        return Prediction.of(
+            self.robot.joint_names,
+            self.trajectory.t,
+            self.tau,
+            self.q_plan,
+            q_cmd,
+            (self.roll_plan, self.pitch_plan),
+            uncompensated,
+            tuple(compensated),
         )

@@ -19,11 +19,15 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 
 from app.core.errors import StudioError
+from app.core.motions.trajectory import Trajectory
+from app.core.robot.model import RobotModel
 from app.core.simulation.part_law import PartEnergy
+from app.core.simulation.result import SimulationResult
 
 MIN_DISTANCE_M = 0.1
 """Below this horizontal travel of the base a motion is "in place" (a squat, a CoM shift):
@@ -136,4 +140,36 @@ def energy_figures(
         sr_planned=specific_resistance(planned_work_J, mass_kg, planned, gravity_m_s2),
         pack_Wh=None if pack_Wh is None else check_pack_Wh(pack_Wh),
         battery_minutes=None if pack_Wh is None else battery_minutes(pack_Wh, power),
+    )
+
+
+def run_energy_figures(
+    result: SimulationResult,
+    robot: RobotModel,
+    trajectory: Trajectory,
+    vin_V: np.ndarray,
+    planned_torques: Callable[[], np.ndarray | None],
+    pack_Wh: float | None = None,
+) -> EnergyFigures:
+    """`energy_figures` of a run of `trajectory` on parts: over the stretch simulated (a fall
+    ends it), the planned work from `planned_torques()` [N·m] (T, n_actuated), asked for only
+    when the plan travels MIN_DISTANCE_M or more (None: no planned SR)."""
+    assert result.energy is not None, "a run on parts has its energy"
+    planned_xy = trajectory.q[:, :2]
+    work = float("nan")
+    if horizontal_travel_m(planned_xy) >= MIN_DISTANCE_M:  # SR only for a motion that travels
+        tau = planned_torques()
+        if tau is not None:
+            speed = trajectory.v[:, [joint.idx_v for joint in robot.joints]]
+            work = positive_work_J(tau, speed, trajectory.dt)
+    shown = result.t <= result.simulated_until_s
+    return energy_figures(
+        result.energy,
+        vin_V,
+        robot.mass_kg,
+        float(np.linalg.norm(robot.model.gravity.linear)),
+        result.q[shown, :2],
+        planned_xy,
+        work,
+        pack_Wh,
     )

@@ -25,7 +25,7 @@ from typing import IO
 
 import numpy as np
 
-from app.core.errors import finite_float
+from app.core.errors import finite_float, refuse_unknown_joints
 from app.core.robot.model import RobotModel
 from app.core.servo.model import ServoModel
 from app.core.servo.presets import TYPICAL_COMPLIANCE_DEG_PER_NM, uniform_preset
@@ -92,12 +92,10 @@ def read_servo_toml(path: str | os.PathLike[str], robot: RobotModel) -> ServoMod
     joints = data.get("joints", {})
     if not isinstance(joints, dict):
         raise SimulationInputError(f"{source}: [joints] must be tables [joints.<name>]")
+    refuse_unknown_joints(
+        joints, robot.joint_names, SimulationInputError, where=source, robot=robot.name
+    )
     for name, table in joints.items():
-        if name not in robot.joint_names:
-            raise SimulationInputError(
-                f"{source}: no joint named {name!r} on {robot.name}; its joints are: "
-                f"{', '.join(robot.joint_names)}"
-            )
         if not isinstance(table, dict) or set(table) - _SERVO_KEYS:
             raise SimulationInputError(
                 f"{source}: [joints.{name}] takes compliance_deg_per_Nm and backlash_deg only"

@@ -73,6 +73,14 @@ class PointResult:
     """The simulation's verdict, or why it did not run ("" without simulation)."""
     sim_s: float = 0.0
     """Time of the point's walk, torques and simulation [s]."""
+    servo_mass_kg: float = math.nan
+    """Total mass of the leg servos [kg] (a sweep with servo parts; NaN otherwise)."""
+    servo_cost: float = math.nan
+    """Total price of the leg servos (NaN where the servo publishes none)."""
+    electrical_energy_J: float = math.nan
+    """Electrical energy the leg servos drew over the simulated walk [J]."""
+    servo_margin: float = math.nan
+    """Smallest peak or RMS margin of the leg servos on the walk's planned points."""
 
     def metric(self, name: str) -> float:
         return float(getattr(self, name))

@@ -22,13 +22,21 @@ in the simulation (app.core.simulation.part_law; the other joints stay rigid), a
 compensation on is eq 7 with k = 1/K of the part and its kp (K = kt·vin·error_gain·kp/R), its
 dead band the record's backlash unless the sweep gives dead_band_deg. A categorical value is
 stored as the index of its choice (the results tables and the studio show the servo's key).
+
+The user's own servo files (app.core.servo.user_files) may be named too: `servo_files =
+["my_servos.toml"]` in a sweep file (paths from the sweep file's folder), read by
+`read_sweep_toml` into the data's `user_servos` (name and text of each file, so a project keeps
+them), checked like every user servo file; their servos join the choices, and each point's
+`PartSetup` carries its servo's record (picklable data) to the worker.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import json
 import math
+from pathlib import Path
 from typing import Any
 
 from app.core.sweeps.robot_variants import SweepSpecError
@@ -38,18 +46,93 @@ PART_NAMES = ("servo", "kp")
 MAX_CHOICES = 64
 
 
+MAX_USER_JSON_CHARS = 80_000
+"""Most characters the user servo files of one sweep take as JSON (a project keeps them in its
+sweep's spec, a text of at most 100 000 characters: app.core.projects.codec)."""
+
+
 @functools.cache
-def runnable_servos() -> dict[str, Any]:
-    """The built-in catalogue's servos the simulation can run (a motor model and firmware)."""
+def _builtin_catalogue() -> dict[str, Any]:
     from app.core.servo.catalogue import load_catalogue
+
+    return load_catalogue()
+
+
+def runnable_servos(files: tuple[Any, ...] = ()) -> dict[str, Any]:
+    """The servos the simulation can run (a motor model and firmware): the built-in
+    catalogue's and those of the user's `files` (UserServoFile)."""
     from app.core.servo.choice import simulatable
 
-    return simulatable(load_catalogue())
+    return simulatable(offered_servos(files))
 
 
-def check_servo(key: Any, where: str) -> str:
+def offered_servos(files: tuple[Any, ...] = ()) -> dict[str, Any]:
+    """The built-in catalogue with the records of the user's `files`; SweepSpecError for a
+    file that cannot be used (one line naming it)."""
+    from app.core.errors import StudioError
+    from app.core.servo.user_files import with_user_files
+
+    try:
+        return with_user_files(_builtin_catalogue(), files)
+    except StudioError as error:
+        raise SweepSpecError(f"user servos: {error}") from None
+
+
+def user_servo_files(value: Any, source: str) -> tuple[Any, ...]:
+    """The data's `user_servos` ([{name, text}, ...]) as checked UserServoFiles."""
+    from app.core.servo.user_files import MAX_FILES, UserServoFile
+
+    if not isinstance(value, list) or len(value) > MAX_FILES:
+        raise SweepSpecError(
+            f"{source}: user_servos is a list of at most {MAX_FILES} {{name, text}} tables"
+        )
+    files = []
+    for i, entry in enumerate(value):
+        if (
+            not isinstance(entry, dict)
+            or set(entry) != {"name", "text"}
+            or not all(isinstance(entry[k], str) for k in ("name", "text"))
+        ):
+            raise SweepSpecError(f"{source}: user_servos {i + 1} is not a {{name, text}} table")
+        files.append(UserServoFile(entry["name"], entry["text"]))
+    size = len(json.dumps(value))
+    if size > MAX_USER_JSON_CHARS:
+        raise SweepSpecError(
+            f"{source}: the user servo files take {size} characters as a project keeps them; "
+            f"at most {MAX_USER_JSON_CHARS} (give the sweep only the servos it chooses from)"
+        )
+    offered_servos(tuple(files))  # every record checked, no key taken twice
+    return tuple(files)
+
+
+def read_servo_files(value: Any, sweep_file: Path) -> list[dict[str, str]]:
+    """A sweep file's `servo_files` (paths, relative ones from the sweep file's folder) read
+    into `user_servos` data ([{name, text}]); each file checked as the studio checks an
+    upload (app.core.servo.user_files.user_file): one line naming what is wrong."""
+    from app.core import input_gate
+    from app.core.errors import StudioError
+    from app.core.servo.user_files import MAX_FILE_BYTES, MAX_FILES, user_file
+
+    where = f"{sweep_file}: servo_files"
+    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+        raise SweepSpecError(f'{where}: give a list of file paths, servo_files = ["mine.toml"]')
+    if len(value) > MAX_FILES:
+        raise SweepSpecError(f"{where}: {len(value)} files; at most {MAX_FILES}")
+    kind = input_gate.FileKind("servo TOML", MAX_FILE_BYTES)
+    out = []
+    for name in value:
+        path = Path(name) if Path(name).is_absolute() else sweep_file.parent / name
+        try:
+            file = user_file(path.name, input_gate.read_bytes(path, kind, SweepSpecError))
+        except StudioError as error:
+            raise SweepSpecError(f"{where}: {error}") from None
+        out.append({"name": file.name, "text": file.text})
+    return out
+
+
+def check_servo(key: Any, where: str, files: tuple[Any, ...] = ()) -> str:
     """`key` if it names a servo the simulation can run; SweepSpecError naming the ones it can."""
-    servos = runnable_servos()
+    servos = runnable_servos(files)
     if not isinstance(key, str) or key not in servos:
         raise SweepSpecError(
             f"{where}: servo {key!r} is not a catalogue servo the simulation can run; give one "
@@ -68,7 +151,7 @@ def check_kp(value: Any, where: str) -> float:
     return float(value)
 
 
-def choices_of(entry: dict[str, Any], where: str) -> tuple[str, ...]:
+def choices_of(entry: dict[str, Any], where: str, files: tuple[Any, ...] = ()) -> tuple[str, ...]:
     """The checked `choices` of a categorical servo parameter."""
     raw = entry.get("choices")
     if not isinstance(raw, list) or not raw:
@@ -77,14 +160,14 @@ def choices_of(entry: dict[str, Any], where: str) -> tuple[str, ...]:
         )
     if len(raw) > MAX_CHOICES:
         raise SweepSpecError(f"{where}: {len(raw)} choices; at most {MAX_CHOICES}")
-    keys = tuple(check_servo(key, where) for key in raw)
+    keys = tuple(check_servo(key, where, files) for key in raw)
     twice = sorted({k for k in keys if keys.count(k) > 1})
     if twice:
         raise SweepSpecError(f"{where}: choice(s) {', '.join(twice)} given twice")
     return keys
 
 
-def fixed_part(value: Any, source: str) -> tuple[tuple[str, Any], ...]:
+def fixed_part(value: Any, source: str, files: tuple[Any, ...] = ()) -> tuple[tuple[str, Any], ...]:
     """The [part] table: (("servo", key), ("kp", value)) as given."""
     if not isinstance(value, dict):
         raise SweepSpecError(f"{source}: [part] must be a table (servo, kp)")
@@ -95,10 +178,37 @@ def fixed_part(value: Any, source: str) -> tuple[tuple[str, Any], ...]:
         )
     out: list[tuple[str, Any]] = []
     if "servo" in value:
-        out.append(("servo", check_servo(value["servo"], f"{source}: [part]")))
+        out.append(("servo", check_servo(value["servo"], f"{source}: [part]", files)))
     if "kp" in value:
         out.append(("kp", check_kp(value["kp"], f"{source}: [part]")))
     return tuple(out)
+
+
+def check_parts(
+    parameters: tuple[Any, ...],
+    servo: tuple[tuple[str, float], ...],
+    part: tuple[tuple[str, Any], ...],
+    source: str,
+) -> None:
+    """A kp needs a servo (swept or in [part]); a part's compliance is its 1/K, so the virtual
+    servo's compliance cannot be set beside it."""
+    swept = {p.name for p in parameters if p.kind == "part"}
+    fixed = {name for name, _ in part}
+    if swept & fixed:
+        raise SweepSpecError(f"{source}: {', '.join(sorted(swept & fixed))} swept and in [part]")
+    given = swept | fixed
+    if "kp" in given and "servo" not in given:
+        raise SweepSpecError(
+            f'{source}: kp needs a servo: give [part] servo = "<key>" or sweep servo'
+        )
+    compliance = "compliance_deg_per_Nm"
+    if "servo" in given and (
+        any(p.name == compliance for p in parameters) or any(n == compliance for n, _ in servo)
+    ):
+        raise SweepSpecError(
+            f"{source}: {compliance} is the virtual servo's; with a servo part the compliance "
+            "is the part's 1/K (sweep kp instead)"
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -110,12 +220,24 @@ class PartSetup:
     """None: the record's firmware kp."""
     dead_band_deg: float | None = None
     """None: the record's backlash."""
+    records: tuple[Any, ...] = ()
+    """The user's own ServoRecords the part may name (frozen dataclasses of numbers and text:
+    picklable); the built-in catalogue's are read where the point runs."""
+
+    def catalogue(self) -> dict[str, Any]:
+        """The built-in catalogue with this part's user records."""
+        from app.core.servo.catalogue import with_user_servos
+
+        return with_user_servos(_builtin_catalogue(), list(self.records))
+
+    def record(self) -> Any:
+        """The ServoRecord of this part's servo."""
+        return self.catalogue()[self.servo]
 
 
 def leg_parts(robot: Any, part: PartSetup) -> Any:
     """ServoParts of `part` on every leg joint of `robot` (the joints the uniform preset
     compensates); StudioError (ServoPartsError) for settings the part cannot take."""
-    from app.core.servo.catalogue import load_catalogue
     from app.core.servo.parts import parts_from_mapping
     from app.core.servo.presets import uniform_preset
 
@@ -129,4 +251,4 @@ def leg_parts(robot: Any, part: PartSetup) -> Any:
         table["kp"] = part.kp
     if part.dead_band_deg is not None:
         table["dead_band_deg"] = part.dead_band_deg
-    return parts_from_mapping(table, legs, load_catalogue(), f"sweep part {part.servo}")
+    return parts_from_mapping(table, legs, part.catalogue(), f"sweep part {part.servo}")

@@ -17,6 +17,7 @@ from app.core.atomic_write import write_atomically, write_bytes_atomically
 from app.core.sweeps.evaluate import PointResult
 from app.core.sweeps.outcomes import completed
 from app.core.sweeps.pareto import pareto_mask
+from app.core.sweeps.part_metrics import PART_METRICS
 from app.core.sweeps.robot_variants import SweepSpecError
 from app.core.sweeps.servo_metrics import SimulationMetrics
 from app.core.sweeps.spec import SweepSpec
@@ -55,19 +56,25 @@ class SweepRecord:
         return SweepSpec.from_mapping(data, "the project's sweep")
 
 
-SIMULATION_COLUMNS = tuple(f.name for f in dataclasses.fields(SimulationMetrics))
+PART_COLUMNS = tuple(PART_METRICS)
+"""Columns of a sweep with servo parts only."""
+SIMULATION_COLUMNS = tuple(
+    f.name for f in dataclasses.fields(SimulationMetrics) if f.name not in PART_COLUMNS
+)
 """Columns of a sweep with simulate = true only."""
 COLUMNS = tuple(
     f.name
     for f in dataclasses.fields(PointResult)
-    if f.name != "values" and f.name not in SIMULATION_COLUMNS
+    if f.name != "values" and f.name not in SIMULATION_COLUMNS + PART_COLUMNS
 )
 """The metrics' columns of every sweep."""
 
 
 def columns(spec: SweepSpec) -> tuple[str, ...]:
     """The result columns of this sweep (after its parameters, before `pareto`)."""
-    return COLUMNS + SIMULATION_COLUMNS if spec.simulate else COLUMNS
+    if not spec.simulate:
+        return COLUMNS
+    return COLUMNS + SIMULATION_COLUMNS + (PART_COLUMNS if spec.servos else ())
 
 
 def pareto_indices(spec: SweepSpec, results: Sequence[PointResult]) -> list[int]:

@@ -80,7 +80,9 @@ def start_point(spec: SweepSpec, defaults: GaitSettings | None = None) -> SweepP
     base = spec.base_settings(defaults)
     simulation = None
     if spec.simulate:
-        simulation = SimulationSetup.of(spec.walk_steps, dict(spec.servo), dict(spec.part))
+        simulation = SimulationSetup.of(
+            spec.walk_steps, dict(spec.servo), dict(spec.part), user_records(spec)
+        )
     return SweepPoint(-1, (), spec.variant(), base, spec.start, base, simulation)
 
 
@@ -95,6 +97,7 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
 
         defaults = default_settings(spec.variant().load())
     base = spec.base_settings(defaults)
+    records = user_records(spec)
     points = []
     for i, row in enumerate(sample_values(spec)):
         gait: dict[str, float | int] = {}
@@ -123,7 +126,16 @@ def sweep_points(spec: SweepSpec, defaults: GaitSettings | None = None) -> list[
                 settings,
                 spec.start,
                 dataclasses.replace(base, knots=settings.knots),
-                SimulationSetup.of(spec.walk_steps, servo, part) if spec.simulate else None,
+                SimulationSetup.of(spec.walk_steps, servo, part, records)
+                if spec.simulate
+                else None,
             )
         )
     return points
+
+
+def user_records(spec: SweepSpec) -> tuple[Any, ...]:
+    """The ServoRecords of the sweep's user servo files (checked when the spec was made)."""
+    from app.core.servo.user_files import records
+
+    return tuple(r for file in spec.user_servos for r in records(file))

@@ -87,10 +87,15 @@ class SimulationSetup:
 
     @classmethod
     def of(
-        cls, walk_steps: int, values: dict[str, float], part: dict[str, Any] | None = None
+        cls,
+        walk_steps: int,
+        values: dict[str, float],
+        part: dict[str, Any] | None = None,
+        user_records: tuple[Any, ...] = (),
     ) -> SimulationSetup:
         """The setup with the servo parameters `values` (names of SERVO_PARAMETERS) and the
-        part's `part` ("servo": key, "kp": value; none: no part)."""
+        part's `part` ("servo": key, "kp": value; none: no part); `user_records`: the user's
+        ServoRecords the sweep offers (the part carries its own to the worker)."""
         fields: dict[str, Any] = {"walk_steps": int(walk_steps)}
         for name, value in values.items():
             p = SERVO_PARAMETERS[name]
@@ -101,6 +106,7 @@ class SimulationSetup:
                 str(part["servo"]),
                 None if kp is None else float(kp),
                 float(values["dead_band_deg"]) if "dead_band_deg" in values else None,
+                tuple(r for r in user_records if r.key == part["servo"]),
             )
         return cls(**fields)
 
@@ -122,6 +128,11 @@ class SimulationMetrics:
     """The verdict ("stays up", "falls at 1.69 s (...)"), or why there is no simulation."""
     sim_s: float
     """Time of the walk, torques and simulation [s]."""
+    servo_mass_kg: float = math.nan
+    """The servo parts' metrics (app.core.sweeps.part_metrics; NaN without a part)."""
+    servo_cost: float = math.nan
+    electrical_energy_J: float = math.nan
+    servo_margin: float = math.nan
 
 
 def not_simulated(reason: str, seconds: float = 0.0) -> SimulationMetrics:
@@ -205,13 +216,25 @@ def simulation_metrics(planar: Any, gait: Any, setup: SimulationSetup) -> Simula
 
     start = time.perf_counter()
     try:
-        walk, _ff, _commands, _servo, result = walk_and_simulate(planar, gait, setup)
+        walk, feedforward, _commands, _servo, result = walk_and_simulate(planar, gait, setup)
     except StudioError as error:
         return not_simulated(f"not simulated: {error}", time.perf_counter() - start)
-    return metrics_of_simulation(
+    out = metrics_of_simulation(
         result,
         joint_angles(planar.robot, walk.trajectory.q),
         time.perf_counter() - start,
+    )
+    if setup.part is None:
+        return out
+    from app.core.sweeps.part_metrics import part_metrics
+
+    m = part_metrics(planar.robot, setup.part, walk, feedforward, result.energy)
+    return dataclasses.replace(
+        out,
+        servo_mass_kg=m["servo_mass_kg"],
+        servo_cost=m["servo_cost"],
+        electrical_energy_J=m["electrical_energy_J"],
+        servo_margin=m["servo_margin"],
     )
 
 

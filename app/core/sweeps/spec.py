@@ -12,6 +12,8 @@ A sweep file (TOML) looks like:
     start = "anchor"            # where each solve starts (see START)
     simulate = false            # true: walk, torques, compensation and MuJoCo per point
     walk_steps = 2              # steps of that walk
+    servo_files = ["mine.toml"] # the user's own servo files (from this file's folder), whose
+                                # servos [part] and a swept servo may name
 
     [servo]                     # fixed servo parameters (with simulate = true)
     compliance_deg_per_Nm = 1.4
@@ -46,7 +48,16 @@ from typing import Any, Literal
 
 from app.core import input_gate
 from app.core.collocation.settings import GaitSettings, GaitSettingsError
-from app.core.sweeps.part_parameters import PART_NAMES, check_kp, choices_of, fixed_part
+from app.core.sweeps.part_metrics import PART_METRICS, check_part_metrics
+from app.core.sweeps.part_parameters import (
+    PART_NAMES,
+    check_kp,
+    check_parts,
+    choices_of,
+    fixed_part,
+    offered_servos,
+    user_servo_files,
+)
 from app.core.sweeps.robot_variants import RobotVariant, SweepSpecError, robot_parameter
 from app.core.sweeps.servo_metrics import (
     DEFAULT_WALK_STEPS,
@@ -76,12 +87,13 @@ SIMULATION_METRICS = {
 }
 """Metrics of the simulation (a sweep with simulate = true)."""
 METRICS.update(SIMULATION_METRICS)
+METRICS.update(PART_METRICS)
 """The metrics a Pareto front may use, with what they mean."""
 SAMPLINGS = ("grid", "random", "latin")
 KINDS = ("gait", "robot", "servo", "part")
 TOP_KEYS = (
     "robot", "sampling", "samples", "seed", "pareto", "start", "gait", "parameter",
-    "simulate", "walk_steps", "servo", "package_roots", "feet", "part",
+    "simulate", "walk_steps", "servo", "package_roots", "feet", "part", "user_servos",
 )  # fmt: skip
 START = {
     "anchor": "from the gait of the [gait] settings on the same NLP (solved once per worker): "
@@ -158,6 +170,14 @@ class SweepSpec:
 
     part: tuple[tuple[str, Any], ...] = ()
     """The fixed servo part on the legs: ("servo", key) and ("kp", value) as given ([part])."""
+    user_servos: tuple[Any, ...] = ()
+    """The user's servo files (UserServoFile) whose servos the part may name."""
+
+    @property
+    def servos(self) -> tuple[str, ...]:
+        """The servo keys the sweep puts on the legs (swept or fixed); () without parts."""
+        swept = [p.choices for p in self.parameters if p.kind == "part" and p.choices]
+        return swept[0] if swept else tuple(v for n, v in self.part if n == "servo")
 
     def variant(self, values: dict[str, float] | None = None) -> RobotVariant:
         """The swept robot with robot parameters `values` (none: as built)."""
@@ -205,6 +225,7 @@ class SweepSpec:
         start = _typed(data.get("start", "anchor"), str, f"{source}: start")
         if start not in START:
             raise SweepSpecError(f"{source}: start = {start!r}; give one of {', '.join(START)}")
+        files = user_servo_files(data.get("user_servos", []), source)
         gait = _typed(data.get("gait", {}), dict, f"{source}: [gait]")
         try:
             base = GaitSettings.from_mapping(dict(gait), source=f"{source}: [gait]")
@@ -216,7 +237,7 @@ class SweepSpec:
         if len(raw) > MAX_PARAMETERS:
             raise SweepSpecError(f"{source}: {len(raw)} parameters; at most {MAX_PARAMETERS}")
         parameters = tuple(
-            _parameter(entry, f"{source}: parameter {i + 1}", robot, base)
+            _parameter(entry, f"{source}: parameter {i + 1}", robot, base, files)
             for i, entry in enumerate(raw)
         )
         names = [p.name for p in parameters]
@@ -237,8 +258,10 @@ class SweepSpec:
                 f"{source}: walk_steps = {walk_steps}; give 1 to {MAX_WALK_STEPS} steps"
             )
         servo = _servo_table(data.get("servo", {}), source)
-        part = fixed_part(data.get("part", {}), source)
-        _check_parts(parameters, servo, part, source)
+        part = fixed_part(data.get("part", {}), source, files)
+        check_parts(parameters, servo, part, source)
+        servos = [v for n, v in part if n == "servo"] + [k for p in parameters for k in p.choices]
+        check_part_metrics([m for m, _ in pareto], servos, offered_servos(files), source)
         if not simulate:
             needs = [f"{p.kind} parameter {p.name}" for p in parameters if p.kind in PART_KINDS]
             needs += [f"[servo] {name}" for name, _ in servo]
@@ -253,7 +276,7 @@ class SweepSpec:
         spec = cls(
             robot, parameters, sampling, samples, seed, pareto,
             tuple(sorted(gait.items())), start, simulate, walk_steps, servo,
-            package_roots, feet, part,
+            package_roots, feet, part, files,
         )  # fmt: skip
         if sampling != "grid" and samples < 1:
             raise SweepSpecError(f"{source}: samples = {samples}; give at least 1 point")
@@ -266,8 +289,19 @@ class SweepSpec:
 
 
 def read_sweep_toml(path: Path) -> SweepSpec:
-    """A sweep file (TOML, ≤ 1 MiB) checked into a SweepSpec."""
-    return SweepSpec.from_mapping(input_gate.read_toml(path, SweepSpecError), str(path))
+    """A sweep file (TOML, ≤ 1 MiB) checked into a SweepSpec; its `servo_files` (paths from
+    the file's folder) read into the data's `user_servos`."""
+    return SweepSpec.from_mapping(sweep_toml_data(path), str(path))
+
+
+def sweep_toml_data(path: Path) -> dict[str, Any]:
+    """The data of a sweep file, its `servo_files` read (part_parameters.read_servo_files)."""
+    from app.core.sweeps.part_parameters import read_servo_files
+
+    data = input_gate.read_toml(path, SweepSpecError)
+    if "servo_files" in data:
+        data["user_servos"] = read_servo_files(data.pop("servo_files"), path)
+    return data
 
 
 def _urdf_options(
@@ -315,7 +349,9 @@ def _number(value: Any, what: str) -> float:
     return float(value)
 
 
-def _parameter(entry: Any, where: str, robot: str, base: GaitSettings) -> SweepParameter:
+def _parameter(
+    entry: Any, where: str, robot: str, base: GaitSettings, files: tuple[Any, ...]
+) -> SweepParameter:
     entry = _typed(entry, dict, where)
     unknown = sorted(set(entry) - set(PARAMETER_KEYS))
     if unknown:
@@ -329,7 +365,7 @@ def _parameter(entry: Any, where: str, robot: str, base: GaitSettings) -> SweepP
     if kind == "part" and name == "servo":
         if {"min", "max", "levels"} & set(entry):
             raise SweepSpecError(f"{where}: servo is categorical: give choices, not min/max/levels")
-        keys = choices_of(entry, f"{where} (servo)")
+        keys = choices_of(entry, f"{where} (servo)", files)
         return SweepParameter(kind, name, 0.0, float(len(keys) - 1), len(keys), keys)
     if "choices" in entry:
         raise SweepSpecError(f"{where}: choices are for the part parameter servo only")
@@ -380,33 +416,6 @@ def _check_gait_range(name: str, lo: float, hi: float, base: GaitSettings, where
             raise SweepSpecError(
                 f"{where}: {name} range [{lo:g}, {hi:g}] leaves what the planner accepts: {error}"
             ) from None
-
-
-def _check_parts(
-    parameters: tuple[SweepParameter, ...],
-    servo: tuple[tuple[str, float], ...],
-    part: tuple[tuple[str, Any], ...],
-    source: str,
-) -> None:
-    """A kp needs a servo (swept or in [part]); a part's compliance is its 1/K, so the virtual
-    servo's compliance cannot be set beside it."""
-    swept = {p.name for p in parameters if p.kind == "part"}
-    fixed = {name for name, _ in part}
-    if swept & fixed:
-        raise SweepSpecError(f"{source}: {', '.join(sorted(swept & fixed))} swept and in [part]")
-    given = swept | fixed
-    if "kp" in given and "servo" not in given:
-        raise SweepSpecError(
-            f'{source}: kp needs a servo: give [part] servo = "<key>" or sweep servo'
-        )
-    compliance = "compliance_deg_per_Nm"
-    if "servo" in given and (
-        any(p.name == compliance for p in parameters) or any(n == compliance for n, _ in servo)
-    ):
-        raise SweepSpecError(
-            f"{source}: {compliance} is the virtual servo's; with a servo part the compliance "
-            "is the part's 1/K (sweep kp instead)"
-        )
 
 
 def _check_servo_range(name: str, lo: float, hi: float, where: str) -> None:

@@ -15,12 +15,16 @@ least-squares pose leaves a residual, reported as `residual_m_rad`.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+
 import numpy as np
 import pinocchio as pin
 
 from app.core.collocation.planar_model import PlanarModel
 from app.core.robot.model import RobotModel
 
+EPS_S = 1e-3
+"""Finite-difference step of the walk's velocities and accelerations [s]."""
 IK_TOLERANCE = 1e-10
 IK_MAX_ITERATIONS = 30
 IK_DAMPING = 1e-4
@@ -106,3 +110,43 @@ class LegLifter:
         self._warm = q.copy()
         q[:7] = pin.SE3ToXYZQUAT(base)
         return q
+
+    def samples(
+        self,
+        planar_at: Callable[[int, float], np.ndarray],
+        segments: Sequence[tuple[float, float, tuple[bool, bool]]],
+        t: np.ndarray,
+        which: np.ndarray,
+        y: np.ndarray,
+        dt: float,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """q, v, a and contacts of the whole-body walk at times `t` [s], sample k in segment
+        `which[k]` ((t0, t1, contacts) in `segments`, planar configuration `planar_at(i, t)`),
+        the base swayed by `y` [m]; v and a by finite differences of configurations EPS_S
+        apart, one-sided at a segment's ends so that no difference crosses a touch-down."""
+        yd = np.gradient(y, dt)
+        ydd = np.gradient(yd, dt)
+        model = self.model
+        q = np.empty((len(t), model.nq))
+        v = np.empty((len(t), model.nv))
+        a = np.empty((len(t), model.nv))
+        contacts = np.empty((len(t), 2), dtype=bool)
+        for k, tk in enumerate(t):
+            t0, t1, contacts[k] = segments[which[k]]
+            if tk - EPS_S < t0 - 1e-12:
+                offsets = np.array([0.0, 1.0, 2.0]) * EPS_S
+            elif tk + EPS_S > t1 + 1e-12:
+                offsets = np.array([-2.0, -1.0, 0.0]) * EPS_S
+            else:
+                offsets = np.array([-1.0, 0.0, 1.0]) * EPS_S
+            configs = [
+                self.lift(planar_at(int(which[k]), tk + o), y[k] + yd[k] * o + 0.5 * ydd[k] * o * o)
+                for o in offsets
+            ]
+            here = int(np.argmin(np.abs(offsets)))
+            q[k] = configs[here]
+            d01 = pin.difference(model, configs[0], configs[1]) / EPS_S
+            d12 = pin.difference(model, configs[1], configs[2]) / EPS_S
+            a[k] = (d12 - d01) / EPS_S
+            v[k] = (d01, 0.5 * (d01 + d12), d12)[here] + (here - 1) * 0.5 * EPS_S * a[k]
+        return q, v, a, contacts

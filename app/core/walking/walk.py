@@ -8,7 +8,13 @@ next left support; H = T0 + T1 + T2, advance d per cycle):
   and the forward speed ẋ matched; ż, pitch rate and accelerations zero at both ends:
   matching dircon_biped's post-impact pitch rate, −1.1 rad/s, overshoots its pitch by 0.2 rad
   and the front leg cannot follow), so z and pitch rates jump there as at a touch-down; the
-  legs follow by planar leg IK;
+  legs follow by planar leg IK. The quintic (the ramp) takes the whole start when the legs
+  can follow it with both soles flat, else the longest of RAMP_FRACTIONS of it they can
+  follow, the base standing at rest before it (a ramp of T from rest to ẋ starts ẋ·T/2
+  behind the touch-down, so a shorter ramp needs less reach). Only when no ramp fits does
+  the walk stand still at the touch-down pose and jump to the gait's speed: on servos that
+  jump is a fall (Roban S14's default walk: the body never gets the speed, lags its feet
+  and tips backwards; with a matched ramp its walk stays up, docs/simulation.md);
 - N steps of H/2 each from that touch-down: the periodic cycle, shifted by d every cycle;
 - stop, `stop_s` long, double support after the last touch-down: a quintic from its
   post-impact state back to rest.
@@ -36,8 +42,6 @@ from app.core.motions.trajectory import Trajectory
 from app.core.walking.lift import LegLifter
 from app.core.walking.sway import lateral_sway, smoothstep
 
-EPS_S = 1e-3
-"""Finite-difference step [s]."""
 MAX_STEPS = 100
 STOP_BALANCE = 0.5
 """Where the walk comes to rest, between the end of a steady deceleration from the gait's
@@ -46,6 +50,11 @@ soles (1). Measured on servo_biped's 6-step walk with eq 7 on the drive torque a
 after it: at 0 the robot tips over forward 0.4 s after the walk; at 1 the stop reverses the
 base harder than the whole-body QP can follow (10 samples infeasible: the ZMP leaves the
 soles); at 0.5 every sample is feasible and the robot stands after the walk."""
+RAMP_FRACTIONS = tuple(1.0 - i / 16 for i in range(13))
+"""The ramps tried for the start (stop), as fractions of its duration, longest first (1 down
+to 1/4 in steps of 1/16)."""
+MIN_RAMP_S = 0.1
+"""Shortest ramp tried [s]: a shorter one asks an acceleration no sole can push."""
 REACH_TOLERANCE_M = 1e-6
 """Largest sole-point error of a double-support posture that still counts as reached [m]."""
 
@@ -141,28 +150,47 @@ class _PlanarWalk:
         self.start_state = self._cycle_state(T0, 0, 1)
         last = segments[-2]
         self.end_state = self._cycle_state(end_tau, last.cycle, last.mode + 1)
-        # At rest as far behind (ahead) as a steady acceleration from (to) the gait's speed
-        # travels: x_rest = x ∓ ẋ T / 2, so that x(t) moves one way only.
-        self.rest_start = self._rest(self.start_state, -start_s)
-        plain = self._rest(self.end_state, stop_s)
-        self.rest_end = plain + STOP_BALANCE * (self._balanced(self.end_state[0], plain) - plain)
         self.match_speed = {"start": True, "stop": True}
+        self.ramp_s = {"start": start_s, "stop": segments[-1].t1 - segments[-1].t0}
         self.notes: list[str] = []
         for seg in (segments[0], segments[-1]):
-            if not self._reachable(seg):
+            length = seg.t1 - seg.t0
+            ramps = [f * length for f in RAMP_FRACTIONS if f == 1.0 or f * length >= MIN_RAMP_S]
+            for ramp in ramps:
+                self._set_ramp(seg.kind, ramp)
+                if self._reachable(seg):
+                    break
+            else:
                 # The legs cannot follow the base from rest to the gait's speed with both feet
                 # down (dircon_biped's front leg is almost straight at touch-down): stand still
                 # at the touch-down pose and let the speed jump there, like a push.
                 self.match_speed[seg.kind] = False
-                if seg.kind == "start":
-                    self.rest_start = self.start_state[0][:BASE_DOF].copy()
-                else:
-                    self.rest_end = self.end_state[0][:BASE_DOF].copy()
+                self._set_ramp(seg.kind, length)
                 self.notes.append(
                     f"the legs cannot {'reach' if seg.kind == 'start' else 'leave'} the gait's "
-                    f"speed with both feet down in {seg.t1 - seg.t0:.2f} s: the walk "
-                    f"{'starts' if seg.kind == 'start' else 'stops'} with a jump in speed"
+                    f"speed with both feet down in {length:.2f} s, within the soles: the walk "
+                    f"{'starts' if seg.kind == 'start' else 'stops'} with a jump in speed "
+                    "(on servos a body that never gets the speed falls; shorter steps let "
+                    "the legs reach it)"
                 )
+
+    def _set_ramp(self, kind: str, ramp_s: float) -> None:
+        """The start's (stop's) quintic takes `ramp_s` [s]; the rest pose it leaves from
+        (comes to) is as far behind (ahead) as a steady acceleration from (to) the gait's speed
+        travels in that time: x_rest = x ∓ ẋ·ramp/2, so that x(t) moves one way only."""
+        self.ramp_s[kind] = ramp_s
+        self._warm_from = None
+        if kind == "start":
+            if not self.match_speed["start"]:
+                self.rest_start = self.start_state[0][:BASE_DOF].copy()
+            else:
+                self.rest_start = self._rest(self.start_state, -ramp_s)
+        elif not self.match_speed["stop"]:
+            self.rest_end = self.end_state[0][:BASE_DOF].copy()
+        else:
+            plain = self._rest(self.end_state, ramp_s)
+            balanced = self._balanced(self.end_state[0], plain)
+            self.rest_end = plain + STOP_BALANCE * (balanced - plain)
 
     def _speed(self, v: np.ndarray, kind: str) -> np.ndarray:
         """The base velocity the start/stop quintic meets: (ẋ, 0, 0), or 0 when standing."""
@@ -197,15 +225,25 @@ class _PlanarWalk:
         return base
 
     def _reachable(self, segment: _Segment, samples: int = 12) -> bool:
-        """Whether both soles stay flat on their footholds through a double-support segment."""
-        for t in np.linspace(segment.t0, segment.t1, samples):
+        """Whether both soles stay flat on their footholds through a double-support segment
+        and the sagittal ZMP of its ramp, x − z·ẍ/g of the CoM, stays between the rearmost and
+        the foremost sole point (a ramp too short asks an acceleration no sole can push)."""
+        stance = self.start_state[0] if segment.kind == "start" else self.end_state[0]
+        goal = evaluate(self.planar.contact_positions, stance).reshape(4, 2)
+        ramp = self.ramp_s[segment.kind]
+        t0 = segment.t1 - ramp if segment.kind == "start" else segment.t0
+        times = np.linspace(t0, t0 + ramp, samples)
+        com = np.empty((samples, 2))
+        for i, t in enumerate(times):
             q = self.at(segment, float(t))
             p = evaluate(self.planar.contact_positions, q).reshape(4, 2)
-            stance = self.start_state[0] if segment.kind == "start" else self.end_state[0]
-            goal = evaluate(self.planar.contact_positions, stance).reshape(4, 2)
             if np.abs(p - goal).max() > REACH_TOLERANCE_M:
                 return False
-        return True
+            com[i] = np.asarray(evaluate(self.planar.com, q)).reshape(-1)[:2]
+        step = times[1] - times[0]
+        xdd = np.gradient(np.gradient(com[:, 0], step), step)
+        zmp = com[:, 0] - (com[:, 1] - goal[:, 1].mean()) * xdd / self.planar.gravity
+        return bool(np.all((zmp >= goal[:, 0].min()) & (zmp <= goal[:, 0].max())))
 
     def at(self, segment: _Segment, t: float) -> np.ndarray:
         if segment.kind == "step":
@@ -215,7 +253,8 @@ class _PlanarWalk:
             q[0] += segment.cycle * self.d
             return q
         if segment.kind == "start":
-            end, rest, T, local = self.start_state, self.rest_start, self.start_s, t
+            end, rest, T = self.start_state, self.rest_start, self.ramp_s["start"]
+            local = max(0.0, t - (segment.t1 - T))  # at rest until the ramp
             base = _quintic(
                 rest,
                 0 * rest,
@@ -228,8 +267,8 @@ class _PlanarWalk:
             )
             stance = end[0]
         else:
-            end, rest = self.end_state, self.rest_end
-            T, local = segment.t1 - segment.t0, t - segment.t0
+            end, rest, T = self.end_state, self.rest_end, self.ramp_s["stop"]
+            local = min(t - segment.t0, T)  # at rest after the ramp
             base = _quintic(
                 end[0][:3],
                 self._speed(end[1], segment.kind),
@@ -311,7 +350,14 @@ def build_walk(
             "sway and its CoM stays between the feet; in single support it is not over the "
             "stance sole, so the whole-body QP cannot balance those samples"
         )
-    q, v, a, contacts = _samples(walk, lifter, t, which, y, dt)
+    q, v, a, contacts = lifter.samples(
+        lambda i, tk: walk.at(walk.segments[i], tk),
+        [(seg.t0, seg.t1, seg.contacts) for seg in walk.segments],
+        t,
+        which,
+        y,
+        dt,
+    )
     footprints = _footprints(walk, lifter, width, total)
     notes = walk.notes + notes
     if lifter.residual_m_rad > 1e-6:
@@ -397,38 +443,3 @@ def _zmp_reference(
         else:
             p_ref[k] = foot_y["left" if seg.contacts[0] else "right"]
     return p_ref
-
-
-def _samples(
-    walk: _PlanarWalk, lifter: LegLifter, t: np.ndarray, which: np.ndarray, y: np.ndarray,
-    dt: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
-    """q, v, a and contacts of the whole-body walk at times `t`, the base swayed by `y` [m];
-    v and a by finite differences of configurations EPS_S apart (inside each segment)."""
-    yd = np.gradient(y, dt)
-    ydd = np.gradient(yd, dt)
-    model = walk.planar.robot.model
-    q = np.empty((len(t), model.nq))
-    v = np.empty((len(t), model.nv))
-    a = np.empty((len(t), model.nv))
-    contacts = np.empty((len(t), 2), dtype=bool)
-    for k, tk in enumerate(t):
-        seg = walk.segments[which[k]]
-        if tk - EPS_S < seg.t0 - 1e-12:
-            offsets = np.array([0.0, 1.0, 2.0]) * EPS_S
-        elif tk + EPS_S > seg.t1 + 1e-12:
-            offsets = np.array([-2.0, -1.0, 0.0]) * EPS_S
-        else:
-            offsets = np.array([-1.0, 0.0, 1.0]) * EPS_S
-        configs = [
-            lifter.lift(walk.at(seg, tk + o), y[k] + yd[k] * o + 0.5 * ydd[k] * o * o)
-            for o in offsets
-        ]
-        here = int(np.argmin(np.abs(offsets)))
-        q[k] = configs[here]
-        d01 = pin.difference(model, configs[0], configs[1]) / EPS_S
-        d12 = pin.difference(model, configs[1], configs[2]) / EPS_S
-        a[k] = (d12 - d01) / EPS_S
-        v[k] = (d01, 0.5 * (d01 + d12), d12)[here] + (here - 1) * 0.5 * EPS_S * a[k]
-        contacts[k] = seg.contacts
-    return q, v, a, contacts

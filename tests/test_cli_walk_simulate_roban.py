@@ -1,0 +1,78 @@
+"""Roban S14 (28.7 kg) walks on the servos sized to it, as the CLI runs it: no fall, and the
+distance its plan asks, read from MuJoCo's own root body.
+
+Distance is the simulation CSV's base_x column (written from MuJoCo's qpos) against the walk
+CSV's base x, not the verdict's numbers. What makes S14 walk (measured, docs/simulation.md):
+a start that brings the body to the gait's speed with both feet down, within the soles (the
+walk's ramp, app/core/walking/walk.py), which S14's legs reach with steps of 5.9 cm; its
+default 16.9 cm steps start with a jump in speed, and the body that never gets the speed
+falls backwards, on rigid servos too. Eq 7 on the servos' drive torque (`--drive-torque`).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import pytest
+
+from tests.conftest import ROBAN_URDF
+from tests.test_cli import run
+
+STEP_LENGTH_M = 0.1185
+"""Two steps' advance [m]: 0.35 of S14's default 0.3386 m (0.26 of its leg length per step)."""
+
+
+def _column(path, name: str) -> list[float]:
+    with open(path, newline="", encoding="utf-8") as file:
+        rows = list(csv.reader(file))
+    i = rows[0].index(name)
+    return [float(row[i]) for row in rows[1:]]
+
+
+@pytest.fixture(scope="module")
+def walk(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("roban_walk")
+    config = folder / "plan.toml"
+    config.write_text(f"step_length_m = {STEP_LENGTH_M}\n", encoding="utf-8")
+    out = folder / "walk.csv"
+    result = run(
+        "plan", "--robot", str(ROBAN_URDF), "--config", str(config), "--steps", "4",
+        "--out", str(out), "--json", timeout_s=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    return folder, out, json.loads(result.stdout)
+
+
+def test_the_walk_starts_at_the_gaits_speed(walk):
+    _, traj, report = walk
+    # No jump in speed: the start ramp reaches the gait's speed with both feet down.
+    assert not any("jump in speed" in note for note in report["walk"]["notes"])
+    t, x = _column(traj, "t [s]"), _column(traj, "base_x [m]")
+    first_lift = report["walk"]["footprints"][0]["t_off_s"]
+    k = min(range(len(t)), key=lambda i: abs(t[i] - first_lift))
+    dt = t[1] - t[0]
+    before, after = (x[k] - x[k - 2]) / (2 * dt), (x[k + 2] - x[k]) / (2 * dt)
+    assert after > 0.1  # walking forward at lift-off
+    assert abs(after - before) < 0.25 * after
+
+
+def test_roban_walks_its_planned_distance_without_a_fall(walk):
+    folder, traj, _ = walk
+    sim = folder / "sim.csv"
+    result = run(
+        "simulate", str(traj), "--robot", str(ROBAN_URDF), "--preset", "uniform",
+        "--drive-torque", "--out", str(sim), "--json", timeout_s=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    planned_x = _column(traj, "base_x [m]")
+    simulated_x = _column(sim, "base_x [m]")
+    planned = planned_x[-1] - planned_x[0]
+    covered = simulated_x[-1] - simulated_x[0]
+    assert planned > 0.25  # four 5.9 cm steps and the start and stop
+    assert not report["fell"], report["verdict"]
+    assert report["verdict_kind"] != "falls"
+    assert 0.9 * planned <= covered <= 1.2 * planned
+    assert "covers" in report["verdict"]  # the CLI says how far it walked
+    assert "sized to biped_s13" in report["servo_default"]
