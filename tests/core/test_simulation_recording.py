@@ -21,6 +21,8 @@ recurrence in test_servo_in_mujoco), in C, with no recording. Each recorded colu
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
@@ -160,11 +162,8 @@ def test_links_on_the_floor_are_a_plain_rollouts():
     from app.core.simulation.recording import NON_FOOT_CLEARANCE_M
 
     robot = load_robot("servo_biped")
-    traj = run_motion(robot, "one_leg_squats").trajectory
     n = 160
-    traj = dataclasses.replace(
-        traj, t=traj.t[:n], q=traj.q[:n], v=traj.v[:n], a=traj.a[:n], contacts=traj.contacts[:n]
-    )
+    traj = first_samples(run_motion(robot, "one_leg_squats").trajectory, n)
     q_cmd = joint_angles(robot, traj.q).copy()
     lower = np.array([joint.lower for joint in robot.joints])
     upper = np.array([joint.upper for joint in robot.joints])
