@@ -3,11 +3,15 @@
 - simulate: servo_biped's one-leg squats on MuJoCo with the default virtual servos (≥ 10× real
   time), Roban S14's (≥ 5×, rigid servos) (issue 9), CPU per physics step; the same-run
   baseline is bare MuJoCo stepping the same model (with the servos' actuators) from the same
-  settled start with the same set points, all in C (`mujoco.rollout`, no recording, no fall
-  verdict): the same physics and torques, so the ratio is the step loop's own overhead;
-  target ≤ 1.3× (issue 28).
+  settled start with the same set points, all in C (`mujoco.rollout`, sensors off, no
+  recording, no fall verdict): the same physics and torques, so the ratio is the step loop's
+  own overhead (its model's compilation, the set points, the samples' batched forward pass
+  and recording, the verdicts); target ≤ 1.3× (issue 28).
 - simulate_parts: the same squats on MX-106 servo parts (BAM motor law, energy) against the
-  ideal servo in the same run: ratio ≤ 1.5 (issue 27).
+  ideal servo in the same run: ratio ≤ 1.5 (issue 27). The ideal servo's run is now a block
+  of samples per call into C (`app.core.simulation.blocks`) while the part's law still ticks
+  in Python, so this ratio rose without the part's law changing (same-time A/B under load
+  10, wall time: 1.8 → 2.1–2.2; the target was not met under that load before either).
 - simulate_click: the studio's Simulate click to the verdict, ghosts and plots (≤ 2 s), with the
   worker already started.
 """
@@ -47,8 +51,10 @@ def _entry_simulate(ctx: BenchContext) -> tuple[dict, list[Figure]]:
     figures = []
     for key, target in TARGET_RTF.items():
         if f"{key}_cpu_s" in sim:
-            steps, rtf = sim[f"{key}_steps"], sim[f"{key}_real_time_factor"]
-            value, bare = sim[f"{key}_cpu_s"] / steps * 1e6, sim[f"{key}_bare_cpu_s"] / steps * 1e6
+            steps, rtf = float(sim[f"{key}_steps"]), float(sim[f"{key}_real_time_factor"])
+            ratios = sim[f"{key}_pair_ratios"]
+            value = float(sim[f"{key}_cpu_s"]) / steps * 1e6
+            bare = float(sim[f"{key}_bare_cpu_s"]) / steps * 1e6
             figures.append(
                 Figure(
                     f"simulate {key} one-leg squats ({sim[f'{key}_motion_s']:.1f} s), CPU per "
@@ -60,7 +66,7 @@ def _entry_simulate(ctx: BenchContext) -> tuple[dict, list[Figure]]:
                     bare,
                     "bare MuJoCo (mujoco.rollout, in C) stepping the same model, start and "
                     "servo set points, CPU per step",
-                    f"{rtf:.0f}× real time; {steps} steps",
+                    f"{rtf:.0f}× real time; {steps:.0f} steps; the pairs' ratios {ratios}",
                 )
             )
     return sim, figures
@@ -135,6 +141,7 @@ def bare_mujoco_cpu_s(inp: EngineInput, repeats: int = 3) -> tuple[float, int]:
     from mujoco import rollout
 
     m, d, ctrl_joint, ticks = start(inp)
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_SENSOR)  # the physics alone
     commands = np.asarray(inp.q_cmd_rad, dtype=float)
     dt = float(m.opt.timestep)
     setpoints = Setpoints(inp.law, dt, commands[0])
@@ -162,18 +169,20 @@ def bare_mujoco_cpu_s(inp: EngineInput, repeats: int = 3) -> tuple[float, int]:
 
 
 def _time_one(
-    key: str, robot: RobotModel, traj: Trajectory, servo: ServoModel, repeats: int = 3
-) -> dict[str, float | bool]:
-    """The studio's step loop (CPU, best of `repeats`) and bare MuJoCo on the same work,
-    in turns so that a change in the machine's load weighs on both."""
+    key: str, robot: RobotModel, traj: Trajectory, servo: ServoModel, repeats: int = 5
+) -> dict[str, float | bool | str]:
+    """The studio's step loop and bare MuJoCo on the same work (CPU), in `repeats` pairs run
+    back to back, so that each pair meets the same load; the pair of median ratio is
+    reported (the best of each side taken apart would pair a lucky moment of one with an
+    unlucky one of the other on a machine whose speed drifts)."""
     inp = prepare(robot, traj, joint_angles(robot, traj.q), servo)
-    cpu, bare = float("inf"), float("inf")
+    pairs = []
     for _ in range(repeats):
         with stopwatch() as lap:
             run = run_engine(inp)
-        cpu = min(cpu, lap.cpu_s)
         bare_s, steps = bare_mujoco_cpu_s(inp, 1)
-        bare = min(bare, bare_s)
+        pairs.append((lap.cpu_s / bare_s, lap.cpu_s, bare_s))
+    _, cpu, bare = sorted(pairs)[len(pairs) // 2]
     result = finish(robot, traj, inp, run, "bench")
     rtf = (traj.duration + inp.settle_s) / cpu
     return {
@@ -181,6 +190,7 @@ def _time_one(
         f"{key}_steps": steps,
         f"{key}_cpu_s": cpu,
         f"{key}_bare_cpu_s": bare,
+        f"{key}_pair_ratios": ", ".join(f"{pair[0]:.2f}" for pair in sorted(pairs)),
         f"{key}_wall_s": result.wall_time_s,
         f"{key}_real_time_factor": rtf,
         f"{key}_target_met": rtf >= TARGET_RTF[key] and cpu <= SIMULATE_BARE_RATIO * bare,
@@ -188,7 +198,7 @@ def _time_one(
     }
 
 
-def bench_simulation(roban_urdf: str | Path | None = None) -> dict[str, float | bool]:
+def bench_simulation(roban_urdf: str | Path | None = None) -> dict[str, float | bool | str]:
     """Time the simulation of servo_biped's one-leg squats (9.5 s, default servos) and, when a
     path is given, Roban S14's (rigid servos); and the two runs without/with compensation side by side (parallel when
     there are two cores) against one after the other. Motions are generated first (untimed)."""

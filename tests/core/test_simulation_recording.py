@@ -14,10 +14,14 @@ recurrence in test_servo_in_mujoco), in C, with no recording. Each recorded colu
   its set point);
 - the sole forces: `mj_forward` at the sample's state with the actuators off and the torque
   of the step before the sample applied (what the servo applies as the sample is taken),
-  summed over each foot's floor contacts with `mj_contactForce`, rotated to the world.
+  its constraints solved to 1e-15 from no warm start, summed over each foot's floor contacts
+  with `mj_contactForce`, rotated to the world (the run solves its samples' forces to 1e-10,
+  `recording.FORWARD_TOLERANCE`: to a few µN of this).
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import mujoco
 import numpy as np
@@ -109,7 +113,7 @@ def test_the_recorded_columns_are_a_plain_rollouts(squats_input):
         return check.qfrc_actuator.copy()
 
     f6 = np.zeros(6)
-    for k in range(0, SAMPLES - 1, 7):
+    for k in range(SAMPLES - 1):
         step = after[k] + 1  # the hold's first step
         R_world_base = np.zeros(9)
         mujoco.mju_quat2Mat(R_world_base, qpos[k, 3:7])
@@ -120,11 +124,15 @@ def test_the_recorded_columns_are_a_plain_rollouts(squats_input):
         )
         check.qfrc_applied[:] = actuator_torque(step - 1)
         mujoco.mj_setState(m, check, states[after[k]], kind)
+        check.qacc_warmstart[:] = 0.0
+        tolerance, iterations = m.opt.tolerance, m.opt.iterations
         m.opt.disableflags |= ACTUATION_OFF
+        m.opt.tolerance, m.opt.iterations = 1e-15, 1000
         try:
             mujoco.mj_forward(m, check)
         finally:
             m.opt.disableflags &= ~ACTUATION_OFF
+            m.opt.tolerance, m.opt.iterations = tolerance, iterations
         check.qfrc_applied[:] = 0.0
         np.testing.assert_allclose(run.sole_position_m[k], check.site_xpos[sites], atol=1e-9)
         np.testing.assert_allclose(run.root_position_m[k], check.xpos[root], atol=1e-9)
@@ -140,4 +148,54 @@ def test_the_recorded_columns_are_a_plain_rollouts(squats_input):
             world = check.contact.frame[c].reshape(3, 3).T @ f6[:3]
             expected[side] += world if g1 == floor else -world
         assert expected[:, 2].sum() > 0.0
-        np.testing.assert_allclose(run.contact_force_N[k], expected, atol=1e-4)
+        np.testing.assert_allclose(run.contact_force_N[k], expected, atol=1e-5)
+
+
+def test_links_on_the_floor_are_a_plain_rollouts():
+    """A robot with collision hulls on every link bent over until it falls (no fall verdict,
+    so it lies there): at every sample a link touches the floor where, in a plain rollout's
+    state, MuJoCo's contact list pairs the floor with a geom on neither foot, or a non-foot
+    body's origin is within NON_FOOT_CLEARANCE_M of it (the recording reads the contact list
+    only where its sensors count floor contacts that are no foot's)."""
+    from app.core.servo.model import ServoModel
+    from app.core.simulation.mjcf import SimOptions
+    from app.core.simulation.recording import NON_FOOT_CLEARANCE_M
+
+    robot = load_robot("servo_biped")
+    n = 160
+    traj = first_samples(run_motion(robot, "one_leg_squats").trajectory, n)
+    q_cmd = joint_angles(robot, traj.q).copy()
+    lower = np.array([joint.lower for joint in robot.joints])
+    upper = np.array([joint.upper for joint in robot.joints])
+    q_cmd[60:] = np.clip(q_cmd[60:] + 0.6, lower, upper)  # every joint bent far: it falls
+    servo = ServoModel.rigid(robot.joint_names)
+    inp = prepare(robot, traj, q_cmd, servo, options=SimOptions(hulls=True))
+    inp = dataclasses.replace(inp, detect_falls=False)
+    run = run_engine(inp)
+    assert run.n_simulated == n
+
+    m, d, ctrl_joint, ticks = start(inp)
+    control = _set_points(inp, m, ctrl_joint, ticks)
+    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state0 = np.zeros(mujoco.mj_stateSize(m, kind))
+    mujoco.mj_getState(m, d, state0, kind)
+    states = rollout.rollout(m, d, state0[None], control[None])[0][0]
+    after = len(control) - n * ticks + np.arange(n) * ticks - 1
+    floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+    feet = {
+        mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+        for names in inp.sim.foot_bodies
+        for name in names
+    }
+    others = [b for b in range(1, m.nbody) if b not in feet]
+    check = mujoco.MjData(m)
+    by_contact, by_clearance = np.zeros(n, bool), np.zeros(n, bool)
+    for k in range(n):
+        mujoco.mj_setState(m, check, states[after[k]], kind)
+        mujoco.mj_forward(m, check)
+        for g1, g2 in check.contact.geom[: check.ncon]:
+            other = g2 if g1 == floor else g1 if g2 == floor else -1
+            by_contact[k] |= other >= 0 and int(m.geom_bodyid[other]) not in feet
+        by_clearance[k] = check.xpos[others, 2].min() < NON_FOOT_CLEARANCE_M
+    assert (by_contact & ~by_clearance).any(), "some samples only a contact can tell"
+    np.testing.assert_array_equal(run.non_foot_contact, by_contact | by_clearance)

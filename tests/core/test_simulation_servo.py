@@ -235,3 +235,26 @@ def test_a_blow_up_is_an_error_not_nan(stool, tmp_path, monkeypatch):
             SimOptions(timestep_s=0.01, armature_kgm2=0.0),
         )
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+
+
+def test_a_blow_up_during_the_motion_is_found_at_its_sample(stool, tmp_path):
+    """A servo too stiff for a 10 ms step that holds the arm still, then is commanded a
+    1 rad jump at 0.5 s, blows up a few samples after the jump: reported at the same sample
+    whether MuJoCo's actuators step the servo a block at a time or the Python law steps it
+    tick by tick."""
+    path = tmp_path / "strong.urdf"
+    path.write_text(STOOL_WITH_ARM.replace('effort="20"', 'effort="1e6"'))
+    robot = load_robot(str(path))
+    traj = stool[1]
+    q_cmd = np.zeros((traj.n_samples, 1))
+    q_cmd[50:] = 1.0
+    servo = ServoModel(robot.joint_names, [1e-4], [0.0])
+    inp = prepare(robot, traj, q_cmd, servo, SimOptions(timestep_s=0.01, armature_kgm2=0.0))
+    messages = []
+    for in_mujoco in (True, False):
+        with pytest.raises(SimulationDiverged, match="blew up") as blown:
+            run_engine(dataclasses.replace(inp, servo_in_mujoco=in_mujoco))
+        messages.append(str(blown.value))
+    assert messages[0] == messages[1]
+    t_s = float(messages[0].split("t = ")[1].split(" s")[0])
+    assert 0.5 < t_s < 0.6

@@ -16,11 +16,13 @@ can run in a worker process without pinocchio. Sequence:
    `FALL_HEIGHT_FRACTION` of its planned height. After a fall the simulation goes on for
    `POST_FALL_S` and stops; later samples repeat the last state.
 
-A sample is recorded inside the first physics step of its hold (`recording`): `mj_step1`
-(positions, contacts, velocities), the contact forces under the previous step's servo torque
-(MuJoCo's acceleration and constraint stages alone, `mj_forwardSkip`), `mj_step2`; the rows
-are preallocated and converted in bulk, and the verdicts run on them a block of samples at a
-time (no longer than `POST_FALL_S`, so a fall never needs a sample the block has not made).
+Samples run a block at a time (no longer than `POST_FALL_S`, so a fall never needs a sample
+the block has not made), each block's verdicts checked on its recorded rows (`recording`).
+With the ideal servo in MuJoCo's actuators a block is two calls into C (`blocks`): every
+physics tick in one `mujoco.rollout`, then the samples' forward passes batched; a law in
+Python (`ServoLoop`, servo parts' `PartLoop`) steps tick by tick and records each sample
+after its own forward pass. Both record at sample k the forces under the servo torque of the
+step before it (the torque applied as the sample is taken).
 """
 
 from __future__ import annotations
@@ -33,11 +35,13 @@ from typing import Any
 
 import numpy as np
 
+from app.core.simulation.blocks import Blocks
 from app.core.simulation.errors import SimulationDiverged, SimulationInputError
 from app.core.simulation.part_law import PartEnergy, PartLaw, PartLoop
 from app.core.simulation.recording import (
     FALL_HEIGHT_FRACTION,
     FALL_TILT_DEG,
+    FORWARD_TOLERANCE,
     MAX_SPEED,
     NON_FOOT_CLEARANCE_M,
     Recorder,
@@ -47,6 +51,7 @@ from app.core.simulation.recording import (
     first_fall,
     qpos_to_pin,
     qvel_to_pin,
+    sensors_xml,
 )
 from app.core.simulation.servo_law import ServoLaw, ServoLoop, Setpoints, actuators_xml
 from app.core.simulation.sim_model import SimModel
@@ -92,7 +97,7 @@ class EngineInput:
     detect_falls: bool = True
     servo_in_mujoco: bool = True
     """The ideal servo's torque computed by MuJoCo's actuators (`servo_law.actuators_xml`),
-    several steps per call where the set point holds; False: the law in Python at every
+    a block of samples per call (`blocks`); False: the law in Python at every
     tick into `qfrc_applied` (`ServoLoop`, the reference the tests compare with). Servo
     parts (`PartLaw`) always run in Python."""
 
@@ -137,7 +142,8 @@ def pin_to_qpos(sim: SimModel, q_pin: np.ndarray, qpos: np.ndarray) -> None:
 
 
 def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None) -> EngineRun:
-    """Simulate the motion (module docstring). `progress(fraction)` is called about 50 times;
+    """Simulate the motion (module docstring). `progress(fraction)` is called at most about
+    50 times (between blocks);
     raising from it stops the run. MuJoCo's warnings are kept in memory for the run (by
     default MuJoCo appends them to MUJOCO_LOG.TXT in the working folder); a blow-up is
     reported as SimulationDiverged."""
@@ -155,16 +161,17 @@ def run_engine(inp: EngineInput, progress: Callable[[float], None] | None = None
 def start(inp: EngineInput) -> tuple[Any, Any, np.ndarray, int]:
     """The run's MuJoCo model and data at its first configuration (put down on the floor with
     `on_floor`), the joint of each actuator's ctrl (`servo_law.actuators_xml`; none when the
-    law runs in Python) and the physics ticks per command sample."""
+    law runs in Python) and the physics ticks per command sample. The model carries the
+    recording's sensors (`recording.sensors_xml`), on as compiled; they change no physics."""
     import mujoco
 
     sim, law = inp.sim, inp.law
-    xml, ctrl_joint = sim.xml, np.zeros(0, dtype=int)
+    extra, ctrl_joint = sensors_xml(sim), np.zeros(0, dtype=int)
     if inp.servo_in_mujoco and not isinstance(law, PartLaw):
         actuators, ctrl_joint = actuators_xml(law, sim.joint_names)
-        head, tail = xml.rsplit("</mujoco>", 1)
-        xml = head + actuators + "</mujoco>" + tail
-    m = mujoco.MjModel.from_xml_string(xml)
+        extra += actuators
+    head, tail = sim.xml.rsplit("</mujoco>", 1)
+    m = mujoco.MjModel.from_xml_string(head + extra + "</mujoco>" + tail)
     law.set_joint_dynamics(m, sim.actuated_dof)  # its back-EMF (a part's rotor, friction)
     d = mujoco.MjData(m)
     dt = float(m.opt.timestep)
@@ -192,20 +199,22 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
     stepper.settle()
     _check(d, -inp.settle_s)
     n_samples = len(stepper.commands)
-    recorder = Recorder(m, d, Scene.of(inp.sim, m), n_samples, stepper.commands.shape[1])
+    recorder = Recorder(
+        m, d, Scene.of(inp.sim, m), n_samples, stepper.commands.shape[1], inp.dt_cmd_s
+    )
     planned = (inp.roll_planned_rad, inp.pitch_planned_rad, inp.root_height_planned_m)
     post = max(1, round(POST_FALL_S / inp.dt_cmd_s))
     # A block no longer than the post-fall time: a fall found at a block's end never needs
     # samples the block has not simulated, nor stops before those it has.
-    block, every = max(1, min(post, n_samples // 50)), max(1, n_samples // 50)
+    # A block per call into C: as long as that allows (Python's cost is per block).
+    block, every = post, max(1, n_samples // 50)
     fall_index, reason, stop, k0, next_report = -1, "", n_samples, 0, 0
     while k0 < stop:
         if progress is not None and k0 >= next_report:
             progress(k0 / n_samples)
             next_report = k0 + every
         k1 = min(stop, k0 + block)
-        for k in range(k0, k1):
-            stepper.sample(k, recorder, last=k == n_samples - 1)
+        stepper.block(k0, k1, recorder)
         check_diverged(recorder, k0, k1, inp.dt_cmd_s)
         if fall_index < 0 and inp.detect_falls:
             fall_index, reason = first_fall(recorder, k0, k1, inp.sim, planned)
@@ -258,10 +267,9 @@ def _engine_run(
 
 
 class _Stepper:
-    """The physics a hold at a time: the ideal servo's law in MuJoCo's actuators (set points
-    as ctrl, `mj_step(n)` where they hold), or a law in Python at every tick (`ServoLoop`,
-    `PartLoop`) into qfrc_applied. `sample(k)` records sample k inside the hold's first
-    physics step (split into `mj_step1` / `mj_step2`, the same computation as `mj_step`)."""
+    """The physics a block of samples at a time: the ideal servo's law in MuJoCo's actuators
+    (`blocks.Blocks`: set points as ctrl, every tick in C), or a law in Python at every tick
+    (`ServoLoop`, `PartLoop`) into qfrc_applied, a sample at a time."""
 
     def __init__(self, inp: EngineInput, m: Any, d: Any, ctrl_joint: np.ndarray, ticks: int):
         import mujoco
@@ -283,11 +291,13 @@ class _Stepper:
         self._qpos = d.qpos[aq[0] : aq[-1] + 1] if _contiguous(aq) else None
         self._qfrc = d.qfrc_applied[av[0] : av[-1] + 1] if _contiguous(av) else None
         self._aq, self._av = aq, av
-        self._qfrc_applied, self._qfrc_actuator = d.qfrc_applied, d.qfrc_actuator
         self._ctrl, self._opt = d.ctrl, m.opt
-        self._tau_view = d.qfrc_actuator[av[0] : av[-1] + 1] if _contiguous(av) else None
-        self._actuation_off = int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
-        self._stage_vel = mujoco.mjtStage.mjSTAGE_VEL
+        flags = int(m.opt.disableflags)
+        # The recording's sensors run only in a sample's forward pass, not in the steps.
+        self._flags_sample = flags & ~int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
+        self._flags_steps = flags | int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
+        m.opt.disableflags = self._flags_steps
+        self._blocks: Blocks | None = None
 
     def settle(self) -> None:
         """Hold the first command for `settle_s` (not recorded)."""
@@ -303,44 +313,41 @@ class _Stepper:
         if isinstance(self.servo, PartLoop):
             self.servo.reset_energy()
 
-    def sample(self, k: int, recorder: Recorder, last: bool) -> None:
-        """Record sample k, then hold its command for `ticks` steps (ramped to the next one
-        with `linear_hold`); `last`: record only."""
-        if not self.in_mujoco:
-            self._python_sample(k, recorder, last)
-            return
-        mj, m, d, ticks, commands = self._mj, self.m, self.d, self.ticks, self.commands
-        command = commands[k]
-        rows: np.ndarray | None
-        if self.inp.linear_hold:
-            rows = self.setpoints.ramp(command, commands[min(k + 1, len(commands) - 1)], ticks)
+    def block(self, k0: int, k1: int, recorder: Recorder) -> None:
+        """Record samples [k0, k1), each then holding its command for `ticks` steps (ramped
+        to the next one with `linear_hold`), but the motion's last (record only)."""
+        if self.in_mujoco:
+            if self._blocks is None:  # after the settling: its last torque is the first's
+                sim = self.inp.sim
+                self._blocks = Blocks(
+                    self.m,
+                    self.d,
+                    self.ctrl_joint,
+                    self.ticks,
+                    self.setpoints,
+                    self.commands,
+                    (sim.actuated_qpos, sim.actuated_dof),
+                    self.inp.linear_hold,
+                )
+            self._blocks.run(k0, k1, recorder)
         else:
-            rows = self.setpoints.hold_sample(commands, k, ticks)
-        mj.mj_step1(m, d)  # positions, contacts, velocities at the sample: mj_step's first half
-        recorder.kinematics(k)
-        # The forces under the torque of the step before the sample, as the Python law
-        # leaves it: the actuators off, that torque applied, MuJoCo's last stages alone.
-        opt, off = self._opt, self._actuation_off
-        self._qfrc_applied[:] = self._qfrc_actuator
-        opt.disableflags |= off
-        mj.mj_forwardSkip(m, d, self._stage_vel, 1)
-        recorder.forces()
-        opt.disableflags &= ~off
-        self._qfrc_applied[:] = 0.0
-        if last:
-            return
-        self._ctrl[:] = (command if rows is None else rows[0])[self.ctrl_joint]
-        mj.mj_step2(m, d)  # the hold's first step, second half
-        self._ctrl_steps(rows, command, 1, ticks)
-        recorder.tau[k] = self._actuator_tau()
+            for k in range(k0, k1):
+                self._python_sample(k, recorder, last=k == len(self.commands) - 1)
+        recorder.derive(k0, k1)
 
     def _python_sample(self, k: int, recorder: Recorder, last: bool) -> None:
-        """`sample` with the law in Python: the forward pass sees the torque the law left in
+        """Sample k with the law in Python: the forward pass sees the torque the law left in
         qfrc_applied, then `ticks` steps with the law at every one."""
         mj, m, d, ticks, commands = self._mj, self.m, self.d, self.ticks, self.commands
+        opt = self._opt
+        opt.disableflags, tolerance, opt.tolerance = (
+            self._flags_sample,
+            opt.tolerance,
+            FORWARD_TOLERANCE,
+        )
         mj.mj_forward(m, d)
-        recorder.kinematics(k)
-        recorder.forces()
+        opt.disableflags, opt.tolerance = self._flags_steps, tolerance
+        recorder.record(k)
         if last:
             return
         command, after = commands[k], commands[min(k + 1, len(commands) - 1)]
@@ -369,12 +376,6 @@ class _Stepper:
         if rest > 0:
             ctrl[:] = command[self.ctrl_joint]
             mj.mj_step(m, d, rest)
-
-    def _actuator_tau(self) -> np.ndarray:
-        """The actuators' torque on the actuated joints [N·m] (n,), MuJoCo's last step's."""
-        if self._tau_view is None:
-            return self._qfrc_actuator[self._av]
-        return self._tau_view
 
     def _apply_torque(self) -> None:
         """The Python law's torque at the current joint angles into qfrc_applied."""

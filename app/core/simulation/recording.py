@@ -1,12 +1,17 @@
-"""The step loop's per-sample recording (numpy and mujoco only): raw MuJoCo arrays copied into
-preallocated rows at each sample, converted in bulk afterwards (pinocchio layout, roll and
-pitch, sole forces in the world), and the fall and blow-up verdicts checked a block of
-samples at a time on what was recorded.
+"""The step loop's per-sample recording (numpy and mujoco only): what MuJoCo computes at each
+sample's state copied into preallocated rows, converted in bulk afterwards (pinocchio layout,
+roll and pitch, sole forces in the world), and the fall and blow-up verdicts checked a block
+of samples at a time on what was recorded.
 
-At sample k the step loop calls `kinematics(k)` once MuJoCo's position and velocity stages
-have run at the sample's state (positions, velocities, bodies, sites and the contact list)
-and `forces()` once the constraint forces are solved there under the servo torque of the
-step before the sample (the torque the servo applies as the sample is taken).
+A sample's row is its state (time, qpos, qvel) and the recording's sensors (`sensors_xml`)
+from a forward pass at that state with the actuators off and the servo torque of the step
+before the sample applied (the torque the servo applies as the sample is taken): every body's
+and sole site's position and the root's axes, and, summed in C, each foot body's floor
+contacts (count and net force in the world, `mj_contactForce`'s per contact) and the count of
+all the floor's contacts. The contact list is read in Python only at a sample where some floor
+contact is not a foot's, to name the first such link. The step loop fills the rows either
+live (`record`, after its own forward pass) or a block at a time from a batched forward pass
+(`app.core.simulation.blocks`).
 """
 
 from __future__ import annotations
@@ -14,11 +19,13 @@ from __future__ import annotations
 import dataclasses
 import math
 from typing import Any
+from xml.etree import ElementTree
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 from app.core.quaternions import wxyz_to_xyzw
-from app.core.simulation.errors import SimulationDiverged
+from app.core.simulation.errors import SimulationDiverged, SimulationInputError
 from app.core.simulation.sim_model import SimModel
 
 FALL_TILT_DEG = 30.0
@@ -28,6 +35,54 @@ MAX_SPEED = 1e3
 """Any generalised speed beyond this [m/s or rad/s] is a blown-up simulation."""
 NON_FOOT = 2
 """`Scene.side_of_geom` of a geom on neither foot."""
+FLOOR_SENSOR = "recording_floor_contacts"
+FORWARD_TOLERANCE = 1e-10
+"""The constraint solver's tolerance in a sample's forward pass (the physics keeps MuJoCo's
+1e-8): its forces are then those of a precise solve to well under 1 µN, whatever warm start
+the pass begins from (a batched pass has no step's warm start)."""
+
+
+def _foot_sides(sim: SimModel) -> dict[str, int]:
+    """Each foot body's side (0 left, 1 right; a body on both feet counts as the right's, as
+    in `Scene.side_of_geom`)."""
+    return {name: side for side, names in enumerate(sim.foot_bodies) for name in names}
+
+
+def _foot_sensor(i: int) -> str:
+    return f"recording_foot_{i}"
+
+
+def _bodies(sim: SimModel) -> list[str]:
+    """The MJCF's bodies, in MuJoCo's order (the world's children depth first)."""
+    return [str(body.get("name")) for body in ElementTree.fromstring(sim.xml).iter("body")]
+
+
+def sensors_xml(sim: SimModel) -> str:
+    """The recording's MuJoCo sensors (one `sensordata` row per sample, module docstring):
+    per foot body its floor contacts' count and net force (world frame; MuJoCo gives the
+    force the body exerts on the floor), the count of all the floor's contacts, every body's
+    origin, the root's axes (a floating base) and the sole sites."""
+    rows = [
+        f"<contact name={quoteattr(_foot_sensor(i))} body1={quoteattr(body)} "
+        'geom2="floor" data="found force" reduce="netforce"/>'
+        for i, body in enumerate(_foot_sides(sim))
+    ]
+    rows.append(f'<contact name="{FLOOR_SENSOR}" geom1="floor" data="found"/>')
+    rows += [
+        f'<framepos name="recording_xpos_{i}" objtype="xbody" objname={quoteattr(body)}/>'
+        for i, body in enumerate(_bodies(sim))
+    ]
+    if sim.floating_base:
+        rows += [
+            f'<frame{axis}axis name="recording_root_{axis}" objtype="xbody" '
+            f"objname={quoteattr(sim.root_body)}/>"
+            for axis in "xyz"
+        ]
+    rows += [
+        f'<framepos name="recording_sole_{side}" objtype="site" objname={quoteattr(site)}/>'
+        for side, site in enumerate(sim.sole_sites)
+    ]
+    return f"<sensor>{''.join(rows)}</sensor>"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -45,6 +100,19 @@ class Scene:
     """Bodies (not the world) on neither foot."""
     body_names: tuple[str, ...]
     """Per body, the URDF link it carries (or its MuJoCo name), to name it in a verdict."""
+    foot_force_adr: tuple[tuple[int, ...], tuple[int, ...]]
+    """`sensordata` address of each (left, right) foot body's net floor force (3 values)."""
+    floor_count_adr: int
+    """`sensordata` address of the floor's contact count."""
+    foot_count_adr: np.ndarray
+    """`sensordata` addresses of each foot body's floor contact count."""
+    xpos_adr: np.ndarray
+    """`sensordata` addresses of bodies 1 … nbody − 1's origins, (3·(nbody − 1),)."""
+    xmat_adr: np.ndarray | None
+    """`sensordata` addresses of the root's rotation matrix, row-major (9,); None: a fixed
+    base (the world's identity)."""
+    sole_adr: np.ndarray
+    """`sensordata` addresses of the (left, right) sole sites, (6,)."""
 
     @classmethod
     def of(cls, sim: SimModel, m: Any) -> Scene:
@@ -53,14 +121,27 @@ class Scene:
         def body(name: str) -> int:
             return int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name))
 
-        side_of_body = {
-            body(name): side for side, names in enumerate(sim.foot_bodies) for name in names
-        }
+        side_of_body = {body(name): side for name, side in _foot_sides(sim).items()}
+
+        def sensor(name: str) -> int:
+            return int(m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, name)])
+
         link_of = dict(sim.body_links)
         names = []
         for b in range(m.nbody):
             name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body {b}"
             names.append(link_of.get(name, name))
+        found: tuple[list[int], list[int]] = ([], [])
+        for i, side in enumerate(_foot_sides(sim).values()):
+            found[side].append(sensor(_foot_sensor(i)))
+        xpos = [sensor(f"recording_xpos_{i}") for i in range(len(_bodies(sim)))]
+        if len(xpos) != m.nbody - 1:
+            raise SimulationInputError(f"the MJCF has {len(xpos)} bodies, MuJoCo {m.nbody - 1}")
+        xmat = None
+        if sim.floating_base:
+            x, y, z = (sensor(f"recording_root_{axis}") for axis in "xyz")
+            xmat = np.array([x, y, z, x + 1, y + 1, z + 1, x + 2, y + 2, z + 2])  # columns
+        soles = [sensor(f"recording_sole_{side}") for side in (0, 1)]
         return cls(
             floor=int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")),
             root=body(sim.root_body) if sim.floating_base else 0,
@@ -72,118 +153,80 @@ class Scene:
             ],
             non_foot=np.array([b for b in range(1, m.nbody) if b not in side_of_body], dtype=int),
             body_names=tuple(names),
+            foot_force_adr=(tuple(a + 1 for a in found[0]), tuple(a + 1 for a in found[1])),
+            floor_count_adr=sensor(FLOOR_SENSOR),
+            foot_count_adr=np.array(found[0] + found[1], dtype=int),
+            xpos_adr=(np.array(xpos)[:, None] + np.arange(3)).ravel(),
+            xmat_adr=xmat,
+            sole_adr=(np.array(soles)[:, None] + np.arange(3)).ravel(),
         )
 
 
 class Recorder:
-    """Preallocated rows of the raw MuJoCo arrays, one per sample (module docstring)."""
+    """Preallocated rows, one per sample (module docstring): the state and sensors as
+    recorded, the bodies, soles and root axes derived from the sensors a block at a time
+    (`derive`)."""
 
-    def __init__(self, m: Any, d: Any, scene: Scene, n_samples: int, n_joints: int) -> None:
-        import mujoco
-
-        self.m, self.d, self.scene = m, d, scene
+    def __init__(
+        self, m: Any, d: Any, scene: Scene, n_samples: int, n_joints: int, dt_cmd_s: float
+    ) -> None:
+        self.m, self.d, self.scene, self.dt_cmd_s = m, d, scene, dt_cmd_s
+        self.time = np.zeros(n_samples)
         self.qpos = np.zeros((n_samples, m.nq))
         self.qvel = np.zeros((n_samples, m.nv))
-        self.xmat_root = np.zeros((n_samples, 9))
+        self.sensed = np.zeros((n_samples, m.nsensordata))
+        """The recording's sensors at each sample (`sensors_xml`)."""
+        self.tau = np.zeros((n_samples, n_joints))
+        self.xmat_root = np.tile(np.eye(3).ravel(), (n_samples, 1))
         self.sole = np.zeros((n_samples, 2, 3))
         self.body_xpos = np.zeros((n_samples, m.nbody, 3))
-        self.tau = np.zeros((n_samples, n_joints))
-        self.warnings = np.zeros((n_samples, int(mujoco.mjtWarning.mjNWARNING)), dtype=int)
         self.touched_body = np.full(n_samples, -1, dtype=int)
         """The body of the first non-foot geom found touching the floor at a sample, −1 if none."""
         # MjData's fixed arrays, bound once (each attribute read builds a new numpy view).
-        self._d_qpos, self._d_qvel, self._d_xpos = d.qpos, d.qvel, d.xpos
-        self._d_xmat_root = d.xmat[scene.root]
-        self._d_soles = [d.site_xpos[site] for site in scene.sites]
-        self._d_warnings = d.warning.number
-        self._con: Any = None  # MjData's contact list of the last `kinematics`
-        self._contacts: list[int] = []  # the foot contacts of the last sample,
-        self._sides: list[int] = []  # their foot (0 left, 1 right)
-        self._signs: list[float] = []  # and +1 if the floor is the first geom, else −1
-        self._k = 0
-        capacity = 8 * n_samples
-        self._sample = np.zeros(capacity, dtype=int)  # per foot contact
-        self._side = np.zeros(capacity, dtype=int)
-        self._sign = np.zeros(capacity)
-        self._wrench = np.zeros((capacity, 6))  # mj_contactForce: contact frame
-        self._frame = np.zeros((capacity, 9))  # the contact frame (rows: normal, tangents)
-        self._count = 0
-        self._contact_force = mujoco.mj_contactForce
+        self._d_qpos, self._d_qvel, self._d_sensordata = d.qpos, d.qvel, d.sensordata
 
-    def kinematics(self, k: int) -> None:
-        """Sample k's state, bodies and contact list (after `mj_step1`)."""
-        d, scene = self.d, self.scene
+    def record(self, k: int) -> None:
+        """Sample k from the live MjData, after a forward pass at its state (module
+        docstring); the contact list read there where needed."""
+        d = self.d
+        self.time[k] = d.time
         self.qpos[k] = self._d_qpos
         self.qvel[k] = self._d_qvel
-        self.xmat_root[k] = self._d_xmat_root
-        sole = self.sole[k]
-        sole[0], sole[1] = self._d_soles
-        self.body_xpos[k] = self._d_xpos
-        self.warnings[k] = self._d_warnings
-        self._k = k
-        contacts, sides, signs = self._contacts, self._sides, self._signs
-        contacts.clear()
-        sides.clear()
-        signs.clear()
-        if d.ncon == 0:
-            return
-        floor, side_of, touched = scene.floor, scene.side_of_geom, -1
-        self._con = con = d.contact  # valid until the next collision pass (mj_step1)
-        for c, (g1, g2) in enumerate(con.geom.tolist()):
-            if g1 == floor:
-                other, sign = g2, 1.0
-            elif g2 == floor:
-                other, sign = g1, -1.0
-            else:
-                continue
-            side = side_of[other]
-            if side == NON_FOOT:
-                if touched < 0:
-                    touched = int(self.m.geom_bodyid[other])
-                continue
-            contacts.append(c)
-            sides.append(side)
-            signs.append(sign)
-        self.touched_body[k] = touched
+        self.sensed[k] = self._d_sensordata
+        if len(self.off_feet(k, k + 1)):
+            self.touched_body[k] = self.first_non_foot_body(d)
 
-    def forces(self) -> None:
-        """The foot contacts' forces of the constraint solve just done, at the state of the
-        last `kinematics`."""
-        contacts = self._contacts
-        if not contacts:
-            return
-        begin, end = self._count, self._count + len(contacts)
-        if end > len(self._sample):
-            self._grow(2 * end)
-        m, d, wrench, force = self.m, self.d, self._wrench, self._contact_force
-        for i, c in enumerate(contacts, begin):
-            force(m, d, c, wrench[i])
-        self._frame[begin:end] = self._con.frame[contacts]
-        self._sample[begin:end] = self._k
-        self._side[begin:end] = self._sides
-        self._sign[begin:end] = self._signs
-        self._count = end
+    def off_feet(self, begin: int, end: int) -> np.ndarray:
+        """Samples of [begin, end) at which some floor contact is not a foot's."""
+        sensed, scene = self.sensed[begin:end], self.scene
+        feet = sensed[:, scene.foot_count_adr].sum(axis=1)
+        return begin + np.flatnonzero(sensed[:, scene.floor_count_adr] > feet + 0.5)
 
-    def _grow(self, capacity: int) -> None:
-        for name in ("_sample", "_side", "_sign", "_wrench", "_frame"):
-            old = getattr(self, name)
-            new = np.zeros((capacity, *old.shape[1:]), dtype=old.dtype)
-            new[: len(old)] = old
-            setattr(self, name, new)
+    def derive(self, begin: int, end: int) -> None:
+        """The bodies' origins, the soles and the root's axes of samples [begin, end) from
+        their sensors."""
+        scene, sensed = self.scene, self.sensed[begin:end]
+        self.body_xpos[begin:end, 1:] = sensed[:, scene.xpos_adr].reshape(end - begin, -1, 3)
+        self.sole[begin:end] = sensed[:, scene.sole_adr].reshape(end - begin, 2, 3)
+        if scene.xmat_adr is not None:
+            self.xmat_root[begin:end] = sensed[:, scene.xmat_adr]
+
+    def first_non_foot_body(self, d: Any) -> int:
+        """The body of the first contact in d's contact list between the floor and a geom on
+        neither foot, −1 if none."""
+        floor, side_of = self.scene.floor, self.scene.side_of_geom
+        for g1, g2 in d.contact.geom.tolist():
+            other = g2 if g1 == floor else g1 if g2 == floor else -1
+            if other >= 0 and side_of[other] == NON_FOOT:
+                return int(self.m.geom_bodyid[other])
+        return -1
 
     def first_diverged(self, begin: int, end: int) -> int:
         """First sample in [begin, end) that has blown up (NaN, a runaway speed, or MuJoCo's
-        reset after a bad position, speed or acceleration), −1 if none."""
-        import mujoco
-
-        resets = [
-            int(mujoco.mjtWarning.mjWARN_BADQACC),
-            int(mujoco.mjtWarning.mjWARN_BADQPOS),
-            int(mujoco.mjtWarning.mjWARN_BADQVEL),
-        ]
-        warned = self.warnings[begin:end, resets].sum(axis=1)
+        reset after a bad position, speed or acceleration: its clock back to 0), −1 if none."""
+        expected = self.time[0] + np.arange(begin, end) * self.dt_cmd_s
         bad = (
-            (warned > 0)
+            (np.abs(self.time[begin:end] - expected) > 0.25 * self.dt_cmd_s)
             | ~np.all(np.isfinite(self.qpos[begin:end]), axis=1)
             | ~np.all(np.abs(self.qvel[begin:end]) < MAX_SPEED, axis=1)
         )
@@ -215,14 +258,12 @@ class Recorder:
         return self.scene.body_names[body] if body >= 0 else ""
 
     def contact_forces(self, n_samples: int) -> np.ndarray:
-        """Floor force on each sole, world frame (T, 2, 3) [N]."""
+        """Floor force on each sole, world frame (T, 2, 3) [N]: minus the force the foot's
+        bodies exert on the floor, summed over them."""
         forces = np.zeros((n_samples, 2, 3))
-        count = self._count
-        keep = self._sample[:count] < n_samples
-        frames = self._frame[:count][keep].reshape(-1, 3, 3)
-        world = np.einsum("nji,nj->ni", frames, self._wrench[:count][keep, :3])
-        world *= self._sign[:count][keep, None]
-        np.add.at(forces, (self._sample[:count][keep], self._side[:count][keep]), world)
+        for side, addresses in enumerate(self.scene.foot_force_adr):
+            for adr in addresses:
+                forces[:, side] -= self.sensed[:n_samples, adr : adr + 3]
         return forces
 
 
