@@ -76,6 +76,31 @@ class LegPosture:
         self.q = q
         return q
 
+    def solve_many(self, bases: np.ndarray, targets: dict[str, np.ndarray]) -> np.ndarray:
+        """`solve` for many poses at once: (n, nq) planar q, row i with base `bases[i]`
+        (x, z, pitch) and each foot's sole centre flat at `targets[side][i]` (x, z) [m].
+        Gauss–Newton on all rows together from this posture, to a residual of 1e-12 m."""
+        n = len(bases)
+        q = np.tile(self.q, (n, 1))
+        q[:, :BASE_DOF] = bases
+        positions = self.model.contact_positions.map(n)
+        jacobians = self.model.contact_jacobian.map(n)
+        for side, xz in targets.items():
+            S = stance_rows(side)
+            joints = np.asarray(self.model.leg_joints[side])
+            target = np.column_stack([xz[:, 0], xz[:, 1], xz[:, 1]])
+            for _ in range(30):
+                residual = np.asarray(positions(q.T).full()).T @ S.T - target  # (n, 3)
+                if np.abs(residual).max() < 1e-12:
+                    break
+                J = (S @ _stacked(jacobians(q.T), n))[:, :, joints]
+                q[:, joints] -= (np.linalg.pinv(J) @ residual[:, :, None])[:, :, 0]
+            lower, upper = (
+                limit[joints - BASE_DOF] for limit in (self.model.lower, self.model.upper)
+            )
+            q[:, joints] = np.clip(q[:, joints], lower, upper)
+        return q
+
 
 def initial_guess(
     model: PlanarModel,
@@ -89,31 +114,34 @@ def initial_guess(
     posture = LegPosture(model)
     z_base = BASE_HEIGHT_RATIO * posture.standing_height
     lift = min(ARC_HEIGHT_M, 0.5 * swing_height)
-
-    def pose(t: float) -> np.ndarray:
-        targets = {}
-        for side in ("left", "right"):
-            x, s = _foot_target(side, t, H, d)
-            targets[side] = (x, lift * s)
-        return posture.solve(np.array([d * t / H, z_base, 0.0]), targets)
-
     eps = 1e-3
     n = layout.n_nodes
-    q = np.empty((n, model.nq))
-    v = np.empty((n, model.nv))
-    a = np.empty((n, model.nv))
-    u = np.empty((n, model.nu))
-    lam = np.empty((n, 3))
+    # Each node's pose, and the poses eps before and after it (rows 3k, 3k + 1, 3k + 2).
+    pose_times = (np.asarray(times, dtype=float)[:, None] + np.array([-eps, 0.0, eps])).ravel()
+    bases = np.column_stack(
+        [d * pose_times / H, np.full(pose_times.size, z_base), np.zeros(pose_times.size)]
+    )
+    targets = {}
+    for side in ("left", "right"):
+        feet = np.array([_foot_target(side, float(t), H, d) for t in pose_times])
+        targets[side] = np.column_stack([feet[:, 0], lift * feet[:, 1]])
+    poses = posture.solve_many(bases, targets).reshape(n, 3, model.nq)
+    before, q, after = poses[:, 0], poses[:, 1], poses[:, 2]
+    v = (after - before) / (2 * eps)
+    a = (after - 2 * q + before) / eps**2
+    # Torques and contact forces from the knot dynamics M a + h = B u + J_sᵀ λ, all nodes at once.
+    tau = np.asarray(model.rnea.map(n)(q.T, v.T, a.T).full()).T  # (n, nv)
+    J = _stacked(model.contact_jacobian.map(n)(q.T), n)  # (n, 8, nv)
+    stance = np.stack([stance_rows(STANCE[layout.mode_of(k)]) for k in range(n)])
     B = np.zeros((model.nv, model.nu))
     B[BASE_DOF:] = np.eye(model.nu)
-    for k, t in enumerate(times):
-        before, now, after = pose(t - eps), pose(t), pose(t + eps)
-        q[k] = now
-        v[k] = (after - before) / (2 * eps)
-        a[k] = (after - 2 * now + before) / eps**2
-        side = STANCE[layout.mode_of(k)]
-        Js = stance_rows(side) @ evaluate(model.contact_jacobian, now)
-        tau = evaluate(model.rnea, now, v[k], a[k])
-        solution = np.linalg.solve(np.hstack([B, Js.T]), tau)
-        u[k], lam[k] = solution[: model.nu], solution[model.nu :]
+    system = np.concatenate([np.broadcast_to(B, (n, *B.shape)), (stance @ J).transpose(0, 2, 1)], 2)
+    solution = np.linalg.solve(system, tau[:, :, None])[:, :, 0]
+    u, lam = solution[:, : model.nu], solution[:, model.nu :]
     return {"q": q, "v": v, "a": a, "u": u, "lam": lam}
+
+
+def _stacked(jacobians: object, n: int) -> np.ndarray:
+    """(n, 8, nv) from a mapped contact Jacobian's (8, n·nv) output."""
+    J = np.asarray(jacobians.full())  # type: ignore[attr-defined]
+    return J.reshape(J.shape[0], n, -1).transpose(1, 0, 2)
