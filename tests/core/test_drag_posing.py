@@ -77,7 +77,7 @@ def test_snapping_flat_feet_keeps_the_pose():
 
 def test_a_sole_without_area_gives_a_thin_polygon_not_an_error():
     """Points on a line (a foot whose geometry is missing): a strip around them."""
-    from app.core.posing.ik import DEGENERATE_PAD_M, convex_polygon
+    from app.core.posing.support_polygon import DEGENERATE_PAD_M, convex_polygon
 
     line = np.array([[0.0, 0.0], [0.1, 0.0], [0.05, 0.0]])
     polygon = convex_polygon(line)

@@ -190,7 +190,7 @@ def test_keyframe_is_a_frozen_value():
 def test_the_stance_slide_check_in_reused_data_equals_full_forward_kinematics(servo):
     """The per-sample slide check places only the stance feet, in data reused across samples;
     it must measure what full forward kinematics on fresh data measures."""
-    from app.core.motions.keyframes import _slide_m
+    from app.core.motions.keyframe_guards import _slide_m
 
     robot = servo
     rng = np.random.default_rng(4)

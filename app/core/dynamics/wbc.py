@@ -5,9 +5,10 @@ compensation q_des = q + k·τ (eq. 7) needs from a whole-body QP (eqs. 12–18)
 accelerations q̈ and the contact forces at the four corners of each rectangular sole, whose
 cost contains the value function V of a CoM LQR (eqs. 1–5). τ then follows from eq. 10. The
 QP itself is in app.core.dynamics.wbc_qp (made small in wbc_reduced); this module checks
-inputs, runs it over chunks of samples and returns a FeedForward. With the reduced QP a chunk
-is solved in bulk: one pinocchio pass per sample, the closed form (no inequality active) for
-all samples of a contact state at once, DAQP for the others.
+inputs, runs it over chunks of samples (app.core.dynamics.wbc_chunks; the parameters in
+wbc_params) and returns a FeedForward. With the reduced QP a chunk is solved in bulk: one
+pinocchio pass per sample, the closed form (no inequality active) for all samples of a
+contact state at once, DAQP for the others.
 
 Feed-forward means the state is the plan's own: x̄ = x − x^d = 0 unless a CoM state error is
 given, so V reduces to ūᵀ(R + a²Q_p)ū, a cost on leaving the plan's CoM acceleration.
@@ -28,83 +29,47 @@ the status says why, and the run goes on:
 from __future__ import annotations
 
 import dataclasses
-import math
-import time
 from collections.abc import Callable
 from typing import Protocol
 
 import numpy as np
 
-from app.core.dynamics.lqr import lqr_com
-from app.core.dynamics.wbc_qp import N_CORNERS, N_EDGES, QpSolver, QpWeights, WholeBodyQp
-from app.core.dynamics.wbc_terms import SampleInput, TermsBatch
-from app.core.errors import StudioError
+from app.core.dynamics.wbc_chunks import (
+    CHUNK_SAMPLES,
+    TORQUE_TOLERANCE,
+    ChunkInput,
+    ChunkResult,
+    chunk_bounds,
+    make_qp,
+    solve_chunk,
+    stack_results,
+)
+from app.core.dynamics.wbc_params import WbcError, WbcParams, torque_limits
+from app.core.dynamics.wbc_qp import N_CORNERS, QpSolver
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
+
+__all__ = [
+    "CHUNK_SAMPLES",
+    "TORQUE_TOLERANCE",
+    "ChunkInput",
+    "ChunkResult",
+    "ChunkRunner",
+    "FeedForward",
+    "WbcError",
+    "WbcParams",
+    "chunk_bounds",
+    "make_qp",
+    "solve_chunk",
+    "stack_results",
+    "torque_feedforward",
+    "torque_limits",
+]
 
 MAX_SPEED = 1e3
 """Largest |v| accepted in a trajectory [rad/s or m/s]; more is taken as corrupt input."""
 MAX_ACCELERATION = 1e5
 """Largest |a| accepted in a trajectory [rad/s² or m/s²]."""
-TORQUE_TOLERANCE = 1e-3
-"""Relative excess over a torque limit tolerated as solver round-off."""
-CHUNK_SAMPLES = 100
-"""Samples per chunk: each chunk starts its QP cold and warm-starts along itself (a cold
-sample costs a few warm ones), so chunks can be solved anywhere with the same answer."""
-
-
-class WbcError(StudioError):
-    """A torque feed-forward that cannot be computed for these inputs."""
-
-
-@dataclasses.dataclass(frozen=True)
-class WbcParams:
-    """Parameters of the whole-body QP (eq. 12–18) and of the CoM LQR (eqs. 1–5)."""
-
-    mu: float = 0.7
-    """Coulomb friction coefficient of the pyramids (eq. 11). The paper gives no value; 0.7
-    is a common rubber-sole-on-floor figure (the gait paper plans with 0.6)."""
-    alpha: float = 10.0
-    """No-slip gain α of eq. 14 [1/s] (not given in the paper)."""
-    w_qdd: float = 100.0
-    """Weight of ‖q̈_des − q̈‖² in eq. 12 [per (rad/s²)²] (not given in the paper). 100 ≫ the
-    unit weight of ‖η‖² makes the plan authoritative: the slack absorbs the small foot
-    accelerations finite differences leave in a plan, instead of q̈ bending away from it."""
-    epsilon: float = 1e-6
-    """ε of eq. 12 [per N²] (not given): only picks the smallest spread of forces over the
-    corners; 1e-4 already bends q̈ of a 29 kg robot by ~4e-3 rad/s² on one leg."""
-    eta_max: float = 10.0
-    """Bound of the no-slip slack η of eq. 18 [m/s², rad/s²] (not given)."""
-    lqr_q: float = 10.0
-    """Q = lqr_q·I₆ of the CoM LQR (paper: 10)."""
-    lqr_r: float = 0.1
-    """R = lqr_r·I₃ of the CoM LQR (paper: 0.1)."""
-    a: float = 0.1
-    """Feed-through a of the CoM output y = p + a·u (eq. 1; paper: 0.1) [s²]."""
-    torque_limits_Nm: tuple[float | None, ...] | None = None
-    """|τ| bound per actuated joint [N·m or N], robot order (eq. 15). None: the URDF's effort
-    limits; a joint without one (None here or in the URDF) is unbounded."""
-    max_qdd_error: float = 0.1
-    """A sample is "solved" when max |q̈ − q̈_des| stays below this [rad/s² or m/s²]."""
-
-    def __post_init__(self) -> None:
-        positive = {
-            "mu": self.mu,
-            "w_qdd": self.w_qdd,
-            "epsilon": self.epsilon,
-            "eta_max": self.eta_max,
-            "lqr_q": self.lqr_q,
-            "lqr_r": self.lqr_r,
-            "max_qdd_error": self.max_qdd_error,
-        }
-        for name, value in {**positive, "alpha": self.alpha, "a": self.a}.items():
-            bad = not math.isfinite(value) or value < 0.0 or (name in positive and value == 0.0)
-            if bad:
-                kind = "positive" if name in positive else "non-negative"
-                raise WbcError(f"WBC parameter {name} must be a {kind} number, got {value!r}")
-        for limit in self.torque_limits_Nm or ():
-            if limit is not None and not (math.isfinite(limit) and limit >= 0.0):
-                raise WbcError(f"torque limits must be non-negative numbers or None, got {limit!r}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -147,25 +112,10 @@ class FeedForward:
         return np.array([k for k, s in enumerate(self.status) if s != "solved"], dtype=int)
 
 
-def torque_limits(robot: RobotModel, params: WbcParams) -> tuple[np.ndarray, list[str]]:
-    """|τ| bound per actuated joint [N·m or N], inf where unbounded, and the unbounded names."""
-    if params.torque_limits_Nm is None:
-        limits = [joint.effort for joint in robot.joints]
-    elif len(params.torque_limits_Nm) != robot.n_actuated:
-        raise WbcError(
-            f"{len(params.torque_limits_Nm)} torque limits given; {robot.name!r} has "
-            f"{robot.n_actuated} actuated joints: {', '.join(robot.joint_names)}"
-        )
-    else:
-        limits = list(params.torque_limits_Nm)
-    bound = np.array([np.inf if limit is None else limit for limit in limits], dtype=float)
-    return bound, [name for name, b in zip(robot.joint_names, bound, strict=True) if np.isinf(b)]
-
-
 def torque_feedforward(
     robot: RobotModel,
     trajectory: Trajectory,
-    params: WbcParams = WbcParams(),
+    params: WbcParams = WbcParams(),  # noqa: B008 - frozen, checked on construction
     progress: Callable[[float], None] | None = None,
     com_state_error: np.ndarray | None = None,
     *,
@@ -252,135 +202,6 @@ def torque_feedforward(
     )
 
 
-def chunk_bounds(n: int, size: int | None = None) -> list[tuple[int, int]]:
-    """(start, stop) of the chunks of n samples, CHUNK_SAMPLES each (the last one shorter)."""
-    size = size or CHUNK_SAMPLES
-    return [(start, min(start + size, n)) for start in range(0, n, size)]
-
-
-def make_qp(robot: RobotModel, params: WbcParams, solver: QpSolver = "reduced") -> WholeBodyQp:
-    """The whole-body QP of a robot with these parameters (sparsity, cost, solver set up)."""
-    bound, _ = torque_limits(robot, params)
-    return WholeBodyQp(
-        robot,
-        QpWeights(
-            mu=params.mu,
-            alpha=params.alpha,
-            w_qdd=params.w_qdd,
-            epsilon=params.epsilon,
-            eta_max=params.eta_max,
-            a=params.a,
-            q_lqr=params.lqr_q,
-            r_lqr=params.lqr_r,
-            S=lqr_com(params.lqr_q, params.lqr_r)[1],
-            tau_max=bound,
-        ),
-        solver,
-    )
-
-
-def solve_chunk(qp: WholeBodyQp, chunk: ChunkInput, params: WbcParams) -> ChunkResult:
-    """The QP at each sample of a chunk: the reduced QP in bulk (each sample on its own), or
-    the full QP cold at the chunk's first sample and warm along it."""
-    robot = qp.robot
-    bound = qp.weights.tau_max
-    n, nv = len(chunk.q), robot.model.nv
-    tau = np.full((n, robot.n_actuated), np.nan)
-    forces = np.full((n, 2, N_CORNERS, 3), np.nan)
-    qdd = np.full((n, nv), np.nan)
-    loop_forces = np.full((n, len(robot.tree.loops), 3), np.nan)
-    times = np.empty(n)
-    solver_times = np.zeros(n)
-    solved = np.zeros(n, dtype=bool)
-    status: list[str | None] = [None] * n
-    beta = np.zeros((n, 2 * N_CORNERS * N_EDGES))
-    qp.reset()
-    if qp.reduced is not None:
-        _solve_reduced_chunk(qp, chunk, qdd, tau, beta, solved, status, times, solver_times)
-    for k in range(n if qp.reduced is None else 0):
-        q, v, a = chunk.q[k], chunk.v[k], chunk.a[k]
-        begin = time.perf_counter()
-        terms = qp.kinematics(q, v, a)
-        solution = qp.solve(SampleInput(terms, v, a, chunk.contacts[k], chunk.x_bar[k]))
-        times[k] = time.perf_counter() - begin
-        solver_times[k] = qp.last_solver_s
-        if not solution.ok:
-            status[k] = f"no solution: {solution.status}"
-            continue
-        solved[k] = True
-        qdd[k] = solution.qdd
-        tau[k] = qp.torques(terms, solution)
-        beta[k] = solution.beta
-        loop_forces[k] = solution.f_loop.reshape(-1, 3)
-    # Forces and certification for the whole chunk at once; _certify words the exceptions.
-    forces[solved] = qp.corner_forces(beta[solved])
-    qdd_ok = np.abs(qdd - chunk.a).max(axis=1, initial=0.0) <= params.max_qdd_error
-    tau_ok = np.all(np.abs(tau) - bound <= TORQUE_TOLERANCE * np.maximum(1.0, bound), axis=1)
-    dof_names = _dof_names(robot)
-    for k in np.flatnonzero(solved):
-        status[k] = (
-            "solved"
-            if qdd_ok[k] and tau_ok[k]
-            else _certify(qdd[k] - chunk.a[k], tau[k], bound, params, dof_names, robot)
-        )
-    return ChunkResult(
-        tau, forces, qdd, loop_forces, times, solver_times, solved, tuple(map(str, status))
-    )
-
-
-def _solve_reduced_chunk(
-    qp: WholeBodyQp,
-    chunk: ChunkInput,
-    qdd: np.ndarray,
-    tau: np.ndarray,
-    beta: np.ndarray,
-    solved: np.ndarray,
-    status: list[str | None],
-    times: np.ndarray,
-    solver_times: np.ndarray,
-) -> None:
-    """The reduced QP at every sample of a chunk, written into the arrays: the closed form
-    for all samples of a contact state at once, the QP (DAQP) sample by sample where an
-    inequality is active. A sample's time is its own pinocchio pass and constrained solve
-    plus an equal share of the batched work."""
-    assert qp.reduced is not None
-    n = len(chunk.q)
-    begin = time.perf_counter()
-    batch, pin_s = qp.kinematics_batch(chunk.q, chunk.v, chunk.a)
-    closed = time.perf_counter()
-    ok = np.zeros(n, dtype=bool)
-    states = chunk.contacts.astype(bool)
-    for state in {(bool(left), bool(right)) for left, right in states}:
-        idx = np.flatnonzero((states[:, 0] == state[0]) & (states[:, 1] == state[1]))
-        part = TermsBatch(*(getattr(batch, f.name)[idx] for f in dataclasses.fields(batch)))
-        qdd[idx], beta[idx], ok[idx] = qp.reduced.unconstrained_batch(
-            part, chunk.v[idx], chunk.a[idx], state, chunk.x_bar[idx]
-        )
-    end = time.perf_counter()
-    times[:] = pin_s + (end - begin - pin_s.sum()) / n
-    solver_times[:] = (end - closed) / n
-    for k in np.flatnonzero(~ok):
-        begin = time.perf_counter()
-        terms = qp.terms_at(batch, k)
-        sample = SampleInput(terms, chunk.v[k], chunk.a[k], chunk.contacts[k], chunk.x_bar[k])
-        solution = qp.solve(sample, closed_form=False)
-        times[k] += time.perf_counter() - begin
-        solver_times[k] += qp.last_solver_s
-        if solution.ok:
-            qdd[k], beta[k] = solution.qdd, solution.beta
-            ok[k] = True
-        else:
-            qdd[k], beta[k] = np.nan, 0.0
-            status[k] = f"no solution: {solution.status}"
-    solved[:] = ok
-    a = qp.actuated
-    tau[ok] = (
-        (batch.M[ok][:, a] @ qdd[ok][:, :, None])[:, :, 0]
-        + batch.h[ok][:, a]
-        - (batch.Phi[ok][:, a] @ beta[ok][:, :, None])[:, :, 0]
-    )
-
-
 class ChunkRunner(Protocol):
     """Solves chunks elsewhere (worker processes), in order, exactly as `solve_chunk` here;
     returns their results in order, consecutive chunks possibly stacked into one result."""
@@ -395,78 +216,10 @@ class ChunkRunner(Protocol):
     ) -> list[ChunkResult]: ...
 
 
-@dataclasses.dataclass(frozen=True)
-class ChunkInput:
-    """Contiguous samples of a trajectory: q (n, nq), v, a (n, nv), contacts (n, 2), x̄ (n, 6)."""
-
-    q: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    contacts: np.ndarray
-    x_bar: np.ndarray
-
-
-@dataclasses.dataclass(frozen=True)
-class ChunkResult:
-    """Per sample of a chunk, as in FeedForward (NaN rows where the QP had no solution)."""
-
-    tau: np.ndarray
-    forces: np.ndarray
-    qdd: np.ndarray
-    loop_forces: np.ndarray
-    times: np.ndarray
-    solver_times: np.ndarray
-    solved: np.ndarray
-    status: tuple[str, ...]
-
-
-def stack_results(results: list[ChunkResult]) -> ChunkResult:
-    """Consecutive chunks' results as one, sample rows in order (a pool task's compact answer)."""
-    if len(results) == 1:
-        return results[0]
-    arrays = {
-        field.name: np.concatenate([getattr(r, field.name) for r in results])
-        for field in dataclasses.fields(ChunkResult)
-        if field.name != "status"
-    }
-    return ChunkResult(**arrays, status=tuple(text for r in results for text in r.status))
-
-
 def _nearest(solved: np.ndarray, k: int) -> int:
     """Index of the solved sample nearest to k (the earlier one on a tie)."""
     indices = np.flatnonzero(solved)
     return int(indices[np.argmin(np.abs(indices - k))])
-
-
-def _certify(
-    qdd_error: np.ndarray,
-    tau: np.ndarray,
-    bound: np.ndarray,
-    params: WbcParams,
-    dof_names: list[str],
-    robot: RobotModel,
-) -> str:
-    """ "solved", or why not: the QP's dynamics hold exactly and its forces lie in the
-    pyramids by construction; left to check are the plan's q̈ and the torque limits."""
-    over = np.abs(tau) - bound
-    joint = int(np.argmax(over))
-    worst = int(np.argmax(np.abs(qdd_error)))
-    if abs(qdd_error[worst]) > params.max_qdd_error:
-        reason = (
-            f"{robot.joint_names[joint]} is at its torque limit"
-            if over[joint] > -TORQUE_TOLERANCE * max(1.0, bound[joint])
-            else "the CoM leaves the support area, or friction is too low"
-        )
-        return (
-            f"cannot follow the plan: q̈ of {dof_names[worst]} departs by "
-            f"{abs(qdd_error[worst]):.3g} ({reason})"
-        )
-    if over[joint] > TORQUE_TOLERANCE * max(1.0, bound[joint]):
-        return (
-            f"torque limit: {robot.joint_names[joint]} needs {abs(tau[joint]):.3g}, "
-            f"limit {bound[joint]:.3g} N·m"
-        )
-    return "solved"
 
 
 def _check_inputs(
@@ -518,12 +271,3 @@ def _check_inputs(
     if x_bar.shape != (n, 6) or not np.all(np.isfinite(x_bar)):
         raise WbcError(f"CoM state error must be finite with shape ({n}, 6), got {x_bar.shape}")
     return x_bar
-
-
-def _dof_names(robot: RobotModel) -> list[str]:
-    """A name per velocity coordinate: base_vx … base_wz, then the joints."""
-    names = ["base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz"]
-    model = robot.model
-    for jid in range(2, model.njoints):
-        names += [model.names[jid]] * model.joints[jid].nv
-    return names

@@ -1,6 +1,6 @@
-"""The configuration-dependent terms of the whole-body QP, one sample or a batch of them
-and one sample's whole input (shared by the full QP, app.core.dynamics.wbc_qp, and the reduced
-one, wbc_reduced)."""
+"""The whole-body QP's records: the configuration-dependent terms, one sample or a batch of
+them, one sample's whole input, the weights resolved for one robot and one sample's solution
+(shared by the full QP, app.core.dynamics.wbc_qp, and the reduced one, wbc_reduced)."""
 
 from __future__ import annotations
 
@@ -57,3 +57,35 @@ class TermsBatch:
     J_feet: np.ndarray
     drift_feet: np.ndarray
     com_acc: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class QpWeights:
+    """What the QP needs from WbcParams, resolved for one robot."""
+
+    mu: float
+    alpha: float
+    w_qdd: float
+    epsilon: float
+    eta_max: float
+    a: float
+    q_lqr: float
+    r_lqr: float
+    S: np.ndarray
+    """Riccati solution of the CoM LQR, shape (6, 6)."""
+    tau_max: np.ndarray
+    """|τ| bound per actuated joint [N·m or N], shape (n_actuated,), inf when unbounded."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SampleSolution:
+    ok: bool
+    status: str
+    """The solver's status, or why there is no solution, in words."""
+    qdd: np.ndarray
+    """Generalised accelerations, shape (nv,)."""
+    beta: np.ndarray
+    """Pyramid coefficients [N], shape (2 * 4 * 4,): foot, corner, edge."""
+    f_loop: np.ndarray
+    """Internal force of each loop on its link_a side (link_b gets the opposite), world
+    frame [N], shape (3 * n_loops,)."""

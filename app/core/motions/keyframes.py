@@ -29,6 +29,9 @@ previous keyframe. `interpolate` samples the motion every dt seconds:
 IK shortfalls (a target out of reach, the CoM outside the support polygon) do not stop the
 motion: the closest pose is kept and the warning is reported with its sample (pelvis and
 moving feet beyond REPORT_M / REPORT_RAD, the CoM beyond the IK's 1 mm).
+
+The keyframe records and their checks are in app.core.motions.keyframe_records, the checks
+and guards on each sample in keyframe_guards.
 """
 
 from __future__ import annotations
@@ -36,123 +39,48 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
-from typing import Literal
 
 import numpy as np
 import pinocchio as pin
 
 from app.core.budgets import check_dt, check_samples
-from app.core.errors import StudioError
-from app.core.motions.continuity import limit_joint_steps
 from app.core.motions.interpolant import Blend, min_jerk, trapezoid
+from app.core.motions.keyframe_guards import (
+    CONTACT_BAND_M,
+    SOLVE_ITERATIONS,
+    _contacts,
+    _continuous,
+    _keep_stance,
+    _shortfalls,
+    _where,
+)
+from app.core.motions.keyframe_records import (
+    Keyframe,
+    KeyframeError,
+    Profile,
+    _foot,
+    capture_keyframe,
+    validate,
+)
 from app.core.motions.result import MotionResult, SampleWarning
 from app.core.motions.trajectory import from_configurations
-from app.core.posing.ik import IkResult, IkTargets, Stance, WholeBodyIK
+from app.core.posing.ik import IkTargets, Stance, WholeBodyIK
 from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT, ready_pose
 from app.core.robot.model import RobotModel
 
-Profile = Literal["min_jerk", "trapezoid"]
-CONTACT_BAND_M = 1e-3
-"""A non-stance foot whose sole is this close to the ground counts as in contact."""
-STANCE_TOLERANCE_M = 1e-3
-"""A stance foot may differ by this much between the two keyframes of its segment."""
-STANCE_SLIDE_M = 5e-4
-"""A sample whose stance feet are further than this from where they stood at the start of
-the segment is re-solved (see _keep_stance)."""
-REPORT_M, REPORT_RAD = 2e-3, np.deg2rad(1.0)
-"""A pelvis or moving-foot target missed by less than this is not reported: between
-keyframes the interpolated targets are not exactly consistent with each other (only the
-keyframes are), and the IK's compromise can leave ~1 mm."""
-SOLVE_ITERATIONS = 20
-"""IK iterations per sample at most (warm-started, it converges in a few)."""
+__all__ = [
+    "Keyframe",
+    "KeyframeError",
+    "MotionResult",
+    "Profile",
+    "capture_keyframe",
+    "interpolate",
+    "validate",
+]
+
 FIRST_ITERATIONS = 200
 """For the first sample when the first keyframe has no configuration (solved from the ready
 pose)."""
-
-
-class KeyframeError(StudioError):
-    """Keyframes that cannot be interpolated (too few, bad durations, NaN, moving stance)."""
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class Keyframe:
-    """A task-space pose of the robot, and how to reach it from the previous keyframe."""
-
-    name: str
-    duration_s: float
-    """Time to reach this keyframe from the previous one [s] (unused for the first)."""
-    T_world_left: np.ndarray
-    """Placement of the left foot link, 4x4 [m]."""
-    T_world_right: np.ndarray
-    T_world_pelvis: np.ndarray | None = None
-    """Placement of the pelvis (root link), 4x4 [m]; None leaves it free."""
-    com_xy: np.ndarray | None = None
-    """Ground projection of the CoM [m], shape (2,); None leaves it free."""
-    stance: Stance = "both"
-    """Feet held fixed while this keyframe is reached; the others follow their targets."""
-    swing_height_m: float = 0.0
-    """Apex of the moving foot's semi-elliptical path above its chord [m]; 0: straight line."""
-    profile: Profile = "min_jerk"
-    """Time law of the segment reaching this keyframe."""
-    q: np.ndarray | None = None
-    """The configuration the keyframe was captured from, if any: seeds the IK at the start."""
-
-
-def capture_keyframe(
-    robot: RobotModel, q: np.ndarray, stance: Stance, name: str, duration_s: float, **options
-) -> Keyframe:
-    """A keyframe holding the feet, pelvis and CoM where they are at configuration q."""
-    data = robot.model.createData()
-    placements = robot.link_placements(q, data)
-    left, right = (placements[foot.link] for foot in robot.feet)
-    return Keyframe(
-        name=name,
-        duration_s=duration_s,
-        T_world_left=left,
-        T_world_right=right,
-        T_world_pelvis=placements[robot.tree.root],
-        com_xy=robot.com(q, data)[:2],
-        stance=stance,
-        q=np.array(q, dtype=float),
-        **options,
-    )
-
-
-def validate(keyframes: Sequence[Keyframe]) -> None:
-    """Raise KeyframeError naming the first keyframe that cannot be interpolated."""
-    if len(keyframes) < 2:
-        raise KeyframeError(f"a motion needs at least 2 keyframes, got {len(keyframes)}")
-    for i, kf in enumerate(keyframes):
-        label = f"keyframe {i} ({kf.name!r})"
-        if i > 0 and not (math.isfinite(kf.duration_s) and kf.duration_s > 0.0):
-            raise KeyframeError(
-                f"{label}: duration {kf.duration_s} s; it must be a positive number of seconds"
-            )
-        for field in ("T_world_left", "T_world_right", "T_world_pelvis", "com_xy"):
-            value = getattr(kf, field)
-            shape = (2,) if field == "com_xy" else (4, 4)
-            if value is None and field in ("T_world_pelvis", "com_xy"):
-                continue
-            array = np.asarray(value, dtype=float)
-            if array.shape != shape or not np.all(np.isfinite(array)):
-                raise KeyframeError(f"{label}: {field} must be {shape} finite numbers")
-            if shape == (4, 4) and not np.allclose(
-                array[:3, :3].T @ array[:3, :3], np.eye(3), atol=1e-6
-            ):
-                raise KeyframeError(f"{label}: {field} is not a rigid transform")
-        if kf.stance not in ("left", "right", "both"):
-            raise KeyframeError(f"{label}: stance {kf.stance!r}; use 'left', 'right' or 'both'")
-        if not (math.isfinite(kf.swing_height_m) and kf.swing_height_m >= 0.0):
-            raise KeyframeError(f"{label}: swing height {kf.swing_height_m} m must be ≥ 0")
-        if i == 0:
-            continue
-        for side in ("left", "right") if kf.stance == "both" else (kf.stance,):
-            moved = np.linalg.norm(_foot(kf, side)[:3, 3] - _foot(keyframes[i - 1], side)[:3, 3])
-            if moved > STANCE_TOLERANCE_M:
-                raise KeyframeError(
-                    f"{label}: the {side} foot stands (stance {kf.stance!r}) but is "
-                    f"{moved * 1000:.1f} mm away from where the previous keyframe puts it"
-                )
 
 
 def interpolate(
@@ -272,10 +200,6 @@ def _sample(
     return qs, contacts, warnings
 
 
-def _foot(kf: Keyframe, side: str) -> np.ndarray:
-    return np.asarray(kf.T_world_left if side == "left" else kf.T_world_right, dtype=float)
-
-
 def _blends(before: Keyframe, after: Keyframe, start: dict[str, np.ndarray]) -> dict[str, Blend]:
     """The segment's interpolants, by what they move ("left", "right", "pelvis"): its
     moving feet and, when `after` places it, the pelvis (from `before`'s, or from where it
@@ -343,159 +267,3 @@ def _on_floor(robot: RobotModel, targets: IkTargets) -> IkTargets:
             raised[field] = np.array(T, dtype=float)
             raised[field][2, 3] += 1e-9 - lowest  # 1 nm above: clear of rounding
     return dataclasses.replace(targets, **raised) if raised else targets  # type: ignore[arg-type]
-
-
-def _contacts(robot: RobotModel, data: pin.Data, stance: Stance) -> np.ndarray:
-    """(left, right): stance feet, and feet whose sole is within CONTACT_BAND_M of z = 0
-    (data holds the frame placements of the sample)."""
-    flags = np.zeros(2, dtype=bool)
-    for i, foot in enumerate(robot.feet):
-        if stance in (foot.side, "both"):
-            flags[i] = True
-            continue
-        T = data.oMf[robot.link_frame_ids[foot.link]]
-        lowest = float((T.rotation @ foot.sole_corners_m.T)[2].min() + T.translation[2])
-        flags[i] = lowest <= CONTACT_BAND_M
-    return flags
-
-
-def _shortfalls(
-    robot: RobotModel, data: pin.Data, targets: IkTargets, result: IkResult, q: np.ndarray
-) -> list[str]:
-    """The IK's warnings, with its reach check redone (REPORT_M, REPORT_RAD) for the moving
-    feet and the pelvis, whose horizontal position yields to a CoM target (not reported then).
-    The IK's own reach message is recognised by its wording. `data` holds the frame
-    placements at q, the sample kept; when that is the IK's own answer, its measures of the
-    feet and of a pelvis without a CoM target are the same numbers and are reused."""
-    messages = [m for m in result.warnings if " target out of reach: closest pose" not in m]
-    measured = q is result.q
-    stance = ("left", "right") if targets.stance == "both" else (targets.stance,)
-    for label, link, T_target in (
-        ("left", robot.foot("left").link, targets.T_world_left),
-        ("right", robot.foot("right").link, targets.T_world_right),
-        ("pelvis", robot.tree.root, targets.T_world_pelvis),
-    ):
-        if T_target is None or label in stance:
-            continue
-        if measured and (label != "pelvis" or targets.com_xy is None):
-            distance = result.position_error_m[label]
-            angle = result.orientation_error_rad[label]
-        else:
-            T = data.oMf[robot.link_frame_ids[link]]
-            miss = T.translation - T_target[:3, 3]
-            if label == "pelvis" and targets.com_xy is not None:
-                miss[:2] = 0.0
-            turn = pin.log3(T_target[:3, :3].T @ T.rotation)
-            angle = math.sqrt(float(turn.dot(turn)))
-            distance = math.sqrt(float(miss.dot(miss)))
-        if distance >= REPORT_M or angle >= REPORT_RAD:
-            messages.append(
-                f"{label} target out of reach: closest pose is {distance * 1000:.1f} mm, "
-                f"{np.rad2deg(angle):.1f}° away"
-            )
-    return messages
-
-
-def _keep_stance(
-    ik: WholeBodyIK,
-    q: np.ndarray,
-    targets: IkTargets,
-    result: IkResult,
-    com_in_support: bool,
-) -> tuple[IkResult, list[str]]:
-    """Make sure a sample does not slide a stance foot from where it stood at the start of
-    the segment. When the IK's compromise with an unreachable CoM target moves a held foot
-    (its hold is a heavy soft task), the sample is solved again without the CoM target; if a
-    foot still slides, the previous pose is kept."""
-    slid = _held_miss_m(result, targets.stance)
-    if slid <= STANCE_SLIDE_M:
-        return result, []
-    message = f"the CoM target would slide a standing foot {slid * 1000:.1f} mm"
-    if targets.com_xy is not None:
-        retry = ik.solve(
-            q,
-            dataclasses.replace(targets, com_xy=None),
-            com_in_support=com_in_support,
-            max_iterations=SOLVE_ITERATIONS,
-        )
-        if _held_miss_m(retry, targets.stance) <= STANCE_SLIDE_M:
-            return retry, [f"{message}: solved without it"]
-    return dataclasses.replace(result, q=q), [f"{message}: the previous pose is kept"]
-
-
-def _continuous(
-    robot: RobotModel,
-    ik: WholeBodyIK,
-    q_prev: np.ndarray,
-    q_new: np.ndarray,
-    start: dict[str, np.ndarray],
-    targets: IkTargets,
-    dt: float,
-    com_in_support: bool,
-    scratch: pin.Data,
-) -> tuple[np.ndarray, str | None]:
-    """q_new with no joint faster than its limit (app.core.motions.continuity). When the
-    scaled step slides a stance foot, the standing feet are re-planted by the IK around the
-    scaled pose (its pelvis and free foot as targets) and the step scaled again, up to three
-    times; if a foot still slides, the previous pose is kept. Returns the flag, if any."""
-    q, jump = limit_joint_steps(robot, q_prev, q_new, dt)
-    if jump is None:
-        return q, None
-    for _ in range(3):
-        if _slide_m(robot, scratch, start, q, targets.stance) <= STANCE_SLIDE_M:
-            return q, jump
-        # re-plant the standing feet, keeping the scaled pose's pelvis and free foot
-        where = _where(robot, q, robot.model.createData())
-        held = {
-            side: start[side] if targets.stance in (side, "both") else where[side]
-            for side in ("left", "right")
-        }
-        fix = IkTargets(held["left"], held["right"], where["pelvis"], None, targets.stance)
-        solved = ik.solve(q, fix, com_in_support=com_in_support, max_iterations=SOLVE_ITERATIONS)
-        q, _ = limit_joint_steps(robot, q_prev, solved.q, dt)
-    if _slide_m(robot, scratch, start, q, targets.stance) <= STANCE_SLIDE_M:
-        return q, jump
-    return q_prev.copy(), f"{jump}; it would slide a standing foot: the previous pose is kept"
-
-
-def _held_miss_m(result: IkResult, stance: Stance) -> float:
-    """How far the stance feet are from their targets in an IK result [m]: during a
-    segment their targets are where they stood at its start, so this is _slide_m at result.q,
-    measured by the IK's own final forward kinematics."""
-    sides = ("left", "right") if stance == "both" else (stance,)
-    return max(result.position_error_m[side] for side in sides)
-
-
-def _slide_m(
-    robot: RobotModel,
-    scratch: pin.Data,
-    start: dict[str, np.ndarray],
-    q: np.ndarray,
-    stance: Stance,
-) -> float:
-    """How far the stance feet are at q from where they were at the segment's start [m]
-    (`scratch`: pinocchio data to compute in; only the stance feet's frames are placed)."""
-    pin.forwardKinematics(robot.model, scratch, q)
-    return max(
-        float(
-            np.linalg.norm(
-                pin.updateFramePlacement(
-                    robot.model, scratch, robot.link_frame_ids[foot.link]
-                ).translation
-                - start[foot.side][:3, 3]
-            )
-        )
-        for foot in robot.feet
-        if stance in (foot.side, "both")
-    )
-
-
-def _where(robot: RobotModel, q: np.ndarray, data: pin.Data) -> dict[str, np.ndarray]:
-    """Placements of the feet ("left", "right") and pelvis, and the CoM's xy ("com"), at q."""
-    placements = robot.link_placements(q, data)
-    return {
-        "left": placements[robot.foot("left").link],
-        "right": placements[robot.foot("right").link],
-        "pelvis": placements[robot.tree.root],
-        "com": robot.com(q, data)[:2],
-    }

@@ -20,147 +20,68 @@ torso hold).
 
 Each `solve` iterates the QP from the given configuration until the step vanishes, or (a drag:
 stop_when_met) until an accepted step meets the goals to GOAL_MET_COST.
+
+This module builds the tasks and runs a solve; its parts live beside it: ik_records (targets,
+result, shared weights), support_polygon (the polygon and the CoM constraint), ik_steps (the
+iterations and their stop rule), ik_verdict (reached or not, and why).
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
 from typing import Literal
 
 import numpy as np
 import pinocchio as pin
 import placo
-from scipy.spatial import ConvexHull, QhullError
 
-from app.core.posing.shortfall import Bounded, Goal, Situation, blockers
+from app.core.posing.ik_records import (
+    COM_TARGET_WEIGHT,
+    REACHED_M,
+    REACHED_RAD,
+    TORSO_WEIGHT,
+    IkResult,
+    IkTargets,
+    Stance,
+    _Ended,
+)
+from app.core.posing.ik_steps import IkStepsMixin
+from app.core.posing.ik_verdict import OUT_OF_REACH, TORSO_TURN_RAD, IkVerdictMixin
+from app.core.posing.shortfall import Bounded
 from app.core.posing.stance import anchor_on_foot
+from app.core.posing.support_polygon import OFF_POLYGON
 from app.core.robot.loops import close_loops
 from app.core.robot.model import RobotModel
 from app.core.robot.urdf_xml import canonical_urdf
 
-Stance = Literal["left", "right", "both"]
-REACHED_M = 1e-3
-"""A target closer than this (and REACHED_RAD) counts as reached."""
-REACHED_RAD = np.deg2rad(0.5)
-NEAR_LIMIT_RAD = np.deg2rad(3.0)
-COM_PULL_WEIGHT = 1.0
-"""While the CoM is outside the support polygon (a hard constraint would make the QP
-infeasible), a CoM task this much heavier than the moving foot pulls it in; once inside, the
-polygon is a hard constraint."""
+__all__ = [
+    "OUT_OF_REACH",
+    "REACHED_M",
+    "REACHED_RAD",
+    "TORSO_TURN_RAD",
+    "TORSO_WEIGHT",
+    "IkResult",
+    "IkTargets",
+    "Stance",
+    "WholeBodyIK",
+]
+
 LOOP_WEIGHT = 1e7
-COM_TARGET_WEIGHT = 10.0
 HOLD_WEIGHT = 10.0
 """Weight of the task that holds chosen joints (a built-in motion's arms, waist, head) at their
 start angles: far above the posture's, so the IK does not swing an arm to move the CoM."""
 DAMPING_MIN = 1e-6
 FLOOR_TOLERANCE_M = 1e-4
 """A sole this little below the floor is rounding, not a request to dig in."""
-ROTATION_WEIGHT = 0.01
-"""[m²/rad²] in the goal cost used to accept steps: 0.1 rad counts like 1 cm."""
-MAX_STEP_M = 0.03
-MAX_STEP_RAD = 0.3
-"""A soft target further than this is approached through intermediate targets (one per QP
-step): a far, unreachable target otherwise asks for huge steps at a stretched, near-singular
-leg, and the iterations jump between configurations instead of settling."""
-OFF_POLYGON = np.array([[1e3, 1e3], [1e3, -1e3], [-1e3, -1e3], [-1e3, 1e3]])
-"""Clockwise square [m] that no CoM leaves: the polygon constraint's "off" state."""
-POLYGON_CACHE_M = 1e-6
-"""Stance soles that moved less than this [m, and rotation-matrix entries] since the support
-polygon was computed keep it: solver residue on a held foot (~1e-9 m) never misses the cache,
-and the polygon is then at most about this far from the exact one."""
-GOAL_MET_COST = 1e-8
-"""[m²] A goal cost below this (the soft goals within 0.1 mm, 10× inside REACHED_M) needs no
-line search for a small step (< SMALL_STEP): the steps from there are the corrections of a
-converging solve."""
-CRAWL_COST = (0.3 * REACHED_M) ** 2
-CRAWL_GAIN = 0.01
-"""[m², -] stop_when_met also stops where the goals are within a third of REACHED_M and a small
-step (< SMALL_STEP) lowered their cost by less than this fraction: the steps crawl along an
-active constraint (the CoM on the polygon's edge, a joint at its limit) for micrometres."""
-CONTRACTING = 0.5
-SMALL_STEP = 1e-3
-"""[rad or m] Steps are judged converging from their ratio only once both are this small: the
-first steps of a solve are large, nonlinear moves whose ratio says nothing of the tail."""
 ANCHORED_M = 1e-10
 """[m, and rotation-matrix entries] A stance foot this close to its target needs no rigid
 correction of the base (most solves end with the held foot within ~1e-12 of it)."""
-TORSO_WEIGHT = 1.0
-"""[per rad², beside the moving foot's 1 per m²] of the torso hold: tilting the torso by a
-degree costs what missing the foot by 17 mm does, so the legs do the work and a lean appears
-only for a target the legs cannot reach (then reported: TORSO_TURN_RAD)."""
-HELD_MERIT_WEIGHT = 100.0
-"""While the torso is held, the held feet's drift from their targets weighs this much in the
-goal cost that accepts steps: near the edge of what the legs reach upright, the QP asks for
-long steps whose second-order drift of a held foot (the QP holds it to first order only) can
-reach centimetres; the rigid correction of the base (_anchor) would then swing the whole
-robot by that much."""
-TORSO_TURN_RAD = np.deg2rad(5.0)
-"""A torso held at an orientation that ends further than this from it is a fold the user did
-not ask for: the result is not `reached`."""
-OUT_OF_REACH = " target out of reach: closest pose is "
-"""The words of the warning a missed target gives (its distance follows)."""
 STANCE_WEIGHT = 1e4
 """Stance feet are soft tasks of overwhelming weight rather than hard equalities: with both
 feet of a 5-DOF-leg robot (dircon_biped) held, hard 6-D equalities are rank-deficient and
 the QP fails, while a consistent soft target is still met to ~1e-9 m."""
 
 
-@dataclasses.dataclass(frozen=True)
-class IkTargets:
-    """Where the feet and pelvis should be. None leaves a frame free (pelvis) or where it is (feet)."""
-
-    T_world_left: np.ndarray | None = None
-    T_world_right: np.ndarray | None = None
-    T_world_pelvis: np.ndarray | None = None
-    com_xy: np.ndarray | None = None
-    """Where the CoM's ground projection should be [m] (soft, heavier than the feet)."""
-    stance: Stance = "both"
-    """Feet held (overwhelming weight) at their target, or where they are when they have none;
-    the other foot follows its target (soft)."""
-    posture_q: np.ndarray | None = None
-    """Configuration whose joint angles the light posture task pulls towards (the redundancy:
-    what the targets leave free); None for the standing pose. Drag posing passes the pose
-    before the drag, so that moving a foot moves its leg and leaves the rest near where it
-    was."""
-    R_world_torso: np.ndarray | None = None
-    """Orientation (3x3) the torso (the root link) is held at (soft, TORSO_WEIGHT); None leaves
-    it free. Not used with a pelvis target (whose orientation is the pelvis's)."""
-
-
-@dataclasses.dataclass(frozen=True)
-class IkResult:
-    q: np.ndarray
-    """The solved configuration (the start configuration if the solve failed)."""
-    reached: bool
-    """Every soft target within REACHED_M and REACHED_RAD."""
-    iterations: int
-    position_error_m: dict[str, float]
-    """Per target ("left", "right", "pelvis", "com") distance to it [m]."""
-    orientation_error_rad: dict[str, float]
-    com_margin_m: float
-    """Distance of the CoM's ground projection inside the support polygon [m] (negative: outside)."""
-    joints_near_limit: tuple[str, ...]
-    warnings: tuple[str, ...]
-    shortfall: tuple[str, ...] = ()
-    """Why this is only the closest reachable pose (empty when reached): each target missed
-    and by how much, the torso turned from where it was held, then what holds the pose back
-    (a joint at a limit the targets push against, the CoM polygon, the torso hold)."""
-
-
-@dataclasses.dataclass(frozen=True)
-class _Ended:
-    """Where a solve ended: its configuration (exact bytes), stance, the feet's placements
-    there, the support polygon its result was measured in and whether the CoM is inside it."""
-
-    q: bytes
-    stance: Stance
-    placements: dict[str, np.ndarray]
-    polygon: np.ndarray
-    com_inside: bool
-
-
-class WholeBodyIK:
+class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
     """An IK solver bound to one robot. Not thread-safe: one per user of the robot."""
 
     def __init__(
@@ -311,221 +232,6 @@ class WholeBodyIK:
             self._held.configure("held joints", "soft", weight)
             self._held.set_joints(dict(angles))
 
-    def support_polygon(self, q: np.ndarray, stance: Stance) -> np.ndarray:
-        """Counter-clockwise corners (xy) [m] of the convex hull of the stance soles at q.
-
-        Cached per stance: while the stance soles stay within POLYGON_CACHE_M of where the
-        polygon was computed (a drag of the other foot, solver residue along a motion), the
-        same polygon is returned without a new hull."""
-        pin.framesForwardKinematics(self.robot.model, self._data, q)
-        self._placed_q = None
-        return self._polygon_here(stance)
-
-    def _polygon_here(
-        self, stance: Stance, placements: dict[str, np.ndarray] | None = None
-    ) -> np.ndarray:
-        """support_polygon at the configuration self._data's frames were last placed at (or of
-        the feet at `placements`, by side, when given)."""
-        feet = self._stance_feet[stance]
-        if placements is None:
-            oMf, ids = self._data.oMf, self._foot_ids
-            placements = {foot.side: oMf[ids[foot.side]].homogeneous for foot in feet}
-        cache = self._polygon_cache
-        if cache is not None and cache[0] == stance:
-            for foot, T_then in zip(feet, cache[1], strict=True):
-                if float(np.abs(placements[foot.side] - T_then).max()) >= POLYGON_CACHE_M:
-                    break
-            else:
-                return cache[2]
-        chosen = [placements[foot.side] for foot in feet]
-        points = [
-            (T[:3, :3] @ foot.sole_corners_m.T + T[:3, 3:4]).T[:, :2]
-            for foot, T in zip(feet, chosen, strict=True)
-        ]
-        polygon = convex_polygon(np.concatenate(points))
-        self._polygon_cache = (stance, chosen, polygon)
-        return polygon
-
-    def com_margin(self, q: np.ndarray, polygon: np.ndarray) -> float:
-        """Signed distance [m] of the CoM's ground projection inside a convex polygon."""
-        self._placed_q = None
-        return self._margin_of(self.robot.com(q, self._data)[:2], polygon)
-
-    def margin_at(self, com_xy: np.ndarray, polygon: np.ndarray) -> float:
-        """Signed distance [m] of a ground point (a CoM's projection, already computed)
-        inside a convex polygon."""
-        return self._margin_of(np.asarray(com_xy, dtype=float)[:2], polygon)
-
-    def _margin_of(self, com_xy: np.ndarray, polygon: np.ndarray) -> float:
-        """Signed distance [m] of a point inside a convex polygon (its edges' inward normals
-        kept for the last polygon asked about)."""
-        normals, offsets = self._edges(polygon)
-        return float((offsets - normals.dot(com_xy)).min())
-
-    def _edges(self, polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(outward unit normals, offsets) of a counter-clockwise polygon's edges: a point p
-        is inside when normals·p ≤ offsets (cached for the last polygon asked about)."""
-        if self._halfplanes is None or self._halfplanes[0] is not polygon:
-            edges = np.roll(polygon, -1, axis=0) - polygon
-            normals = (
-                np.stack([edges[:, 1], -edges[:, 0]], axis=1)
-                / np.linalg.norm(edges, axis=1)[:, None]
-            )
-            self._halfplanes = (polygon, normals, np.einsum("ij,ij->i", polygon, normals))
-        return self._halfplanes[1], self._halfplanes[2]
-
-    def _guard_com(self, polygon: np.ndarray) -> None:
-        """Hard CoM-in-polygon constraint once the CoM is inside (the QP stays feasible from
-        there, and it stays on for the rest of the solve: switching back and forth chatters);
-        while the CoM is outside, a CoM task pulls it towards the polygon's centroid. The
-        wrapper's kinematics are at the configuration asked about."""
-        if self._polygon_on:
-            return
-        inside = self._inside_at_start
-        self._inside_at_start = None
-        if inside is None:
-            inside = self._margin_of(np.asarray(self._wrapper.com_world())[:2], polygon) >= 0.0
-        self._set_polygon(inside, polygon)
-        if inside:
-            self._set_com_pull(None)
-        else:
-            self._set_com_pull(polygon.mean(axis=0))
-
-    def _set_com_pull(self, target_xy: np.ndarray | None) -> None:
-        """Pull the CoM towards target_xy with COM_PULL_WEIGHT, or (None) not at all."""
-        self._com_pull = self._ground_com_task(
-            self._com_pull, target_xy, "com pull", COM_PULL_WEIGHT
-        )
-
-    def _ground_com_task(
-        self, task: placo.CoMTask | None, target_xy: np.ndarray | None, name: str, weight: float
-    ) -> placo.CoMTask | None:
-        """A soft task pulling the CoM's ground projection to target_xy, added to the solver
-        if it was not there; None (the task removed) when target_xy is None."""
-        if target_xy is None:
-            if task is not None:
-                self._solver.remove_task(task)
-            return None
-        if task is None:
-            task = self._solver.add_com_task(np.zeros(3))
-            task.mask.set_axises("xy")
-            task.configure(name, "soft", weight)
-        task.target_world = np.array([*np.asarray(target_xy, dtype=float)[:2], 0.0])
-        return task
-
-    def _set_polygon(self, on: bool, polygon: np.ndarray | None = None) -> None:
-        """Make the hard polygon constraint bite (the support polygon) or not (a huge square:
-        placo has no cheap on/off for a hard constraint, and removing one is unsafe). Handed
-        to placo by _push_polygon, right before a QP, and only when it changed: a solve turns
-        it off at its start and on again at its first step, most often to the same polygon."""
-        if on and polygon is not None:
-            self._polygon_wanted = polygon
-        elif not on:
-            self._polygon_wanted = OFF_POLYGON
-        self._polygon_on = on
-
-    def _push_polygon(self) -> None:
-        wanted = self._polygon_wanted
-        if wanted is self._polygon_pushed:
-            return
-        corners = wanted if wanted is OFF_POLYGON else wanted[::-1]  # placo wants clockwise
-        self._polygon.polygon = [np.array(p) for p in corners]
-        self._polygon_pushed = wanted
-
-    def _iterate(
-        self,
-        start: np.ndarray,
-        polygon: np.ndarray | None,
-        max_iterations: int,
-        step_tolerance: float,
-        stop_when_met: bool = False,
-    ) -> tuple[np.ndarray, int]:
-        """QP steps from start until they vanish; the CoM is guarded when a polygon is given.
-
-        Each step is the longest of dq, dq/2, … dq/16 that lowers the goal cost (any step
-        while the CoM is being pulled into the polygon, when there is no soft goal or, for a
-        small step, when the goals are met to GOAL_MET_COST); when
-        none does, the iterations stop where they are: iterating further would only wander.
-        The goals do not change during the iterations, so the cost an accepted step was
-        judged by is the cost the next step starts from.
-
-        The steps vanish when one is shorter than step_tolerance, or when, contracting by a
-        ratio ρ = |dq_k| / |dq_k-1| ≤ CONTRACTING from one small step to the next, all that
-        remains of them (at most |dq_k|·ρ / (1 − ρ)) is: near the solution the iterations
-        converge linearly (the light posture and damping tasks pull against the goals), and the
-        last two or three QPs would each move the pose by less than a micrometre. A vanishing
-        step is taken as it is, without a line search (at that size the goal cost's change is
-        rounding). Once settled — the steps contracting so, or small (< SMALL_STEP) after the
-        goals were met to GOAL_MET_COST — the steps are taken without a line search and without
-        computing the goal cost again (the iterations are converging: there is nothing for it
-        to guard), the targets aimed where they were. With stop_when_met, a step the line
-        search accepts with the goal cost below GOAL_MET_COST, or crawling below CRAWL_COST,
-        ends the iterations (solve)."""
-        wrapper, model, solver = self._wrapper, self.robot.model, self._solver
-        q = start.copy()
-        wrapper.state.q = q
-        wrapper.update_kinematics()
-        self._set_polygon(False)
-        self._set_com_pull(None)
-        goals, aimed = self._soft_goals, self._aimed
-        cost: float | None = None
-        previous_step = math.inf
-        settled = False
-        iterations = 0
-        for iterations in range(1, max_iterations + 1):  # noqa: B007 - returned
-            if polygon is not None and not self._polygon_on:
-                self._guard_com(polygon)
-            if not settled:
-                if cost is None:
-                    cost = self._goal_cost()
-                self._aim(goals, aimed)
-            self._push_polygon()
-            dq = solver.solve(True)  # placo applies the full step: wrapper.state.q = q ⊕ dq
-            squared = float(dq.dot(dq))
-            if not math.isfinite(squared) and not np.all(np.isfinite(dq)):
-                raise FloatingPointError("non-finite step")
-            step = math.sqrt(squared)
-            ratio = step / previous_step if previous_step < SMALL_STEP else 1.0
-            previous_step = step
-            converging = ratio <= CONTRACTING
-            if step < step_tolerance or (
-                converging and step * ratio < step_tolerance * (1.0 - ratio)
-            ):
-                q = wrapper.state.q.copy()  # a view of placo's state otherwise
-                break
-            met = step < SMALL_STEP and cost is not None and cost < GOAL_MET_COST
-            settled = converging or (step < SMALL_STEP and settled) or met
-            pulling = polygon is not None and not self._polygon_on
-            wrapper.update_kinematics()
-            if pulling or not goals or settled or met:
-                q = wrapper.state.q.copy()  # a view of placo's state otherwise
-                cost = None
-                continue
-            if cost is None:  # after steps taken without a line search: the cost at q
-                wrapper.state.q = q
-                wrapper.update_kinematics()
-                cost = self._goal_cost()
-                wrapper.state.q = pin.integrate(model, q, dq)
-                wrapper.update_kinematics()
-            for gain in (1.0, 0.5, 0.25, 0.125, 0.0625):
-                if gain != 1.0:  # the full step is in the wrapper already
-                    wrapper.state.q = pin.integrate(model, q, gain * dq)
-                    wrapper.update_kinematics()
-                after = self._goal_cost()
-                if after < cost * (1.0 - 1e-9):
-                    q, gain_kept, cost = wrapper.state.q.copy(), 1.0 - after / cost, after
-                    break
-            else:  # no step along dq lowers the goal cost: the closest pose is reached
-                wrapper.state.q = q
-                wrapper.update_kinematics()
-                break
-            if stop_when_met and (
-                cost < GOAL_MET_COST
-                or (cost < CRAWL_COST and step < SMALL_STEP and gain_kept < CRAWL_GAIN)
-            ):
-                break  # the goals are met: what further steps change is not visible
-        return q, iterations
-
     def _hold_torso(self, R_world: np.ndarray | None) -> None:
         """Hold the torso at R_world (soft, TORSO_WEIGHT), or (None) not at all."""
         if R_world is None:
@@ -539,44 +245,6 @@ class WholeBodyIK:
             self._torso.configure("torso", "soft", TORSO_WEIGHT)
         self._torso_goal = np.array(R_world, dtype=float)
         self._torso.R_world_frame = self._torso_goal
-
-    def _aim(self, goals: list, aimed: list[np.ndarray]) -> None:
-        """Each soft goal's task aimed at its goal, or MAX_STEP towards it when it is further
-        (from where the goal cost was last computed)."""
-        for i, ((task, _, goal), (current, turn, far)) in enumerate(
-            zip(goals, self._goals_here, strict=True)
-        ):
-            aim = _clamped_towards(current, goal, turn) if far else goal
-            if aim is not aimed[i]:
-                task.T_world_frame = aim
-                aimed[i] = aim
-
-    def _goal_cost(self) -> float:
-        """Weighted distance of the soft goals: Σ |Δp|² [m²] + ROTATION_WEIGHT·|Δθ|² [rad²];
-        while a torso is held, its turn from the hold (TORSO_WEIGHT·|Δθ|², as in the QP: a
-        step that straightens the torso while the foot lags is a step forward) and the held
-        feet's drift (HELD_MERIT_WEIGHT)."""
-        cost = 0.0
-        here = []
-        get = self._wrapper.get_T_world_frame
-        for frame, position, rotation in self._goal_parts:
-            current = get(frame)
-            delta = position - current[:3, 3]
-            turn = pin.log3(current[:3, :3].T.dot(rotation))
-            squared, turned = float(delta.dot(delta)), float(turn.dot(turn))
-            cost += squared + ROTATION_WEIGHT * turned
-            here.append((current, turn, squared > MAX_STEP_M**2 or turned > MAX_STEP_RAD**2))
-        self._goals_here = here
-        if self._torso_goal is not None:
-            turn = pin.log3(get(self._pelvis_frame)[:3, :3].T.dot(self._torso_goal))
-            cost += TORSO_WEIGHT * float(turn.dot(turn))
-            for frame, position, rotation in self._held_parts:
-                current = get(frame)
-                delta = position - current[:3, 3]
-                turn = pin.log3(current[:3, :3].T.dot(rotation))
-                drift = float(delta.dot(delta)) + ROTATION_WEIGHT * float(turn.dot(turn))
-                cost += HELD_MERIT_WEIGHT * drift
-        return cost
 
     def _anchor(self, q: np.ndarray, stance_targets: dict[str, np.ndarray]) -> np.ndarray:
         """Move the floating base rigidly so the first stance foot is exactly on its target.
@@ -734,168 +402,6 @@ class WholeBodyIK:
             q, iterations = start, 0
         kept = polygon if held_in_place else None
         return self._result(q, iterations, targets, wanted, warnings, kept)
-
-    def _result(
-        self,
-        q: np.ndarray,
-        iterations: int,
-        targets: IkTargets,
-        wanted: dict[str, np.ndarray],
-        warnings: list[str],
-        polygon: np.ndarray | None,
-    ) -> IkResult:
-        """How close q came to the wanted placements (and CoM), its CoM margin (in `polygon`,
-        when the stance feet were held where the solve found them; else the polygon at q), the
-        joints near a limit: from one forward kinematics pass."""
-        robot, data = self.robot, self._data
-        if self._placed_q is not q:  # the solve failed: not placed by _anchor
-            pin.framesForwardKinematics(robot.model, data, q)
-        oMf = data.oMf
-        feet = {side: oMf[frame].homogeneous for side, frame in self._foot_ids.items()}
-        position_error, orientation_error = {}, {}
-        for label, T_target in wanted.items():
-            if label == "pelvis":
-                T = oMf[robot.link_frame_ids[self._pelvis_frame]].homogeneous
-            else:
-                T = feet[label]
-            delta = T[:3, 3] - T_target[:3, 3]
-            position_error[label] = math.sqrt(float(delta.dot(delta)))
-            turn = pin.log3(T_target[:3, :3].T.dot(T[:3, :3]))
-            orientation_error[label] = math.sqrt(float(turn.dot(turn)))
-        reached = all(
-            position_error[k] < REACHED_M and orientation_error[k] < REACHED_RAD for k in wanted
-        )
-        shortfall = [
-            f"{k if k == 'pelvis' else k + ' foot'} {position_error[k] * 1000:.1f} mm, "
-            f"{np.rad2deg(orientation_error[k]):.1f}° from its target"
-            for k in wanted
-            if position_error[k] >= REACHED_M or orientation_error[k] >= REACHED_RAD
-        ]
-        if not reached:
-            worst = max(wanted, key=lambda k: position_error[k])
-            warnings.append(
-                f"{worst}{OUT_OF_REACH}{position_error[worst] * 1000:.1f} mm, "
-                f"{np.rad2deg(orientation_error[worst]):.1f}° away"
-            )
-        if self._torso_goal is not None:
-            R = oMf[robot.link_frame_ids[self._pelvis_frame]].rotation
-            turn = pin.log3(self._torso_goal.T.dot(R))
-            orientation_error["torso"] = math.sqrt(float(turn.dot(turn)))
-            if orientation_error["torso"] >= TORSO_TURN_RAD:
-                reached = False
-                shortfall.append(
-                    f"torso turned {np.rad2deg(orientation_error['torso']):.0f}° from where it was"
-                )
-        if polygon is None:
-            polygon = self._polygon_here(targets.stance, feet)
-        com_xy = np.array(pin.centerOfMass(robot.model, data, False))[:2]  # data placed at q
-        if targets.com_xy is not None:
-            miss = com_xy - np.asarray(targets.com_xy)[:2]
-            position_error["com"] = math.sqrt(float(miss @ miss))
-            if position_error["com"] >= REACHED_M:
-                reached = False
-                warnings.append(
-                    f"CoM target out of reach: {position_error['com'] * 1000:.1f} mm away"
-                )
-                shortfall.append(f"CoM {position_error['com'] * 1000:.1f} mm from its target")
-        margin = self._margin_of(com_xy, polygon)
-        if not reached:
-            shortfall += self._blockers(q, targets, wanted)
-        self._ended = _Ended(
-            q.tobytes(),
-            targets.stance,
-            feet,
-            polygon,
-            margin >= 0.0,
-        )
-        angles = q[self._bounded_q]
-        room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
-        near: tuple[str, ...] = ()
-        if room.size and room.min() < NEAR_LIMIT_RAD:
-            near = tuple(
-                name
-                for name, close in zip(self._bounded_names, room < NEAR_LIMIT_RAD, strict=True)
-                if close
-            )
-        return IkResult(
-            q,
-            reached,
-            iterations,
-            position_error,
-            orientation_error,
-            margin,
-            near,
-            tuple(warnings),
-            tuple(shortfall),
-        )
-
-    def _blockers(
-        self, q: np.ndarray, targets: IkTargets, wanted: dict[str, np.ndarray]
-    ) -> list[str]:
-        """What holds q back from the soft targets (app.core.posing.shortfall); self._data's
-        frames are placed at q."""
-        robot = self.robot
-        ids = robot.link_frame_ids
-        stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
-        goals = [
-            Goal(ids[self._pelvis_frame] if k == "pelvis" else self._foot_ids[k], T)
-            for k, T in wanted.items()
-            if k not in stance_sides
-        ]
-        edges = None
-        if self._polygon_on and self._polygon_wanted is not OFF_POLYGON:
-            normals, offsets = self._edges(self._polygon_wanted)
-            edges = (normals, offsets - self.com_margin_m)
-        torso = None
-        if self._torso_goal is not None:
-            torso = (ids[self._pelvis_frame], self._torso_goal, TORSO_WEIGHT)
-        situation = Situation(
-            tuple(goals),
-            tuple(self._foot_ids[side] for side in stance_sides),
-            self._bounded_info,
-            None if targets.com_xy is None else np.asarray(targets.com_xy, dtype=float)[:2],
-            COM_TARGET_WEIGHT,
-            edges,
-            torso,
-        )
-        return [
-            f"held back by {reason}" for reason in blockers(robot.model, self._data, q, situation)
-        ]
-
-
-DEGENERATE_PAD_M = 5e-4
-"""Half-size of the square put around each point of a sole without area (a foot whose
-geometry is missing, or a line contact): its polygon is then a thin strip, not an error."""
-
-
-def convex_polygon(points_xy: np.ndarray) -> np.ndarray:
-    """Counter-clockwise corners of the convex hull of points (N, 2) [m]; points on a line (or
-    one point) give the hull of small squares around them."""
-    try:
-        hull = ConvexHull(points_xy)
-    except QhullError:
-        offsets = DEGENERATE_PAD_M * np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]])
-        points_xy = (points_xy[:, None, :] + offsets[None]).reshape(-1, 2)
-        hull = ConvexHull(points_xy)
-    return points_xy[hull.vertices]
-
-
-def _clamped_towards(
-    T_current: np.ndarray, T_goal: np.ndarray, rotation: np.ndarray | None = None
-) -> np.ndarray:
-    """T_goal, or the pose MAX_STEP_M / MAX_STEP_RAD from T_current in its direction
-    (`rotation`: log3 of the rotation from T_current to T_goal, when already known)."""
-    out = np.array(T_goal, dtype=float)
-    delta = T_goal[:3, 3] - T_current[:3, 3]
-    distance = math.sqrt(float(delta @ delta))
-    if distance > MAX_STEP_M:
-        out[:3, 3] = T_current[:3, 3] + delta * (MAX_STEP_M / distance)
-    if rotation is None:
-        rotation = pin.log3(T_current[:3, :3].T @ T_goal[:3, :3])
-    angle = math.sqrt(float(rotation @ rotation))
-    if angle > MAX_STEP_RAD:
-        out[:3, :3] = T_current[:3, :3] @ pin.exp3(rotation * (MAX_STEP_RAD / angle))
-    return out
 
 
 def _above_floor(

@@ -20,11 +20,13 @@ Every number must be finite and physically sane (a robot you can build on a desk
     rpy angles  |a| ≤ 100 rad
     link mass  0 ≤ m ≤ 10 000 kg;  inertia entries  |I| ≤ 10 000 kg·m²
     joint axis  not zero;  limits  |position| ≤ 10 000, 0 ≤ effort, velocity ≤ 1e6
+
+The records it makes are in app.core.robot.urdf_tree; app.core.robot.urdf_write writes a
+checked tree back as the strict URDF pinocchio is given (both re-exported here).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import xml.etree.ElementTree as ET
 
 import defusedxml.ElementTree as SafeET
@@ -32,6 +34,30 @@ import numpy as np
 from defusedxml import DefusedXmlException
 
 from app.core.errors import UrdfStructureError, UrdfSyntaxError
+from app.core.robot.urdf_tree import (
+    Geometry,
+    Inertial,
+    JointElement,
+    LoopElement,
+    UrdfTree,
+    matrix_rpy,
+    rpy_matrix,
+)
+from app.core.robot.urdf_write import canonical_urdf
+
+__all__ = [
+    "MOVING_JOINT_TYPES",
+    "SUPPORTED_JOINT_TYPES",
+    "Geometry",
+    "Inertial",
+    "JointElement",
+    "LoopElement",
+    "UrdfTree",
+    "canonical_urdf",
+    "matrix_rpy",
+    "parse_urdf",
+    "rpy_matrix",
+]
 
 MAX_LINKS = 500
 MAX_TREE_DEPTH = 64
@@ -44,79 +70,6 @@ MAX_LIMIT = 1e4
 MAX_RATING = 1e6
 MOVING_JOINT_TYPES = ("revolute", "continuous", "prismatic")
 SUPPORTED_JOINT_TYPES = (*MOVING_JOINT_TYPES, "fixed")
-
-
-@dataclasses.dataclass(frozen=True)
-class Geometry:
-    """One <visual> or <collision> element, in its link's frame."""
-
-    link: str
-    role: str
-    """"visual" or "collision"."""
-    kind: str
-    """"box", "cylinder", "sphere" or "mesh"."""
-    T_link_geom: np.ndarray
-    """Placement of the geometry in the link frame, 4x4 homogeneous."""
-    size: tuple[float, ...] = ()
-    """box: x y z [m]; cylinder: radius, length [m]; sphere: radius [m]; mesh: scale x y z."""
-    uri: str = ""
-    """mesh filename as written in the URDF (relative, package:// or file://)."""
-    rgba: tuple[float, float, float, float] | None = None
-
-
-@dataclasses.dataclass(frozen=True)
-class Inertial:
-    mass_kg: float
-    com_m: np.ndarray
-    """Centre of mass in the link frame [m], shape (3,)."""
-    inertia_kgm2: np.ndarray
-    """Inertia about the centre of mass, in the inertial frame [kg·m²], shape (3, 3)."""
-
-
-@dataclasses.dataclass(frozen=True)
-class JointElement:
-    name: str
-    kind: str
-    parent: str
-    child: str
-    T_parent_joint: np.ndarray
-    axis: np.ndarray
-    lower: float | None
-    upper: float | None
-    effort: float | None
-    velocity: float | None
-
-
-@dataclasses.dataclass(frozen=True)
-class LoopElement:
-    """A declared loop closure: the origins of link_a and link_b coincide."""
-
-    name: str
-    link_a: str
-    link_b: str
-    passive_joints: tuple[str, ...]
-
-
-@dataclasses.dataclass(frozen=True)
-class UrdfTree:
-    """A checked URDF: one root, a tree of links and joints, geometry, loops."""
-
-    name: str
-    root: str
-    links: tuple[str, ...]
-    joints: dict[str, JointElement]
-    inertials: dict[str, Inertial]
-    geometries: tuple[Geometry, ...]
-    loops: tuple[LoopElement, ...]
-
-    def children_of(self, link: str) -> list[JointElement]:
-        return [j for j in self.joints.values() if j.parent == link]
-
-    def parent_joint(self, link: str) -> JointElement | None:
-        for joint in self.joints.values():
-            if joint.child == link:
-                return joint
-        return None
 
 
 def parse_urdf(text: str | bytes, source: str = "URDF") -> UrdfTree:
@@ -418,20 +371,6 @@ def _origin(element: ET.Element, what: str, source: str) -> np.ndarray:
     return T
 
 
-def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """URDF fixed-axis roll, pitch, yaw [rad] -> rotation matrix Rz(yaw) Ry(pitch) Rx(roll)."""
-    cr, sr = np.cos(roll), np.sin(roll)
-    cp, sp = np.cos(pitch), np.sin(pitch)
-    cy, sy = np.cos(yaw), np.sin(yaw)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
 def _required(element: ET.Element, key: str, what: str, source: str) -> str:
     value = element.get(key)
     if not value:
@@ -475,68 +414,3 @@ def _sizes(size: tuple[float, ...], what: str, source: str) -> tuple[float, ...]
                 f"most {MAX_LENGTH_M:g} m"
             )
     return size
-
-
-def canonical_urdf(tree: UrdfTree) -> str:
-    """The kinematics and inertia of a checked tree as strict URDF, without geometry.
-
-    Real URDFs often carry what pinocchio's urdfdom parser rejects although the robot is
-    perfectly defined (capsule geometry, limits without effort, numbers with trailing
-    spaces). pinocchio is given this re-written description, built from values already
-    checked here, so its semantics (frames, fixed-joint merging) stay pinocchio's own.
-    """
-    out = [f'<robot name="{_attr(tree.name)}">']
-    for link in tree.links:
-        out.append(f'<link name="{_attr(link)}">')
-        inertial = tree.inertials.get(link)
-        if inertial is not None:
-            i = inertial.inertia_kgm2
-            out.append(
-                f'<inertial><origin xyz="{_vec(inertial.com_m)}" rpy="0 0 0"/>'
-                f'<mass value="{_num(inertial.mass_kg)}"/>'
-                f'<inertia ixx="{_num(i[0, 0])}" ixy="{_num(i[0, 1])}" ixz="{_num(i[0, 2])}" '
-                f'iyy="{_num(i[1, 1])}" iyz="{_num(i[1, 2])}" izz="{_num(i[2, 2])}"/></inertial>'
-            )
-        out.append("</link>")
-    for joint in tree.joints.values():
-        T = joint.T_parent_joint
-        out.append(
-            f'<joint name="{_attr(joint.name)}" type="{joint.kind}">'
-            f'<origin xyz="{_vec(T[:3, 3])}" rpy="{_vec(matrix_rpy(T[:3, :3]))}"/>'
-            f'<parent link="{_attr(joint.parent)}"/><child link="{_attr(joint.child)}"/>'
-        )
-        if joint.kind != "fixed":
-            out.append(f'<axis xyz="{_vec(joint.axis)}"/>')
-            lower = joint.lower if joint.lower is not None else -np.pi
-            upper = joint.upper if joint.upper is not None else np.pi
-            out.append(
-                f'<limit lower="{_num(lower)}" upper="{_num(upper)}" '
-                f'effort="{_num(joint.effort or 0.0)}" velocity="{_num(joint.velocity or 0.0)}"/>'
-            )
-        out.append("</joint>")
-    out.append("</robot>")
-    return "\n".join(out)
-
-
-def matrix_rpy(rotation: np.ndarray) -> np.ndarray:
-    """URDF roll, pitch, yaw [rad] of a rotation matrix (inverse of rpy_matrix)."""
-    pitch = np.arcsin(-np.clip(rotation[2, 0], -1.0, 1.0))
-    if abs(rotation[2, 0]) < 1.0 - 1e-12:
-        roll = np.arctan2(rotation[2, 1], rotation[2, 2])
-        yaw = np.arctan2(rotation[1, 0], rotation[0, 0])
-    else:  # gimbal lock: put everything in yaw
-        roll = 0.0
-        yaw = np.arctan2(-rotation[0, 1], rotation[1, 1])
-    return np.array([roll, pitch, yaw])
-
-
-def _vec(values) -> str:
-    return " ".join(_num(v) for v in values)
-
-
-def _num(value: float) -> str:
-    return repr(float(value))
-
-
-def _attr(text: str) -> str:
-    return text.replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;")

@@ -1,0 +1,173 @@
+"""The whole-body IK's verdict on a solved pose: how far each target was missed, whether it
+counts as reached, the CoM's margin, the joints near a limit, and the warning and shortfall
+text the studio shows (what holds the pose back: app.core.posing.shortfall).
+
+IkVerdictMixin is one part of app.core.posing.ik.WholeBodyIK (state set up by its __init__).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from app.core.posing.ik_records import (
+    COM_TARGET_WEIGHT,
+    REACHED_M,
+    REACHED_RAD,
+    TORSO_WEIGHT,
+    IkResult,
+    IkTargets,
+    _Ended,
+)
+from app.core.posing.shortfall import Bounded, Goal, Situation, blockers
+from app.core.posing.support_polygon import OFF_POLYGON, SupportPolygonMixin
+
+NEAR_LIMIT_RAD = np.deg2rad(3.0)
+TORSO_TURN_RAD = np.deg2rad(5.0)
+"""A torso held at an orientation that ends further than this from it is a fold the user did
+not ask for: the result is not `reached`."""
+OUT_OF_REACH = " target out of reach: closest pose is "
+"""The words of the warning a missed target gives (its distance follows)."""
+
+
+class IkVerdictMixin(SupportPolygonMixin):
+    """The verdict's part of WholeBodyIK."""
+
+    com_margin_m: float
+    _pelvis_frame: str
+    _torso_goal: np.ndarray | None
+    _ended: _Ended | None
+    _bounded_names: tuple[str, ...]
+    _bounded_q: np.ndarray
+    _bounded_lower: np.ndarray
+    _bounded_upper: np.ndarray
+    _bounded_info: Bounded
+
+    def _result(
+        self,
+        q: np.ndarray,
+        iterations: int,
+        targets: IkTargets,
+        wanted: dict[str, np.ndarray],
+        warnings: list[str],
+        polygon: np.ndarray | None,
+    ) -> IkResult:
+        """How close q came to the wanted placements (and CoM), its CoM margin (in `polygon`,
+        when the stance feet were held where the solve found them; else the polygon at q), the
+        joints near a limit: from one forward kinematics pass."""
+        robot, data = self.robot, self._data
+        if self._placed_q is not q:  # the solve failed: not placed by _anchor
+            pin.framesForwardKinematics(robot.model, data, q)
+        oMf = data.oMf
+        feet = {side: oMf[frame].homogeneous for side, frame in self._foot_ids.items()}
+        position_error, orientation_error = {}, {}
+        for label, T_target in wanted.items():
+            if label == "pelvis":
+                T = oMf[robot.link_frame_ids[self._pelvis_frame]].homogeneous
+            else:
+                T = feet[label]
+            delta = T[:3, 3] - T_target[:3, 3]
+            position_error[label] = math.sqrt(float(delta.dot(delta)))
+            turn = pin.log3(T_target[:3, :3].T.dot(T[:3, :3]))
+            orientation_error[label] = math.sqrt(float(turn.dot(turn)))
+        reached = all(
+            position_error[k] < REACHED_M and orientation_error[k] < REACHED_RAD for k in wanted
+        )
+        shortfall = [
+            f"{k if k == 'pelvis' else k + ' foot'} {position_error[k] * 1000:.1f} mm, "
+            f"{np.rad2deg(orientation_error[k]):.1f}° from its target"
+            for k in wanted
+            if position_error[k] >= REACHED_M or orientation_error[k] >= REACHED_RAD
+        ]
+        if not reached:
+            worst = max(wanted, key=lambda k: position_error[k])
+            warnings.append(
+                f"{worst}{OUT_OF_REACH}{position_error[worst] * 1000:.1f} mm, "
+                f"{np.rad2deg(orientation_error[worst]):.1f}° away"
+            )
+        if self._torso_goal is not None:
+            R = oMf[robot.link_frame_ids[self._pelvis_frame]].rotation
+            turn = pin.log3(self._torso_goal.T.dot(R))
+            orientation_error["torso"] = math.sqrt(float(turn.dot(turn)))
+            if orientation_error["torso"] >= TORSO_TURN_RAD:
+                reached = False
+                shortfall.append(
+                    f"torso turned {np.rad2deg(orientation_error['torso']):.0f}° from where it was"
+                )
+        if polygon is None:
+            polygon = self._polygon_here(targets.stance, feet)
+        com_xy = np.array(pin.centerOfMass(robot.model, data, False))[:2]  # data placed at q
+        if targets.com_xy is not None:
+            miss = com_xy - np.asarray(targets.com_xy)[:2]
+            position_error["com"] = math.sqrt(float(miss @ miss))
+            if position_error["com"] >= REACHED_M:
+                reached = False
+                warnings.append(
+                    f"CoM target out of reach: {position_error['com'] * 1000:.1f} mm away"
+                )
+                shortfall.append(f"CoM {position_error['com'] * 1000:.1f} mm from its target")
+        margin = self._margin_of(com_xy, polygon)
+        if not reached:
+            shortfall += self._blockers(q, targets, wanted)
+        self._ended = _Ended(
+            q.tobytes(),
+            targets.stance,
+            feet,
+            polygon,
+            margin >= 0.0,
+        )
+        angles = q[self._bounded_q]
+        room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
+        near: tuple[str, ...] = ()
+        if room.size and room.min() < NEAR_LIMIT_RAD:
+            near = tuple(
+                name
+                for name, close in zip(self._bounded_names, room < NEAR_LIMIT_RAD, strict=True)
+                if close
+            )
+        return IkResult(
+            q,
+            reached,
+            iterations,
+            position_error,
+            orientation_error,
+            margin,
+            near,
+            tuple(warnings),
+            tuple(shortfall),
+        )
+
+    def _blockers(
+        self, q: np.ndarray, targets: IkTargets, wanted: dict[str, np.ndarray]
+    ) -> list[str]:
+        """What holds q back from the soft targets (app.core.posing.shortfall); self._data's
+        frames are placed at q."""
+        robot = self.robot
+        ids = robot.link_frame_ids
+        stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
+        goals = [
+            Goal(ids[self._pelvis_frame] if k == "pelvis" else self._foot_ids[k], T)
+            for k, T in wanted.items()
+            if k not in stance_sides
+        ]
+        edges = None
+        if self._polygon_on and self._polygon_wanted is not OFF_POLYGON:
+            normals, offsets = self._edges(self._polygon_wanted)
+            edges = (normals, offsets - self.com_margin_m)
+        torso = None
+        if self._torso_goal is not None:
+            torso = (ids[self._pelvis_frame], self._torso_goal, TORSO_WEIGHT)
+        situation = Situation(
+            tuple(goals),
+            tuple(self._foot_ids[side] for side in stance_sides),
+            self._bounded_info,
+            None if targets.com_xy is None else np.asarray(targets.com_xy, dtype=float)[:2],
+            COM_TARGET_WEIGHT,
+            edges,
+            torso,
+        )
+        return [
+            f"held back by {reason}" for reason in blockers(robot.model, self._data, q, situation)
+        ]
