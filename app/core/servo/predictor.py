@@ -4,7 +4,7 @@ grounding vectorised a block of samples at a time."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -13,7 +13,7 @@ from app.core.motions.trajectory import Trajectory
 from app.core.quaternions import matrices_to_xyzquat, xyzquat_to_matrices
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams, checked_command, compensated_command
-from app.core.servo.grounding import LegChains, se3_inverse
+from app.core.servo.grounding import LegChains
 from app.core.servo.model import (
     Prediction,
     ServoModel,
@@ -60,13 +60,16 @@ class Predictor:
         self._right = stance_is_right(trajectory.contacts)
         self._chains = LegChains.of(robot)
         self._placements: list[pin.SE3] = []
-        self._placement_matrices = np.empty((0, 4, 4))
+        # The plan's stance-foot placements in the world, sample-last (R (3, 3, T), p (3, T)).
+        self._foot_rotations, self._foot_positions = np.empty((3, 3, 0)), np.empty((3, 0))
         if self._chains is None:
             self._placements = planned_stance_placements(robot, trajectory)
         else:
-            self._placement_matrices = xyzquat_to_matrices(
-                trajectory.q[:, :7]
-            ) @ self._chains.stance_to_base(self._right, trajectory.q)
+            placements = xyzquat_to_matrices(trajectory.q[:, :7]) @ self._chains.stance_to_base(
+                self._right, trajectory.q
+            )
+            self._foot_rotations = np.ascontiguousarray(np.moveaxis(placements[:, :3, :3], 0, 2))
+            self._foot_positions = np.ascontiguousarray(placements[:, :3, 3].T)
         self._uncompensated: tuple[ServoModel, tuple[np.ndarray, ...]] | None = None
 
     @property
@@ -96,13 +99,16 @@ class Predictor:
         roll, pitch = np.empty(n), np.empty(n)
         for begin in range(0, n, BLOCK_SAMPLES):
             rows = slice(begin, min(n, begin + BLOCK_SAMPLES))
-            block = with_joint_angles(self.robot, self.trajectory.q[rows], angles(rows))
-            T_base_foot = self._chains.stance_to_base(self._right[rows], block)
-            block[:, :7] = matrices_to_xyzquat(
-                self._placement_matrices[rows] @ se3_inverse(T_base_foot)
-            )
-            out[rows] = block
-            roll[rows], pitch[rows] = base_roll_pitch(block)
+            block = out[rows]
+            block[:] = with_joint_angles(self.robot, self.trajectory.q[rows], angles(rows))
+            R_foot, p_foot = self._chains.stance_to_base_parts(self._right[rows], block)
+            # T_world_base = T_world_foot · T_base_foot⁻¹, elementwise over the samples
+            R_world, p_world = self._foot_rotations[:, :, rows], self._foot_positions[:, rows]
+            R = [[_dot3(R_world[a], R_foot[b]) for b in range(3)] for a in range(3)]
+            position = [p_world[a] - _dot3(R[a], p_foot) for a in range(3)]
+            _set_base(block, np.array(R), np.array(position))
+            roll[rows] = np.arctan2(R[2][1], R[2][2])  # `base_roll_pitch` of the rotation
+            pitch[rows] = np.arctan2(-R[2][0], np.hypot(R[0][0], R[1][0]))
         return out, roll, pitch
 
     def _compensated(
@@ -152,3 +158,27 @@ class Predictor:
             uncompensated,
             tuple(compensated),
         )
+
+
+def _dot3(left: Sequence[np.ndarray], right: Sequence[np.ndarray]) -> np.ndarray:
+    """Σ_j left[j]·right[j] over three rows of samples (T,) each."""
+    return left[0] * right[0] + left[1] * right[1] + left[2] * right[2]
+
+
+def _set_base(q: np.ndarray, rotation: np.ndarray, position: np.ndarray) -> None:
+    """Set the floating base of configurations q (T, nq) to rotations (3, 3, T) and positions
+    (3, T): pinocchio's xyz and quaternion (`matrices_to_xyzquat`'s, elementwise here while
+    every rotation's trace is positive, as an upright base's is)."""
+    q[:, :3] = position.T
+    trace = rotation[0, 0] + rotation[1, 1] + rotation[2, 2]
+    if not (trace > 0.0).all():
+        T = np.zeros((len(q), 4, 4))
+        T[:, :3, :3] = np.moveaxis(rotation, 2, 0)
+        q[:, 3:7] = matrices_to_xyzquat(T)[:, 3:]
+        return
+    t = np.sqrt(trace + 1.0)
+    half = 0.5 / t
+    q[:, 6] = 0.5 * t
+    q[:, 3] = (rotation[2, 1] - rotation[1, 2]) * half
+    q[:, 4] = (rotation[0, 2] - rotation[2, 0]) * half
+    q[:, 5] = (rotation[1, 0] - rotation[0, 1]) * half
