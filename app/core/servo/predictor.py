@@ -100,7 +100,7 @@ class Predictor:
         for begin in range(0, n, BLOCK_SAMPLES):
             rows = slice(begin, min(n, begin + BLOCK_SAMPLES))
             block = out[rows]
-            block[:] = with_joint_angles(self.robot, self.trajectory.q[rows], angles(rows))
+            with_joint_angles(self.robot, self.trajectory.q[rows], angles(rows), out=block)
             R_foot, p_foot = self._chains.stance_to_base_parts(self._right[rows], block)
             # T_world_base = T_world_foot · T_base_foot⁻¹, elementwise over the samples
             R_world, p_world = self._foot_rotations[:, :, rows], self._foot_positions[:, rows]
