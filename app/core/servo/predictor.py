@@ -24,7 +24,6 @@ from app.core.servo.model import (
     joint_angles,
     planned_stance_placements,
     servo_response,
-    settled,
     stance_is_right,
     with_joint_angles,
 )
@@ -71,6 +70,7 @@ class Predictor:
             self._foot_rotations = np.ascontiguousarray(np.moveaxis(placements[:, :3, :3], 0, 2))
             self._foot_positions = np.ascontiguousarray(placements[:, :3, 3].T)
         self._uncompensated: tuple[ServoModel, tuple[np.ndarray, ...]] | None = None
+        self._terms: tuple[ServoModel, np.ndarray, np.ndarray] | None = None
 
     @property
     def vectorised(self) -> bool:
@@ -118,25 +118,34 @@ class Predictor:
         computed a block of samples at a time (`_grounded_attitude`); plan and torques were
         checked once, each block's commands are."""
         q_cmd, q_comp = np.empty_like(self.tau), np.empty_like(self.tau)
+        lag, dead_band = self._servo_terms(servos)
 
         def angles(rows: slice) -> np.ndarray:
             q_cmd[rows] = checked_command(self.q_plan[rows], self.tau[rows], params)
             if not np.isfinite(q_cmd[rows]).all():
                 servo_response(q_cmd[rows], self.tau[rows], servos)  # raises its error
-            q_comp[rows] = settled(q_cmd[rows], self.tau[rows], servos)
+            # `settled`'s equation, its two terms computed once for these servos
+            np.subtract(q_cmd[rows], lag[rows], out=q_comp[rows])
+            q_comp[rows] -= dead_band[rows]
             return q_comp[rows]
 
         return (q_cmd, q_comp, *self._grounded_attitude(angles))
+
+    def _servo_terms(self, servos: ServoModel) -> tuple[np.ndarray, np.ndarray]:
+        """c·τ and (b/2)·sign(τ) of `settled` [rad], (T, n) each: the servos' lag and dead
+        band along the plan's torques, which a k or φ slider does not change."""
+        cached = self._terms
+        if cached is None or not _same_servos(cached[0], servos):
+            lag = np.deg2rad(servos.compliance_deg_per_Nm) * self.tau
+            dead_band = np.deg2rad(0.5 * servos.backlash_deg) * np.sign(self.tau)
+            cached = self._terms = (servos, lag, dead_band)
+        return cached[1], cached[2]
 
     def predict(self, comp_params: CompensationParams, servo: ServoModel) -> Prediction:
         params = comp_params.for_joints(self.robot.joint_names)
         servos = servo.for_joints(self.robot.joint_names)
         cached = self._uncompensated
-        if (
-            cached is not None
-            and np.array_equal(cached[0].compliance_deg_per_Nm, servos.compliance_deg_per_Nm)
-            and np.array_equal(cached[0].backlash_deg, servos.backlash_deg)
-        ):
+        if cached is not None and _same_servos(cached[0], servos):
             uncompensated = cached[1]
         else:
             q_unc = servo_response(self.q_plan, self.tau, servos)
@@ -158,6 +167,13 @@ class Predictor:
             uncompensated,
             tuple(compensated),
         )
+
+
+def _same_servos(a: ServoModel, b: ServoModel) -> bool:
+    """The same compliance and backlash (both laid out on the robot's joints)."""
+    return np.array_equal(a.compliance_deg_per_Nm, b.compliance_deg_per_Nm) and np.array_equal(
+        a.backlash_deg, b.backlash_deg
+    )
 
 
 def _dot3(left: Sequence[np.ndarray], right: Sequence[np.ndarray]) -> np.ndarray:
