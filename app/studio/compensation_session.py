@@ -198,6 +198,10 @@ class CompensationSession:
                 self.panel.status.content = "⚠️ " + "; ".join(absurd) + " (quick estimate)"
             self._state.work.set_prediction(prediction, feedforward, coefficients)
 
+    def cached_predictor(self) -> Predictor | None:
+        """The predictor of the last quick estimate (the bench times it alone)."""
+        return None if self._predictor is None else self._predictor[2]
+
     def _compensated_torque(
         self,
         robot: RobotModel,
