@@ -176,7 +176,9 @@ def _same_servos(a: ServoModel, b: ServoModel) -> bool:
     )
 
 
-def _dot3(left: Sequence[np.ndarray], right: Sequence[np.ndarray]) -> np.ndarray:
+def _dot3(
+    left: Sequence[np.ndarray] | np.ndarray, right: Sequence[np.ndarray] | np.ndarray
+) -> np.ndarray:
     """Σ_j left[j]·right[j] over three rows of samples (T,) each."""
     return left[0] * right[0] + left[1] * right[1] + left[2] * right[2]
 
