@@ -57,6 +57,9 @@ class CompensationSession:
         self._predictor: tuple[FeedForward, np.ndarray, Predictor] | None = None
         """The current torques, the torque compensated and its predictor: what the coefficients
         do not change, computed once per motion and compensated torque."""
+        self._torque: tuple[tuple[object, ...], str, ServoModel, np.ndarray] | None = None
+        """What the compensated torque was computed from (robot, motion, torques and parts,
+        torque kind, servos) and the torque (`_compensated_torque`)."""
         state.on_robot.connect(self._on_robot)
         state.work.on_coefficients.connect(self._on_coefficients)
         state.work.on_torques.connect(lambda _torques: self.predict())
@@ -182,7 +185,7 @@ class CompensationSession:
                 if (
                     cached is None
                     or cached[0] is not feedforward
-                    or not np.array_equal(cached[1], tau_Nm)
+                    or (cached[1] is not tau_Nm and not np.array_equal(cached[1], tau_Nm))
                 ):
                     cached = (feedforward, tau_Nm, Predictor(robot, trajectory, tau_Nm))
                     self._predictor = cached
@@ -195,6 +198,10 @@ class CompensationSession:
                 self.panel.status.content = "⚠️ " + "; ".join(absurd) + " (quick estimate)"
             self._state.work.set_prediction(prediction, feedforward, coefficients)
 
+    def cached_predictor(self) -> Predictor | None:
+        """The predictor of the last quick estimate (the bench times it alone)."""
+        return None if self._predictor is None else self._predictor[2]
+
     def _compensated_torque(
         self,
         robot: RobotModel,
@@ -203,7 +210,29 @@ class CompensationSession:
         coefficients: Coefficients,
     ) -> np.ndarray:
         """The torque eq 7 multiplies [N·m], (T, n): τ, or its drive torque with the D and J of
-        the servos the simulation runs (virtual, or the parts chosen)."""
+        the servos the simulation runs (virtual, or the parts chosen). Kept while its inputs
+        are the same: a k or φ slider does not change it."""
+        servo = coefficients.servo
+        inputs = (robot, trajectory, feedforward, self._state.work.parts)
+        cached = self._torque
+        if (
+            cached is not None
+            and all(a is b for a, b in zip(cached[0], inputs, strict=True))
+            and cached[1] == coefficients.torque
+            and _same_servos(cached[2], servo)
+        ):
+            return cached[3]
+        tau_Nm = self._torque_of(robot, trajectory, feedforward, coefficients)
+        self._torque = (inputs, coefficients.torque, servo, tau_Nm)
+        return tau_Nm
+
+    def _torque_of(
+        self,
+        robot: RobotModel,
+        trajectory: Trajectory,
+        feedforward: FeedForward,
+        coefficients: Coefficients,
+    ) -> np.ndarray:
         law = (
             simulation_law(robot, coefficients.servo, self._state.work.parts)
             if coefficients.torque == "drive"
@@ -262,3 +291,11 @@ def default_params(robot: RobotModel) -> tuple[CompensationParams, ServoModel]:
 
 def _first_enabled(params: CompensationParams) -> str:
     return next((n for n, on in zip(params.joint_names, params.enabled, strict=True) if on), "")
+
+
+def _same_servos(a: ServoModel, b: ServoModel) -> bool:
+    return a is b or (
+        a.joint_names == b.joint_names
+        and np.array_equal(a.compliance_deg_per_Nm, b.compliance_deg_per_Nm)
+        and np.array_equal(a.backlash_deg, b.backlash_deg)
+    )

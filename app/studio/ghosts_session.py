@@ -19,7 +19,7 @@ from app.core.replay.scene import ReplayLayers
 from app.core.servo.model import Prediction
 from app.core.simulation.result import SimulationResult
 from app.core.simulation.verdicts import LEAN_LOAD_FRACTION
-from app.core.thinning import thin_minmax
+from app.core.thinning import thin_minmax, thin_part
 from app.studio.compare_controls import CompareControls
 from app.studio.compare_text import quick_estimate_summary
 from app.studio.ghost_poses import ghost_poses
@@ -73,6 +73,9 @@ class GhostsSession:
         self._torques_thinned: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         """(times, torques, the samples their plot keeps): a slider's re-prediction keeps the
         motion and its torques (the same arrays), so their thinning is not redone."""
+        self._fixed_attitude_thinned: tuple[tuple[np.ndarray, ...], int, np.ndarray] | None = None
+        """(the planned and uncompensated roll and pitch, the attitude plot's curve count, the
+        samples their thinning keeps): a k or φ slider changes only the compensated curves."""
         state.on_motion.connect(self._on_motion)
         state.work.on_prediction.connect(lambda _prediction: self.redraw())
         state.work.on_simulation.connect(lambda _record: self.redraw())
@@ -146,7 +149,21 @@ class GhostsSession:
             simulated = [deg(a) for run in runs for a in (run.roll_rad, run.pitch_rad)]
             attitude = np.concatenate([attitude, np.stack(simulated)])
             labels = ATTITUDE_SERIES + SIMULATED_SERIES
-        keep = thin_minmax(t, attitude)
+        fixed = (
+            prediction.roll_planned_rad,
+            prediction.pitch_planned_rad,
+            prediction.roll_uncompensated_rad,
+            prediction.pitch_uncompensated_rad,
+        )
+        cached = self._fixed_attitude_thinned
+        if (
+            cached is None
+            or cached[1] != len(attitude)
+            or not all(a is b for a, b in zip(cached[0], fixed, strict=True))
+        ):
+            cached = (fixed, len(attitude), thin_part(t, attitude[:4], len(attitude)))
+            self._fixed_attitude_thinned = cached
+        keep = np.union1d(cached[2], thin_part(t, attitude[4:], len(attitude)))
         self.plots.show_attitude(
             t[keep], list(attitude[0::2, keep]), list(attitude[1::2, keep]), labels
         )

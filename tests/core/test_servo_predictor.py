@@ -134,3 +134,20 @@ def test_pose_conversions_round_trip_and_follow_pinocchio():
     xyzquat = matrices_to_xyzquat(matrices)
     np.testing.assert_allclose(xyzquat, np.array([pin.SE3ToXYZQUAT(p) for p in poses]), atol=1e-12)
     np.testing.assert_allclose(xyzquat_to_matrices(xyzquat), matrices, atol=1e-12)
+
+
+def test_the_predictor_equals_the_uncached_prediction_for_a_base_turned_round():
+    """A base turned by more than 120° about the vertical (its rotation's trace ≤ 0, where the
+    quaternion takes the other branch of the conversion) for part of the motion."""
+    robot, trajectory, tau, params, servo = setup("servo_biped", "one_leg_squats")
+    q = trajectory.q.copy()
+    half = np.deg2rad(170.0) / 2.0
+    yaw = pin.Quaternion(np.cos(half), 0.0, 0.0, np.sin(half))  # w, x, y, z
+    for k in range(0, len(q), 3):  # every third sample: both branches within a block
+        turned = yaw * pin.Quaternion(q[k, 6], q[k, 3], q[k, 4], q[k, 5])
+        q[k, 3:7] = turned.coeffs()  # x, y, z, w
+    trajectory = dataclasses.replace(trajectory, q=q)
+    predictor = Predictor(robot, trajectory, tau)
+    same_prediction(
+        predictor.predict(params, servo), predict(robot, trajectory, tau, params, servo)
+    )

@@ -6,7 +6,7 @@ import itertools
 
 import numpy as np
 
-from app.core.thinning import thin_minmax
+from app.core.thinning import thin_minmax, thin_part
 
 
 def test_short_series_are_kept_whole():
@@ -69,3 +69,35 @@ def test_the_kept_samples_are_each_buckets_first_extrema():
         np.testing.assert_array_equal(
             thin_minmax(np.arange(n), curves, 2000), brute_force(np.arange(n), curves, 2000)
         )
+
+
+def test_curves_thinned_in_parts_keep_what_all_at_once_keep():
+    """The union of the parts' picks (the attitude plot thins its fixed curves once) is the
+    thinning of all the curves together, for plot sizes either side of the point budget."""
+    rng = np.random.default_rng(11)
+    for n, count, split in ((60_000, 6, 4), (59_913, 10, 4), (7_001, 12, 5), (1_500, 6, 4)):
+        t = np.linspace(0.0, n / 100.0, n)
+        curves = np.cumsum(rng.standard_normal((count, n)), axis=1)
+        curves[0, rng.integers(0, n, 30)] = np.nan
+        curves[split, : n // 3] = 0.0  # a flat stretch: ties resolve alike
+        whole = thin_minmax(t, curves)
+        parts = np.union1d(thin_part(t, curves[:split], count), thin_part(t, curves[split:], count))
+        np.testing.assert_array_equal(parts, whole)
+
+
+def test_bucket_by_bucket_and_gathered_extrema_agree(monkeypatch):
+    """The two ways `thin_minmax` finds each bucket's extrema pick the same samples (ties:
+    the first), on a plot of several curves and of one."""
+    import app.core.thinning as thinning
+
+    rng = np.random.default_rng(5)
+    t = np.linspace(0.0, 599.0, 59_913)
+    for curves in (np.cumsum(rng.standard_normal((12, t.size)), axis=1), np.sin(t)[None]):
+        curves[:, 1000:5000] = 1.0  # flat: ties everywhere
+        by_bucket = thin_minmax(t, curves)
+        monkeypatch.setattr(thinning, "LOOP_BUCKETS", 0)
+        gathered = thin_minmax(t, curves)
+        monkeypatch.setattr(thinning, "LOOP_BUCKETS", 10**6)
+        np.testing.assert_array_equal(thin_minmax(t, curves), gathered)
+        np.testing.assert_array_equal(by_bucket, gathered)
+        monkeypatch.undo()

@@ -140,6 +140,13 @@ def test_a_k_slider_changes_the_command_by_k_tau_without_recomputing_torques(stu
     np.testing.assert_allclose(
         state.work.prediction.q_cmd_rad[:, i] - load, np.deg2rad(10.0) * tau, atol=1e-12
     )
+    # and back on the drive torque (the session keeps one compensated torque: not the stale one)
+    panel.compensate.value = COMPENSATED_TORQUE_LABELS["drive"]
+    on_drive = state.work.prediction.q_cmd_rad[:, i].copy()
+    panel.k.value = k_before + 30.0
+    np.testing.assert_allclose(
+        state.work.prediction.q_cmd_rad[:, i] - on_drive, np.deg2rad(10.0) * drive, atol=1e-12
+    )
     assert state.work.torques is feedforward
     assert "rad/(N·m)" in panel.k_rad.content
 

@@ -72,6 +72,17 @@ class LegChains:
 
     def base_to_foot(self, foot: int, q: np.ndarray) -> np.ndarray:
         """T_base_foot of foot 0 (left) or 1 (right) at configurations q (T, nq), (T, 4, 4)."""
+        rotation, position = self.base_to_foot_parts(foot, q)
+        out = np.zeros((len(q), 4, 4))
+        out[:, :3, :3] = np.moveaxis(rotation, 2, 0)
+        out[:, :3, 3] = position.T
+        out[:, 3, 3] = 1.0
+        return out
+
+    def base_to_foot_parts(self, foot: int, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`base_to_foot` as its rotation R[a, b, k] (3, 3, T) and position p[a, k] (3, T):
+        sample-last, the layout the legs' kinematics computes in, so a caller that goes on
+        elementwise (the grounding, app.core.servo.predictor) needs no (T, 4, 4) round trip."""
         n = len(q)
         # The rotation as its three columns over all samples, columns[j] = R[:, j] (3, T) (or
         # (3, 1) while it is still the same for every sample): composing with a fixed matrix
@@ -109,13 +120,24 @@ class LegChains:
             turn, bend = _compose(columns, cross), _compose(columns, cross @ cross)
             columns = [columns[j] + sin * turn[j] + (1.0 - cos) * bend[j] for j in range(3)]
         foot_placement = self.foot_placements[foot]
-        out = np.zeros((n, 4, 4))
-        final = _compose(columns, foot_placement[:3, :3])
-        for j in range(3):
-            out[:, :3, j] = final[j].T
-        out[:, :3, 3] = (position + _combine(foot_placement[:3, 3], columns)).T
-        out[:, 3, 3] = 1.0
-        return out
+        rotation = np.empty((3, 3, n))
+        for j, column in enumerate(_compose(columns, foot_placement[:3, :3])):
+            rotation[:, j] = column
+        position = position + _combine(foot_placement[:3, 3], columns)
+        return rotation, np.broadcast_to(position, (3, n))
+
+    def stance_to_base_parts(
+        self, right: np.ndarray, q: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """`stance_to_base` as `base_to_foot_parts` gives it: R (3, 3, T) and p (3, T)."""
+        right = np.asarray(right, dtype=bool)
+        if right.all() or not right.any():
+            return self.base_to_foot_parts(int(right[0]) if len(right) else 0, q)
+        rotation, position = np.empty((3, 3, len(q))), np.empty((3, len(q)))
+        for foot in (0, 1):
+            mask = right == bool(foot)
+            rotation[:, :, mask], position[:, mask] = self.base_to_foot_parts(foot, q[mask])
+        return rotation, position
 
     def stance_to_base(self, right: np.ndarray, q: np.ndarray) -> np.ndarray:
         """T_base_foot of each sample's stance foot (right[k] selects the right foot), (T,4,4)."""

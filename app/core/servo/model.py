@@ -141,9 +141,15 @@ def joint_angles(robot: RobotModel, q: np.ndarray) -> np.ndarray:
     return out
 
 
-def with_joint_angles(robot: RobotModel, q: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    """A copy of configurations q (T, nq) with the actuated joints set to `angles` (T, n)."""
-    out = np.array(q, dtype=float)
+def with_joint_angles(
+    robot: RobotModel, q: np.ndarray, angles: np.ndarray, out: np.ndarray | None = None
+) -> np.ndarray:
+    """A copy of configurations q (T, nq) with the actuated joints set to `angles` (T, n),
+    into `out` when given."""
+    if out is None:
+        out = np.array(q, dtype=float)
+    else:
+        out[:] = q
     for i, joint in enumerate(robot.joints):
         if joint.kind == "continuous":
             out[:, joint.idx_q] = np.cos(angles[:, i])

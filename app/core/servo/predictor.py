@@ -4,7 +4,7 @@ grounding vectorised a block of samples at a time."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -13,7 +13,7 @@ from app.core.motions.trajectory import Trajectory
 from app.core.quaternions import matrices_to_xyzquat, xyzquat_to_matrices
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams, checked_command, compensated_command
-from app.core.servo.grounding import LegChains, se3_inverse
+from app.core.servo.grounding import LegChains
 from app.core.servo.model import (
     Prediction,
     ServoModel,
@@ -24,7 +24,6 @@ from app.core.servo.model import (
     joint_angles,
     planned_stance_placements,
     servo_response,
-    settled,
     stance_is_right,
     with_joint_angles,
 )
@@ -60,14 +59,18 @@ class Predictor:
         self._right = stance_is_right(trajectory.contacts)
         self._chains = LegChains.of(robot)
         self._placements: list[pin.SE3] = []
-        self._placement_matrices = np.empty((0, 4, 4))
+        # The plan's stance-foot placements in the world, sample-last (R (3, 3, T), p (3, T)).
+        self._foot_rotations, self._foot_positions = np.empty((3, 3, 0)), np.empty((3, 0))
         if self._chains is None:
             self._placements = planned_stance_placements(robot, trajectory)
         else:
-            self._placement_matrices = xyzquat_to_matrices(
-                trajectory.q[:, :7]
-            ) @ self._chains.stance_to_base(self._right, trajectory.q)
+            placements = xyzquat_to_matrices(trajectory.q[:, :7]) @ self._chains.stance_to_base(
+                self._right, trajectory.q
+            )
+            self._foot_rotations = np.ascontiguousarray(np.moveaxis(placements[:, :3, :3], 0, 2))
+            self._foot_positions = np.ascontiguousarray(placements[:, :3, 3].T)
         self._uncompensated: tuple[ServoModel, tuple[np.ndarray, ...]] | None = None
+        self._terms: tuple[ServoModel, np.ndarray, np.ndarray] | None = None
 
     @property
     def vectorised(self) -> bool:
@@ -96,13 +99,16 @@ class Predictor:
         roll, pitch = np.empty(n), np.empty(n)
         for begin in range(0, n, BLOCK_SAMPLES):
             rows = slice(begin, min(n, begin + BLOCK_SAMPLES))
-            block = with_joint_angles(self.robot, self.trajectory.q[rows], angles(rows))
-            T_base_foot = self._chains.stance_to_base(self._right[rows], block)
-            block[:, :7] = matrices_to_xyzquat(
-                self._placement_matrices[rows] @ se3_inverse(T_base_foot)
-            )
-            out[rows] = block
-            roll[rows], pitch[rows] = base_roll_pitch(block)
+            block = out[rows]
+            with_joint_angles(self.robot, self.trajectory.q[rows], angles(rows), out=block)
+            R_foot, p_foot = self._chains.stance_to_base_parts(self._right[rows], block)
+            # T_world_base = T_world_foot · T_base_foot⁻¹, elementwise over the samples
+            R_world, p_world = self._foot_rotations[:, :, rows], self._foot_positions[:, rows]
+            R = [[_dot3(R_world[a], R_foot[b]) for b in range(3)] for a in range(3)]
+            position = [p_world[a] - _dot3(R[a], p_foot) for a in range(3)]
+            _set_base(block, np.array(R), np.array(position))
+            roll[rows] = np.arctan2(R[2][1], R[2][2])  # `base_roll_pitch` of the rotation
+            pitch[rows] = np.arctan2(-R[2][0], np.hypot(R[0][0], R[1][0]))
         return out, roll, pitch
 
     def _compensated(
@@ -112,25 +118,34 @@ class Predictor:
         computed a block of samples at a time (`_grounded_attitude`); plan and torques were
         checked once, each block's commands are."""
         q_cmd, q_comp = np.empty_like(self.tau), np.empty_like(self.tau)
+        lag, dead_band = self._servo_terms(servos)
 
         def angles(rows: slice) -> np.ndarray:
             q_cmd[rows] = checked_command(self.q_plan[rows], self.tau[rows], params)
             if not np.isfinite(q_cmd[rows]).all():
                 servo_response(q_cmd[rows], self.tau[rows], servos)  # raises its error
-            q_comp[rows] = settled(q_cmd[rows], self.tau[rows], servos)
+            # `settled`'s equation, its two terms computed once for these servos
+            np.subtract(q_cmd[rows], lag[rows], out=q_comp[rows])
+            q_comp[rows] -= dead_band[rows]
             return q_comp[rows]
 
         return (q_cmd, q_comp, *self._grounded_attitude(angles))
+
+    def _servo_terms(self, servos: ServoModel) -> tuple[np.ndarray, np.ndarray]:
+        """c·τ and (b/2)·sign(τ) of `settled` [rad], (T, n) each: the servos' lag and dead
+        band along the plan's torques, which a k or φ slider does not change."""
+        cached = self._terms
+        if cached is None or not _same_servos(cached[0], servos):
+            lag = np.deg2rad(servos.compliance_deg_per_Nm) * self.tau
+            dead_band = np.deg2rad(0.5 * servos.backlash_deg) * np.sign(self.tau)
+            cached = self._terms = (servos, lag, dead_band)
+        return cached[1], cached[2]
 
     def predict(self, comp_params: CompensationParams, servo: ServoModel) -> Prediction:
         params = comp_params.for_joints(self.robot.joint_names)
         servos = servo.for_joints(self.robot.joint_names)
         cached = self._uncompensated
-        if (
-            cached is not None
-            and np.array_equal(cached[0].compliance_deg_per_Nm, servos.compliance_deg_per_Nm)
-            and np.array_equal(cached[0].backlash_deg, servos.backlash_deg)
-        ):
+        if cached is not None and _same_servos(cached[0], servos):
             uncompensated = cached[1]
         else:
             q_unc = servo_response(self.q_plan, self.tau, servos)
@@ -152,3 +167,36 @@ class Predictor:
             uncompensated,
             tuple(compensated),
         )
+
+
+def _same_servos(a: ServoModel, b: ServoModel) -> bool:
+    """The same compliance and backlash (both laid out on the robot's joints)."""
+    return np.array_equal(a.compliance_deg_per_Nm, b.compliance_deg_per_Nm) and np.array_equal(
+        a.backlash_deg, b.backlash_deg
+    )
+
+
+def _dot3(
+    left: Sequence[np.ndarray] | np.ndarray, right: Sequence[np.ndarray] | np.ndarray
+) -> np.ndarray:
+    """Σ_j left[j]·right[j] over three rows of samples (T,) each."""
+    return left[0] * right[0] + left[1] * right[1] + left[2] * right[2]
+
+
+def _set_base(q: np.ndarray, rotation: np.ndarray, position: np.ndarray) -> None:
+    """Set the floating base of configurations q (T, nq) to rotations (3, 3, T) and positions
+    (3, T): pinocchio's xyz and quaternion (`matrices_to_xyzquat`'s, elementwise here while
+    every rotation's trace is positive, as an upright base's is)."""
+    q[:, :3] = position.T
+    trace = rotation[0, 0] + rotation[1, 1] + rotation[2, 2]
+    if not (trace > 0.0).all():
+        T = np.zeros((len(q), 4, 4))
+        T[:, :3, :3] = np.moveaxis(rotation, 2, 0)
+        q[:, 3:7] = matrices_to_xyzquat(T)[:, 3:]
+        return
+    t = np.sqrt(trace + 1.0)
+    half = 0.5 / t
+    q[:, 6] = 0.5 * t
+    q[:, 3] = (rotation[2, 1] - rotation[1, 2]) * half
+    q[:, 4] = (rotation[0, 2] - rotation[2, 0]) * half
+    q[:, 5] = (rotation[1, 0] - rotation[0, 1]) * half
