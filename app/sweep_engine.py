@@ -145,6 +145,10 @@ class SweepEngine:
 
         self.notes: list[str] = []
         self._cluster: Any = None
+        self.local_size: int | None = None
+        """The workers a local cluster was started with (its nannies keep that many; the
+        scheduler's count may lag behind a worker that is registering or restarting), None
+        for a scheduler address."""
         if n_workers is not None and not 1 <= n_workers <= 256:
             raise SweepEngineError(f"workers = {n_workers}: give 1 to 256")
         if scheduler is not None:
@@ -182,6 +186,7 @@ class SweepEngine:
             raise SweepEngineError(f"the local Dask cluster did not start: {error}") from None
         self.client = Client(self._cluster, security=self._cluster.security)
         self.address = self._cluster.scheduler_address
+        self.local_size = n
         self._stop_http_servers()
 
     def _stop_http_servers(self) -> None:

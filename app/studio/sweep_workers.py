@@ -75,7 +75,10 @@ class SweepWorkers:
             if self._closed:
                 raise StudioError("the studio is closing")
             engine = self._engine
-            if engine is not None and engine.n_workers == workers:
+            # the size the local cluster was started with, not the scheduler's count of the
+            # moment: under load a worker can be briefly unregistered, and replacing the
+            # cluster then throws away the NLPs its workers were prepared with
+            if engine is not None and engine.local_size == workers:
                 return engine
             if engine is not None:
                 engine.close()
