@@ -11,23 +11,16 @@ falls backwards, on rigid servos too. Eq 7 on the servos' drive torque (`--drive
 
 from __future__ import annotations
 
-import csv
 import json
 
 import pytest
 
 from tests.conftest import ROBAN_URDF
 from tests.test_cli import run
+from tests.test_cli_walk_simulate import _column
 
 STEP_LENGTH_M = 0.1185
 """Two steps' advance [m]: 0.35 of S14's default 0.3386 m (0.26 of its leg length per step)."""
-
-
-def _column(path, name: str) -> list[float]:
-    with open(path, newline="", encoding="utf-8") as file:
-        rows = list(csv.reader(file))
-    i = rows[0].index(name)
-    return [float(row[i]) for row in rows[1:]]
 
 
 @pytest.fixture(scope="module")
