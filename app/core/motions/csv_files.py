@@ -1,4 +1,5 @@
-"""Motions as CSV files: the studio's own self-describing format, and Roban motion files.
+"""Motions as CSV files: the studio's own self-describing format (Roban's headerless motion
+files: roban_files.py, whose names this module also gives).
 
 The studio's format has ONE header row naming every column with its joint and unit, then one
 row per sample, numbers written with Python's `repr` (shortest text that reads back to the
@@ -20,9 +21,6 @@ base twist expressed in the base frame. A fixed-base robot has no base columns. 
 takes the columns in any order; the v and a columns may be left out together, and are then
 computed from the configurations by finite differences (trajectory.from_configurations).
 Times must be evenly spaced; they are shifted so that the first sample is at t = 0.
-
-Roban motion files (LejuLab-Train) are headerless: root xyz [m], root quaternion, the
-actuated joint angles [rad] in the URDF's joint order; the frame rate is only in the file name.
 """
 
 from __future__ import annotations
@@ -34,30 +32,43 @@ import os
 import re
 from collections.abc import Iterator
 from pathlib import Path
-from typing import IO, Literal
+from typing import IO
 
 import numpy as np
-import pinocchio as pin
 
-from app.core import input_gate
 from app.core.atomic_write import write_atomically
-from app.core.budgets import MAX_SAMPLES
-from app.core.errors import StudioError
 from app.core.file_types import TextPathOrFile
+from app.core.motions.motion_text import (
+    MotionFileError,
+    cell_number,
+    checked,
+    csv_rows,
+    normalised,
+    open_motion,
+)
+from app.core.motions.roban_files import (
+    SOLE_CONTACT_BAND_M,
+    read_roban_motion_csv,
+    sole_contacts,
+)
 from app.core.motions.trajectory import Trajectory, from_configurations
-from app.core.quaternions import wxyz_to_xyzw
-from app.core.robot.configurations import check_configurations, check_motion_rates
 from app.core.robot.model import RobotModel
+
+__all__ = [
+    "BASE_Q_COLUMNS",
+    "BASE_V_NAMES",
+    "CONTACT_COLUMNS",
+    "SOLE_CONTACT_BAND_M",
+    "MotionFileError",
+    "read_roban_motion_csv",
+    "read_trajectory_csv",
+    "sole_contacts",
+    "write_trajectory_csv",
+]
 
 BASE_Q_COLUMNS = ("base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw")
 BASE_V_NAMES = ("base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz")
 CONTACT_COLUMNS = ("contact_left", "contact_right")
-SOLE_CONTACT_BAND_M = 0.01
-"""Roban import: a sole within this height of the lowest sole of its frame is in contact."""
-
-
-class MotionFileError(StudioError):
-    """A motion file that cannot be read, or does not fit the robot."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -103,15 +114,6 @@ def _header_cell(name: str, unit: str) -> str:
     return f"{name} [{unit}]" if unit else name
 
 
-def _open(path_or_file: TextPathOrFile) -> tuple[IO[str], bool, str]:
-    """(file to read, whether we opened it, name for messages); a path goes through the input
-    gate (regular file, ≤ 256 MiB, UTF-8) and is streamed."""
-    if isinstance(path_or_file, str | os.PathLike):
-        path = Path(path_or_file)
-        return input_gate.open_text(path, input_gate.MOTION_CSV, MotionFileError), True, path.name
-    return path_or_file, False, str(getattr(path_or_file, "name", "motion"))
-
-
 def write_trajectory_csv(traj: Trajectory, path_or_file: TextPathOrFile, robot: RobotModel) -> None:
     """Write a trajectory of `robot` as a CSV file with a header row (see the module docstring)."""
     if traj.q.shape[1] != robot.model.nq or tuple(traj.joint_names) != robot.joint_names:
@@ -151,38 +153,6 @@ def write_trajectory_csv(traj: Trajectory, path_or_file: TextPathOrFile, robot: 
 _HEADER_CELL = re.compile(r"^\s*(?P<name>.*?)\s*(?:\[(?P<unit>[^\]]*)\])?\s*$")
 
 
-def _rows(file: IO[str], source: str) -> Iterator[tuple[int, list[str]]]:
-    """(line number, cells) of every non-empty row."""
-    reader = csv.reader(file)
-    count = 0
-    try:
-        for cells in reader:
-            if cells and any(cell.strip() for cell in cells):
-                count += 1
-                if count > MAX_SAMPLES + 1:
-                    raise MotionFileError(
-                        f"{source}: more than {MAX_SAMPLES} rows; at most {MAX_SAMPLES} samples "
-                        "are read (split the motion, or resample it at a larger time step)"
-                    )
-                yield reader.line_num, cells
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise MotionFileError(f"{source}: not a readable CSV text file ({exc})") from None
-
-
-def _number(cell: str, line: int, column: int, label: str, source: str) -> float:
-    try:
-        value = float(cell)
-    except ValueError:
-        raise MotionFileError(
-            f"{source}, line {line}, column {column} ({label}): {cell.strip()!r} is not a number"
-        ) from None
-    if not math.isfinite(value):
-        raise MotionFileError(
-            f"{source}, line {line}, column {column} ({label}): {cell.strip()} is not a finite number"
-        )
-    return value
-
-
 def _is_number(cell: str) -> bool:
     try:
         float(cell)
@@ -193,9 +163,9 @@ def _is_number(cell: str) -> bool:
 
 def read_trajectory_csv(path_or_file: TextPathOrFile, robot: RobotModel) -> Trajectory:
     """Read a CSV file written by write_trajectory_csv (or by hand in the same format)."""
-    file, owned, source = _open(path_or_file)
+    file, owned, source = open_motion(path_or_file)
     try:
-        return _read_table(_rows(file, source), source, robot)
+        return _read_table(csv_rows(file, source), source, robot)
     finally:
         if owned:
             file.close()
@@ -228,7 +198,7 @@ def _read_table(
     if robot.floating_base:
         q[:, :3] = values[:, [index[name] for name in BASE_Q_COLUMNS[:3]]]
         quats = values[:, [index[name] for name in BASE_Q_COLUMNS[3:]]]
-        q[:, 3:7] = _normalised(quats, lines, source)
+        q[:, 3:7] = normalised(quats, lines, source)
     for j in joints:
         angle = values[:, index[f"q:{j.name}"]]
         if j.kind == "continuous":
@@ -238,7 +208,7 @@ def _read_table(
     name = Path(source).stem or "motion"
     dt = float(t[1] - t[0])
     if not has_derivatives:
-        return _checked(
+        return checked(
             robot,
             from_configurations(robot.model, name, robot.joint_names, dt, q, contacts),
             source,
@@ -252,7 +222,7 @@ def _read_table(
             array[:, i] = values[:, index[f"{prefix}:{base}"]]
         for j in joints:
             array[:, j.idx_v] = values[:, index[f"{prefix}:{j.name}"]]
-    return _checked(
+    return checked(
         robot,
         Trajectory(
             name=name, joint_names=robot.joint_names, t=t - t[0], q=q, v=v, a=a, contacts=contacts
@@ -318,7 +288,7 @@ def _values(
         rows.append(
             np.array(
                 [
-                    _number(cell, line, column + 1, labels[column], source)
+                    cell_number(cell, line, column + 1, labels[column], source)
                     for column, cell in enumerate(cells)
                 ]
             )
@@ -347,17 +317,6 @@ def _contacts(
     return contacts
 
 
-def _checked(robot: RobotModel, trajectory: Trajectory, source: str) -> Trajectory:
-    """`trajectory` if every sample is a configuration of `robot` with sane rates (the check
-    a project gets: app.core.robot.configurations), else MotionFileError naming the sample."""
-    try:
-        check_configurations(robot, trajectory.q, source, t=trajectory.t)
-        check_motion_rates(trajectory.v, trajectory.a, source)
-    except StudioError as error:
-        raise MotionFileError(str(error)) from None
-    return trajectory
-
-
 def _check_times(t: np.ndarray, lines: list[int], source: str) -> None:
     steps = np.diff(t)
     if not steps[0] > 0.0:
@@ -371,107 +330,3 @@ def _check_times(t: np.ndarray, lines: list[int], source: str) -> None:
             f"{source}, line {lines[k]}: time step {steps[k - 1]:g} s differs from the first "
             f"step {steps[0]:g} s; samples must be evenly spaced in time"
         )
-
-
-def _normalised(quats: np.ndarray, lines: list[int], source: str) -> np.ndarray:
-    norms = np.linalg.norm(quats, axis=1)
-    bad = np.flatnonzero(norms < 1e-9)
-    if len(bad):
-        raise MotionFileError(
-            f"{source}, line {lines[bad[0]]}: the base quaternion is zero; it must be a rotation"
-        )
-    return quats / norms[:, None]
-
-
-_FPS_IN_NAME = re.compile(r"(\d+(?:\.\d+)?)\s*fps", re.IGNORECASE)
-
-
-def read_roban_motion_csv(
-    path: str | os.PathLike[str],
-    robot: RobotModel,
-    fps: float | None = None,
-    quaternion_order: Literal["wxyz", "xyzw"] = "wxyz",
-) -> Trajectory:
-    """Import a headerless Roban (LejuLab-Train) motion file.
-
-    Columns: root position xyz [m], root quaternion in `quaternion_order`, then one angle [rad]
-    per actuated joint in the order of the URDF's <joint> elements. The files do not say their
-    quaternion order, and the two shipped with Roban S14 differ: the new-year dance is xyzw,
-    the prone get-up wxyz (upstream's default). The frame rate is `fps` when given, else read
-    from the file name (`…_100fps.csv`). v and a are finite differences of the configurations.
-
-    Contacts are not in the file; they are guessed: in each frame a foot is in contact when
-    the lowest corner of its sole is within SOLE_CONTACT_BAND_M (1 cm) of the lowest sole
-    corner of both feet. Both feet are thus never in the air at once, even in a jump, and a
-    foot resting on something is taken as "in contact" only if it is about as low as the other.
-    """
-    path = Path(path)
-    if quaternion_order not in ("wxyz", "xyzw"):
-        raise MotionFileError(f"quaternion order {quaternion_order!r}: use 'wxyz' or 'xyzw'")
-    if fps is None:
-        found = _FPS_IN_NAME.search(path.stem)
-        if found is None:
-            raise MotionFileError(
-                f"{path.name}: the frame rate is not in the file name (like …_100fps.csv); "
-                "give it (fps=…)"
-            )
-        fps = float(found[1])
-    if not (math.isfinite(fps) and fps > 0.0):
-        raise MotionFileError(f"{path.name}: frame rate {fps:g} fps; it must be positive")
-    if not robot.floating_base:
-        raise MotionFileError(
-            f"{path.name}: a Roban motion moves a floating base, robot {robot.name!r} is fixed"
-        )
-    if robot.passive_joints:
-        raise MotionFileError(
-            f"{path.name}: a Roban motion has no columns for the passive loop joints of robot "
-            f"{robot.name!r} ({', '.join(robot.passive_joints)})"
-        )
-    actuated = {j.name: j for j in robot.joints}
-    urdf_order = [actuated[name] for name in robot.tree.joints if name in actuated]
-    width = 7 + len(urdf_order)
-
-    file, _, source = _open(path)
-    with file:
-        table = list(_rows(file, path.name))
-    values = np.empty((len(table), width))
-    for k, (line, cells) in enumerate(table):
-        if len(cells) != width:
-            raise MotionFileError(
-                f"{source}, line {line}: {len(cells)} values; robot {robot.name!r} needs "
-                f"{width} (3 position + 4 quaternion + {len(urdf_order)} joint angles)"
-            )
-        for column, cell in enumerate(cells):
-            values[k, column] = _number(cell, line, column + 1, f"column {column + 1}", source)
-    if len(values) < 2:
-        raise MotionFileError(f"{source}: {len(values)} frame(s); a motion needs at least 2")
-    lines = [line for line, _ in table]
-
-    quats = values[:, 3:7] if quaternion_order == "xyzw" else wxyz_to_xyzw(values[:, 3:7])
-    q = np.tile(robot.q_neutral, (len(values), 1))
-    q[:, :3] = values[:, :3]
-    q[:, 3:7] = _normalised(quats, lines, source)
-    for column, joint in enumerate(urdf_order, start=7):
-        if joint.kind == "continuous":
-            q[:, joint.idx_q] = np.cos(values[:, column])
-            q[:, joint.idx_q + 1] = np.sin(values[:, column])
-        else:
-            q[:, joint.idx_q] = values[:, column]
-    contacts = sole_contacts(robot, q)
-    trajectory = from_configurations(
-        robot.model, path.stem, robot.joint_names, 1.0 / fps, q, contacts
-    )
-    return _checked(robot, trajectory, source)
-
-
-def sole_contacts(robot: RobotModel, q: np.ndarray) -> np.ndarray:
-    """(T, 2) bool: feet whose lowest sole corner is within 1 cm of the lowest of both feet."""
-    data = robot.model.createData()
-    heights = np.empty((len(q), 2))
-    for k, q_k in enumerate(q):
-        pin.framesForwardKinematics(robot.model, data, q_k)
-        for side, foot in enumerate(robot.feet):
-            T_world_foot = data.oMf[robot.link_frame_ids[foot.link]]
-            corners_world = T_world_foot.rotation @ foot.sole_corners_m.T
-            heights[k, side] = corners_world[2].min() + T_world_foot.translation[2]
-    return heights <= heights.min(axis=1, keepdims=True) + SOLE_CONTACT_BAND_M
