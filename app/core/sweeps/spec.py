@@ -50,27 +50,46 @@ from app.core import input_gate
 from app.core.collocation.settings import GaitSettings, GaitSettingsError
 from app.core.sweeps.part_metrics import PART_METRICS, check_part_metrics
 from app.core.sweeps.part_parameters import (
-    PART_NAMES,
-    check_kp,
     check_parts,
-    choices_of,
     fixed_part,
     offered_servos,
     user_servo_files,
 )
 from app.core.sweeps.robot_variants import RobotVariant, SweepSpecError, robot_parameter
-from app.core.sweeps.servo_metrics import (
-    DEFAULT_WALK_STEPS,
-    MAX_WALK_STEPS,
-    SERVO_PARAMETERS,
+from app.core.sweeps.servo_metrics import DEFAULT_WALK_STEPS, MAX_WALK_STEPS
+from app.core.sweeps.spec_values import (
+    DEFAULT_LEVELS,
+    KINDS,
+    MAX_POINTS,
+    SweepParameter,
+    integer,
+    servo_table,
+    sweep_parameter,
+    typed,
 )
 from robots.catalogue import BUILTIN_ROBOTS
 
-MAX_POINTS = 20_000
-"""Most points one sweep may have: 20 000 gait solves are hours on a laptop."""
+__all__ = [
+    "DEFAULT_LEVELS",
+    "KINDS",
+    "MAX_PACKAGE_ROOTS",
+    "MAX_PARAMETERS",
+    "MAX_POINTS",
+    "METRICS",
+    "PART_KINDS",
+    "SAMPLINGS",
+    "SIMULATION_METRICS",
+    "START",
+    "TOP_KEYS",
+    "Sense",
+    "SweepParameter",
+    "SweepSpec",
+    "read_sweep_toml",
+    "sweep_toml_data",
+]
+
 MAX_PARAMETERS = 12
 MAX_PACKAGE_ROOTS = 16
-DEFAULT_LEVELS = 3
 METRICS = {
     "sr": "specific resistance E / (M g d) (eq. 9)",
     "sr_incl_impacts": "specific resistance with the impact losses",
@@ -90,7 +109,6 @@ METRICS.update(SIMULATION_METRICS)
 METRICS.update(PART_METRICS)
 """The metrics a Pareto front may use, with what they mean."""
 SAMPLINGS = ("grid", "random", "latin")
-KINDS = ("gait", "robot", "servo", "part")
 TOP_KEYS = (
     "robot", "sampling", "samples", "seed", "pareto", "start", "gait", "parameter",
     "simulate", "walk_steps", "servo", "package_roots", "feet", "part", "user_servos",
@@ -103,43 +121,9 @@ START = {
     "what its worker solved before",
 }
 """Where each point's solve starts."""
-PARAMETER_KEYS = ("name", "kind", "min", "max", "levels", "choices")
-STRUCTURAL = ("baseline",)
-"""Settings a sweep cannot vary (not a number)."""
-
-KIND_WORDS = {int: "whole number", str: "text", bool: "true or false", dict: "table", list: "list"}
 Sense = Literal["min", "max"]
 PART_KINDS = ("servo", "part")
 """Kinds of parameters that act only through the simulation."""
-
-
-@dataclasses.dataclass(frozen=True)
-class SweepParameter:
-    """One swept number: its kind, its name and its closed range [minimum, maximum]."""
-
-    kind: str
-    name: str
-    minimum: float
-    maximum: float
-    levels: int = DEFAULT_LEVELS
-    """Grid values of this parameter (grid sampling only)."""
-    choices: tuple[str, ...] = ()
-    """A categorical parameter's values (the servo keys of kind "part"); its value at a
-    point is the index of its choice."""
-
-    def shown(self, value: float) -> str:
-        """A point's value as the user reads it: a choice's key, else the number."""
-        if self.choices:
-            return self.choices[min(max(round(value), 0), len(self.choices) - 1)]
-        return f"{value:.4g}"
-
-    @property
-    def is_integer(self) -> bool:
-        if self.kind == "part":
-            return True
-        if self.kind == "servo":
-            return SERVO_PARAMETERS[self.name].is_switch
-        return self.kind == "gait" and isinstance(getattr(GaitSettings, self.name), int)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -204,7 +188,7 @@ class SweepSpec:
             raise SweepSpecError(
                 f"{source}: unknown key(s) {', '.join(unknown)}; known: {', '.join(TOP_KEYS)}"
             )
-        robot = _typed(data.get("robot", "dircon_biped"), str, f"{source}: robot")
+        robot = typed(data.get("robot", "dircon_biped"), str, f"{source}: robot")
         if robot not in BUILTIN_ROBOTS and not robot.lower().endswith(".urdf"):
             raise SweepSpecError(
                 f"{source}: robot = {robot!r}; a sweep runs on a built-in robot: "
@@ -213,31 +197,31 @@ class SweepSpec:
                 "is not defined for it)"
             )
         package_roots, feet = _urdf_options(data, robot, source)
-        sampling = _typed(data.get("sampling", "latin"), str, f"{source}: sampling")
+        sampling = typed(data.get("sampling", "latin"), str, f"{source}: sampling")
         if sampling not in SAMPLINGS:
             raise SweepSpecError(
                 f"{source}: sampling = {sampling!r}; give one of {', '.join(SAMPLINGS)}"
             )
-        samples = _integer(data.get("samples", 20), f"{source}: samples")
-        seed = _integer(data.get("seed", 0), f"{source}: seed")
+        samples = integer(data.get("samples", 20), f"{source}: samples")
+        seed = integer(data.get("seed", 0), f"{source}: seed")
         if not 0 <= seed < 2**32:
             raise SweepSpecError(f"{source}: seed = {seed}; give a seed in [0, 2³²)")
-        start = _typed(data.get("start", "anchor"), str, f"{source}: start")
+        start = typed(data.get("start", "anchor"), str, f"{source}: start")
         if start not in START:
             raise SweepSpecError(f"{source}: start = {start!r}; give one of {', '.join(START)}")
         files = user_servo_files(data.get("user_servos", []), source)
-        gait = _typed(data.get("gait", {}), dict, f"{source}: [gait]")
+        gait = typed(data.get("gait", {}), dict, f"{source}: [gait]")
         try:
             base = GaitSettings.from_mapping(dict(gait), source=f"{source}: [gait]")
         except GaitSettingsError as error:
             raise SweepSpecError(str(error)) from None
-        raw = _typed(data.get("parameter", []), list, f"{source}: [[parameter]]")
+        raw = typed(data.get("parameter", []), list, f"{source}: [[parameter]]")
         if not raw:
             raise SweepSpecError(f"{source}: no [[parameter]]: name at least one to sweep")
         if len(raw) > MAX_PARAMETERS:
             raise SweepSpecError(f"{source}: {len(raw)} parameters; at most {MAX_PARAMETERS}")
         parameters = tuple(
-            _parameter(entry, f"{source}: parameter {i + 1}", robot, base, files)
+            sweep_parameter(entry, f"{source}: parameter {i + 1}", robot, base, files)
             for i, entry in enumerate(raw)
         )
         names = [p.name for p in parameters]
@@ -251,13 +235,13 @@ class SweepSpec:
                     f"{source}: {p.name} sets the planner's {setting} itself; sweep one of them"
                 )
         pareto = _pareto(data.get("pareto", {"sr": "min", "max_torque_Nm": "min"}), source)
-        simulate = bool(_typed(data.get("simulate", False), bool, f"{source}: simulate"))
-        walk_steps = _integer(data.get("walk_steps", DEFAULT_WALK_STEPS), f"{source}: walk_steps")
+        simulate = bool(typed(data.get("simulate", False), bool, f"{source}: simulate"))
+        walk_steps = integer(data.get("walk_steps", DEFAULT_WALK_STEPS), f"{source}: walk_steps")
         if not 1 <= walk_steps <= MAX_WALK_STEPS:
             raise SweepSpecError(
                 f"{source}: walk_steps = {walk_steps}; give 1 to {MAX_WALK_STEPS} steps"
             )
-        servo = _servo_table(data.get("servo", {}), source)
+        servo = servo_table(data.get("servo", {}), source)
         part = fixed_part(data.get("part", {}), source, files)
         check_parts(parameters, servo, part, source)
         servos = [v for n, v in part if n == "servo"] + [k for p in parameters for k in p.choices]
@@ -315,14 +299,14 @@ def _urdf_options(
             f"{source}: {' and '.join(given)} are for a robot loaded from a .urdf file; "
             f"{robot} is built in"
         )
-    roots = _typed(data.get("package_roots", []), list, f"{source}: package_roots")
+    roots = typed(data.get("package_roots", []), list, f"{source}: package_roots")
     for root in roots:
-        _typed(root, str, f"{source}: package_roots entry")
+        typed(root, str, f"{source}: package_roots entry")
     if len(roots) > MAX_PACKAGE_ROOTS:
         raise SweepSpecError(f"{source}: {len(roots)} package_roots; at most {MAX_PACKAGE_ROOTS}")
     feet = None
     if "feet" in data:
-        links = _typed(data["feet"], list, f"{source}: feet")
+        links = typed(data["feet"], list, f"{source}: feet")
         if len(links) != 2 or not all(isinstance(link, str) and link for link in links):
             raise SweepSpecError(
                 f"{source}: feet = {links!r}; give the left and the right foot link's names"
@@ -331,119 +315,8 @@ def _urdf_options(
     return tuple(roots), feet
 
 
-def _typed(value: Any, kind: type, what: str) -> Any:
-    if not isinstance(value, kind) or (kind is not bool and isinstance(value, bool)):
-        raise SweepSpecError(f"{what} = {value!r} is not a {KIND_WORDS[kind]}")
-    return value
-
-
-def _integer(value: Any, what: str) -> int:
-    return int(_typed(value, int, what))
-
-
-def _number(value: Any, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise SweepSpecError(f"{what} = {value!r} is not a number")
-    if not math.isfinite(value):
-        raise SweepSpecError(f"{what} = {value}: give a finite number")
-    return float(value)
-
-
-def _parameter(
-    entry: Any, where: str, robot: str, base: GaitSettings, files: tuple[Any, ...]
-) -> SweepParameter:
-    entry = _typed(entry, dict, where)
-    unknown = sorted(set(entry) - set(PARAMETER_KEYS))
-    if unknown:
-        raise SweepSpecError(
-            f"{where}: unknown key(s) {', '.join(unknown)}; known: {', '.join(PARAMETER_KEYS)}"
-        )
-    if "name" not in entry:
-        raise SweepSpecError(f"{where}: missing 'name'")
-    name = _typed(entry["name"], str, f"{where}: name")
-    kind = _typed(entry.get("kind", "gait"), str, f"{where}: kind")
-    if kind == "part" and name == "servo":
-        if {"min", "max", "levels"} & set(entry):
-            raise SweepSpecError(f"{where}: servo is categorical: give choices, not min/max/levels")
-        keys = choices_of(entry, f"{where} (servo)", files)
-        return SweepParameter(kind, name, 0.0, float(len(keys) - 1), len(keys), keys)
-    if "choices" in entry:
-        raise SweepSpecError(f"{where}: choices are for the part parameter servo only")
-    for key in ("min", "max"):
-        if key not in entry:
-            raise SweepSpecError(f"{where}: missing {key!r}")
-    lo = _number(entry["min"], f"{where} ({name}): min")
-    hi = _number(entry["max"], f"{where} ({name}): max")
-    levels = _integer(entry.get("levels", DEFAULT_LEVELS), f"{where} ({name}): levels")
-    if not 1 <= levels <= MAX_POINTS:
-        raise SweepSpecError(f"{where} ({name}): levels = {levels}; give 1 to {MAX_POINTS}")
-    if lo > hi:
-        raise SweepSpecError(f"{where} ({name}): min = {lo:g} > max = {hi:g}")
-    if kind == "gait":
-        _check_gait_range(name, lo, hi, base, where)
-    elif kind == "robot":
-        p = robot_parameter(robot, name)
-        if lo < p.minimum or hi > p.maximum:
-            raise SweepSpecError(
-                f"{where}: {name} range [{lo:g}, {hi:g}] leaves what the {robot} builder "
-                f"accepts, [{p.minimum:g}, {p.maximum:g}]"
-            )
-    elif kind == "servo":
-        _check_servo_range(name, lo, hi, where)
-    elif kind == "part":
-        if name not in PART_NAMES:
-            raise SweepSpecError(
-                f"{where}: unknown part parameter {name!r}; known: {', '.join(PART_NAMES)}"
-            )
-        check_kp(lo, where), check_kp(hi, where)
-    else:
-        raise SweepSpecError(f"{where}: kind = {kind!r}; give one of {', '.join(KINDS)}")
-    return SweepParameter(kind, name, lo, hi, levels)
-
-
-def _check_gait_range(name: str, lo: float, hi: float, base: GaitSettings, where: str) -> None:
-    fields = {f.name for f in dataclasses.fields(GaitSettings)}
-    if name not in fields or name in STRUCTURAL:
-        numeric = [f for f in fields if f not in STRUCTURAL]
-        raise SweepSpecError(
-            f"{where}: unknown gait parameter {name!r}; known: {', '.join(sorted(numeric))}"
-        )
-    for value in (lo, hi):
-        typed: float | int = round(value) if isinstance(getattr(base, name), int) else value
-        try:
-            dataclasses.replace(base, **{name: typed}).validate()  # type: ignore[arg-type]
-        except GaitSettingsError as error:
-            raise SweepSpecError(
-                f"{where}: {name} range [{lo:g}, {hi:g}] leaves what the planner accepts: {error}"
-            ) from None
-
-
-def _check_servo_range(name: str, lo: float, hi: float, where: str) -> None:
-    if name not in SERVO_PARAMETERS:
-        raise SweepSpecError(
-            f"{where}: unknown servo parameter {name!r}; known: {', '.join(SERVO_PARAMETERS)}"
-        )
-    p = SERVO_PARAMETERS[name]
-    if lo < p.minimum or hi > p.maximum:
-        raise SweepSpecError(
-            f"{where}: {name} range [{lo:g}, {hi:g}] leaves [{p.minimum:g}, {p.maximum:g}] "
-            f"({p.hint})"
-        )
-
-
-def _servo_table(value: Any, source: str) -> tuple[tuple[str, float], ...]:
-    table = _typed(value, dict, f"{source}: [servo]")
-    out = []
-    for name, raw in sorted(table.items()):
-        where = f"{source}: [servo] {name}"
-        number = float(raw) if isinstance(raw, bool) else _number(raw, where)
-        _check_servo_range(name, number, number, f"{source}: [servo]")
-        out.append((name, number))
-    return tuple(out)
-
-
 def _pareto(value: Any, source: str) -> tuple[tuple[str, Sense], ...]:
-    table = _typed(value, dict, f"{source}: pareto")
+    table = typed(value, dict, f"{source}: pareto")
     if len(table) != 2:
         raise SweepSpecError(f"{source}: pareto names {len(table)} metrics; give exactly two")
     out: list[tuple[str, Sense]] = []
