@@ -25,6 +25,7 @@ from app.core.servo.edits import (
     SetPhi,
 )
 from app.core.servo.presets import PRESETS
+from panels.clicks import bind_clicks
 from panels.compensation_folder import ORDER, CompensationFolder
 from panels.quiet import Quiet, set_value
 
@@ -102,9 +103,7 @@ class CompensationPanel:
             with gui.add_folder("Help", expand_by_default=False, order=ORDER["help"]):
                 gui.add_markdown(HELP)
 
-        @self.export_commands.on_click
-        def _(event: viser.GuiEvent) -> None:
-            session.export_commands(event.client)
+        bind_clicks((self.export_commands, session.export_commands))
 
         self.preset.on_update(
             lambda _: (

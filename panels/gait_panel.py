@@ -12,6 +12,7 @@ import viser.uplot as uplot
 
 from app.core.collocation.controls import CONTROLS, SLACK_HINT, SLACK_RANGE, settings_with
 from app.core.collocation.settings import GaitSettings
+from panels.clicks import bind_clicks
 from panels.quiet import Quiet, set_value
 
 
@@ -90,29 +91,14 @@ class GaitPanel:
                 "in its own panel",
             )
 
-        @self.solve.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.solve(baseline=False, client=event.client)
-
-        @self.baseline.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.solve(baseline=True, client=event.client)
-
-        @self.cancel.on_click
-        def _(_event: viser.GuiEvent) -> None:
-            actions.cancel()
-
-        @self.use.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.play_result(event.client)
-
-        @self.all_stages.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.pipeline(event.client)
-
-        @self.load_robot.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.load_planner_robot(event.client)
+        bind_clicks(
+            (self.solve, lambda client: actions.solve(baseline=False, client=client)),
+            (self.baseline, lambda client: actions.solve(baseline=True, client=client)),
+            (self.use, actions.play_result),
+            (self.all_stages, actions.pipeline),
+            (self.load_robot, actions.load_planner_robot),
+        )
+        self.cancel.on_click(lambda _: actions.cancel())
 
         for handle in (self.slack, *self.sliders.values()):
             handle.on_update(

@@ -8,6 +8,7 @@ import viser
 
 from app.core.motions.library import MOTIONS
 from app.core.motions.params import Param
+from panels.clicks import bind_clicks
 
 
 class MotionActions(Protocol):
@@ -54,13 +55,10 @@ class MotionsPanel:
         self._show_params()
         self.motion.on_update(lambda _: self._show_params())
 
-        @self.generate.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.generate(self.motion.value, self.values(), event.client)
+        def generate(client: viser.ClientHandle | None) -> None:
+            actions.generate(self.motion.value, self.values(), client)
 
-        @self.export.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.export(event.client)
+        bind_clicks((self.generate, generate), (self.export, actions.export))
 
         @self.upload.on_upload
         def _(event: viser.GuiEvent) -> None:

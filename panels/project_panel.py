@@ -7,6 +7,7 @@ from typing import Protocol
 
 import viser
 
+from panels.clicks import bind_clicks
 from panels.quiet import set_value
 
 
@@ -56,25 +57,16 @@ class ProjectPanel:
             self.redo = gui.add_button("Redo", icon=viser.Icon.ARROW_FORWARD_UP, disabled=True)
             self.status = gui.add_markdown("")
 
-        @self.save.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.save(event.client)
+        def typed_path() -> str:
+            return str(self.path.value).strip()
 
-        @self.save_as.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.save_as(str(self.path.value).strip(), event.client)
-
-        @self.open.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.open(str(self.path.value).strip(), event.client)
-
-        @self.undo.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.undo(event.client)
-
-        @self.redo.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.redo(event.client)
+        bind_clicks(
+            (self.save, actions.save),
+            (self.save_as, lambda client: actions.save_as(typed_path(), client)),
+            (self.open, lambda client: actions.open(typed_path(), client)),
+            (self.undo, actions.undo),
+            (self.redo, actions.redo),
+        )
 
         @self.upload.on_upload
         def _(event: viser.GuiEvent) -> None:

@@ -7,6 +7,7 @@ from typing import Protocol
 import viser
 
 from app.core.robot.report import RobotReport
+from panels.clicks import bind_clicks
 from panels.quiet import Quiet, set_value
 from robots.catalogue import BUILTIN_ROBOTS
 
@@ -49,13 +50,10 @@ class RobotPanel:
             with gui.add_folder("Report", expand_by_default=False):
                 self.report = gui.add_markdown("")
 
-        @self.load_builtin.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.load(self.builtin.value, client=event.client)
-
-        @self.open_path.on_click
-        def _(event: viser.GuiEvent) -> None:
-            actions.load(self.path.value.strip(), client=event.client)
+        bind_clicks(
+            (self.load_builtin, lambda client: actions.load(self.builtin.value, client=client)),
+            (self.open_path, lambda client: actions.load(self.path.value.strip(), client=client)),
+        )
 
         @self.upload.on_upload
         def _(event: viser.GuiEvent) -> None:

@@ -7,6 +7,7 @@ from typing import Protocol
 
 import viser
 
+from panels.clicks import bind_clicks
 from panels.compensation_folder import ORDER, CompensationFolder
 from panels.quiet import set_value
 
@@ -31,13 +32,10 @@ class TorquesPanel:
                 "Export τ CSV", icon=viser.Icon.DOWNLOAD, order=ORDER["export_torques"]
             )
 
-        @self.compute.on_click
-        def _(event: viser.GuiEvent) -> None:
-            session.compute_torques(event.client)
-
-        @self.export_torques.on_click
-        def _(event: viser.GuiEvent) -> None:
-            session.export_torques(event.client)
+        bind_clicks(
+            (self.compute, session.compute_torques),
+            (self.export_torques, session.export_torques),
+        )
 
     def show_progress(self, fraction: float | None) -> None:
         self.progress.visible = fraction is not None
