@@ -99,14 +99,7 @@ class PoseSession:
             {link: data.oMf[robot.link_frame_ids[link]].homogeneous for link in self._handle_links},
             skip=pose.dragged,
         )
-        state = posing.balance(pose.q)
-        balance.update(
-            state.polygon_xy,
-            state.com_world,
-            state.com_margin_m >= 0.0,
-            state.joint_positions_near_limit,
-            state.contact_frames,
-        )
+        balance.update(posing.balance(pose.q))
         self.panel.show_stance(pose.stance)
         self._show_status(self._status(pose.stance))
         playing = pose.origin == "playback"

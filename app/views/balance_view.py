@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import viser
 
+from app.core.posing.drag import Balance
 from app.core.quaternions import matrix_to_wxyz
 from app.views.pose_push import push_pose
 from app.views.robot_view import SEND_TOLERANCE
@@ -55,17 +56,14 @@ class BalanceView:
         self._contacts_shown = 0
         """The first this-many contact frames are visible, the others hidden."""
 
-    def update(
-        self,
-        polygon_xy: np.ndarray,
-        com_world: np.ndarray,
-        com_inside: bool,
-        joints_near_limit_m: list[np.ndarray],
-        contact_frames: list[np.ndarray],
-    ) -> None:
-        """polygon_xy (N, 2) [m]; com_world (3,); positions of joints near a limit; 4x4 contact
-        frames (one per stance foot). Queues only what changed since the last update."""
-        polygon_xy = np.asarray(polygon_xy, dtype=float)
+    def update(self, balance: Balance) -> None:
+        """Show `balance` (app.core.posing.drag): its polygon, its CoM (inside when its margin
+        is ≥ 0), its joints near a limit and its contact frames. Queues only what changed
+        since the last update."""
+        polygon_xy = np.asarray(balance.polygon_xy, dtype=float)
+        com_world, com_inside = balance.com_world, balance.com_margin_m >= 0.0
+        joints_near_limit_m = balance.joint_positions_near_limit
+        contact_frames = balance.contact_frames
         shown = self._polygon_xy
         if (
             shown is None
@@ -125,19 +123,14 @@ class BalanceView:
                     shown[i, :3, :3] = T[:3, :3]
         self._contacts_shown = _show_first(self._contacts, self._contacts_shown, k * self.visible)
 
-    def update_per_node(
-        self,
-        polygon_xy: np.ndarray,
-        com_world: np.ndarray,
-        com_inside: bool,
-        joints_near_limit_m: list[np.ndarray],
-        contact_frames: list[np.ndarray],
-    ) -> None:
+    def update_per_node(self, balance: Balance) -> None:
         """The same scene as `update`, every field assigned through viser's setters each
         time: the reference `update` is checked and timed against."""
-        self._polygon.points = _segments(np.asarray(polygon_xy, dtype=float))
+        com_world, contact_frames = balance.com_world, balance.contact_frames
+        joints_near_limit_m = balance.joint_positions_near_limit
+        self._polygon.points = _segments(np.asarray(balance.polygon_xy, dtype=float))
         self._com.position = (float(com_world[0]), float(com_world[1]), COM_Z_M)
-        self._com.color = INSIDE_RGB if com_inside else OUTSIDE_RGB
+        self._com.color = INSIDE_RGB if balance.com_margin_m >= 0.0 else OUTSIDE_RGB
         for i, marker in enumerate(self._limits):
             marker.visible = self.visible and i < len(joints_near_limit_m)
             if i < len(joints_near_limit_m):

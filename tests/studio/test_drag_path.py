@@ -204,19 +204,12 @@ def test_the_balance_overlay_sends_only_changes_and_shows_the_per_node_scene(nam
                     view.set_visible(True)
             posing.stance = stance
             state = posing.balance(q)
-            args = (
-                state.polygon_xy,
-                state.com_world,
-                state.com_margin_m >= 0.0,
-                state.joint_positions_near_limit,
-                state.contact_frames,
-            )
             sent.clear()
             with server.atomic():
-                batched.update(*args)
+                batched.update(state)
             ours = [n for n in sent if n.startswith("/batched/")]
             sent.clear()
-            per_node.update_per_node(*args)
+            per_node.update_per_node(state)
             theirs = [n for n in sent if n.startswith("/per_node/")]
             per_event.append((len(ours), len(theirs), {n.split("/")[2] for n in ours}))
             scene = balance_scene(batched)
