@@ -222,30 +222,15 @@ class CompensationSession:
             and _same_servos(cached[2], servo)
         ):
             return cached[3]
-        tau_Nm = self._torque_of(robot, trajectory, feedforward, coefficients)
-        self._torque = (inputs, coefficients.torque, servo, tau_Nm)
-        return tau_Nm
-
-    def _torque_of(
-        self,
-        robot: RobotModel,
-        trajectory: Trajectory,
-        feedforward: FeedForward,
-        coefficients: Coefficients,
-    ) -> np.ndarray:
         law = (
-            simulation_law(robot, coefficients.servo, self._state.work.parts)
+            simulation_law(robot, servo, self._state.work.parts)
             if coefficients.torque == "drive"
             else None
         )
-        return compensated_torque_Nm(
-            robot,
-            trajectory,
-            np.nan_to_num(feedforward.tau_Nm),
-            coefficients.torque,
-            coefficients.servo,
-            law,
-        )
+        tau = np.nan_to_num(feedforward.tau_Nm)
+        tau_Nm = compensated_torque_Nm(robot, trajectory, tau, coefficients.torque, servo, law)
+        self._torque = (inputs, coefficients.torque, servo, tau_Nm)
+        return tau_Nm
 
     # --- files ---------------------------------------------------------------------------------
 
