@@ -15,14 +15,8 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 
-from app.core.motions.motion_text import (
-    MotionFileError,
-    cell_number,
-    checked,
-    csv_rows,
-    normalised,
-    open_motion,
-)
+from app.core.motions import motion_text
+from app.core.motions.motion_text import MotionFileError
 from app.core.motions.trajectory import Trajectory, from_configurations
 from app.core.quaternions import wxyz_to_xyzw
 from app.core.robot.model import RobotModel
@@ -78,9 +72,9 @@ def read_roban_motion_csv(
     urdf_order = [actuated[name] for name in robot.tree.joints if name in actuated]
     width = 7 + len(urdf_order)
 
-    file, _, source = open_motion(path)
+    file, _, source = motion_text.open_motion(path)
     with file:
-        table = list(csv_rows(file, path.name))
+        table = list(motion_text.csv_rows(file, path.name))
     values = np.empty((len(table), width))
     for k, (line, cells) in enumerate(table):
         if len(cells) != width:
@@ -89,7 +83,9 @@ def read_roban_motion_csv(
                 f"{width} (3 position + 4 quaternion + {len(urdf_order)} joint angles)"
             )
         for column, cell in enumerate(cells):
-            values[k, column] = cell_number(cell, line, column + 1, f"column {column + 1}", source)
+            values[k, column] = motion_text.cell_number(
+                cell, line, column + 1, f"column {column + 1}", source
+            )
     if len(values) < 2:
         raise MotionFileError(f"{source}: {len(values)} frame(s); a motion needs at least 2")
     lines = [line for line, _ in table]
@@ -97,7 +93,7 @@ def read_roban_motion_csv(
     quats = values[:, 3:7] if quaternion_order == "xyzw" else wxyz_to_xyzw(values[:, 3:7])
     q = np.tile(robot.q_neutral, (len(values), 1))
     q[:, :3] = values[:, :3]
-    q[:, 3:7] = normalised(quats, lines, source)
+    q[:, 3:7] = motion_text.normalised(quats, lines, source)
     for column, joint in enumerate(urdf_order, start=7):
         if joint.kind == "continuous":
             q[:, joint.idx_q] = np.cos(values[:, column])
@@ -108,7 +104,7 @@ def read_roban_motion_csv(
     trajectory = from_configurations(
         robot.model, path.stem, robot.joint_names, 1.0 / fps, q, contacts
     )
-    return checked(robot, trajectory, source)
+    return motion_text.checked(robot, trajectory, source)
 
 
 def sole_contacts(robot: RobotModel, q: np.ndarray) -> np.ndarray:
