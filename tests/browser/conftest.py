@@ -24,7 +24,7 @@ import pytest
 
 from app.config import StudioConfig
 from app.studio import Studio
-from tests.browser.page_helpers import studio_context
+from tests.browser.page_helpers import open_studio, studio_context
 
 HERE = Path(__file__).resolve().parent
 CHROMIUM = Path(os.environ.get("BIPED_STUDIO_CHROMIUM", "/usr/bin/chromium"))
@@ -91,6 +91,14 @@ def studio(studio_robot: str, tmp_path_factory: pytest.TempPathFactory) -> Itera
 def studio_url(studio: Studio) -> str:
     """The studio's link with its access token (without it the page is only a notice)."""
     return studio.web.url
+
+
+@pytest.fixture(scope="module")
+def page(browser_page, studio_url: str):
+    """The studio page, loaded once for the module and connected (`open_studio`: its Playback
+    folder drawn, the software-WebGL notice hidden); the module's tests continue from one
+    another on it. A module that needs more overrides it, taking this one by the same name."""
+    return open_studio(browser_page, studio_url)
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,6 @@ import re
 
 import numpy as np
 import pinocchio as pin
-import pytest
 from PIL import Image
 
 from app.studio import Studio
@@ -22,7 +21,6 @@ from tests.browser.page_helpers import (
     expand_folder,
     gui_row_input,
     not_blank,
-    open_studio,
     wait_for,
     wait_stable,
 )
@@ -31,11 +29,6 @@ COLOUR_TOLERANCE = 8
 """Largest difference per channel (0–255) between a swatch's pixel and its ghost's colour."""
 DIRECTION_TOLERANCE = 0.02
 """Largest distance between the camera's unit viewing direction and the expected one."""
-
-
-@pytest.fixture(scope="module")
-def page(browser_page, studio_url: str):
-    return open_studio(browser_page, studio_url)
 
 
 def label_of(page, text: str):

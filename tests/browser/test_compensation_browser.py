@@ -32,7 +32,6 @@ from tests.browser.page_helpers import (
     folder_title,
     gui_row_input,
     not_blank,
-    open_studio,
     page_time_s,
     publish,
     select_option,
@@ -64,12 +63,6 @@ def single_support_time(studio: Studio) -> float:
     assert single.any(), f"{trajectory.name} never lifts a foot"
     samples = np.flatnonzero(single)
     return round(float(trajectory.t[samples[len(samples) // 2]]), 2)
-
-
-@pytest.fixture(scope="module")
-def page(browser_page, studio_url: str):
-    """The studio page, loaded once and connected (its Playback folder is drawn)."""
-    return open_studio(browser_page, studio_url)
 
 
 @pytest.fixture(scope="module")

@@ -33,7 +33,6 @@ from tests.browser.page_helpers import (
     folder,
     generate_motion,
     not_blank,
-    open_studio,
     record_texts,
     scene_canvas_box,
     screen_point,
@@ -65,8 +64,8 @@ STAGE_MARKERS = ("stage 2 of 4", "stage 3 of 4", "stage 4 of 4", "One click ✅"
 
 
 @pytest.fixture(scope="module")
-def page(browser_page, studio_url: str):
-    page = open_studio(browser_page, studio_url)
+def page(page):
+    """The studio page (tests/browser/conftest.py), recording when each stage line shows."""
     record_texts(page, "stages", STAGE_MARKERS)
     return page
 

@@ -31,7 +31,6 @@ from tests.browser.page_helpers import (
     folder,
     folder_title,
     not_blank,
-    open_studio,
     publish,
     type_number,
     wait_for,
@@ -107,10 +106,8 @@ def click_solve(page) -> float:
 
 
 @pytest.fixture(scope="module")
-def page(browser_page, studio_url: str):
-    """The studio page, loaded once and connected (`open_studio`), with the status recorder
-    installed."""
-    page = open_studio(browser_page, studio_url)
+def page(page):
+    """The studio page (tests/browser/conftest.py) with the status recorder installed."""
     page.evaluate(RECORDER_JS, list(MARKERS))
     return page
 

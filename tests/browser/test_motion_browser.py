@@ -29,7 +29,6 @@ from tests.browser.page_helpers import (
     folder,
     gui_row_input,
     not_blank,
-    open_studio,
     page_time_s,
     shot,
     type_number,
@@ -54,12 +53,6 @@ def lifted_left_foot(studio: Studio) -> np.ndarray:
     T = robot.link_placements(studio.state.q, robot.model.createData())[robot.feet[0].link]
     T[:3, 3] += [0.0, 0.0, LIFT_M]
     return T
-
-
-@pytest.fixture(scope="module")
-def page(browser_page, studio_url: str):
-    """The studio page, loaded once and connected (its Playback folder is drawn)."""
-    return open_studio(browser_page, studio_url)
 
 
 def test_capture_two_keyframes_and_build_a_motion(page, studio: Studio) -> None:

@@ -12,7 +12,6 @@ import re
 import time
 
 import numpy as np
-import pytest
 from playwright.sync_api import expect
 
 from app.studio import Studio
@@ -25,7 +24,6 @@ from tests.browser.page_helpers import (
     folder_title,
     generate_motion,
     gui_row_input,
-    open_studio,
     select_option,
     wait_for,
     wait_notified,
@@ -33,11 +31,6 @@ from tests.browser.page_helpers import (
 
 MOTION = "com_shift"
 NAME = "tour"
-
-
-@pytest.fixture(scope="module")
-def page(browser_page, studio_url: str):
-    return open_studio(browser_page, studio_url)
 
 
 def type_text(page, label: str, text: str, studio_value) -> None:

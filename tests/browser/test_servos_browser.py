@@ -27,7 +27,6 @@ from tests.browser.page_helpers import (
     expand_folder,
     folder,
     generate_motion,
-    open_studio,
     select_option,
     type_number,
     wait_for,
@@ -39,11 +38,6 @@ MOTION = "one_leg_stand"
 JOINT = "left_knee"
 SERVO = "mx64"
 MARGIN = 0.2
-
-
-@pytest.fixture(scope="module")
-def page(browser_page, studio_url: str):
-    return open_studio(browser_page, studio_url)
 
 
 def test_pick_a_catalogue_servo_for_a_joint(page, studio: Studio) -> None:
