@@ -116,7 +116,10 @@ def test_the_symmetric_walks_energy_from_the_recorded_columns(compared):
     assert ideal["total_electrical_J"] == pytest.approx(drawn, rel=0.03)
     # the distance from the CSV's base columns, the SR from them and the robot's weight
     xy = rows[:, [header.index("base_x [m]"), header.index("base_y [m]")]]
-    distance = float(np.linalg.norm(xy[-1] - xy[0]))
+    plan_header, plan = _columns(walk)
+    way = plan[-1, [plan_header.index("base_x [m]"), plan_header.index("base_y [m]")]]
+    way -= plan[0, [plan_header.index("base_x [m]"), plan_header.index("base_y [m]")]]
+    distance = float((xy[-1] - xy[0]) @ way / np.linalg.norm(way))  # along the planned way
     weight = load_robot("servo_biped").mass_kg * GRAVITY
     assert ideal["sr_electrical"] == pytest.approx(drawn / (weight * distance), rel=0.03)
     # and `plan --compare --simulate` printed the same run's figures

@@ -61,8 +61,13 @@ def simulated_lines(simulated: dict) -> list[str]:
         )
         lines.append(
             f"  {name}: {walk['verdict']}; {ideal['total_electrical_J']:.1f} J electrical"
-            f"{over}: SR {_sr(ideal['sr_electrical'])} electrical, "
-            f"{_sr(ideal['sr_planned'])} planned work"
+            f"{over}: "
+            + (
+                "no electrical SR (under 0.1 m)"
+                if ideal["sr_electrical"] is None
+                else f"SR {ideal['sr_electrical']:.3g} electrical"
+            )
+            + f", {_sr(ideal['sr_planned'])} planned work"
         )
     if simulated["ratio"] is None:
         lines.append(

@@ -162,7 +162,8 @@ def _check_srs(text: str, run, studio: Studio) -> None:
     """Each run's "SR x electrical (ideal servo, stated motor) · y planned work (E J …, over
     d m)" line against the energy recomputed from its recorded columns (per sample: the servo
     torque less D·q̇, times the angle's step, plus (τ/kt)²·R, nothing credited back), the
-    distance from MuJoCo's root body and the planned work of the walk's torques."""
+    distance from MuJoCo's root body along the planned way and the planned work of the walk's
+    torques."""
     from app.core.servo.catalogue import load_catalogue
 
     robot, walk = run.robot, run.trajectory
@@ -172,7 +173,9 @@ def _check_srs(text: str, run, studio: Studio) -> None:
     dofs = [joint.idx_v for joint in robot.joints]
     power = np.maximum(studio.state.work.torques.tau_Nm * walk.v[:, dofs], 0.0).sum(axis=1)
     planned_work = float(np.sum(power[1:] + power[:-1]) / 2 * walk.dt)
-    planned_sr = planned_work / (weight * float(np.linalg.norm(walk.q[-1, :2] - walk.q[0, :2])))
+    way = walk.q[-1, :2] - walk.q[0, :2]
+    planned_sr = planned_work / (weight * float(np.linalg.norm(way)))
+    way /= np.linalg.norm(way)
     assert "stated motor: default motor per joint: 12 joint(s): mx64" in text, text
     for label, result in run.results.items():
         match = re.search(
@@ -188,9 +191,9 @@ def _check_srs(text: str, run, studio: Studio) -> None:
         speed = np.diff(result.q_joints_rad[:k], axis=0) / walk.dt
         torque = result.tau_Nm[: k - 1] - 1.0 * speed  # D = 6 N·m / 6 rad/s (the URDF's)
         drawn = np.maximum(torque * speed + (torque / kt) ** 2 * r_ohm, 0.0).sum() * walk.dt
-        root = result.root_position_m[:k, :2]
+        moved = result.root_position_m[k - 1, :2] - result.root_position_m[0, :2]
         assert energy == pytest.approx(drawn, rel=0.03), text
-        assert distance == pytest.approx(float(np.linalg.norm(root[-1] - root[0])), abs=0.006)
+        assert distance == pytest.approx(float(moved @ way), abs=0.006), text
         assert sr == pytest.approx(energy / (weight * distance), rel=0.01), text
         assert planned == pytest.approx(planned_sr, rel=0.01), text
 

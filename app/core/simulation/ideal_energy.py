@@ -26,7 +26,8 @@ gear: the copper loss per N·m² falls as 1/r²). On servo_biped (τ_max 6 N·m)
 (7.3 N·m), r = 0.82. Roban S14's sized 57 N·m: the MX-106 (10 N·m), r = 5.7.
 
 `run_ideal_sr` sets a run's SR from that energy, E / (M·g·d) over the distance d its root
-covered up to its end or fall, beside the planned-work SR (`battery.positive_work_J` of the
+covered along the planned direction up to its end or fall (a robot that tips sideways has
+not walked the way it fell), beside the planned-work SR (`battery.positive_work_J` of the
 feed-forward over the planned distance): one function for `simulate`, `plan --compare
 --simulate` and the studio's Simulation rows.
 """
@@ -198,7 +199,8 @@ class IdealSR:
     """The end of the stretch the energy covers [s] (`energy_until_s`)."""
     fell: bool
     distance_m: float
-    """Horizontal distance the root covered up to `until_s` [m]."""
+    """The root's displacement along the planned direction up to `until_s` [m] (its
+    horizontal displacement for a motion in place)."""
     planned_distance_m: float
     planned_work_J: float | None
     """The feed-forward's positive work along the plan; None for a motion in place."""
@@ -246,8 +248,12 @@ def run_ideal_sr(
     )
     gravity = float(np.linalg.norm(robot.model.gravity.linear))
     until = energy_until_s(result)
-    distance = horizontal_travel_m(result.q[result.t <= until, :2])
+    xy = result.q[result.t <= until, :2]
+    distance = horizontal_travel_m(xy)
     planned = horizontal_travel_m(trajectory.q[:, :2])
+    if planned >= MIN_DISTANCE_M:  # along the planned direction
+        distance = float((xy[-1] - xy[0]) @ (trajectory.q[-1, :2] - trajectory.q[0, :2]))
+        distance /= planned
     tau = planned_tau() if planned >= MIN_DISTANCE_M else None
     work = None if tau is None else positive_work_J(tau, trajectory.v[:, dofs], trajectory.dt)
     return IdealSR(
