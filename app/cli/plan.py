@@ -157,7 +157,7 @@ def run(args: argparse.Namespace) -> int:
         if "simulated" in comparison:
             from app.cli.plan_simulate import simulated_lines
 
-            print("\n".join(simulated_lines(comparison["simulated"])))
+            print("\n".join(simulated_lines(comparison["simulated"])))  # type: ignore[arg-type]
     for note in (*defaults.notes, *(() if walk is None else walk.notes)):
         print(f"note: {note}")
     return 0

@@ -28,7 +28,8 @@ def simulated_comparison(
     }
     runs = {name: simulate_walk_sr(robot, walks[name].trajectory, name) for name in NAMES}
     sr = [runs[name].sr.sr_electrical for name in NAMES]
-    row = None if None in sr else simulated_sr_row(*sr)
+    sym, base = sr
+    row = None if sym is None or base is None else simulated_sr_row(sym, base)
     return {
         "steps": steps,
         "servo": runs["symmetric"].servo,
