@@ -55,6 +55,13 @@ def add_parser(sub) -> None:
         action="store_true",
         help="also solve the baseline and report both beside the paper's Table 4 (ratios)",
     )
+    plan.add_argument(
+        "--simulate",
+        action="store_true",
+        help="with --compare: walk both gaits (--steps, else 6 steps), simulate each on the "
+        "robot's sized servos (eq 7 on the drive torque) and report their SR from electrical "
+        "energy beside Table 4's",
+    )
     plan.add_argument("--dt", type=float, default=0.01, help="CSV sample time step [s]")
     add_output_arguments(plan, "gait or walk CSV to write")
 
@@ -68,6 +75,8 @@ def run(args: argparse.Namespace) -> int:
     check_dt(args.dt, "--dt")  # before the solve, not after minutes of it
     if not 0 <= args.steps <= MAX_STEPS:
         raise StudioError(f"--steps must be in [0, {MAX_STEPS}], got {args.steps}")
+    if args.simulate and (not args.compare or args.baseline):
+        raise StudioError("--simulate goes with --compare (and not --baseline)")
     values = read_settings_toml(args.config) if args.config is not None else {}
     if args.baseline:
         values["baseline"] = True
@@ -88,9 +97,9 @@ def run(args: argparse.Namespace) -> int:
         if "iterations" not in reason:
             reason += f" ({result.iterations} iterations)"
         raise StudioError(f"{reason}; {result.blame}" if result.blame else reason)
-    comparison = None
+    comparison, base = None, None
     if args.compare and not settings.baseline:
-        comparison = _table4_comparison(problem, settings, result)
+        comparison, base = _table4_comparison(problem, settings, result)
     walk = None
     if args.steps > 0:
         from app.core.walking.walk import build_walk
@@ -101,6 +110,13 @@ def run(args: argparse.Namespace) -> int:
         trajectory = walk.trajectory
     else:
         trajectory = to_trajectory(robot, result, dt=args.dt)
+    if comparison is not None and args.simulate:
+        from app.cli.plan_simulate import WALK_STEPS, simulated_comparison
+
+        comparison["simulated"] = simulated_comparison(
+            robot, problem.model, {"symmetric": result, "baseline": base},
+            args.steps or WALK_STEPS, args.step_width, args.dt, walk,
+        )  # fmt: skip
     if args.out is not None:
         write_trajectory_csv(trajectory, args.out, robot)
     summary = result.summary()
@@ -138,14 +154,18 @@ def run(args: argparse.Namespace) -> int:
             )
         print(_bound_line(comparison))
         print(f"compared: {comparison['what']}")
+        if "simulated" in comparison:
+            from app.cli.plan_simulate import simulated_lines
+
+            print("\n".join(simulated_lines(comparison["simulated"])))  # type: ignore[arg-type]
     for note in (*defaults.notes, *(() if walk is None else walk.notes)):
         print(f"note: {note}")
     return 0
 
 
-def _table4_comparison(problem, settings, result) -> dict[str, object]:
+def _table4_comparison(problem, settings, result) -> tuple[dict[str, object], object]:
     """The baseline solved beside the symmetric `result` (and again without its torque bound
-    where that bound sets its peak), compared as in the paper's Table 4."""
+    where that bound sets its peak), compared as in the paper's Table 4; and the baseline."""
     from app.core.collocation.dircon import GaitProblem
     from app.core.collocation.table4 import LIFTED_BOUND_FACTOR, bound_binds, table4_comparison
 
@@ -160,7 +180,7 @@ def _table4_comparison(problem, settings, result) -> dict[str, object]:
             base_settings, tau_max_Nm=LIFTED_BOUND_FACTOR * base_settings.tau_max_Nm
         )
         unbounded = GaitProblem(problem.model, settings.knots, True).solve(lifted)
-    return table4_comparison(result, base, unbounded)
+    return table4_comparison(result, base, unbounded), base
 
 
 def _walk_json(walk, steps: int) -> dict:

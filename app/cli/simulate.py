@@ -284,50 +284,15 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _ideal_energy(robot, traj, servo, options, main, planned_tau: Callable[[], np.ndarray]) -> dict:
-    """The run's electrical energy on the ideal servo from the default motor
-    (`app.core.simulation.ideal_energy`), its SR beside the planned work's (a motion that
-    travels), as JSON."""
-    import numpy as np
-
-    from app.core.simulation.battery import (
-        MIN_DISTANCE_M,
-        horizontal_travel_m,
-        positive_work_J,
-        specific_resistance,
-    )
-    from app.core.simulation.ideal_energy import (
-        default_motor,
-        energy_until_s,
-        run_ideal_energy,
-    )
+    """The run's electrical energy on the ideal servo from the default motor, its SR beside
+    the planned work's (a motion that travels), as JSON (`ideal_energy.run_ideal_sr`)."""
+    from app.core.simulation.ideal_energy import run_ideal_sr
     from app.core.simulation.servo_law import robot_servo_law
 
-    law = robot_servo_law(robot, servo)
-    dofs = np.array([joint.idx_v for joint in robot.joints])
-    energy = run_ideal_energy(
-        main, law, dofs, default_motor(law.effort_Nm), options.timestep_s,
+    return run_ideal_sr(
+        main, robot, traj, robot_servo_law(robot, servo), planned_tau, options.timestep_s,
         options.command_hold == "linear",
-    )  # fmt: skip
-    gravity = float(np.linalg.norm(robot.model.gravity.linear))
-    until = energy_until_s(main)
-    distance = horizontal_travel_m(main.q[main.t <= until, :2])
-    planned = horizontal_travel_m(traj.q[:, :2])
-    work = None
-    if planned >= MIN_DISTANCE_M:
-        work = positive_work_J(planned_tau(), traj.v[:, dofs], traj.dt)
-    total = float(energy.electrical_J.sum())
-    return {
-        **energy.to_json(),
-        "until_s": until,
-        "fell": main.fell,
-        "distance_m": distance,
-        "planned_distance_m": planned,
-        "planned_work_J": work,
-        "sr_electrical": specific_resistance(total, robot.mass_kg, distance, gravity),
-        "sr_planned": None
-        if work is None
-        else specific_resistance(work, robot.mass_kg, planned, gravity),
-    }
+    ).to_json()  # fmt: skip
 
 
 def _ideal_line(ideal: dict) -> str:

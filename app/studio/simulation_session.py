@@ -19,6 +19,7 @@ from app.core.dynamics.wbc import FeedForward
 from app.core.errors import StudioError
 from app.core.servo.model import Prediction
 from app.studio.compare_text import simulation_summary
+from app.studio.ideal_sr_text import IdealSRText
 from app.studio.notifier import Notifier
 from app.studio.servo_parts import energy_line, simulation_law
 from app.studio.signals import Signal
@@ -54,6 +55,8 @@ class SimulationSession:
         """The stand check of the robot on the current virtual servos."""
         self._then: Motion | None = None
         """The motion that asked to be simulated (the one-click pipeline), not yet simulated."""
+        self._ideal_sr = IdealSRText()
+        """The runs' SR on the ideal servo, kept for the last simulation."""
         state.on_motion.connect(self._on_motion)
         state.work.on_torques.connect(self._on_torques)
         state.work.on_prediction.connect(self._on_prediction)
@@ -90,7 +93,7 @@ class SimulationSession:
         travel = travel_lines(record.run)
         if travel:
             text += "  \n" + travel
-        text += _energy(record, self._state)
+        text += _energy(record, self._state, self._ideal_sr)
         self.panel.verdict.content = STALE + text if record.stale else text
 
     # --- running (SimulationActions) -------------------------------------------------------------
@@ -147,6 +150,7 @@ class SimulationSession:
             self._notifier.error("Simulation failed", simulation.error)
             return
         record = simulation_record(simulation)  # outside the lock: a second for long motions
+        self._ideal_sr.lines(simulation, self._state.work.torques, None)  # outside it too
         self._state.work.set_simulation(record)  # dropped if the motion changed meanwhile
 
     def close(self) -> None:
@@ -159,13 +163,14 @@ class SimulationSession:
         self.refused.emit(body)
 
 
-def _energy(record: SimulationRecord, state: StudioState) -> str:
-    """The compensated run's energy line when it ran on servo parts (app.studio.servo_parts)."""
-    run = record.run
-    line = energy_line(
-        run.results[WITH], run.robot, run.trajectory, state.work.parts, state.work.torques
-    )
-    return f"  \n{line}" if line else ""
+def _energy(record: SimulationRecord, state: StudioState, ideal: IdealSRText) -> str:
+    """The compensated run's energy line when it ran on servo parts (app.studio.servo_parts),
+    and the SR of the runs on the ideal servo of a motion that travels (app.studio.ideal_sr_text)."""
+    run, work = record.run, state.work
+    line = energy_line(run.results[WITH], run.robot, run.trajectory, work.parts, work.torques)
+    servo = None if work.coefficients is None or record.stale else work.coefficients.servo
+    lines = [text for text in (line, ideal.lines(run, work.torques, servo)) if text]
+    return "".join(f"  \n{text}" for text in lines)
 
 
 def travel_lines(simulation: Simulation) -> str:

@@ -3,7 +3,10 @@
 1. The planned walk (the Gait folder's one click): the page says how far each run walked of
    the planned distance, ≥ 90 % with compensation on the drive torque (the default); with
    *Compensate* switched to the load torque τ in the page, well short. First, on the robot's
-   own servos (the next test makes two ankles soft and back).
+   own servos (the next test makes two ankles soft and back). Each run's specific resistance
+   on the ideal servo is in the page, electrical beside planned work, and agrees with the
+   energy recomputed here from the run's recorded torques and angles (catalogue's MX-64
+   geared to the 6 N·m limit) and the planned work from the walk's torques.
 2. The stand check (computed whatever the motion): servo_biped stands on its servos; two ankle
    servos made soft by typing into the page, the panel says it cannot stand and what the
    ankles need.
@@ -153,6 +156,46 @@ def test_the_planned_walk_walks_on_the_drive_torque_in_the_page(page, studio: St
     root_covered, _ = _root_covered(run.results["with compensation"], walk)
     assert covered == pytest.approx(root_covered, abs=0.006)
     assert percent < 90 and root_covered < 0.9 * root_planned, text
+
+
+def _check_srs(text: str, run, studio: Studio) -> None:
+    """Each run's "SR x electrical (ideal servo, stated motor) · y planned work (E J …, over
+    d m)" line against the energy recomputed from its recorded columns (per sample: the servo
+    torque less D·q̇, times the angle's step, plus (τ/kt)²·R, nothing credited back), the
+    distance from MuJoCo's root body along the planned way and the planned work of the walk's
+    torques."""
+    from app.core.servo.catalogue import load_catalogue
+
+    robot, walk = run.robot, run.trajectory
+    weight = robot.mass_kg * 9.81
+    mx64 = load_catalogue()["mx64"]
+    kt, r_ohm = mx64.fit().motor.kt_Nm_per_A * 6.0 / mx64.stall_torque_Nm, mx64.fit().motor.R_ohm
+    dofs = [joint.idx_v for joint in robot.joints]
+    power = np.maximum(studio.state.work.torques.tau_Nm * walk.v[:, dofs], 0.0).sum(axis=1)
+    planned_work = float(np.sum(power[1:] + power[:-1]) / 2 * walk.dt)
+    way = walk.q[-1, :2] - walk.q[0, :2]
+    planned_sr = planned_work / (weight * float(np.linalg.norm(way)))
+    way /= np.linalg.norm(way)
+    assert "stated motor: default motor per joint: 12 joint(s): mx64" in text, text
+    for label, result in run.results.items():
+        match = re.search(
+            rf"(?:^|\n){label}: SR ([0-9.]+) electrical \(ideal servo, stated motor\) · "
+            rf"([0-9.]+) planned work \(([0-9.]+) J (?:up to the fall at [0-9.]+ s, over the "
+            rf"|over )([0-9.]+) m",
+            text,
+        )
+        assert match, text
+        sr, planned, energy, distance = (float(g) for g in match.groups())
+        until = result.fall_time_s if result.fell else result.simulated_until_s
+        k = int(np.searchsorted(result.t, until, side="right"))
+        speed = np.diff(result.q_joints_rad[:k], axis=0) / walk.dt
+        torque = result.tau_Nm[: k - 1] - 1.0 * speed  # D = 6 N·m / 6 rad/s (the URDF's)
+        drawn = np.maximum(torque * speed + (torque / kt) ** 2 * r_ohm, 0.0).sum() * walk.dt
+        moved = result.root_position_m[k - 1, :2] - result.root_position_m[0, :2]
+        assert energy == pytest.approx(drawn, rel=0.03), text
+        assert distance == pytest.approx(float(moved @ way), abs=0.006), text
+        assert sr == pytest.approx(energy / (weight * distance), rel=0.01), text
+        assert planned == pytest.approx(planned_sr, rel=0.01), text
 
 
 def _set_ankles(page, studio: Studio, value: float) -> None:

@@ -65,6 +65,13 @@ def table4_rows(symmetric: GaitResult, baseline: GaitResult) -> tuple[Table4Row,
     )  # fmt: skip
 
 
+def simulated_sr_row(symmetric_sr: float, baseline_sr: float) -> Table4Row:
+    """The SRs from the electrical energy of both gaits' walks simulated on the ideal servo
+    (`app.core.simulation.walk_sr`) beside Table 4's from measured motor energy: like for
+    like, but for the motor (a stated default, not the paper's robot's)."""
+    return Table4Row("SR electrical (simulated walks)", symmetric_sr, baseline_sr, *TABLE4.sr)
+
+
 def table4_comparison(
     symmetric: GaitResult, baseline: GaitResult, unbounded: GaitResult | None = None
 ) -> dict[str, object]:

@@ -24,12 +24,19 @@ in ratio to the joint's torque limit τ_max, behind a gearbox scaled so that its
 is τ_max: kt → kt·r, R unchanged, r = τ_max / τ_stall (the same motor and winding, a taller
 gear: the copper loss per N·m² falls as 1/r²). On servo_biped (τ_max 6 N·m): the MX-64
 (7.3 N·m), r = 0.82. Roban S14's sized 57 N·m: the MX-106 (10 N·m), r = 5.7.
+
+`run_ideal_sr` sets a run's SR from that energy, E / (M·g·d) over the distance d its root
+covered along the planned direction up to its end or fall (a robot that tips sideways has
+not walked the way it fell), beside the planned-work SR (`battery.positive_work_J` of the
+feed-forward over the planned distance): one function for `simulate`, `plan --compare
+--simulate` and the studio's Simulation rows.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -181,3 +188,85 @@ def run_ideal_energy(
             dq[row] = (path[i + 1] - path[i]) / h
             tau[row] -= law.damping_Nms_per_rad * speed[i + 1]
     return ideal_servo_energy(tau, dq, h, motor)
+
+
+@dataclasses.dataclass(frozen=True)
+class IdealSR:
+    """A run's electrical energy on the ideal servo and its specific resistances."""
+
+    energy: IdealEnergy
+    until_s: float
+    """The end of the stretch the energy covers [s] (`energy_until_s`)."""
+    fell: bool
+    distance_m: float
+    """The root's displacement along the planned direction up to `until_s` [m] (its
+    horizontal displacement for a motion in place)."""
+    planned_distance_m: float
+    planned_work_J: float | None
+    """The feed-forward's positive work along the plan; None for a motion in place."""
+    sr_electrical: float | None
+    """E / (M·g·d); None below `battery.MIN_DISTANCE_M` covered."""
+    sr_planned: float | None
+
+    def to_json(self) -> dict[str, object]:
+        """`simulate --json`'s `ideal_servo_energy`."""
+        return {
+            **self.energy.to_json(),
+            "until_s": self.until_s,
+            "fell": self.fell,
+            "distance_m": self.distance_m,
+            "planned_distance_m": self.planned_distance_m,
+            "planned_work_J": self.planned_work_J,
+            "sr_electrical": self.sr_electrical,
+            "sr_planned": self.sr_planned,
+        }
+
+
+def run_ideal_sr(
+    result,
+    robot,
+    trajectory,
+    law: ServoLaw,
+    planned_tau: Callable[[], np.ndarray | None],
+    physics_dt_s: float = 0.001,
+    linear_hold: bool = False,
+) -> IdealSR:
+    """`run_ideal_energy` of a `SimulationResult` of `trajectory` on `robot`'s ideal servo
+    `law` (the default motor sized to its torque limits) and its SR beside the planned one;
+    `planned_tau()` [N·m] (T, n) is asked for only when the plan travels
+    (`battery.MIN_DISTANCE_M`), None: no planned SR."""
+    from app.core.simulation.battery import (
+        MIN_DISTANCE_M,
+        horizontal_travel_m,
+        positive_work_J,
+        specific_resistance,
+    )
+
+    dofs = np.array([joint.idx_v for joint in robot.joints])
+    energy = run_ideal_energy(
+        result, law, dofs, default_motor(law.effort_Nm), physics_dt_s, linear_hold
+    )
+    gravity = float(np.linalg.norm(robot.model.gravity.linear))
+    until = energy_until_s(result)
+    xy = result.q[result.t <= until, :2]
+    distance = horizontal_travel_m(xy)
+    planned = horizontal_travel_m(trajectory.q[:, :2])
+    if planned >= MIN_DISTANCE_M:  # along the planned direction
+        distance = float((xy[-1] - xy[0]) @ (trajectory.q[-1, :2] - trajectory.q[0, :2]))
+        distance /= planned
+    tau = planned_tau() if planned >= MIN_DISTANCE_M else None
+    work = None if tau is None else positive_work_J(tau, trajectory.v[:, dofs], trajectory.dt)
+    return IdealSR(
+        energy=energy,
+        until_s=until,
+        fell=result.fell,
+        distance_m=distance,
+        planned_distance_m=planned,
+        planned_work_J=work,
+        sr_electrical=specific_resistance(
+            float(energy.electrical_J.sum()), robot.mass_kg, distance, gravity
+        ),
+        sr_planned=None
+        if work is None
+        else specific_resistance(work, robot.mass_kg, planned, gravity),
+    )
