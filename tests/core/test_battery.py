@@ -35,14 +35,14 @@ def test_figures_against_closed_forms():
     # One hour drawing 3600 J on a 12 V joint, 7200 J on a 24 V joint, one joint braking.
     energy = _energy([3600.0, 7200.0, -500.0], 3600.0)
     vin = np.array([12.0, 24.0, 12.0])
-    walked = np.array([[0.0, 0.0], [3.0, 4.0]])  # 5 m
+    walked = np.array([[0.0, 0.0], [3.0, 4.0]])  # 5 m, of which 3 m along the plan's x
     planned = np.array([[0.0, 0.0], [6.0, 0.0]])
     f = energy_figures(energy, vin, 6.0, 9.81, walked, planned, 120.0, pack_Wh=10.0)
     assert f.average_power_W == pytest.approx((3600 + 7200) / 3600)  # braking not banked
     assert f.average_current_A == pytest.approx(3600 / 12 / 3600 + 7200 / 24 / 3600)
     assert f.peak_current_A == 2.0 and f.peak_current_bound_A == pytest.approx(3.5)
     assert f.electrical_J == pytest.approx(10300.0)
-    assert f.sr_electrical == pytest.approx(10300.0 / (6.0 * 9.81 * 5.0))
+    assert f.sr_electrical == pytest.approx(10300.0 / (6.0 * 9.81 * 3.0))
     assert f.sr_planned == pytest.approx(120.0 / (6.0 * 9.81 * 6.0))
     # 10 Wh at 3 W: 10/3 h = 200 min.
     assert f.battery_minutes == pytest.approx(200.0)

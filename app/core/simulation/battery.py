@@ -10,7 +10,8 @@ From the parts' electrical energy (`part_law.PartEnergy`, per joint over the run
                              the spring paper's Table 4 measures E at the motors)
     battery                  minutes = 60 · pack_Wh / P̄                 (the motion repeated)
 
-The electrical SR uses the distance the simulated robot's base travelled; the planned SR the
+The electrical SR uses the distance the simulated robot's base travelled along the planned
+direction (`travel_along_plan_m`: a robot that tips sideways has not walked); the planned SR the
 planned work W⁺ = ∫ Σ_j max(τ_j·q̇_j, 0) dt of the feed-forward along the plan, and the planned
 distance. Below MIN_DISTANCE_M (a motion in place) SR is None.
 """
@@ -76,6 +77,17 @@ def horizontal_travel_m(base_xy_m: np.ndarray) -> float:
     return float(np.linalg.norm(base_xy_m[-1] - base_xy_m[0]))
 
 
+def travel_along_plan_m(simulated_xy_m: np.ndarray, planned_xy_m: np.ndarray) -> float:
+    """The simulated base's displacement along the planned one's direction [m] when the plan
+    travels MIN_DISTANCE_M or more (a robot that tips sideways has not walked that far); its
+    horizontal displacement for a motion in place. Both (T, 2)."""
+    planned = horizontal_travel_m(planned_xy_m)
+    if planned < MIN_DISTANCE_M:
+        return horizontal_travel_m(simulated_xy_m)
+    direction = (planned_xy_m[-1] - planned_xy_m[0]) / planned
+    return float((simulated_xy_m[-1] - simulated_xy_m[0]) @ direction)
+
+
 @dataclasses.dataclass(frozen=True)
 class EnergyFigures:
     duration_s: float
@@ -121,7 +133,7 @@ def energy_figures(
         raise BatteryError("the simulation recorded no time: no energy figures")
     drawn = np.maximum(energy.electrical_J, 0.0)
     power = float(drawn.sum()) / duration
-    distance = horizontal_travel_m(simulated_xy_m)
+    distance = travel_along_plan_m(simulated_xy_m, planned_xy_m)
     planned = horizontal_travel_m(planned_xy_m)
     total = float(energy.electrical_J.sum())
     return EnergyFigures(

@@ -240,6 +240,7 @@ def run_ideal_sr(
         horizontal_travel_m,
         positive_work_J,
         specific_resistance,
+        travel_along_plan_m,
     )
 
     dofs = np.array([joint.idx_v for joint in robot.joints])
@@ -249,11 +250,8 @@ def run_ideal_sr(
     gravity = float(np.linalg.norm(robot.model.gravity.linear))
     until = energy_until_s(result)
     xy = result.q[result.t <= until, :2]
-    distance = horizontal_travel_m(xy)
+    distance = travel_along_plan_m(xy, trajectory.q[:, :2])
     planned = horizontal_travel_m(trajectory.q[:, :2])
-    if planned >= MIN_DISTANCE_M:  # along the planned direction
-        distance = float((xy[-1] - xy[0]) @ (trajectory.q[-1, :2] - trajectory.q[0, :2]))
-        distance /= planned
     tau = planned_tau() if planned >= MIN_DISTANCE_M else None
     work = None if tau is None else positive_work_J(tau, trajectory.v[:, dofs], trajectory.dt)
     return IdealSR(
