@@ -40,7 +40,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from app.core.quaternions import wxyz_to_matrix
 from app.core.simulation.errors import SimulationInputError
 
 if TYPE_CHECKING:
@@ -202,10 +201,14 @@ def imu_roll_pitch(quat_wxyz: np.ndarray, omega_body: np.ndarray) -> tuple[np.nd
     """What the IMU reports: the torso's (roll, pitch) [rad] from its orientation (w, x, y, z)
     and their rates [rad/s] from the gyro's ω (the body's angular velocity in its own frame):
     φ̇ = ω_x + tan θ (sin φ ω_y + cos φ ω_z), θ̇ = cos φ ω_y − sin φ ω_z (ZYX Euler rates)."""
-    R = wxyz_to_matrix(quat_wxyz)
-    roll = math.atan2(R[2, 1], R[2, 2])
-    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
-    wx, wy, wz = (float(w) for w in omega_body)
+    w, x, y, z = (float(c) for c in quat_wxyz)  # R's entries (`quaternions.wxyz_to_matrix`)
+    n2 = w * w + x * x + y * y + z * z
+    r00, r10 = 1.0 - 2.0 * (y * y + z * z) / n2, 2.0 * (x * y + z * w) / n2
+    r20, r21 = 2.0 * (x * z - y * w) / n2, 2.0 * (y * z + x * w) / n2
+    r22 = 1.0 - 2.0 * (x * x + y * y) / n2
+    roll = math.atan2(r21, r22)
+    pitch = math.atan2(-r20, math.hypot(r00, r10))
+    wx, wy, wz = (float(c) for c in omega_body)
     s, c = math.sin(roll), math.cos(roll)
     rates = (wx + math.tan(pitch) * (s * wy + c * wz), c * wy - s * wz)
     return np.array([roll, pitch]), np.array(rates)
