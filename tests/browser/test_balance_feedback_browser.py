@@ -17,7 +17,6 @@ from tests.browser.page_helpers import (
     folder,
     generate_motion,
     gui_row_input,
-    open_studio,
     wait_for,
 )
 
@@ -52,10 +51,7 @@ def _tick(page, studio: Studio, on: bool) -> None:
     wait_for("the page's box", lambda: box.is_checked() == on, UI_TIMEOUT_S)
 
 
-def test_the_balance_feedback_box_shows_its_gains_and_names_it_in_the_verdict(
-    browser_page, studio_url: str, studio: Studio
-):
-    page = open_studio(browser_page, studio_url)
+def test_the_balance_feedback_box_shows_its_gains_and_names_it_in_the_verdict(page, studio: Studio):
     generate_motion(page, studio, "com_shift")
     expand_folder(page, "Compensation", "Compute torque feed-forward")
     click_button(page, "Compute torque feed-forward")
