@@ -88,6 +88,21 @@ def add_parser(sub) -> None:
         default=None,
         help="with servo parts: a pack's usable energy [Wh]; prints minutes of the motion repeated",
     )
+    simulate.add_argument(
+        "--balance-feedback",
+        action="store_true",
+        help="run a servo firmware's balance feedback: every 10 ms the torso's roll/pitch error "
+        "(IMU) to offsets on the stance legs' ankle and hip commands (PD, saturated; default "
+        "gains: ankles Kp 1, Kd 0.05 s; hips Kp 0.5, Kd 0.02 s; ≤ 10°); the verdict says so",
+    )
+    simulate.add_argument(
+        "--balance-gain",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="with --balance-feedback, a gain (repeatable): ankle_kp, ankle_kd [s], hip_kp, "
+        "hip_kd [s], max_offset_deg",
+    )
     simulate.add_argument("--friction", type=float, default=0.6, help="floor friction μ")
     simulate.add_argument(
         "--hold",
@@ -256,7 +271,9 @@ def run(args: argparse.Namespace) -> int:
 
     commands, label = _commands(args, robot, traj, inputs, parts, from_project, load, drive)
     stand = _stand_check(robot, traj, servo)
-    results = simulate_commands(robot, traj, commands, servo, options, law=law)
+    results = simulate_commands(
+        robot, traj, commands, servo, options, law=law, balance=_balance(args)
+    )
     main = results[label]
     figures = None
     if parts is not None and main.energy is not None:
@@ -281,6 +298,17 @@ def run(args: argparse.Namespace) -> int:
     if ideal is not None and ideal["sr_planned"] is not None:
         print(_ideal_line(ideal))
     return 0
+
+
+def _balance(args: argparse.Namespace):
+    """The balance feedback's gains (--balance-feedback, --balance-gain), or None: off."""
+    from app.core.simulation.balance_feedback import gains_from_pairs
+
+    if not args.balance_feedback:
+        if args.balance_gain:
+            raise StudioError("--balance-gain goes with --balance-feedback")
+        return None
+    return gains_from_pairs(args.balance_gain)
 
 
 def _ideal_energy(robot, traj, servo, options, main, planned_tau: Callable[[], np.ndarray]) -> dict:
@@ -309,7 +337,8 @@ def _ideal_line(ideal: dict) -> str:
 def _json_report(
     args: argparse.Namespace, robot, traj, results, main, parts, figures, stand, mass_note, sized
 ) -> dict:
-    """What --json prints: the main run's summary, the baseline's, energy and notes."""
+    """What --json prints: the main run's summary (with `balance_feedback`: on, its gains),
+    the baseline's, energy and notes."""
     report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
     report["out"] = None if args.out is None else str(args.out)
     report["stand_check"] = stand
@@ -338,6 +367,10 @@ def _print_report(
             f"error {s['rms_joint_error_deg']:.2f}°, {s['real_time_factor']:.1f}× real time"
             + (output_target(args.out) if result is main else "")
         )
+    if main.balance_feedback is not None:
+        from app.core.simulation.balance_feedback import balance_line
+
+        print(balance_line(main.balance_feedback, main.balance_offsets_rad))
     if main.energy is not None:
         e = main.energy
         print(

@@ -18,6 +18,7 @@ import numpy as np
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
 from app.core.servo.model import ServoModel
+from app.core.simulation.balance_feedback import BalanceGains
 from app.core.simulation.on_plan import OnPlan, on_plan_stance
 from app.core.simulation.result import SimulationResult
 from app.core.simulation.servo_law import ServoLaw
@@ -122,11 +123,18 @@ class SimulationRunner:
         q_cmd_rad: np.ndarray,
         servo: ServoModel,
         law: ServoLaw | None = None,
+        balance: BalanceGains | None = None,
     ) -> Simulation:
         """Check the runs here (SimulationInputError at once) and start them in the worker;
-        `law` replaces the virtual servos' (servo parts)."""
+        `law` replaces the virtual servos' (servo parts); `balance`: both runs with the
+        balance feedback at these gains."""
         job = simulation_job(
-            robot, trajectory, {WITHOUT: q_plan_rad, WITH: q_cmd_rad}, servo, law=law
+            robot,
+            trajectory,
+            {WITHOUT: q_plan_rad, WITH: q_cmd_rad},
+            servo,
+            law=law,
+            balance=balance,
         )
         simulation = Simulation(
             f"simulation-{next(self._ids)}", robot, trajectory, job, time.monotonic()

@@ -18,6 +18,8 @@ import viser
 from app.core.dynamics.wbc import FeedForward
 from app.core.errors import StudioError
 from app.core.servo.model import Prediction
+from app.core.simulation.balance_feedback import LABEL as BALANCE_LABEL
+from app.core.simulation.balance_feedback import BalanceGains
 from app.studio.compare_text import simulation_summary
 from app.studio.ideal_sr_text import IdealSRText
 from app.studio.notifier import Notifier
@@ -46,7 +48,9 @@ class SimulationSession:
 
     def __init__(self, state: StudioState, notifier: Notifier, folder: CompensationFolder) -> None:
         self._state, self._notifier = state, notifier
-        self.panel = SimulationPanel(folder, self)
+        self.panel = SimulationPanel(folder, self, BalanceGains().text())
+        self.balance: BalanceGains | None = None
+        """The balance feedback's gains for the next runs (the panel's box), None: off."""
         self.runner = SimulationRunner(self._on_progress)
         self.runner.finished.connect(self._on_simulated)
         self.refused: Signal[str] = Signal("simulation_refused")
@@ -113,8 +117,9 @@ class SimulationSession:
         servo = coefficients.servo
         try:
             law = simulation_law(robot, servo, self._state.work.parts)  # the servo parts' hook
+            balance = self.balance
             self.runner.start(
-                robot, trajectory, prediction.q_plan_rad, prediction.q_cmd_rad, servo, law
+                robot, trajectory, prediction.q_plan_rad, prediction.q_cmd_rad, servo, law, balance
             )
         except (OSError, RuntimeError) as error:  # the worker process could not start
             self._fail("Cannot simulate", f"the simulation worker did not start: {error}", client)
@@ -127,11 +132,17 @@ class SimulationSession:
         self.panel.show_simulating(0.0)
         self.panel.verdict.content = (
             f"Simulating **{trajectory.name}** without and with compensation "
-            f"({trajectory.duration:.1f} s each)…"
+            f"({trajectory.duration:.1f} s each"
+            + ("" if balance is None else f", with {BALANCE_LABEL}")
+            + ")…"
         )
 
     def cancel_simulation(self) -> None:
         self.runner.cancel()
+
+    def set_balance_feedback(self, on: bool) -> None:
+        """The next runs with the balance feedback at its default gains (on) or without."""
+        self.balance = BalanceGains() if on else None
 
     def _on_progress(self, fraction: float) -> None:
         if self.runner.running is not None:

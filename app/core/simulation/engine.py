@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from app.core.simulation.balance_feedback import BalanceFeedback, Balancer
 from app.core.simulation.blocks import Blocks
 from app.core.simulation.errors import SimulationDiverged, SimulationInputError
 from app.core.simulation.part_law import PartEnergy, PartLaw, PartLoop
@@ -100,6 +101,9 @@ class EngineInput:
     a block of samples per call (`blocks`); False: the law in Python at every
     tick into `qfrc_applied` (`ServoLoop`, the reference the tests compare with). Servo
     parts (`PartLaw`) always run in Python."""
+    balance: BalanceFeedback | None = None
+    """The optional balance feedback (`balance_feedback`): once per sample, the torso's
+    roll/pitch error to the stance legs' ankle and hip commands (while settling too)."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -128,6 +132,8 @@ class EngineRun:
     wall_time_s: float
     energy: PartEnergy | None = None
     """Per-joint energy over the recorded motion, with servo parts (`part_law`)."""
+    balance_offsets_rad: np.ndarray | None = None
+    """What the balance feedback added to each command (T, n) [rad]; None without it."""
 
 
 def pin_to_qpos(sim: SimModel, q_pin: np.ndarray, qpos: np.ndarray) -> None:
@@ -263,13 +269,15 @@ def _engine_run(
         n_simulated=last + 1,
         wall_time_s=time.perf_counter() - begin,
         energy=stepper.servo.energy() if isinstance(stepper.servo, PartLoop) else None,
+        balance_offsets_rad=None if stepper.balancer is None else stepper.balancer.offsets_rad,
     )
 
 
 class _Stepper:
     """The physics a block of samples at a time: the ideal servo's law in MuJoCo's actuators
     (`blocks.Blocks`: set points as ctrl, every tick in C), or a law in Python at every tick
-    (`ServoLoop`, `PartLoop`) into qfrc_applied, a sample at a time."""
+    (`ServoLoop`, `PartLoop`) into qfrc_applied, a sample at a time. With the balance
+    feedback, a block is one sample: its command is corrected first (`Balancer`)."""
 
     def __init__(self, inp: EngineInput, m: Any, d: Any, ctrl_joint: np.ndarray, ticks: int):
         import mujoco
@@ -278,6 +286,10 @@ class _Stepper:
         self._mj = mujoco
         self.in_mujoco = len(ctrl_joint) > 0
         self.commands = np.asarray(inp.q_cmd_rad, dtype=float)
+        self.balancer: Balancer | None = None
+        if inp.balance is not None:  # it corrects the commands in place: a copy of them
+            self.balancer = Balancer(inp.balance, *self.commands.shape)
+            self.planned, self.commands = self.commands, self.commands.copy()
         self.dt = float(m.opt.timestep)
         law, first, av = inp.law, self.commands[0], inp.sim.actuated_dof
         self.servo: ServoLoop = (
@@ -300,22 +312,37 @@ class _Stepper:
         self._blocks: Blocks | None = None
 
     def settle(self) -> None:
-        """Hold the first command for `settle_s` (not recorded)."""
+        """Hold the first command for `settle_s` (not recorded); the balance feedback
+        corrects it every `ticks` steps."""
         command = self.commands[0]
         settle = round(self.inp.settle_s / self.dt)
-        if self.in_mujoco:
-            rows = self.setpoints.hold(command, settle)
-            self._ctrl_steps(rows, command, 0, settle)
-        else:
-            for _ in range(settle):
-                self._apply_torque()
-                self._mj.mj_step(self.m, self.d)
+        spans = [settle] if self.balancer is None else _spans(settle, self.ticks)
+        for span in spans:
+            if self.balancer is not None:
+                command = self.balancer.command(0, self.d.qpos, self.d.qvel, self.planned[0], False)
+            if self.in_mujoco:
+                rows = self.setpoints.hold(command, span)
+                self._ctrl_steps(rows, command, 0, span)
+            else:
+                self.servo.set_command(command)
+                for _ in range(span):
+                    self._apply_torque()
+                    self._mj.mj_step(self.m, self.d)
         if isinstance(self.servo, PartLoop):
             self.servo.reset_energy()
 
     def block(self, k0: int, k1: int, recorder: Recorder) -> None:
         """Record samples [k0, k1), each then holding its command for `ticks` steps (ramped
         to the next one with `linear_hold`), but the motion's last (record only)."""
+        if self.balancer is not None and k1 - k0 > 1:
+            for k in range(k0, k1):
+                self.block(k, k + 1, recorder)
+            return
+        if self.balancer is not None:  # the feedback reads the torso before sample k0 goes
+            self.commands[k0] = self.balancer.command(
+                k0, self.d.qpos, self.d.qvel, self.planned[k0]
+            )
+            self.setpoints.changed(self.commands, k0)
         if self.in_mujoco:
             if self._blocks is None:  # after the settling: its last torque is the first's
                 sim = self.inp.sim
@@ -385,6 +412,11 @@ class _Stepper:
             d.qfrc_applied[self._av] = tau
         else:
             self._qfrc[:] = tau
+
+
+def _spans(ticks: int, every: int) -> list[int]:
+    """`ticks` steps cut into spans of `every` (the last one shorter)."""
+    return [min(every, ticks - start) for start in range(0, ticks, every)]
 
 
 def _contiguous(indices: np.ndarray) -> bool:

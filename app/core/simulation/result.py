@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from app.core.simulation.balance_feedback import BalanceGains
 from app.core.simulation.part_law import PartEnergy
 from app.core.simulation.verdicts import Verdict
 
@@ -27,7 +28,8 @@ class SimulationResult:
     v: np.ndarray
     """Generalised velocities (T, nv), pinocchio layout (base twist in the base frame)."""
     q_cmd_rad: np.ndarray
-    """Servo commands sent [rad], shape (T, n)."""
+    """Servo commands sent [rad], shape (T, n) (with the balance feedback's offsets when it
+    ran)."""
     q_joints_rad: np.ndarray
     """Actuated joint angles [rad], shape (T, n)."""
     tau_Nm: np.ndarray
@@ -63,6 +65,10 @@ class SimulationResult:
     outcome: Verdict | None = None
     """What the run did, with its numbers (`verdict()` is its one line); None in projects
     saved before verdicts had names (`verdict()` then gives the fall test's line)."""
+    balance_feedback: BalanceGains | None = None
+    """The balance feedback's gains when the run had it (`balance_feedback`), else None."""
+    balance_offsets_rad: np.ndarray | None = None
+    """What the feedback added to each command [rad], shape (T, n); None without it."""
 
     @property
     def roll_error_deg(self) -> np.ndarray:
@@ -100,6 +106,10 @@ class SimulationResult:
             "wall_time_s": self.wall_time_s,
             "real_time_factor": self.real_time_factor,
             "notes": list(self.notes),
+            "balance_feedback": {
+                "on": self.balance_feedback is not None,
+                "gains": None if self.balance_feedback is None else self.balance_feedback.to_json(),
+            },
         }
 
 

@@ -21,6 +21,8 @@ from app.core.parent_watch import die_with_parent
 from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams, compensated_command
 from app.core.servo.model import ServoModel, base_roll_pitch, joint_angles
+from app.core.simulation.balance_feedback import LABEL as BALANCE_LABEL
+from app.core.simulation.balance_feedback import BalanceGains, balance_feedback
 from app.core.simulation.engine import EngineInput, EngineRun, run_engine
 from app.core.simulation.errors import SimulationInputError
 from app.core.simulation.mjcf import SimOptions, build_sim_model
@@ -50,10 +52,12 @@ def prepare(
     sim: SimModel | None = None,
     settle_s: float = SETTLE_S,
     law: ServoLaw | None = None,
+    balance: BalanceGains | None = None,
 ) -> EngineInput:
     """Check the inputs and make the step loop's (picklable) input. `sim` saves rebuilding
     the MuJoCo model when several commands run on one robot; `law` replaces the virtual
-    servos' (e.g. `part_servo_law` of real servo parts)."""
+    servos' (e.g. `part_servo_law` of real servo parts); `balance`: run the balance feedback
+    with these gains (`balance_feedback`; None: off)."""
     if tuple(trajectory.joint_names) != robot.joint_names:
         raise SimulationInputError(
             f"motion {trajectory.name!r} was made for other joints than {robot.name}'s; "
@@ -113,6 +117,9 @@ def prepare(
         roll_planned_rad=roll,
         pitch_planned_rad=pitch,
         linear_hold=options.command_hold == "linear",
+        balance=None
+        if balance is None
+        else balance_feedback(robot, trajectory, balance, roll, pitch),
     )
 
 
@@ -172,6 +179,7 @@ def finish(
         trajectory.q[:, :2],
         run.fall_index,
         run.fall_reason,
+        aid="" if inp.balance is None else f"with {BALANCE_LABEL}",
     )
     simulated_s = (done - 1) * trajectory.dt + inp.settle_s
     return SimulationResult(
@@ -181,7 +189,9 @@ def finish(
         t=trajectory.t.copy(),
         q=run.q,
         v=run.v,
-        q_cmd_rad=inp.q_cmd_rad,
+        q_cmd_rad=inp.q_cmd_rad
+        if run.balance_offsets_rad is None
+        else inp.q_cmd_rad + run.balance_offsets_rad,
         q_joints_rad=run.q_joints_rad,
         tau_Nm=run.tau_Nm,
         roll_rad=run.roll_rad,
@@ -202,6 +212,8 @@ def finish(
         real_time_factor=simulated_s / max(run.wall_time_s, 1e-9),
         notes=inp.sim.notes + inp.law.notes,
         energy=run.energy,
+        balance_feedback=None if inp.balance is None else inp.balance.gains,
+        balance_offsets_rad=run.balance_offsets_rad,
     )
 
 
@@ -229,17 +241,21 @@ def simulate_commands(
     parallel: bool | None = None,
     progress: Callable[[float], None] | None = None,
     law: ServoLaw | None = None,
+    balance: BalanceGains | None = None,
 ) -> dict[str, SimulationResult]:
     """Several command sequences (label → q_cmd (T, n) [rad]) on one robot and motion. With
     `parallel` each runs in a spawned process; the results are the same either way. A fresh
     process pays ~0.5 s of imports (numpy, mujoco), so the default runs in parallel only
     when there are two cores and the runs are long (`PARALLEL_MIN_SIMULATED_S` in all).
     `progress(fraction of all runs)` is called as they go (in parallel: when each ends);
-    raising from it stops a sequential run. `law` replaces the virtual servos' (servo parts)."""
+    raising from it stops a sequential run. `law` replaces the virtual servos' (servo parts);
+    `balance`: each run with the balance feedback at these gains (None: off)."""
     sim = build_sim_model(robot, options)
     labels = list(commands)
     inputs = [
-        prepare(robot, trajectory, commands[label], servo, options, sim=sim, law=law)
+        prepare(
+            robot, trajectory, commands[label], servo, options, sim=sim, law=law, balance=balance
+        )
         for label in labels
     ]
     if parallel is None:

@@ -222,6 +222,16 @@ class Setpoints:
         self._on = k if rows is None or self.moving < ticks else -2
         return rows
 
+    def changed(self, commands: np.ndarray, k: int) -> None:
+        """commands[k] was changed in place (the balance feedback's offsets): `hold_sample`'s
+        shortcut is judged again for samples k and k + 1."""
+        if self._small is None or self._small[0] is not commands:
+            return
+        for i in (k, k + 1):
+            if 0 < i < len(commands):
+                step = np.abs(commands[i] - commands[i - 1])
+                self._small[1][i] = bool((step <= self.max_step).all())
+
     def hold(self, command: np.ndarray, ticks: int) -> np.ndarray | None:
         """Set points of `ticks` ticks holding `command`: after i ticks
         s₀ + clip(c − s₀, ±i·ω_max·Δt) (the per-tick slew summed in closed form)."""

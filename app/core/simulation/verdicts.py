@@ -150,12 +150,14 @@ def judge(
     planned_root_xy_m: np.ndarray,
     fall_index: int = -1,
     fall_reason: str = "",
+    aid: str = "",
 ) -> Verdict:
     """The verdict of a run sampled at t_s (T,): planned contacts (T, 2) bool (left, right);
     simulated floor force on each sole (T, 2, 3) [N] and the robot's weight [N]; slide of each
     sole since its touch-down (T, 2) [m]; simulated and planned sole centres (T, 2, 2) [m];
     simulated (MuJoCo's root body) and planned root positions (T, 2) [m]; the first fallen
-    sample (−1: none) and why."""
+    sample (−1: none) and why; `aid`: what helped the run, named after its kind in the text
+    ("with balance feedback": "stays up with balance feedback; …")."""
     t_s = np.asarray(t_s, dtype=float)
     n = len(t_s)
     dt = float(t_s[1] - t_s[0]) if n > 1 else 0.0
@@ -217,7 +219,7 @@ def judge(
         travel=travel,
     )
     kind = _kind(verdict)
-    return dataclasses.replace(verdict, kind=kind, text=_text(verdict, kind))
+    return dataclasses.replace(verdict, kind=kind, text=_text(verdict, kind, aid))
 
 
 def _peak(load: np.ndarray, a: int, b: int, side: int) -> float:
@@ -243,9 +245,9 @@ def _lean_text(v: Verdict) -> str:
     )
 
 
-def _text(v: Verdict, kind: Kind) -> str:
+def _text(v: Verdict, kind: Kind, aid: str = "") -> str:
     """One line: the kind first (as the old verdict: "stays up", "falls at 3.42 s (…)"),
-    then what else happened."""
+    then what else happened; `aid` after the kind's words."""
     if kind == "falls":
         head = f"falls at {v.fall_time_s:.2f} s ({v.fall_reason})"
     elif kind == "leans on the lifted foot":
@@ -256,6 +258,9 @@ def _text(v: Verdict, kind: Kind) -> str:
         )
     else:
         head = "stays up"
+    if aid:
+        words = kind if kind != "falls" else f"falls at {v.fall_time_s:.2f} s"
+        head = head.replace(words, f"{words} {aid}", 1)
     extra = []
     if kind == "falls" and v.lean is not None:
         extra.append(f"before, it leaned on the lifted foot ({_lean_text(v)})")

@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from app.core.motions.trajectory import Trajectory
     from app.core.robot.model import RobotModel
     from app.core.servo.model import ServoModel
+    from app.core.simulation.balance_feedback import BalanceGains
     from app.core.simulation.mjcf import SimOptions
     from app.core.simulation.result import SimulationResult
     from app.core.simulation.servo_law import ServoLaw
@@ -78,16 +79,20 @@ def simulation_job(
     servo: ServoModel,
     options: SimOptions | None = None,
     law: ServoLaw | None = None,
+    balance: BalanceGains | None = None,
 ) -> SimulationJob:
     """Checked, picklable runs (raises SimulationInputError in the caller, not the worker);
-    `law` replaces the virtual servos' (servo parts: `part_law.law_with_parts`)."""
+    `law` replaces the virtual servos' (servo parts: `part_law.law_with_parts`); `balance`:
+    the balance feedback's gains (None: off)."""
     from app.core.simulation.mjcf import build_sim_model
     from app.core.simulation.run import prepare
 
     sim = build_sim_model(robot, options)
     labels = tuple(commands)
     inputs = tuple(
-        prepare(robot, trajectory, commands[label], servo, options, sim=sim, law=law)
+        prepare(
+            robot, trajectory, commands[label], servo, options, sim=sim, law=law, balance=balance
+        )
         for label in labels
     )
     return SimulationJob(labels, inputs)
