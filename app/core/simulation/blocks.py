@@ -72,43 +72,76 @@ class Blocks:
     def run(self, k0: int, k1: int, recorder: Recorder) -> None:
         """Record samples [k0, k1) and hold each one's command but the motion's last (module
         docstring); the live MjData ends at sample k1's state."""
-        mj, m, d, ticks, nq, nv = self._mj, self.m, self.d, self.ticks, self.m.nq, self.m.nv
         holds = min(k1, len(self.commands) - 1) - k0
-        state0 = np.empty(self._nstate)
-        mj.mj_getState(m, d, state0, self._kind)
-        samples = np.empty((k1 - k0, self._nstate))
-        samples[0] = state0
-        tau = np.zeros((holds, len(self._actuated_dof)))
+        state0 = self.state()
+        states = tau = None
         if holds > 0:
             control = self._controls(k0, k0 + holds)
-            states = np.empty((1, holds * ticks, self._nstate))
-            m.opt.disableflags = self._flags_steps
-            self._rollout(
-                [m],
-                [d],
-                state0[None],
-                control[None],
-                skip_checks=True,
-                nstep=holds * ticks,
-                initial_warmstart=d.qacc_warmstart.copy()[None],
-                state=states,
-            )
-            ends = states[0, ticks - 1 :: ticks]  # the state after each hold
-            samples[1:] = ends[: k1 - k0 - 1]
+            states = self._steps(state0, control)
+            ticks, nq = self.ticks, self.m.nq
             # Each hold's last step starts from the state one tick before its end.
-            before = states[0, ticks - 2 :: ticks] if ticks > 1 else samples[:holds]
+            before = states[ticks - 2 :: ticks] if ticks > 1 else self._starts(state0, states)
             tau = self._law(before[:, 1 : 1 + nq], control[ticks - 1 :: ticks])
+        self._record(k0, k1, state0, states, tau, recorder)
+
+    def state(self) -> np.ndarray:
+        """The live MjData's full physics state (`mjSTATE_FULLPHYSICS`)."""
+        state = np.empty(self._nstate)
+        self._mj.mj_getState(self.m, self.d, state, self._kind)
+        return state
+
+    def _steps(self, state0: np.ndarray, control: np.ndarray) -> np.ndarray:
+        """One `mujoco.rollout` of a step per row of `control` (ctrl) from the live MjData
+        at `state0`, warm-started as it is: the state after each step (rows, nstate); the
+        live MjData ends at the last."""
+        states = np.empty((1, len(control), self._nstate))
+        self.m.opt.disableflags = self._flags_steps
+        self._rollout(
+            [self.m],
+            [self.d],
+            state0[None],
+            control[None],
+            skip_checks=True,
+            nstep=len(control),
+            initial_warmstart=self.d.qacc_warmstart.copy()[None],
+            state=states,
+        )
+        return states[0]
+
+    @staticmethod
+    def _starts(state0: np.ndarray, states: np.ndarray) -> np.ndarray:
+        """The state each step of `_steps` starts from: `state0`, then each row but the last."""
+        return np.concatenate([state0[None], states[:-1]])
+
+    def _record(
+        self,
+        k0: int,
+        k1: int,
+        state0: np.ndarray,
+        states: np.ndarray | None,
+        tau: np.ndarray | None,
+        recorder: Recorder,
+    ) -> None:
+        """The rows of samples [k0, k1) from the holds' states (`_steps`, None without a hold)
+        and each hold's last torque `tau` (holds, n): sample k0 at `state0`, each later one at
+        the end of the hold before it (module docstring, 2 and 3)."""
+        mj, m, ticks, nq, nv = self._mj, self.m, self.ticks, self.m.nq, self.m.nv
+        holds = 0 if tau is None else len(tau)
+        samples = np.empty((k1 - k0, self._nstate))
+        samples[0] = state0
+        if states is not None:
+            samples[1:] = states[ticks - 1 :: ticks][: k1 - k0 - 1]  # the state after each hold
         applied = np.zeros((k1 - k0, 1, nv))
         applied[0, 0] = self.torque_before
-        applied[1 : holds + 1, 0, self._actuated_dof] = tau[: k1 - k0 - 1]
-        if holds > 0:
+        if tau is not None and holds > 0:
+            applied[1 : holds + 1, 0, self._actuated_dof] = tau[: k1 - k0 - 1]
             self.torque_before = np.zeros(nv)
             self.torque_before[self._actuated_dof] = tau[-1]
+            recorder.tau[k0 : k0 + holds] = tau
         self._forward(samples, applied, recorder.sensed[k0:k1])
         recorder.time[k0:k1] = samples[:, 0]
         recorder.qpos[k0:k1] = samples[:, 1 : 1 + nq]
         recorder.qvel[k0:k1] = samples[:, 1 + nq : 1 + nq + nv]
-        recorder.tau[k0 : k0 + holds] = tau
         for k in recorder.off_feet(k0, k1).tolist():
             mj.mj_setState(m, self._check, samples[k - k0], self._kind)
             mj.mj_forward(m, self._check)

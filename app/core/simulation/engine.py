@@ -19,9 +19,11 @@ can run in a worker process without pinocchio. Sequence:
 Samples run a block at a time (no longer than `POST_FALL_S`, so a fall never needs a sample
 the block has not made), each block's verdicts checked on its recorded rows (`recording`).
 With the ideal servo in MuJoCo's actuators a block is two calls into C (`blocks`): every
-physics tick in one `mujoco.rollout`, then the samples' forward passes batched; a law in
-Python (`ServoLoop`, servo parts' `PartLoop`) steps tick by tick and records each sample
-after its own forward pass. Both record at sample k the forces under the servo torque of the
+physics tick in one `mujoco.rollout`, then the samples' forward passes batched; servo parts
+too (`part_blocks`: their energy and current limit checked per tick on the rollout's states,
+the samples that reach the limit in Python); a law in Python (`ServoLoop`, `PartLoop`: the
+reference, and parts with m6 friction) steps tick by tick and records each sample after its
+own forward pass. Both record at sample k the forces under the servo torque of the
 step before it (the torque applied as the sample is taken).
 """
 
@@ -38,6 +40,7 @@ import numpy as np
 from app.core.simulation.balance_feedback import BalanceFeedback, Balancer
 from app.core.simulation.blocks import Blocks
 from app.core.simulation.errors import SimulationDiverged, SimulationInputError
+from app.core.simulation.part_blocks import PartBlocks
 from app.core.simulation.part_law import PartEnergy, PartLaw, PartLoop
 from app.core.simulation.recording import (
     FALL_HEIGHT_FRACTION,
@@ -99,8 +102,8 @@ class EngineInput:
     servo_in_mujoco: bool = True
     """The ideal servo's torque computed by MuJoCo's actuators (`servo_law.actuators_xml`),
     a block of samples per call (`blocks`); False: the law in Python at every
-    tick into `qfrc_applied` (`ServoLoop`, the reference the tests compare with). Servo
-    parts (`PartLaw`) always run in Python."""
+    tick into `qfrc_applied` (`ServoLoop`, `PartLoop`: the reference the tests compare
+    with). Servo parts with m6 friction (`PartLaw.in_mujoco`) always run in Python."""
     balance: BalanceFeedback | None = None
     """The optional balance feedback (`balance_feedback`): once per sample, the torso's
     roll/pitch error to the stance legs' ankle and hip commands (while settling too)."""
@@ -173,7 +176,7 @@ def start(inp: EngineInput) -> tuple[Any, Any, np.ndarray, int]:
 
     sim, law = inp.sim, inp.law
     extra, ctrl_joint = sensors_xml(sim), np.zeros(0, dtype=int)
-    if inp.servo_in_mujoco and not isinstance(law, PartLaw):
+    if inp.servo_in_mujoco and (law.in_mujoco if isinstance(law, PartLaw) else True):
         actuators, ctrl_joint = actuators_xml(law, sim.joint_names)
         extra += actuators
     head, tail = sim.xml.rsplit("</mujoco>", 1)
@@ -274,10 +277,11 @@ def _engine_run(
 
 
 class _Stepper:
-    """The physics a block of samples at a time: the ideal servo's law in MuJoCo's actuators
-    (`blocks.Blocks`: set points as ctrl, every tick in C), or a law in Python at every tick
-    (`ServoLoop`, `PartLoop`) into qfrc_applied, a sample at a time. With the balance
-    feedback, a block is one sample: its command is corrected first (`Balancer`)."""
+    """The physics a block of samples at a time: the servo law in MuJoCo's actuators
+    (`blocks.Blocks`: set points as ctrl, every tick in C; servo parts' `PartBlocks`), or a
+    law in Python at every tick (`ServoLoop`, `PartLoop`) into qfrc_applied, a sample at a
+    time. With the balance feedback, a block is one sample: its command is corrected first
+    (`Balancer`)."""
 
     def __init__(self, inp: EngineInput, m: Any, d: Any, ctrl_joint: np.ndarray, ticks: int):
         import mujoco
@@ -309,7 +313,9 @@ class _Stepper:
         self._flags_sample = flags & ~int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
         self._flags_steps = flags | int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
         m.opt.disableflags = self._flags_steps
-        self._blocks: Blocks | None = None
+        self._blocks: Blocks | None = None  # the ideal servo's: made after the settling
+        if self.in_mujoco and isinstance(self.servo, PartLoop):
+            self._blocks = self._new_blocks()  # the parts' settle in it
 
     def settle(self) -> None:
         """Hold the first command for `settle_s` (not recorded); the balance feedback
@@ -320,7 +326,9 @@ class _Stepper:
         for span in spans:
             if self.balancer is not None:
                 command = self.balancer.command(0, self.d.qpos, self.d.qvel, self.planned[0], False)
-            if self.in_mujoco:
+            if isinstance(self._blocks, PartBlocks):
+                self._blocks.hold(command, span)
+            elif self.in_mujoco:
                 rows = self.setpoints.hold(command, span)
                 self._ctrl_steps(rows, command, 0, span)
             else:
@@ -345,22 +353,21 @@ class _Stepper:
             self.setpoints.changed(self.commands, k0)
         if self.in_mujoco:
             if self._blocks is None:  # after the settling: its last torque is the first's
-                sim = self.inp.sim
-                self._blocks = Blocks(
-                    self.m,
-                    self.d,
-                    self.ctrl_joint,
-                    self.ticks,
-                    self.setpoints,
-                    self.commands,
-                    (sim.actuated_qpos, sim.actuated_dof),
-                    self.inp.linear_hold,
-                )
+                self._blocks = self._new_blocks()
             self._blocks.run(k0, k1, recorder)
         else:
             for k in range(k0, k1):
                 self._python_sample(k, recorder, last=k == len(self.commands) - 1)
         recorder.derive(k0, k1)
+
+    def _new_blocks(self) -> Blocks:
+        """The block stepper of the law in MuJoCo (servo parts': `part_blocks`)."""
+        sim = self.inp.sim
+        args = (self.m, self.d, self.ctrl_joint, self.ticks, self.setpoints, self.commands)
+        actuated = (sim.actuated_qpos, sim.actuated_dof)
+        if isinstance(self.servo, PartLoop):
+            return PartBlocks(*args, actuated, self.inp.linear_hold, self.servo)
+        return Blocks(*args, actuated, self.inp.linear_hold)
 
     def _python_sample(self, k: int, recorder: Recorder, last: bool) -> None:
         """Sample k with the law in Python: the forward pass sees the torque the law left in

@@ -59,6 +59,12 @@ class PartLaw(ServoLaw):
     friction, and draw no energy."""
 
     @property
+    def in_mujoco(self) -> bool:
+        """Whether MuJoCo's actuators can step it (`part_blocks`): not with m6 friction, whose
+        budget follows each tick's constraint forces."""
+        return len(self.m6_joints) == 0
+
+    @property
     def back_emf_Nms_per_rad(self) -> np.ndarray:
         return self.kt_Nm_per_A**2 / self.R_ohm
 
@@ -242,6 +248,7 @@ class PartLoop(ServoLoop):
         self._r_over_kt = law.R_ohm / law.kt_Nm_per_A
         n = len(self.setpoint)
         self._current, self._tmp = np.zeros(n), np.zeros(n)
+        self.limited_ticks = 0  # ticks at which the current limit clipped a joint's torque
         self.reset_energy()
 
     def reset_energy(self) -> None:
@@ -255,7 +262,10 @@ class PartLoop(ServoLoop):
         tmp, current = self._tmp, self._current
         if self._limited:  # |τ_explicit − D·q̇| ≤ kt·I_lim
             emf = self.part.back_emf_Nms_per_rad * dq
-            np.clip(tau, emf - self._kt_limit, emf + self._kt_limit, out=tau)
+            lo, hi = emf - self._kt_limit, emf + self._kt_limit
+            if (tau < lo).any() or (tau > hi).any():
+                self.limited_ticks += 1
+            np.clip(tau, lo, hi, out=tau)
         np.multiply(tau, self._inv_kt, out=current)
         current -= np.multiply(dq, self._kt_over_r, out=tmp)
         np.multiply(tau, self._r_over_kt, out=tmp)  # V
@@ -269,6 +279,16 @@ class PartLoop(ServoLoop):
         if len(self._m6):
             self._update_m6(current, dq)
         return tau
+
+    def account(self, tau: np.ndarray, dq: np.ndarray) -> None:
+        """The energy of ticks stepped elsewhere (`part_blocks`): their torques τ (rows, n),
+        already within the current limit, and the speeds q̇ (rows, n) they were applied at;
+        the sums `torque` makes one tick at a time."""
+        current = tau * self._inv_kt - dq * self._kt_over_r
+        self._electrical += ((tau * self._r_over_kt) * current).sum(axis=0)
+        self._sq += (current * current).sum(axis=0)
+        np.maximum(self._peak, np.abs(current).max(axis=0, initial=0.0), out=self._peak)
+        self._ticks += len(tau)
 
     def _update_m6(self, current: np.ndarray, dq: np.ndarray) -> None:
         """BAM's m6 budget of the m6 joints, into MuJoCo's frictionloss for the next step."""

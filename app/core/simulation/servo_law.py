@@ -206,6 +206,12 @@ class Setpoints:
         self._on = -2  # the sample whose command the set point sits on (−2: none known)
         self._small: tuple[np.ndarray, np.ndarray] | None = None  # (commands, within a tick)
 
+    def restart(self, setpoint: np.ndarray) -> None:
+        """The set point is `setpoint` (a state stepped back to, or left by a law in Python),
+        on no sample's command known."""
+        self.setpoint = np.array(setpoint, dtype=float)
+        self.moving, self._on = 0, -2
+
     def hold_sample(self, commands: np.ndarray, k: int, ticks: int) -> np.ndarray | None:
         """`hold(commands[k], ticks)`, with a shortcut for the usual sample: when the set
         point sits on commands[k − 1] and every joint's step to commands[k] is within one
