@@ -38,6 +38,7 @@ from app.core.simulation.part_law import PartLoop, law_with_parts, part_servo_la
 from app.core.simulation.run import prepare
 from app.core.simulation.servo_law import Setpoints, actuators_xml
 from tests.conftest import ROBAN_URDF
+from tests.core.test_servo_parts import PENDULUM as SERVO_PARTS_PENDULUM
 from tests.trajectory_slices import first_samples
 
 CATALOGUE = load_catalogue()
@@ -47,20 +48,8 @@ VISCOUS = 0.011691602145974832
 VIN, KP, GAIN, MAX_PWM = 15.0, 32.0, 0.158, 0.9625
 MASS, ARM = 0.5, 0.25
 
-PENDULUM = """
-<mujoco>
-  <option timestep="0.001" gravity="0 0 -9.81" integrator="implicitfast">
-    <flag energy="enable"/>
-  </option>
-  <worldbody>
-    <body>
-      <joint name="hinge" type="hinge" axis="0 -1 0"/>
-      <geom type="sphere" size="0.01" pos="0.25 0 0" mass="0.5"/>
-    </body>
-  </worldbody>
-  {actuators}
-</mujoco>
-"""
+PENDULUM = SERVO_PARTS_PENDULUM.replace("</mujoco>", "  {actuators}\n</mujoco>")
+"""test_servo_parts' hinge, with the part's actuators in MuJoCo."""
 
 
 def _mx64(**settings):
