@@ -55,12 +55,12 @@ def run(args: argparse.Namespace) -> int:
 
     print(
         f"{'key':12s} {'maker / model':32s} {'V':>5s} {'stall':>6s} {'speed':>5s} {'mass':>6s} "
-        f"{'gear':>6s} {'play':>5s} {'cont.':>5s} {'price':>9s} {'K m1 / m6':>11s} "
+        f"{'gear':>6s} {'play':>5s} {'cont.':>5s} {'price':>11s} {'K m1 / m6':>11s} "
         f"{'1/K m1 / m6':>13s}  simulated as"
     )
     print(
         f"{'':12s} {'':32s} {'':>5s} {'N·m':>6s} {'rpm':>5s} {'g':>6s} {'':>6s} {'°':>5s} "
-        f"{'N·m':>5s} {'':>9s} {'N·m/rad':>11s} {'°/(N·m)':>13s}"
+        f"{'N·m':>5s} {'':>11s} {'N·m/rad':>11s} {'°/(N·m)':>13s}"
     )
     for record in records.values():
         stiffness, compliance = [], []
@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
             f"{record.key:12s} {name:32s} {record.supply_voltage_V:5.1f} "
             f"{record.stall_torque_Nm:6.2f} {record.no_load_speed_rpm:5.0f} "
             f"{record.mass_kg * 1000:6.1f} {record.gear_ratio:6.1f} {play:>5s} {rated:>5s} "
-            f"{price:>9s} "
+            f"{price:>11s} "
             f"{' / '.join(stiffness):>11s} {' / '.join(compliance):>13s}  {simulated_as(record)}"
         )
     print(

@@ -209,6 +209,7 @@ def _commands(
 
 
 def run(args: argparse.Namespace) -> int:
+    from app.core.simulation.experiments import clipped_commands
     from app.core.simulation.files import (
         read_servo_toml,
         sized_servos,
@@ -270,10 +271,14 @@ def run(args: argparse.Namespace) -> int:
         return plan_drive_torque_Nm(robot, traj, tau, servo, law, options) if drive else tau
 
     commands, label = _commands(args, robot, traj, inputs, parts, from_project, load, drive)
+    if args.cmd is None:  # computed commands: clipped to the limits as a servo clips its goal
+        commands, clip_note = clipped_commands(robot, traj.t, commands)
     stand = _stand_check(robot, traj, servo)
     results = simulate_commands(
         robot, traj, commands, servo, options, law=law, balance=_balance(args)
     )
+    for key, one in results.items() if args.cmd is None and clip_note else ():
+        results[key] = dataclasses.replace(one, notes=(str(clip_note), *one.notes))
     main = results[label]
     figures = None
     if parts is not None and main.energy is not None:

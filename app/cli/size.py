@@ -53,6 +53,21 @@ def add_parser(sub) -> None:
     )
     add_user_servos_argument(size)
     size.add_argument(
+        "--servo-toml",
+        type=Path,
+        default=None,
+        metavar="OUT",
+        help="write the choice as a servo.toml for simulate --servo OUT --preset parts (sized "
+        "then over the servos the simulation can run; the closest where none holds a joint)",
+    )
+    size.add_argument(
+        "--kp",
+        type=float,
+        default=None,
+        help="with --servo-toml: the firmware P gain of every joint (default the records'); "
+        "the parts' stiffness, hence whether the robot stands, grows with it",
+    )
+    size.add_argument(
         "--time", action="store_true", help="print how long the sizing itself took (not torques)"
     )
     add_output_arguments(size, None)
@@ -78,6 +93,20 @@ def run(args: argparse.Namespace) -> int:
     catalogue = load_catalogue()
     for path in args.servos:
         catalogue = with_user_servos(catalogue, read_user_servos(path))
+    if args.kp is not None and args.servo_toml is None:
+        raise StudioError("--kp goes with --servo-toml (the firmware P gain it writes)")
+    from app.core.servo.sized_parts import check_kp
+
+    check_kp(args.kp)
+    left_out = []
+    if args.servo_toml is not None:  # parts the simulation can run
+        from app.core.servo.choice import simulatable
+
+        runnable = simulatable(catalogue)
+        left_out = sorted(set(catalogue) - set(runnable))
+        catalogue = runnable
+        if not args.servo_toml.resolve().parent.is_dir():
+            raise StudioError(f"--servo-toml {args.servo_toml}: its folder does not exist")
     inputs = motion_inputs(args)
     robot, traj = inputs.robot, inputs.trajectory
     tau, infeasible = _torques(args, inputs)
@@ -97,6 +126,8 @@ def run(args: argparse.Namespace) -> int:
     seconds = time.perf_counter() - begin
     total = totals(sizing, catalogue)
     notes = list(sizing.notes)
+    if args.servo_toml is not None:
+        notes += _write_parts(args.servo_toml, sizing, args.kp, left_out)
     if flagged:
         notes.append(
             f"{len(flagged)} flagged sample(s) left out (not solved, or a joint over its speed "
@@ -193,3 +224,21 @@ def _project_gaits(args: argparse.Namespace, robot) -> dict:
         if work is not None:
             out[label] = work
     return out
+
+
+def _write_parts(path: Path, sizing, kp: float | None, left_out: list[str]) -> list[str]:
+    """The choice written as a servo.toml (app.core.servo.sized_parts), and what to note."""
+    from app.core.servo.sized_parts import sized_parts
+
+    parts = sized_parts(sizing, kp)
+    path.write_text(parts.text, encoding="utf-8")
+    notes = [f"servo parts written to {path} (simulate --servo {path} --preset parts)"]
+    if left_out:
+        notes.append(
+            f"sized over the servos the simulation can run; left out {', '.join(left_out)}"
+        )
+    if parts.closest:
+        notes.append(
+            f"no servo holds {', '.join(parts.closest)}: the file gives each the closest one"
+        )
+    return notes

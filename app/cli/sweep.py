@@ -38,6 +38,16 @@ def add_parser(sub) -> None:
         action="store_true",
         help="if the scheduler cannot be reached, run on a local cluster instead of failing",
     )
+    sweep.add_argument(
+        "--servo-file",
+        action="append",
+        default=[],
+        type=Path,
+        metavar="FILE",
+        help="a TOML file of your own servos (the catalogue's fields), added to the sweep's "
+        "servo_files: its servos join the choices a part parameter or [part] may name "
+        "(repeatable)",
+    )
     add_output_arguments(sweep, "results table to write: Parquet for .parquet / .pq, CSV otherwise")
 
 
@@ -46,12 +56,11 @@ def run(args: argparse.Namespace) -> int:
     from app.core.sweeps.outcomes import tally
     from app.core.sweeps.results import SweepSummary, pareto_indices, write_results
     from app.core.sweeps.sampling import sweep_points
-    from app.core.sweeps.spec import read_sweep_toml
     from app.sweep_engine import SweepEngine
 
     if args.scheduler is not None and args.workers is not None:
         raise StudioError("--workers sizes the local cluster; a --scheduler has its own workers")
-    spec = read_sweep_toml(args.spec)
+    spec = _read_spec(args.spec, args.servo_file)
     if args.out is not None and not args.out.resolve().parent.is_dir():
         raise StudioError(f"--out {args.out}: its folder does not exist")  # before the sweep
     start = time.perf_counter()
@@ -141,3 +150,17 @@ def run(args: argparse.Namespace) -> int:
         shown = ", ".join(f"{m} = {r.metric(m):.4g}" for m in shown_metrics)
         print(f"  #{i}: {values} → {shown}")
     return 0
+
+
+def _read_spec(path: Path, servo_files: list[Path]):
+    """The sweep file checked into a SweepSpec, the --servo-file files (paths from the working
+    folder) added to its own `servo_files`, every file checked as the key's are."""
+    from app.core.sweeps.part_parameters import read_servo_paths
+    from app.core.sweeps.spec import SweepSpec, sweep_toml_data
+
+    data = sweep_toml_data(path)
+    if servo_files:
+        given = read_servo_paths(servo_files, "--servo-file")
+        kept = data.get("user_servos", [])  # not a list: refused below in one line
+        data["user_servos"] = [*kept, *given] if isinstance(kept, list) else kept
+    return SweepSpec.from_mapping(data, str(path))

@@ -68,7 +68,8 @@ def _brute_force(points_w, points_tau, servos, margin, fraction=CONTINUOUS_FRACT
                 if abs(tp) > s.get("limit", math.inf):
                     ok = False
             rms = math.sqrt(sum(t * t for t in points_tau[:, j]) / len(points_tau))
-            if (1 + margin) * rms > s.get("continuous", fraction * stall):
+            held = min(stall, s.get("limit", math.inf))  # the torque held at rest
+            if (1 + margin) * rms > s.get("continuous", fraction * held):
                 ok = False
             if ok:
                 passing.append((s["mass"], s["key"]))
@@ -161,6 +162,13 @@ def test_envelope_against_the_motor_law_closed_forms():
     assert env.scale(np.array([0.0]), np.array([capped / 2]))[0] == pytest.approx(
         min(2.0, 2 * env.stall_torque_Nm / capped)
     )
+    # Its boundary is the law the simulation runs at full duty: the current limit at low speed,
+    # then the motor line of slope kt²/R (the back-EMF), not a line from the capped torque.
+    m1 = _bam("xl330")
+    assert env.back_emf_Nms_per_rad == pytest.approx(m1["kt"] ** 2 / m1["R"], rel=1e-12)
+    for w in (0.0, 2.0, 8.0, 12.0, 18.0):
+        tau = float(motor_law.drive(1e3, 0.0, w, motor, firmware).torque_Nm)
+        assert env.scale(np.array([w]), np.array([tau]))[0] == pytest.approx(1.0, rel=1e-9)
 
 
 def test_datasheet_envelope_is_the_published_line():

@@ -19,7 +19,8 @@ when every point has s ≥ 1 + m.
 
 Thermal: the RMS torque over the motion against the continuous rating —
 `continuous_torque_Nm` where the record publishes it, else the assumption
-CONTINUOUS_FRACTION_OF_STALL × stall torque (said in the result's notes) — and holds when
+CONTINUOUS_FRACTION_OF_STALL × the torque held at rest (stall, or the current limit where lower;
+said in the result's notes) — and holds when
 (1 + m)·τ_rms ≤ rating.
 
 `size_joints` picks, per joint, the lightest (or cheapest) servo that holds both; None where no
@@ -56,11 +57,18 @@ class Envelope:
     """A servo's torque–speed envelope at its voltage (module docstring)."""
 
     stall_torque_Nm: float
+    """Where the motor line meets ω = 0: kt·vin·max_pwm/R, not capped by the current limit (so
+    the line's slope is the back-EMF's kt²/R, as in the simulation's motor law)."""
     no_load_speed_rad_s: float
     torque_limit_Nm: float
     """kt·current_limit, np.inf where none is set (or the record gives no motor model)."""
     source: str
     """"model m1 at <vin> V" or "datasheet at <V> V"."""
+
+    @property
+    def held_torque_Nm(self) -> float:
+        """The most torque at rest: the stall torque, or the current limit where lower."""
+        return min(self.stall_torque_Nm, self.torque_limit_Nm)
 
     @property
     def back_emf_Nms_per_rad(self) -> float:
@@ -92,7 +100,7 @@ def envelope(record: ServoRecord) -> Envelope:
         motor, firmware = law
         limit = firmware.current_limit_A
         return Envelope(
-            motor_law.stall_torque_Nm(motor, firmware),
+            motor.kt_Nm_per_A * firmware.vin_V * firmware.max_pwm / motor.R_ohm,
             motor_law.no_load_speed_rad_s(motor, firmware),
             math.inf if limit is None else motor.kt_Nm_per_A * limit,
             f"{'datasheet DC model' if (fit := record.fit('m1')) and fit.derived else 'model m1'}"
@@ -110,11 +118,11 @@ def continuous_torque_Nm(
     record: ServoRecord, fraction: float = CONTINUOUS_FRACTION_OF_STALL
 ) -> tuple[float, bool]:
     """(rating [N·m], assumed?): the published continuous torque, else `fraction` of the
-    envelope's stall torque."""
+    torque the envelope holds at rest (its stall torque, or the current limit where lower)."""
     published = record.continuous_torque_Nm
     if published is not None:
         return float(published), False
-    return fraction * envelope(record).stall_torque_Nm, True
+    return fraction * envelope(record).held_torque_Nm, True
 
 
 def check_fraction(fraction: float) -> float:

@@ -10,6 +10,7 @@ k equal to the servos' true compliance, and eq 23 with φ = b/2 in both sign con
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -22,6 +23,37 @@ from app.core.simulation.servo_law import ServoLaw
 
 LIMIT_TOLERANCE_RAD = 1e-9
 """A command this far past a joint limit is on it (rounding), not clipped."""
+
+
+def clip_to_limits(robot: RobotModel, q_cmd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A servo cannot be commanded past its limits: the commands (T, n) clipped to the joints'
+    ranges, and where they were past them (T, n), beyond LIMIT_TOLERANCE_RAD (a planned joint
+    resting on its limit, e.g. Roban S14's elbows at their ready angle, is off it by rounding
+    only)."""
+    lower = np.array([joint.lower for joint in robot.joints])
+    upper = np.array([joint.upper for joint in robot.joints])
+    q = np.asarray(q_cmd, dtype=float)
+    past = (q < lower - LIMIT_TOLERANCE_RAD) | (q > upper + LIMIT_TOLERANCE_RAD)
+    return np.clip(q, lower, upper), past
+
+
+def clipped_commands(
+    robot: RobotModel, t_s: np.ndarray, commands: Mapping[str, np.ndarray]
+) -> tuple[dict[str, np.ndarray], str | None]:
+    """Computed commands by label, clipped to the joint limits (`clip_to_limits`: k·τ pushes
+    a joint planned on its limit past it), and a note saying how many were (None: none)."""
+    out, note = {}, None
+    for label, q in commands.items():
+        out[label], past = clip_to_limits(robot, q)
+        if past.any() and note is None:
+            k, j = np.argwhere(past)[0]
+            note = (
+                f"{int(past.sum())} compensated command(s) past the joint limits clipped to "
+                f"them ({label}), first {robot.joint_names[j]} at t = {t_s[k]:.2f} s by "
+                f"{math.degrees(abs(q[k, j] - out[label][k, j])):.2g}°: a servo is not "
+                "commanded past its limits"
+            )
+    return out, note
 
 
 @dataclasses.dataclass(frozen=True)
@@ -120,16 +152,9 @@ def run_paper_experiment(
         for label, params in compensations(servo.for_joints(robot.joint_names)).items()
         if only is None or label in only
     }
-    lower = np.array([joint.lower for joint in robot.joints])
-    upper = np.array([joint.upper for joint in robot.joints])
-    # A servo cannot be commanded past its limits: clip, and say how often it happened (beyond
-    # LIMIT_TOLERANCE_RAD: a planned joint resting on its limit, e.g. Roban S14's elbows at
-    # their ready angle, is off it by rounding only).
-    clipped = {
-        label: int(np.sum((q < lower - LIMIT_TOLERANCE_RAD) | (q > upper + LIMIT_TOLERANCE_RAD)))
-        for label, q in commands.items()
-    }
-    commands = {label: np.clip(q, lower, upper) for label, q in commands.items()}
+    clips = {label: clip_to_limits(robot, q) for label, q in commands.items()}
+    clipped = {label: int(past.sum()) for label, (_q, past) in clips.items()}
+    commands = {label: q for label, (q, _past) in clips.items()}
     results = simulate_commands(robot, traj, commands, servo, options, law=law)
     rows = []
     for label, result in results.items():

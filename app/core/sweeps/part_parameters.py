@@ -109,19 +109,26 @@ def read_servo_files(value: Any, sweep_file: Path) -> list[dict[str, str]]:
     """A sweep file's `servo_files` (paths, relative ones from the sweep file's folder) read
     into `user_servos` data ([{name, text}]); each file checked as the studio checks an
     upload (app.core.servo.user_files.user_file): one line naming what is wrong."""
+    where = f"{sweep_file}: servo_files"
+    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+        raise SweepSpecError(f'{where}: give a list of file paths, servo_files = ["mine.toml"]')
+    paths = [Path(n) if Path(n).is_absolute() else sweep_file.parent / n for n in value]
+    return read_servo_paths(paths, where)
+
+
+def read_servo_paths(paths: list[Path], where: str) -> list[dict[str, str]]:
+    """User servo files (`servo_files`, or the sweep command's --servo-file) read into
+    `user_servos` data ([{name, text}]), each checked as an upload is; SweepSpecError of one
+    line starting with `where` and naming the file and what is wrong."""
     from app.core import input_gate
     from app.core.errors import StudioError
     from app.core.servo.user_files import MAX_FILE_BYTES, MAX_FILES, user_file
 
-    where = f"{sweep_file}: servo_files"
-    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
-        raise SweepSpecError(f'{where}: give a list of file paths, servo_files = ["mine.toml"]')
-    if len(value) > MAX_FILES:
-        raise SweepSpecError(f"{where}: {len(value)} files; at most {MAX_FILES}")
+    if len(paths) > MAX_FILES:
+        raise SweepSpecError(f"{where}: {len(paths)} files; at most {MAX_FILES}")
     kind = input_gate.FileKind("servo TOML", MAX_FILE_BYTES)
     out = []
-    for name in value:
-        path = Path(name) if Path(name).is_absolute() else sweep_file.parent / name
+    for path in paths:
         try:
             file = user_file(path.name, input_gate.read_bytes(path, kind, SweepSpecError))
         except StudioError as error:
