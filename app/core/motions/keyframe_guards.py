@@ -29,35 +29,40 @@ SOLVE_ITERATIONS = 20
 """IK iterations per sample at most (warm-started, it converges in a few)."""
 
 
-def _contacts(robot: RobotModel, data: pin.Data, stance: Stance) -> np.ndarray:
+def _contacts(robot: RobotModel, placed: dict[str, np.ndarray], stance: Stance) -> np.ndarray:
     """(left, right): stance feet, and feet whose sole is within CONTACT_BAND_M of z = 0
-    (data holds the frame placements of the sample)."""
+    (`placed`: the feet's placements at the sample, by side, 4x4)."""
     flags = np.zeros(2, dtype=bool)
     for i, foot in enumerate(robot.feet):
         if stance in (foot.side, "both"):
             flags[i] = True
             continue
-        T = data.oMf[robot.link_frame_ids[foot.link]]
-        lowest = float((T.rotation @ foot.sole_corners_m.T)[2].min() + T.translation[2])
+        T = placed[foot.side]
+        lowest = float((foot.sole_corners_m @ T[2, :3]).min() + T[2, 3])
         flags[i] = lowest <= CONTACT_BAND_M
     return flags
 
 
 def _shortfalls(
-    robot: RobotModel, data: pin.Data, targets: IkTargets, result: IkResult, q: np.ndarray
+    robot: RobotModel,
+    placed: dict[str, np.ndarray],
+    targets: IkTargets,
+    result: IkResult,
+    q: np.ndarray,
 ) -> list[str]:
     """The IK's warnings, with its reach check redone (REPORT_M, REPORT_RAD) for the moving
     feet and the pelvis, whose horizontal position yields to a CoM target (not reported then).
-    The IK's own reach message is recognised by its wording. `data` holds the frame
-    placements at q, the sample kept; when that is the IK's own answer, its measures of the
-    feet and of a pelvis without a CoM target are the same numbers and are reused."""
+    The IK's own reach message is recognised by its wording. `placed`: the placements of the
+    feet and pelvis at q, the sample kept; when that is the IK's own answer, its measures of the
+    feet and of a pelvis without a CoM target are the same numbers and are reused (and the
+    pelvis's turn)."""
     messages = [m for m in result.warnings if " target out of reach: closest pose" not in m]
     measured = q is result.q
     stance = ("left", "right") if targets.stance == "both" else (targets.stance,)
-    for label, link, T_target in (
-        ("left", robot.foot("left").link, targets.T_world_left),
-        ("right", robot.foot("right").link, targets.T_world_right),
-        ("pelvis", robot.tree.root, targets.T_world_pelvis),
+    for label, T_target in (
+        ("left", targets.T_world_left),
+        ("right", targets.T_world_right),
+        ("pelvis", targets.T_world_pelvis),
     ):
         if T_target is None or label in stance:
             continue
@@ -65,12 +70,15 @@ def _shortfalls(
             distance = result.position_error_m[label]
             angle = result.orientation_error_rad[label]
         else:
-            T = data.oMf[robot.link_frame_ids[link]]
-            miss = T.translation - T_target[:3, 3]
+            T = placed[label]
+            miss = T[:3, 3] - T_target[:3, 3]
             if label == "pelvis" and targets.com_xy is not None:
                 miss[:2] = 0.0
-            turn = pin.log3(T_target[:3, :3].T @ T.rotation)
-            angle = math.sqrt(float(turn.dot(turn)))
+            if measured:
+                angle = result.orientation_error_rad[label]
+            else:
+                turn = pin.log3(T_target[:3, :3].T @ T[:3, :3])
+                angle = math.sqrt(float(turn.dot(turn)))
             distance = math.sqrt(float(miss.dot(miss)))
         if distance >= REPORT_M or angle >= REPORT_RAD:
             messages.append(
@@ -78,6 +86,16 @@ def _shortfalls(
                 f"{np.rad2deg(angle):.1f}° away"
             )
     return messages
+
+
+def _placed(robot: RobotModel, data: pin.Data, q: np.ndarray) -> dict[str, np.ndarray]:
+    """Placements of the feet ("left", "right") and the pelvis at q, 4x4 (`data`: pinocchio
+    data to compute in)."""
+    pin.framesForwardKinematics(robot.model, data, q)
+    ids = robot.link_frame_ids
+    placed = {foot.side: data.oMf[ids[foot.link]].homogeneous for foot in robot.feet}
+    placed["pelvis"] = data.oMf[ids[robot.tree.root]].homogeneous
+    return placed
 
 
 def _keep_stance(
@@ -104,7 +122,8 @@ def _keep_stance(
         )
         if _held_miss_m(retry, targets.stance) <= STANCE_SLIDE_M:
             return retry, [f"{message}: solved without it"]
-    return dataclasses.replace(result, q=q), [f"{message}: the previous pose is kept"]
+    kept = dataclasses.replace(result, q=q, placements={})  # placements: of the pose refused
+    return kept, [f"{message}: the previous pose is kept"]
 
 
 def _continuous(

@@ -45,6 +45,7 @@ from app.core.posing.ik_records import (
     _Ended,
 )
 from app.core.posing.ik_steps import IkStepsMixin
+from app.core.posing.ik_track import one_step
 from app.core.posing.ik_verdict import OUT_OF_REACH, TORSO_TURN_RAD, IkVerdictMixin
 from app.core.posing.shortfall import Bounded
 from app.core.posing.stance import anchor_on_foot
@@ -293,49 +294,20 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
         q = self._anchor(q, {side: self._feet[side].T_world_frame for side in stance_sides})
         return q, iterations
 
-    def solve(
-        self,
-        q_start: np.ndarray,
-        targets: IkTargets,
-        *,
-        com_in_support: bool | None = None,
-        max_iterations: int = 60,
-        step_tolerance: float = 1e-6,
-        stop_when_met: bool = False,
-    ) -> IkResult:
-        """Iterate the QP from q_start towards the targets; never returns NaN.
-
-        stop_when_met: stop at the first step the line search accepts with the goals met to
-        GOAL_MET_COST (the moving foot within 0.1 mm and 1 mrad of its target, the torso hold
-        within 0.1 mrad, the held feet within 10 µm) instead of iterating until the steps
-        vanish: the steps from there trade the light posture task against the goals below
-        what is visible, and most are refused by the line search anyway (a drag event: one
-        QP where the full convergence test takes two or three); also at a small accepted step
-        that lowers a goal cost already below CRAWL_COST by less than CRAWL_GAIN (a crawl along
-        an active constraint). Only for solves whose soft goals are all in the goal cost (no CoM
-        target, no joint hold): a drag."""
+    def _set_tasks(
+        self, targets: IkTargets, placements: dict[str, np.ndarray]
+    ) -> tuple[dict[str, np.ndarray], tuple[str, ...], list[str], bool]:
+        """The tasks set for `targets` (feet held or moving, pelvis, torso hold, CoM target),
+        the feet without a target kept at `placements`. Returns (wanted placements by label,
+        stance sides, warnings, whether no stance foot has a target: held_in_place)."""
         robot = self.robot
-        start = np.array(q_start, dtype=float)
-        self._placed_q = None
-        self._set_posture(robot.q_neutral if targets.posture_q is None else targets.posture_q)
-        ended = self._ended
-        if ended is not None and ended.stance == targets.stance and ended.q == start.tobytes():
-            placements, polygon = ended.placements, ended.polygon
-            self._inside_at_start = ended.com_inside
-        else:
-            pin.framesForwardKinematics(robot.model, self._data, start)
-            placements = {
-                side: self._data.oMf[frame].homogeneous for side, frame in self._foot_ids.items()
-            }
-            polygon = self._polygon_here(targets.stance, placements)
-            self._inside_at_start = None
         stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
         wanted = {}
         self._soft_goals = []
         warnings: list[str] = []
         held_in_place = True
-        """No stance foot has a target: the stance feet stay where they are, and so does the
-        support polygon."""
+        # no stance foot has a target: the stance feet stay where they are, and so does the
+        # support polygon
         for foot in robot.feet:
             given = targets.T_world_left if foot.side == "left" else targets.T_world_right
             held_in_place = held_in_place and (given is None or foot.side not in stance_sides)
@@ -371,6 +343,49 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
         self._com_target = self._ground_com_task(
             self._com_target, targets.com_xy, "com target", COM_TARGET_WEIGHT
         )
+        return wanted, stance_sides, warnings, held_in_place
+
+    def solve(
+        self,
+        q_start: np.ndarray,
+        targets: IkTargets,
+        *,
+        com_in_support: bool | None = None,
+        max_iterations: int = 60,
+        step_tolerance: float = 1e-6,
+        stop_when_met: bool = False,
+        explain: bool = True,
+    ) -> IkResult:
+        """Iterate the QP from q_start towards the targets; never returns NaN.
+
+        explain=False leaves out of the result's shortfall what holds a pose back (a
+        motion's samples report their misses without it).
+
+        stop_when_met: stop at the first step the line search accepts with the goals met to
+        GOAL_MET_COST (the moving foot within 0.1 mm and 1 mrad of its target, the torso hold
+        within 0.1 mrad, the held feet within 10 µm) instead of iterating until the steps
+        vanish: the steps from there trade the light posture task against the goals below
+        what is visible, and most are refused by the line search anyway (a drag event: one
+        QP where the full convergence test takes two or three); also at a small accepted step
+        that lowers a goal cost already below CRAWL_COST by less than CRAWL_GAIN (a crawl along
+        an active constraint). Only for solves whose soft goals are all in the goal cost (no CoM
+        target, no joint hold): a drag."""
+        robot = self.robot
+        start = np.array(q_start, dtype=float)
+        self._placed_q = None
+        self._set_posture(robot.q_neutral if targets.posture_q is None else targets.posture_q)
+        ended = self._ended
+        if ended is not None and ended.stance == targets.stance and ended.q == start.tobytes():
+            placements, polygon = ended.placements, ended.polygon
+            self._inside_at_start = ended.com_inside
+        else:
+            pin.framesForwardKinematics(robot.model, self._data, start)
+            placements = {
+                side: self._data.oMf[frame].homogeneous for side, frame in self._foot_ids.items()
+            }
+            polygon = self._polygon_here(targets.stance, placements)
+            self._inside_at_start = None
+        wanted, stance_sides, warnings, held_in_place = self._set_tasks(targets, placements)
         use_polygon = self.com_in_support if com_in_support is None else com_in_support
 
         def steps() -> tuple[np.ndarray, int]:
@@ -401,7 +416,34 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
             warnings.append(f"IK step failed ({error}); the pose was kept")
             q, iterations = start, 0
         kept = polygon if held_in_place else None
-        return self._result(q, iterations, targets, wanted, warnings, kept)
+        return self._result(q, iterations, targets, wanted, warnings, kept, explain)
+
+    def track(
+        self,
+        q_from: np.ndarray,
+        targets: IkTargets,
+        guess: np.ndarray | None = None,
+        *,
+        com_in_support: bool | None = None,
+        max_iterations: int = 60,
+        explain: bool = True,
+    ) -> IkResult:
+        """The next sample of a motion: q_from is this IK's last answer, the targets moved a
+        little since. One QP step from `guess` (a prediction of the answer; q_from when None)
+        when that step is short enough and its pose reaches the targets, else solve(q_from,
+        targets) (app.core.posing.ik_track). The same record as solve's (`explain` as there);
+        `iterations` is 1 for one step."""
+        use_polygon = self.com_in_support if com_in_support is None else com_in_support
+        result = one_step(self, q_from, targets, guess, use_polygon)
+        if result is not None:
+            return result
+        return self.solve(
+            q_from,
+            targets,
+            com_in_support=com_in_support,
+            max_iterations=max_iterations,
+            explain=explain,
+        )
 
 
 def _above_floor(

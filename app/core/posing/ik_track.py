@@ -1,0 +1,90 @@
+"""The whole-body IK following a motion: one QP step per sample where that converges.
+
+A keyframed motion asks the IK, every 10 ms, for targets a fraction of a millimetre from the
+previous sample's. `WholeBodyIK.solve` iterates to convergence (until a step is shorter than
+1e-6: about three QPs per sample, each judged by a line search on the goal cost). `track`
+starts instead from a prediction of the answer — the previous solution moved on by the
+previous sample's motion, q_k-1 ⊕ (q_k-1 ⊖ q_k-2), within the change of the motion's speed
+over one sample (~1e-4 rad) of it — and takes one Gauss–Newton step (one QP) from there: what
+the step leaves is of the order of its length squared, and the next sample's step corrects it
+in turn. A step longer than TRACK_STEP (a keyframe where the motion turns sharply, a target the
+legs cannot follow), or one whose pose misses a target (REACHED_M, REACHED_RAD: the targets
+compete, and `solve`'s line search settles the compromise), is not trusted alone: the sample
+is solved by `solve` from the previous solution, as before; so are the samples whose situation `solve` handles in ways one step does
+not (the stance changed, the CoM outside the support polygon, a target below the floor, a
+torso hold or a posture of its own, a failed QP). A target further than solve's clamped step
+(MAX_STEP_M, MAX_STEP_RAD) needs no test of its own: clamping shapes only the way there, and
+a single step that ends within REACHED_M of every target ends where solve's iterations do.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from app.core.posing.ik_records import IkResult, IkTargets, _Ended
+from app.core.robot.loops import close_loops
+
+if TYPE_CHECKING:
+    from app.core.posing.ik import WholeBodyIK
+
+TRACK_STEP = 1e-3
+"""[rad or m, the norm of the configuration step] A predicted start whose one QP step is
+shorter than this is taken as solved: the step's own error is of the order of its square
+(Gauss–Newton from within 1e-3: ~1e-6 and below, where solve's iterations stop)."""
+
+
+def one_step(
+    ik: WholeBodyIK,
+    q_from: np.ndarray,
+    targets: IkTargets,
+    guess: np.ndarray | None,
+    use_polygon: bool,
+) -> IkResult | None:
+    """The single-step answer of WholeBodyIK.track (module docstring), or None when `solve`
+    must answer."""
+    ended = ik._ended
+    if not _trackable(ended, q_from, targets, use_polygon):
+        return None
+    assert ended is not None
+    robot = ik.robot
+    ik._placed_q = None
+    ik._set_posture(robot.q_neutral)
+    wanted, stance_sides, warnings, held_in_place = ik._set_tasks(targets, ended.placements)
+    if warnings:
+        return None  # a target below the floor: solve aims above it
+    wrapper = ik._wrapper
+    wrapper.state.q = q_from if guess is None else guess
+    wrapper.update_kinematics()
+    ik._set_polygon(use_polygon, ended.polygon if use_polygon else None)
+    ik._set_com_pull(None)
+    ik._push_polygon()
+    try:
+        dq = ik._solver.solve(True)  # placo applies the step: wrapper.state.q = guess ⊕ dq
+    except RuntimeError:
+        return None  # solve knows what to do (a rank-deficient stance: held by weight)
+    if not float(dq.dot(dq)) <= TRACK_STEP * TRACK_STEP:  # also NaN
+        return None
+    q = wrapper.state.q.copy()
+    if robot.tree.loops:
+        q = close_loops(robot, q, ik._data).q
+    q = ik._anchor(q, {side: wanted[side] for side in stance_sides})
+    kept = ended.polygon if held_in_place else None
+    result = ik._result(q, 1, targets, wanted, warnings, kept, explain=False)
+    return result if result.reached else None
+
+
+def _trackable(
+    ended: _Ended | None, q_from: np.ndarray, targets: IkTargets, use_polygon: bool
+) -> bool:
+    """Whether q_from is where the IK's last solve ended, with this stance and (when the polygon
+    is used) the CoM inside it, and the targets ask for nothing only solve does."""
+    return (
+        ended is not None
+        and ended.stance == targets.stance
+        and (ended.com_inside or not use_polygon)
+        and targets.posture_q is None
+        and targets.R_world_torso is None
+        and ended.q == q_from.tobytes()
+    )
