@@ -24,12 +24,11 @@ SAME_Q = 1e-3
 before."""
 
 
-
 class _PreviousIk(previous_ik.WholeBodyIK):
     """The previous IK answering solve's `explain` (ignored: it had no shortfall) with the
     result record interpolate reads now (no placements: interpolate measures them itself)."""
 
-    def solve(self, q_start, targets, *, explain=True, **options):  # noqa: ARG002
+    def solve(self, q_start, targets, *, explain=True, **options):
         return IkResult(**dataclasses.asdict(super().solve(q_start, targets, **options)))
 
 

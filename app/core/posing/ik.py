@@ -111,9 +111,13 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
             "left": self._solver.add_frame_task(left, np.eye(4)),
             "right": self._solver.add_frame_task(right, np.eye(4)),
         }
+        self._held_at: dict[str, bytes] = {}
+        """The target each held foot's task holds, as bytes (a motion's segment gives the same
+        one to every sample: placo is not handed it again)."""
         self._foot_settings: dict[str, tuple[str, float]] = {}
         """(priority, weight) each foot task was last configured with."""
         self._pelvis_frame = robot.tree.root
+        self._pelvis_id = robot.link_frame_ids[robot.tree.root]
         self._pelvis: placo.FrameTask | None = None
         """The pelvis task while a solve has a pelvis target (added then, removed after: see
         _com_target)."""
@@ -316,10 +320,14 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
             if foot.side not in stance_sides:
                 aim = _above_floor(wanted[foot.side], foot.sole_corners_m, foot.side, warnings)
                 task.T_world_frame = aim
+                self._held_at.pop(foot.side, None)
                 self._configure_foot(foot.side, "moving")
                 self._soft_goals.append((task, foot.link, aim))
                 continue
-            task.T_world_frame = wanted[foot.side]
+            exact = wanted[foot.side].tobytes()
+            if exact != self._held_at.get(foot.side):
+                task.T_world_frame = wanted[foot.side]
+                self._held_at[foot.side] = exact
             self._configure_foot(foot.side, "held")
         if targets.T_world_pelvis is not None:
             wanted["pelvis"] = np.asarray(targets.T_world_pelvis)
@@ -332,14 +340,6 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
             self._solver.remove_task(self._pelvis)
             self._pelvis = None
         self._hold_torso(None if targets.T_world_pelvis is not None else targets.R_world_torso)
-        self._held_parts = [
-            (robot.foot(side).link, wanted[side][:3, 3].copy(), wanted[side][:3, :3].copy())
-            for side in stance_sides
-        ]
-        self._aimed = [goal for _, _, goal in self._soft_goals]
-        self._goal_parts = [
-            (frame, goal[:3, 3].copy(), goal[:3, :3].copy()) for _, frame, goal in self._soft_goals
-        ]
         self._com_target = self._ground_com_task(
             self._com_target, targets.com_xy, "com target", COM_TARGET_WEIGHT
         )
@@ -386,6 +386,14 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
             polygon = self._polygon_here(targets.stance, placements)
             self._inside_at_start = None
         wanted, stance_sides, warnings, held_in_place = self._set_tasks(targets, placements)
+        self._held_parts = [
+            (robot.foot(side).link, wanted[side][:3, 3].copy(), wanted[side][:3, :3].copy())
+            for side in stance_sides
+        ]
+        self._aimed = [goal for _, _, goal in self._soft_goals]
+        self._goal_parts = [
+            (frame, goal[:3, 3].copy(), goal[:3, :3].copy()) for _, frame, goal in self._soft_goals
+        ]
         use_polygon = self.com_in_support if com_in_support is None else com_in_support
 
         def steps() -> tuple[np.ndarray, int]:

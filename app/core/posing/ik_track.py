@@ -19,11 +19,13 @@ a single step that ends within REACHED_M of every target ends where solve's iter
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
+import pinocchio as pin
 
-from app.core.posing.ik_records import IkResult, IkTargets, _Ended
+from app.core.posing.ik_records import REACHED_M, REACHED_RAD, IkResult, IkTargets, _Ended
 from app.core.robot.loops import close_loops
 
 if TYPE_CHECKING:
@@ -70,9 +72,55 @@ def one_step(
     if robot.tree.loops:
         q = close_loops(robot, q, ik._data).q
     q = ik._anchor(q, {side: wanted[side] for side in stance_sides})
-    kept = ended.polygon if held_in_place else None
-    result = ik._result(q, 1, targets, wanted, warnings, kept, explain=False)
-    return result if result.reached else None
+    return _verdict(ik, q, targets, wanted, ended.polygon if held_in_place else None)
+
+
+def _verdict(
+    ik: WholeBodyIK,
+    q: np.ndarray,
+    targets: IkTargets,
+    wanted: dict[str, np.ndarray],
+    polygon: np.ndarray | None,
+) -> IkResult | None:
+    """The result of a single step at q (ik._data's frames placed there by _anchor) when it
+    reaches every target (what WholeBodyIK._result says of such a pose, measured the same
+    way), else None: no text to write, no shortfall to explain."""
+    robot, oMf = ik.robot, ik._data.oMf
+    placed = {side: oMf[frame].homogeneous for side, frame in ik._foot_ids.items()}
+    if "pelvis" in wanted:
+        placed["pelvis"] = oMf[ik._pelvis_id].homogeneous
+    position_error, orientation_error = {}, {}
+    for label, T_target in wanted.items():
+        T = placed[label]
+        delta = T[:3, 3] - T_target[:3, 3]
+        distance = math.sqrt(float(delta.dot(delta)))
+        turn = pin.log3(T_target[:3, :3].T.dot(T[:3, :3]))
+        angle = math.sqrt(float(turn.dot(turn)))
+        if distance >= REACHED_M or angle >= REACHED_RAD:
+            return None
+        position_error[label], orientation_error[label] = distance, angle
+    com_xy = np.array(pin.centerOfMass(robot.model, ik._data, False)[:2])
+    if targets.com_xy is not None:
+        miss = com_xy - np.asarray(targets.com_xy)[:2]
+        position_error["com"] = math.sqrt(float(miss.dot(miss)))
+        if position_error["com"] >= REACHED_M:
+            return None
+    if polygon is None:
+        polygon = ik._polygon_here(targets.stance, placed)
+    margin = ik._margin_of(com_xy, polygon)
+    ik._ended = _Ended(q.tobytes(), targets.stance, placed, polygon, margin >= 0.0)
+    return IkResult(
+        q,
+        True,
+        1,
+        position_error,
+        orientation_error,
+        margin,
+        ik._near_limits(q),
+        (),
+        (),
+        placed,
+    )
 
 
 def _trackable(

@@ -121,15 +121,6 @@ class IkVerdictMixin(SupportPolygonMixin):
             polygon,
             margin >= 0.0,
         )
-        angles = q[self._bounded_q]
-        room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
-        near: tuple[str, ...] = ()
-        if room.size and room.min() < NEAR_LIMIT_RAD:
-            near = tuple(
-                name
-                for name, close in zip(self._bounded_names, room < NEAR_LIMIT_RAD, strict=True)
-                if close
-            )
         return IkResult(
             q,
             reached,
@@ -137,10 +128,22 @@ class IkVerdictMixin(SupportPolygonMixin):
             position_error,
             orientation_error,
             margin,
-            near,
+            self._near_limits(q),
             tuple(warnings),
             tuple(shortfall),
             placed,
+        )
+
+    def _near_limits(self, q: np.ndarray) -> tuple[str, ...]:
+        """The joints within NEAR_LIMIT_RAD of a limit at q."""
+        angles = q[self._bounded_q]
+        room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
+        if not (room.size and room.min() < NEAR_LIMIT_RAD):
+            return ()
+        return tuple(
+            name
+            for name, close in zip(self._bounded_names, room < NEAR_LIMIT_RAD, strict=True)
+            if close
         )
 
     def _blockers(
