@@ -80,3 +80,5 @@ class _Ended:
     placements: dict[str, np.ndarray]
     polygon: np.ndarray
     com_inside: bool
+    reached: bool = True
+    """Whether its result reached every target (a motion's next sample is then tracked)."""

@@ -7,12 +7,13 @@ starts instead from a prediction of the answer — the previous solution moved o
 previous sample's motion, q_k-1 ⊕ (q_k-1 ⊖ q_k-2), within the change of the motion's speed
 over one sample (~1e-4 rad) of it — and takes one Gauss–Newton step (one QP) from there: what
 the step leaves is of the order of its length squared, and the next sample's step corrects it
-in turn. A step longer than TRACK_STEP (a keyframe where the motion turns sharply, a target the
-legs cannot follow), or one whose pose misses a target (REACHED_M, REACHED_RAD: the targets
-compete, and `solve`'s line search settles the compromise), is not trusted alone: the sample
-is solved by `solve` from the previous solution, as before; so are the samples whose situation `solve` handles in ways one step does
-not (the stance changed, the CoM outside the support polygon, a target below the floor, a
-torso hold or a posture of its own, a failed QP). A target further than solve's clamped step
+in turn. A step longer than TRACK_STEP (a keyframe where the motion turns sharply, a target
+the legs cannot follow), or one whose pose misses a target (REACHED_M, REACHED_RAD: the
+targets compete, and `solve`'s line search settles the compromise), is not trusted alone: the
+sample is solved by `solve` from the previous solution, as before; so are the samples after
+one that missed a target, and those whose situation `solve` handles in ways one step does not
+(the stance changed, the CoM outside the support polygon, a target below the floor, a torso
+hold or a posture of its own, a failed QP). A target further than solve's clamped step
 (MAX_STEP_M, MAX_STEP_RAD) needs no test of its own: clamping shapes only the way there, and
 a single step that ends within REACHED_M of every target ends where solve's iterations do.
 """
@@ -126,11 +127,14 @@ def _verdict(
 def _trackable(
     ended: _Ended | None, q_from: np.ndarray, targets: IkTargets, use_polygon: bool
 ) -> bool:
-    """Whether q_from is where the IK's last solve ended, with this stance and (when the polygon
-    is used) the CoM inside it, and the targets ask for nothing only solve does."""
+    """Whether q_from is where the IK's last solve ended, with this stance, every target reached
+    (where the last sample missed one, the targets compete and the next sample's most likely
+    do too: solve answers without a step tried first) and (when the polygon is used) the CoM
+    inside it, and the targets ask for nothing only solve does."""
     return (
         ended is not None
         and ended.stance == targets.stance
+        and ended.reached
         and (ended.com_inside or not use_polygon)
         and targets.posture_q is None
         and targets.R_world_torso is None

@@ -120,6 +120,7 @@ class IkVerdictMixin(SupportPolygonMixin):
             placed,
             polygon,
             margin >= 0.0,
+            reached,
         )
         return IkResult(
             q,
