@@ -96,7 +96,7 @@ def _run(robot, keyframes, tracking: bool) -> dict[str, Any]:
         def __getattr__(self, name: str):
             return getattr(solver, name)
 
-    ik._solver = TimedSolver()  # type: ignore[assignment]
+    ik._solver = TimedSolver()
     with stopwatch() as lap:
         result = interpolate(robot, keyframes, dt=0.01, ik=ik, tracking=tracking)
     return {

@@ -35,6 +35,11 @@ def trapezoid(tau: float, ramp: float = TRAPEZOID_RAMP) -> float:
     return peak * (tau - 0.5 * ramp)
 
 
+def min_jerk_many(tau: np.ndarray) -> np.ndarray:
+    """`min_jerk` of each τ in an array."""
+    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+
+
 def trapezoid_many(tau: np.ndarray, ramp: float = TRAPEZOID_RAMP) -> np.ndarray:
     """`trapezoid` of each τ in an array."""
     peak = 1.0 / (1.0 - ramp)

@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 
-from app.core.motions.interpolant import Blend, min_jerk, trapezoid_many
+from app.core.motions.interpolant import Blend, min_jerk_many, trapezoid_many
 from app.core.motions.keyframe_guards import CONTACT_BAND_M
 from app.core.motions.keyframe_records import Keyframe, _foot
 from app.core.posing.ik import IkTargets
@@ -28,7 +28,7 @@ def segment_targets(
     module docstring); `start`: where the feet, pelvis and CoM were when the segment started
     (keyframe_guards._where). Stance feet are held where they stood then; moving-foot targets
     that dip less than CONTACT_BAND_M below the floor are put on it (on_floor)."""
-    s = trapezoid_many(tau) if after.profile == "trapezoid" else min_jerk(tau)
+    s = trapezoid_many(tau) if after.profile == "trapezoid" else min_jerk_many(tau)
     stance = after.stance
     feet: dict[str, np.ndarray | list[np.ndarray]] = {}
     for foot in robot.feet:
