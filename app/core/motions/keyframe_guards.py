@@ -13,7 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from app.core.motions.continuity import limit_joint_steps
-from app.core.posing.ik import IkResult, IkTargets, Stance, WholeBodyIK
+from app.core.posing.ik import REACHED_M, REACHED_RAD, IkResult, IkTargets, Stance, WholeBodyIK
 from app.core.robot.model import RobotModel
 
 CONTACT_BAND_M = 1e-3
@@ -22,6 +22,7 @@ STANCE_SLIDE_M = 5e-4
 """A sample whose stance feet are further than this from where they stood at the start of
 the segment is re-solved (see _keep_stance)."""
 REPORT_M, REPORT_RAD = 2e-3, np.deg2rad(1.0)
+assert REPORT_M >= REACHED_M and REPORT_RAD >= REACHED_RAD  # a reached target is not reported
 """A pelvis or moving-foot target missed by less than this is not reported: between
 keyframes the interpolated targets are not exactly consistent with each other (only the
 keyframes are), and the IK's compromise can leave ~1 mm."""
@@ -56,8 +57,10 @@ def _shortfalls(
     feet and pelvis at q, the sample kept; when that is the IK's own answer, its measures of the
     feet and of a pelvis without a CoM target are the same numbers and are reused (and the
     pelvis's turn)."""
-    messages = [m for m in result.warnings if " target out of reach: closest pose" not in m]
     measured = q is result.q
+    if measured and result.reached and not result.warnings:
+        return []  # every target within REACHED_M and REACHED_RAD: inside REPORT_M, REPORT_RAD
+    messages = [m for m in result.warnings if " target out of reach: closest pose" not in m]
     stance = ("left", "right") if targets.stance == "both" else (targets.stance,)
     for label, T_target in (
         ("left", targets.T_world_left),

@@ -12,9 +12,12 @@ previous keyframe. `interpolate` samples the motion every dt seconds:
   chord from its previous placement: p = p0 + ½(1 − cos φ)·(p1 − p0) + h·sin φ·ẑ with the
   phase φ = π·s(τ) (the stepping path of the hybrid-leg paper, Sec. 4.1);
 - each sample is solved by WholeBodyIK warm-started from the previous sample, with the stance
-  feet of the segment held where they stood when it started; a sample that would still slide
-  one (the IK's hold is a heavy soft task, and an unreachable CoM target can pull it) is
-  solved again without the CoM target, or keeps the previous pose, and says so;
+  feet of the segment held where they stood when it started: one QP step from the previous
+  solution moved on by the previous sample's motion where that step is short and reaches the
+  targets (WholeBodyIK.track: app.core.posing.ik_track), else iterated to convergence as
+  `tracking=False` does for every sample; a sample that would still slide one (the IK's
+  hold is a heavy soft task, and an unreachable CoM target can pull it) is solved again
+  without the CoM target, or keeps the previous pose, and says so;
 - when a keyframe gives both the pelvis and the CoM, the CoM's ground projection takes
   precedence over the pelvis's horizontal position (the IK weighs it 10×, and the two are only
   consistent at the keyframes): a horizontal pelvis miss is not reported, its height and
