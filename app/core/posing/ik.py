@@ -21,9 +21,13 @@ torso hold).
 Each `solve` iterates the QP from the given configuration until the step vanishes, or (a drag:
 stop_when_met) until an accepted step meets the goals to GOAL_MET_COST.
 
+`track` answers a motion's next sample with one QP step from a prediction where that step
+converges, and with `solve` otherwise (ik_track).
+
 This module builds the tasks and runs a solve; its parts live beside it: ik_records (targets,
 result, shared weights), support_polygon (the polygon and the CoM constraint), ik_steps (the
-iterations and their stop rule), ik_verdict (reached or not, and why).
+iterations and their stop rule), ik_verdict (reached or not, and why), ik_track (a motion's
+samples).
 """
 
 from __future__ import annotations
