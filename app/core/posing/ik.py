@@ -49,8 +49,8 @@ from app.core.posing.ik_records import (
     _Ended,
 )
 from app.core.posing.ik_steps import IkStepsMixin
-from app.core.posing.ik_track import one_step
-from app.core.posing.ik_verdict import OUT_OF_REACH, TORSO_TURN_RAD, IkVerdictMixin
+from app.core.posing.ik_track import IkTrackMixin
+from app.core.posing.ik_verdict import OUT_OF_REACH, TORSO_TURN_RAD
 from app.core.posing.shortfall import Bounded
 from app.core.posing.stance import anchor_on_foot
 from app.core.posing.support_polygon import OFF_POLYGON
@@ -86,7 +86,7 @@ feet of a 5-DOF-leg robot (dircon_biped) held, hard 6-D equalities are rank-defi
 the QP fails, while a consistent soft target is still met to ~1e-9 m."""
 
 
-class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
+class WholeBodyIK(IkStepsMixin, IkTrackMixin):
     """An IK solver bound to one robot. Not thread-safe: one per user of the robot."""
 
     def __init__(
@@ -429,33 +429,6 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
             q, iterations = start, 0
         kept = polygon if held_in_place else None
         return self._result(q, iterations, targets, wanted, warnings, kept, explain)
-
-    def track(
-        self,
-        q_from: np.ndarray,
-        targets: IkTargets,
-        guess: np.ndarray | None = None,
-        *,
-        com_in_support: bool | None = None,
-        max_iterations: int = 60,
-        explain: bool = True,
-    ) -> IkResult:
-        """The next sample of a motion: q_from is this IK's last answer, the targets moved a
-        little since. One QP step from `guess` (a prediction of the answer; q_from when None)
-        when that step is short enough and its pose reaches the targets, else solve(q_from,
-        targets) (app.core.posing.ik_track). The same record as solve's (`explain` as there);
-        `iterations` is 1 for one step."""
-        use_polygon = self.com_in_support if com_in_support is None else com_in_support
-        result = one_step(self, q_from, targets, guess, use_polygon)
-        if result is not None:
-            return result
-        return self.solve(
-            q_from,
-            targets,
-            com_in_support=com_in_support,
-            max_iterations=max_iterations,
-            explain=explain,
-        )
 
 
 def _above_floor(
