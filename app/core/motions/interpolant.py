@@ -4,7 +4,8 @@
 - trapezoid: a trapezoidal speed profile (constant acceleration for a ramp fraction of the
   segment, cruise, symmetric braking), the hybrid-leg paper's "T-shaped" curve (Sec. 4.1);
 - blend: position lerp and rotation slerp, R0·exp(s·log(R0ᵀR1)); Blend does the same with
-  what does not depend on s computed once (a segment's samples all blend the same two ends).
+  what does not depend on s computed once (a segment's samples all blend the same two ends),
+  for one s or (`at_many`) for a whole segment's samples at once.
 """
 
 from __future__ import annotations
@@ -32,6 +33,23 @@ def trapezoid(tau: float, ramp: float = TRAPEZOID_RAMP) -> float:
     if tau > 1.0 - ramp:
         return 1.0 - 0.5 * peak * (1.0 - tau) ** 2 / ramp
     return peak * (tau - 0.5 * ramp)
+
+
+def min_jerk_many(tau: np.ndarray) -> np.ndarray:
+    """`min_jerk` of each τ in an array."""
+    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+
+
+def trapezoid_many(tau: np.ndarray, ramp: float = TRAPEZOID_RAMP) -> np.ndarray:
+    """`trapezoid` of each τ in an array."""
+    peak = 1.0 / (1.0 - ramp)
+    return np.where(
+        tau < ramp,
+        0.5 * peak * tau**2 / ramp,
+        np.where(
+            tau > 1.0 - ramp, 1.0 - 0.5 * peak * (1.0 - tau) ** 2 / ramp, peak * (tau - 0.5 * ramp)
+        ),
+    )
 
 
 def blend(T0: np.ndarray, T1: np.ndarray, s: float) -> np.ndarray:
@@ -66,3 +84,26 @@ class Blend:
         T[:3, 3] = self.position + s * self.span
         T[:3, :3] = self.rotation @ pin.exp3(s * self.turn)
         return T
+
+    def at_many(self, s: np.ndarray) -> np.ndarray:
+        """`at` of each s in an array (m,): placements (m, 4, 4). The rotation's exponential
+        by Rodrigues' formula, exp(φ·[u]×) = I + sin φ·[u]× + (1 − cos φ)·[u]×², u the unit axis
+        of `turn`, φ = s·|turn|."""
+        s = np.asarray(s, dtype=float)
+        out = np.zeros((s.size, 4, 4))
+        out[:, 3, 3] = 1.0
+        out[:, :3, 3] = self.position + s[:, None] * self.span
+        angle = float(np.sqrt(self.turn @ self.turn))
+        if angle == 0.0:
+            out[:, :3, :3] = self.rotation
+            return out
+        x, y, z = self.turn / angle
+        K = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+        phi = s * angle
+        exp = (
+            np.eye(3)
+            + np.sin(phi)[:, None, None] * K
+            + (1.0 - np.cos(phi))[:, None, None] * (K @ K)
+        )
+        out[:, :3, :3] = self.rotation @ exp
+        return out

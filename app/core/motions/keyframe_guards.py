@@ -13,7 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from app.core.motions.continuity import limit_joint_steps
-from app.core.posing.ik import IkResult, IkTargets, Stance, WholeBodyIK
+from app.core.posing.ik import REACHED_M, REACHED_RAD, IkResult, IkTargets, Stance, WholeBodyIK
 from app.core.robot.model import RobotModel
 
 CONTACT_BAND_M = 1e-3
@@ -22,6 +22,7 @@ STANCE_SLIDE_M = 5e-4
 """A sample whose stance feet are further than this from where they stood at the start of
 the segment is re-solved (see _keep_stance)."""
 REPORT_M, REPORT_RAD = 2e-3, np.deg2rad(1.0)
+assert REPORT_M >= REACHED_M and REPORT_RAD >= REACHED_RAD  # a reached target is not reported
 """A pelvis or moving-foot target missed by less than this is not reported: between
 keyframes the interpolated targets are not exactly consistent with each other (only the
 keyframes are), and the IK's compromise can leave ~1 mm."""
@@ -29,35 +30,42 @@ SOLVE_ITERATIONS = 20
 """IK iterations per sample at most (warm-started, it converges in a few)."""
 
 
-def _contacts(robot: RobotModel, data: pin.Data, stance: Stance) -> np.ndarray:
+def _contacts(robot: RobotModel, placed: dict[str, np.ndarray], stance: Stance) -> np.ndarray:
     """(left, right): stance feet, and feet whose sole is within CONTACT_BAND_M of z = 0
-    (data holds the frame placements of the sample)."""
+    (`placed`: the feet's placements at the sample, by side, 4x4)."""
     flags = np.zeros(2, dtype=bool)
     for i, foot in enumerate(robot.feet):
         if stance in (foot.side, "both"):
             flags[i] = True
             continue
-        T = data.oMf[robot.link_frame_ids[foot.link]]
-        lowest = float((T.rotation @ foot.sole_corners_m.T)[2].min() + T.translation[2])
+        T = placed[foot.side]
+        lowest = float((foot.sole_corners_m @ T[2, :3]).min() + T[2, 3])
         flags[i] = lowest <= CONTACT_BAND_M
     return flags
 
 
 def _shortfalls(
-    robot: RobotModel, data: pin.Data, targets: IkTargets, result: IkResult, q: np.ndarray
+    robot: RobotModel,
+    placed: dict[str, np.ndarray],
+    targets: IkTargets,
+    result: IkResult,
+    q: np.ndarray,
 ) -> list[str]:
     """The IK's warnings, with its reach check redone (REPORT_M, REPORT_RAD) for the moving
     feet and the pelvis, whose horizontal position yields to a CoM target (not reported then).
-    The IK's own reach message is recognised by its wording. `data` holds the frame
-    placements at q, the sample kept; when that is the IK's own answer, its measures of the
-    feet and of a pelvis without a CoM target are the same numbers and are reused."""
-    messages = [m for m in result.warnings if " target out of reach: closest pose" not in m]
+    The IK's own reach message is recognised by its wording. `placed`: the placements of the
+    feet and pelvis at q, the sample kept; when that is the IK's own answer, its measures of the
+    feet and of a pelvis without a CoM target are the same numbers and are reused (and the
+    pelvis's turn)."""
     measured = q is result.q
+    if measured and result.reached and not result.warnings:
+        return []  # every target within REACHED_M and REACHED_RAD: inside REPORT_M, REPORT_RAD
+    messages = [m for m in result.warnings if " target out of reach: closest pose" not in m]
     stance = ("left", "right") if targets.stance == "both" else (targets.stance,)
-    for label, link, T_target in (
-        ("left", robot.foot("left").link, targets.T_world_left),
-        ("right", robot.foot("right").link, targets.T_world_right),
-        ("pelvis", robot.tree.root, targets.T_world_pelvis),
+    for label, T_target in (
+        ("left", targets.T_world_left),
+        ("right", targets.T_world_right),
+        ("pelvis", targets.T_world_pelvis),
     ):
         if T_target is None or label in stance:
             continue
@@ -65,12 +73,15 @@ def _shortfalls(
             distance = result.position_error_m[label]
             angle = result.orientation_error_rad[label]
         else:
-            T = data.oMf[robot.link_frame_ids[link]]
-            miss = T.translation - T_target[:3, 3]
+            T = placed[label]
+            miss = T[:3, 3] - T_target[:3, 3]
             if label == "pelvis" and targets.com_xy is not None:
                 miss[:2] = 0.0
-            turn = pin.log3(T_target[:3, :3].T @ T.rotation)
-            angle = math.sqrt(float(turn.dot(turn)))
+            if measured:
+                angle = result.orientation_error_rad[label]
+            else:
+                turn = pin.log3(T_target[:3, :3].T @ T[:3, :3])
+                angle = math.sqrt(float(turn.dot(turn)))
             distance = math.sqrt(float(miss.dot(miss)))
         if distance >= REPORT_M or angle >= REPORT_RAD:
             messages.append(
@@ -78,6 +89,16 @@ def _shortfalls(
                 f"{np.rad2deg(angle):.1f}° away"
             )
     return messages
+
+
+def _placed(robot: RobotModel, data: pin.Data, q: np.ndarray) -> dict[str, np.ndarray]:
+    """Placements of the feet ("left", "right") and the pelvis at q, 4x4 (`data`: pinocchio
+    data to compute in)."""
+    pin.framesForwardKinematics(robot.model, data, q)
+    ids = robot.link_frame_ids
+    placed = {foot.side: data.oMf[ids[foot.link]].homogeneous for foot in robot.feet}
+    placed["pelvis"] = data.oMf[ids[robot.tree.root]].homogeneous
+    return placed
 
 
 def _keep_stance(
@@ -104,7 +125,8 @@ def _keep_stance(
         )
         if _held_miss_m(retry, targets.stance) <= STANCE_SLIDE_M:
             return retry, [f"{message}: solved without it"]
-    return dataclasses.replace(result, q=q), [f"{message}: the previous pose is kept"]
+    kept = dataclasses.replace(result, q=q, placements={})  # placements: of the pose refused
+    return kept, [f"{message}: the previous pose is kept"]
 
 
 def _continuous(

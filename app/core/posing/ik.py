@@ -21,9 +21,13 @@ torso hold).
 Each `solve` iterates the QP from the given configuration until the step vanishes, or (a drag:
 stop_when_met) until an accepted step meets the goals to GOAL_MET_COST.
 
+`track` answers a motion's next sample with one QP step from a prediction where that step
+converges, and with `solve` otherwise (ik_track).
+
 This module builds the tasks and runs a solve; its parts live beside it: ik_records (targets,
 result, shared weights), support_polygon (the polygon and the CoM constraint), ik_steps (the
-iterations and their stop rule), ik_verdict (reached or not, and why).
+iterations and their stop rule), ik_verdict (reached or not, and why), ik_track (a motion's
+samples).
 """
 
 from __future__ import annotations
@@ -45,7 +49,8 @@ from app.core.posing.ik_records import (
     _Ended,
 )
 from app.core.posing.ik_steps import IkStepsMixin
-from app.core.posing.ik_verdict import OUT_OF_REACH, TORSO_TURN_RAD, IkVerdictMixin
+from app.core.posing.ik_track import IkTrackMixin
+from app.core.posing.ik_verdict import OUT_OF_REACH, TORSO_TURN_RAD
 from app.core.posing.shortfall import Bounded
 from app.core.posing.stance import anchor_on_foot
 from app.core.posing.support_polygon import OFF_POLYGON
@@ -81,7 +86,7 @@ feet of a 5-DOF-leg robot (dircon_biped) held, hard 6-D equalities are rank-defi
 the QP fails, while a consistent soft target is still met to ~1e-9 m."""
 
 
-class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
+class WholeBodyIK(IkStepsMixin, IkTrackMixin):
     """An IK solver bound to one robot. Not thread-safe: one per user of the robot."""
 
     def __init__(
@@ -110,9 +115,13 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
             "left": self._solver.add_frame_task(left, np.eye(4)),
             "right": self._solver.add_frame_task(right, np.eye(4)),
         }
+        self._held_at: dict[str, bytes] = {}
+        """The target each held foot's task holds, as bytes (a motion's segment gives the same
+        one to every sample: placo is not handed it again)."""
         self._foot_settings: dict[str, tuple[str, float]] = {}
         """(priority, weight) each foot task was last configured with."""
         self._pelvis_frame = robot.tree.root
+        self._pelvis_id = robot.link_frame_ids[robot.tree.root]
         self._pelvis: placo.FrameTask | None = None
         """The pelvis task while a solve has a pelvis target (added then, removed after: see
         _com_target)."""
@@ -293,6 +302,53 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
         q = self._anchor(q, {side: self._feet[side].T_world_frame for side in stance_sides})
         return q, iterations
 
+    def _set_tasks(
+        self, targets: IkTargets, placements: dict[str, np.ndarray]
+    ) -> tuple[dict[str, np.ndarray], tuple[str, ...], list[str], bool]:
+        """The tasks set for `targets` (feet held or moving, pelvis, torso hold, CoM target),
+        the feet without a target kept at `placements`. Returns (wanted placements by label,
+        stance sides, warnings, whether no stance foot has a target: held_in_place)."""
+        robot = self.robot
+        stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
+        wanted = {}
+        self._soft_goals = []
+        warnings: list[str] = []
+        held_in_place = True
+        # no stance foot has a target: the stance feet stay where they are, and so does the
+        # support polygon
+        for foot in robot.feet:
+            given = targets.T_world_left if foot.side == "left" else targets.T_world_right
+            held_in_place = held_in_place and (given is None or foot.side not in stance_sides)
+            wanted[foot.side] = placements[foot.side] if given is None else np.asarray(given)
+            task = self._feet[foot.side]
+            if foot.side not in stance_sides:
+                aim = _above_floor(wanted[foot.side], foot.sole_corners_m, foot.side, warnings)
+                task.T_world_frame = aim
+                self._held_at.pop(foot.side, None)
+                self._configure_foot(foot.side, "moving")
+                self._soft_goals.append((task, foot.link, aim))
+                continue
+            exact = wanted[foot.side].tobytes()
+            if exact != self._held_at.get(foot.side):
+                task.T_world_frame = wanted[foot.side]
+                self._held_at[foot.side] = exact
+            self._configure_foot(foot.side, "held")
+        if targets.T_world_pelvis is not None:
+            wanted["pelvis"] = np.asarray(targets.T_world_pelvis)
+            if self._pelvis is None:
+                self._pelvis = self._solver.add_frame_task(self._pelvis_frame, np.eye(4))
+                self._pelvis.configure("pelvis", "soft", 1.0, 1.0)
+            self._pelvis.T_world_frame = wanted["pelvis"]
+            self._soft_goals.append((self._pelvis, self._pelvis_frame, wanted["pelvis"]))
+        elif self._pelvis is not None:
+            self._solver.remove_task(self._pelvis)
+            self._pelvis = None
+        self._hold_torso(None if targets.T_world_pelvis is not None else targets.R_world_torso)
+        self._com_target = self._ground_com_task(
+            self._com_target, targets.com_xy, "com target", COM_TARGET_WEIGHT
+        )
+        return wanted, stance_sides, warnings, held_in_place
+
     def solve(
         self,
         q_start: np.ndarray,
@@ -302,8 +358,12 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
         max_iterations: int = 60,
         step_tolerance: float = 1e-6,
         stop_when_met: bool = False,
+        explain: bool = True,
     ) -> IkResult:
         """Iterate the QP from q_start towards the targets; never returns NaN.
+
+        explain=False leaves out of the result's shortfall what holds a pose back (a
+        motion's samples report their misses without it).
 
         stop_when_met: stop at the first step the line search accepts with the goals met to
         GOAL_MET_COST (the moving foot within 0.1 mm and 1 mrad of its target, the torso hold
@@ -329,37 +389,7 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
             }
             polygon = self._polygon_here(targets.stance, placements)
             self._inside_at_start = None
-        stance_sides = ("left", "right") if targets.stance == "both" else (targets.stance,)
-        wanted = {}
-        self._soft_goals = []
-        warnings: list[str] = []
-        held_in_place = True
-        """No stance foot has a target: the stance feet stay where they are, and so does the
-        support polygon."""
-        for foot in robot.feet:
-            given = targets.T_world_left if foot.side == "left" else targets.T_world_right
-            held_in_place = held_in_place and (given is None or foot.side not in stance_sides)
-            wanted[foot.side] = placements[foot.side] if given is None else np.asarray(given)
-            task = self._feet[foot.side]
-            if foot.side not in stance_sides:
-                aim = _above_floor(wanted[foot.side], foot.sole_corners_m, foot.side, warnings)
-                task.T_world_frame = aim
-                self._configure_foot(foot.side, "moving")
-                self._soft_goals.append((task, foot.link, aim))
-                continue
-            task.T_world_frame = wanted[foot.side]
-            self._configure_foot(foot.side, "held")
-        if targets.T_world_pelvis is not None:
-            wanted["pelvis"] = np.asarray(targets.T_world_pelvis)
-            if self._pelvis is None:
-                self._pelvis = self._solver.add_frame_task(self._pelvis_frame, np.eye(4))
-                self._pelvis.configure("pelvis", "soft", 1.0, 1.0)
-            self._pelvis.T_world_frame = wanted["pelvis"]
-            self._soft_goals.append((self._pelvis, self._pelvis_frame, wanted["pelvis"]))
-        elif self._pelvis is not None:
-            self._solver.remove_task(self._pelvis)
-            self._pelvis = None
-        self._hold_torso(None if targets.T_world_pelvis is not None else targets.R_world_torso)
+        wanted, stance_sides, warnings, held_in_place = self._set_tasks(targets, placements)
         self._held_parts = [
             (robot.foot(side).link, wanted[side][:3, 3].copy(), wanted[side][:3, :3].copy())
             for side in stance_sides
@@ -368,9 +398,6 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
         self._goal_parts = [
             (frame, goal[:3, 3].copy(), goal[:3, :3].copy()) for _, frame, goal in self._soft_goals
         ]
-        self._com_target = self._ground_com_task(
-            self._com_target, targets.com_xy, "com target", COM_TARGET_WEIGHT
-        )
         use_polygon = self.com_in_support if com_in_support is None else com_in_support
 
         def steps() -> tuple[np.ndarray, int]:
@@ -401,7 +428,7 @@ class WholeBodyIK(IkStepsMixin, IkVerdictMixin):
             warnings.append(f"IK step failed ({error}); the pose was kept")
             q, iterations = start, 0
         kept = polygon if held_in_place else None
-        return self._result(q, iterations, targets, wanted, warnings, kept)
+        return self._result(q, iterations, targets, wanted, warnings, kept, explain)
 
 
 def _above_floor(

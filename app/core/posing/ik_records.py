@@ -64,15 +64,21 @@ class IkResult:
     """Why this is only the closest reachable pose (empty when reached): each target missed
     and by how much, the torso turned from where it was held, then what holds the pose back
     (a joint at a limit the targets push against, the CoM polygon, the torso hold)."""
+    placements: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    """Where the feet ("left", "right") and a pelvis with a target ("pelvis") are at q, 4x4
+    [m] (from the forward kinematics the errors were measured with; not to be modified)."""
 
 
 @dataclasses.dataclass(frozen=True)
 class _Ended:
-    """Where a solve ended: its configuration (exact bytes), stance, the feet's placements
-    there, the support polygon its result was measured in and whether the CoM is inside it."""
+    """Where a solve ended: its configuration (exact bytes), stance, the placements there of
+    the feet ("left", "right") and of a pelvis that had a target ("pelvis"), the support polygon
+    its result was measured in and whether the CoM is inside it."""
 
     q: bytes
     stance: Stance
     placements: dict[str, np.ndarray]
     polygon: np.ndarray
     com_inside: bool
+    reached: bool = True
+    """Whether its result reached every target (a motion's next sample is then tracked)."""

@@ -53,19 +53,22 @@ class IkVerdictMixin(SupportPolygonMixin):
         wanted: dict[str, np.ndarray],
         warnings: list[str],
         polygon: np.ndarray | None,
+        explain: bool = True,
     ) -> IkResult:
         """How close q came to the wanted placements (and CoM), its CoM margin (in `polygon`,
         when the stance feet were held where the solve found them; else the polygon at q), the
-        joints near a limit: from one forward kinematics pass."""
+        joints near a limit: from one forward kinematics pass. `explain`: what holds back a
+        pose short of its targets is looked for (the shortfall's "held back by" lines)."""
         robot, data = self.robot, self._data
         if self._placed_q is not q:  # the solve failed: not placed by _anchor
             pin.framesForwardKinematics(robot.model, data, q)
         oMf = data.oMf
         feet = {side: oMf[frame].homogeneous for side, frame in self._foot_ids.items()}
+        placed = dict(feet)
         position_error, orientation_error = {}, {}
         for label, T_target in wanted.items():
             if label == "pelvis":
-                T = oMf[robot.link_frame_ids[self._pelvis_frame]].homogeneous
+                T = placed["pelvis"] = oMf[robot.link_frame_ids[self._pelvis_frame]].homogeneous
             else:
                 T = feet[label]
             delta = T[:3, 3] - T_target[:3, 3]
@@ -109,24 +112,16 @@ class IkVerdictMixin(SupportPolygonMixin):
                 )
                 shortfall.append(f"CoM {position_error['com'] * 1000:.1f} mm from its target")
         margin = self._margin_of(com_xy, polygon)
-        if not reached:
+        if explain and not reached:
             shortfall += self._blockers(q, targets, wanted)
         self._ended = _Ended(
             q.tobytes(),
             targets.stance,
-            feet,
+            placed,
             polygon,
             margin >= 0.0,
+            reached,
         )
-        angles = q[self._bounded_q]
-        room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
-        near: tuple[str, ...] = ()
-        if room.size and room.min() < NEAR_LIMIT_RAD:
-            near = tuple(
-                name
-                for name, close in zip(self._bounded_names, room < NEAR_LIMIT_RAD, strict=True)
-                if close
-            )
         return IkResult(
             q,
             reached,
@@ -134,9 +129,22 @@ class IkVerdictMixin(SupportPolygonMixin):
             position_error,
             orientation_error,
             margin,
-            near,
+            self._near_limits(q),
             tuple(warnings),
             tuple(shortfall),
+            placed,
+        )
+
+    def _near_limits(self, q: np.ndarray) -> tuple[str, ...]:
+        """The joints within NEAR_LIMIT_RAD of a limit at q."""
+        angles = q[self._bounded_q]
+        room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
+        if not (room.size and room.min() < NEAR_LIMIT_RAD):
+            return ()
+        return tuple(
+            name
+            for name, close in zip(self._bounded_names, room < NEAR_LIMIT_RAD, strict=True)
+            if close
         )
 
     def _blockers(
