@@ -1,7 +1,8 @@
 """IPOPT's options of round 3 (issue 28) keep the gait planner's optima.
 
 The studio sets MUMPS's pivot tolerance to 1e-10 (at most 1e-6) and IPOPT's first barrier
-parameter to 0.5 (app/core/collocation/gait_problem.py, IPOPT_OPTIONS). The same problem is
+parameter to 0.5 on the symmetric gait (app/core/collocation/gait_problem.py, IPOPT_OPTIONS;
+the baseline keeps 0.1: tests/core/test_gait_blocks.py solves it). The same problem is
 built here with IPOPT's own values for these three options (pivot tolerance 1e-6, at most 0.1;
 first barrier parameter 0.1): from the same guess, both reach the same optimum (objective to
 1e-6 relative, states to tolerance) on the paper's case and on servo_biped, the studio's in
