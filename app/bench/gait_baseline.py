@@ -21,17 +21,26 @@ QUIET: dict[str, Any] = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time"
 """Output off: not a solver option (IPOPT's defaults otherwise, max_iter 3000 included)."""
 
 
-def ipopt_defaults(problem: Any, settings: Any, start_z: np.ndarray | None = None) -> dict:
-    """Build (nlpsol on the problem's expressions) and solve the `GaitProblem`'s NLP for
-    `settings` with the defaults, from `start_z` (else the problem's built-in guess, as a cold
-    solve starts); CPU times [s] of both, IPOPT's iterations, status and objective."""
+def defaults_solver(problem: Any) -> Any:
+    """nlpsol with the defaults on the `GaitProblem`'s expressions (to reuse over points)."""
     import casadi as ca
 
     nlp = problem.compiled.problem  # {"x", "p", "f", "g"}: the expressions the studio solves
+    return ca.nlpsol("baseline", "ipopt", nlp, QUIET)
+
+
+def ipopt_defaults(
+    problem: Any, settings: Any, start_z: np.ndarray | None = None, solver: Any = None
+) -> dict:
+    """Build (nlpsol on the problem's expressions, unless `solver` from `defaults_solver` is
+    given: then the build costs 0) and solve the `GaitProblem`'s NLP for `settings` with the
+    defaults, from `start_z` (else the problem's built-in guess, as a cold solve starts); CPU
+    times [s] of both, IPOPT's iterations, status and objective."""
     lbx, ubx, lbg, ubg = problem._bounds(settings)
     x0 = problem._guess(settings) if start_z is None else start_z
     with stopwatch(PROCESS_CPU) as build:
-        solver = ca.nlpsol("baseline", "ipopt", nlp, QUIET)
+        if solver is None:
+            solver = defaults_solver(problem)
     with stopwatch(PROCESS_CPU) as solve:
         out = solver(
             x0=np.clip(x0, lbx, ubx),

@@ -11,7 +11,9 @@ the cost of eq. 7. `baseline=True` gives the "original DIRCON" counterpart of se
     trajectory = to_trajectory(robot, result)    # 100 Hz on the full robot
 
 The modules: planar_model (the x-z rigid-body model), transcription (layout, collocation),
-gait_problem (the NLP), nlp (SX + IPOPT), guess (cold start), result, sampling.
+gait_nlp (the NLP's constraints and cost), gait_bounds (its bounds per solve), gait_problem
+(solving it), nlp (SX + IPOPT: nlp_blocks the derivatives, nlp_ipopt the solvers), guess
+(cold start), result, sampling.
 """
 
 from __future__ import annotations
