@@ -40,6 +40,52 @@ def start_fits(planar: PlanarModel, result: GaitResult) -> bool:
     return _PlanarWalk(planar, result, 1, H, H).match_speed["start"]
 
 
+class StepSearch:
+    """The bisection over the step length (two steps' advance) between no advance (assumed to
+    start: nothing to reach) and `default_m` (does not): `next_step` to try, `record` whether
+    its walk can start; SEARCH_SOLVES steps at most. The CLI and the studio share it."""
+
+    def __init__(self, default_m: float, mean_speed_mps: float) -> None:
+        self.default_m, self.mean_speed_mps = default_m, mean_speed_mps
+        self.lo, self.hi, self.tried = 0.0, default_m, 0
+        self.best: object | None = None
+        """What `record` was given with the longest step that starts (the CLI: its solve)."""
+
+    def next_step(self) -> float | None:
+        """The next step length to try [m], None when the search is over."""
+        if self.tried >= SEARCH_SOLVES:
+            return None
+        mid = round(0.5 * (self.lo + self.hi) / STEP_ROUNDING_M) * STEP_ROUNDING_M
+        return mid if self.lo < mid < self.hi else None
+
+    def record(self, step_m: float, starts: bool, what: object = None) -> None:
+        self.tried += 1
+        if starts:
+            self.lo, self.best = step_m, what
+        else:
+            self.hi = step_m
+
+    @property
+    def found(self) -> bool:
+        return self.lo > 0.0
+
+    def note(self) -> str:
+        """The one line the user reads: the step shortened, or kept when none shorter starts."""
+        was = f"{50 * self.default_m:.1f} cm ({self.mean_speed_mps:.2f} m/s)"
+        if not self.found:
+            return (
+                f"default steps of {was} kept: no shorter step the search tried "
+                f"({100 * self.hi:.1f} cm advance and up) lets the legs reach the gait's speed "
+                "with both feet down"
+            )
+        return (
+            f"default steps shortened from {50 * self.default_m:.1f} to {50 * self.lo:.1f} cm "
+            f"(step_length_m {self.default_m:g} → {self.lo:g}) so the walk can start: at {was} "
+            "the legs cannot reach the gait's speed with both feet down; set step_length_m to "
+            "choose"
+        )
+
+
 def fit_default_step(
     planar: PlanarModel,
     settings: GaitSettings,
@@ -47,37 +93,17 @@ def fit_default_step(
     solve: Callable[[GaitSettings], GaitResult],
 ) -> StepFit:
     """`settings` (the robot's defaults) and `result` (their solve) kept when the walk can
-    start, else the longest step length (a bisection, SEARCH_SOLVES `solve` calls at most) at
+    start, else the longest step length (StepSearch, SEARCH_SOLVES `solve` calls at most) at
     which it can, its result and a note. Use it only for a step length the user did not set."""
     if not result.converged or start_fits(planar, result):
         return StepFit(settings, result, None)
-    default = settings.step_length_m
-    speed = default / result.duration_s  # the gait's mean speed
-    lo, hi = 0.0, default
-    best: tuple[GaitSettings, GaitResult] | None = None
-    for _ in range(SEARCH_SOLVES):
-        mid = round(0.5 * (lo + hi) / STEP_ROUNDING_M) * STEP_ROUNDING_M
-        if not lo < mid < hi:
-            break
-        trial = dataclasses.replace(settings, step_length_m=mid)
+    search = StepSearch(settings.step_length_m, settings.step_length_m / result.duration_s)
+    while (step := search.next_step()) is not None:
+        trial = dataclasses.replace(settings, step_length_m=step)
         trial_result = solve(trial)
-        if trial_result.converged and start_fits(planar, trial_result):
-            lo, best = mid, (trial, trial_result)
-        else:
-            hi = mid
-    was = f"{50 * default:.1f} cm ({speed:.2f} m/s)"
-    if best is None:
-        return StepFit(
-            settings,
-            result,
-            f"default steps of {was} kept: no shorter step the search tried "
-            f"({100 * hi:.1f} cm advance and up) lets the legs reach the gait's speed with "
-            "both feet down",
-        )
-    fitted, fitted_result = best
-    note = (
-        f"default steps shortened from {50 * default:.1f} to {50 * lo:.1f} cm "
-        f"(step_length_m {default:g} → {lo:g}) so the walk can start: at {was} the legs "
-        "cannot reach the gait's speed with both feet down; set step_length_m to choose"
-    )
-    return StepFit(fitted, fitted_result, note)
+        starts = trial_result.converged and start_fits(planar, trial_result)
+        search.record(step, starts, (trial, trial_result))
+    if not search.found:
+        return StepFit(settings, result, search.note())
+    fitted, fitted_result = search.best  # type: ignore[misc]
+    return StepFit(fitted, fitted_result, search.note())
