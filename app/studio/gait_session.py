@@ -258,13 +258,13 @@ class GaitSession:
         step = self.default_step.next_step(self.planar, ended)
         if step is not None:  # the default step's walk cannot start: try a shorter one
             self.panel.show_settings(dataclasses.replace(ended.settings, step_length_m=step))
-            job_id = self.solve(baseline=False)
-            if job_id is not None:
+            next_job = self.solve(baseline=False)
+            if next_job is not None:
                 self.panel.status.content = (
                     f"{self.default_step.words()}  \n{self.panel.status.content}"
                 )
                 if pipeline == ended.job_id:
-                    self._pipeline_job = job_id
+                    self._pipeline_job = next_job
                 self.finished.emit(ended)
                 return
             self.default_step.stop()

@@ -21,8 +21,8 @@ from app.core.walking.walk import _PlanarWalk
 
 SEARCH_SOLVES = 5
 """Gait solves the search takes at most: the step found is within 1/32 of the default's."""
-STEP_ROUNDING_M = 0.001
-"""The step lengths tried are rounded to this [m] (two steps' advance)."""
+STEP_DECIMALS = 3
+"""The step lengths tried are rounded to 1 mm (two steps' advance, m)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,20 +48,19 @@ class StepSearch:
     def __init__(self, default_m: float, mean_speed_mps: float) -> None:
         self.default_m, self.mean_speed_mps = default_m, mean_speed_mps
         self.lo, self.hi, self.tried = 0.0, default_m, 0
-        self.best: object | None = None
-        """What `record` was given with the longest step that starts (the CLI: its solve)."""
 
     def next_step(self) -> float | None:
         """The next step length to try [m], None when the search is over."""
         if self.tried >= SEARCH_SOLVES:
             return None
-        mid = round(0.5 * (self.lo + self.hi) / STEP_ROUNDING_M) * STEP_ROUNDING_M
+        mid = round(0.5 * (self.lo + self.hi), STEP_DECIMALS)
         return mid if self.lo < mid < self.hi else None
 
-    def record(self, step_m: float, starts: bool, what: object = None) -> None:
+    def record(self, step_m: float, starts: bool) -> None:
+        """Whether a walk of the gait solved at `step_m` can start."""
         self.tried += 1
         if starts:
-            self.lo, self.best = step_m, what
+            self.lo = step_m
         else:
             self.hi = step_m
 
@@ -98,12 +97,11 @@ def fit_default_step(
     if not result.converged or start_fits(planar, result):
         return StepFit(settings, result, None)
     search = StepSearch(settings.step_length_m, settings.step_length_m / result.duration_s)
+    tried: dict[float, tuple[GaitSettings, GaitResult]] = {}
     while (step := search.next_step()) is not None:
         trial = dataclasses.replace(settings, step_length_m=step)
-        trial_result = solve(trial)
-        starts = trial_result.converged and start_fits(planar, trial_result)
-        search.record(step, starts, (trial, trial_result))
+        tried[step] = trial, solve(trial)
+        search.record(step, tried[step][1].converged and start_fits(planar, tried[step][1]))
     if not search.found:
         return StepFit(settings, result, search.note())
-    fitted, fitted_result = search.best  # type: ignore[misc]
-    return StepFit(fitted, fitted_result, search.note())
+    return StepFit(*tried[search.lo], search.note())
