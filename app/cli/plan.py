@@ -67,7 +67,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from app.core.collocation.defaults import robot_gait_defaults
+    from app.core.collocation.defaults import PAPER_ROBOT, robot_gait_defaults
     from app.core.collocation.dircon import GaitProblem, read_settings_toml, to_trajectory
     from app.core.collocation.settings import GaitSettings
     from app.core.motions.csv_files import write_trajectory_csv
@@ -92,6 +92,13 @@ def run(args: argparse.Namespace) -> int:
     )
     problem = GaitProblem(robot, settings.knots, settings.baseline)
     result = problem.solve(settings)
+    notes = list(defaults.notes)
+    if robot.name != PAPER_ROBOT and "step_length_m" not in values:  # robot-derived default
+        from app.core.walking.start_fit import fit_default_step
+
+        fit = fit_default_step(problem.model, settings, result, problem.solve)
+        settings, result = fit.settings, fit.result
+        notes += [] if fit.note is None else [fit.note]
     if not result.converged:  # the one-line reason, without the GUI's "last iterate" note
         reason = result.status.split(";")[0]
         if "iterations" not in reason:
@@ -126,7 +133,8 @@ def run(args: argparse.Namespace) -> int:
             "robot": robot.name,
             **summary,
             "build_s": problem.build_s,
-            "settings_notes": list(defaults.notes),
+            "settings_notes": notes,
+            "step_length_m": settings.step_length_m,
             "table4": comparison,
             "walk": None if walk is None else _walk_json(walk, args.steps),
             "out": None if args.out is None else str(args.out),
@@ -158,7 +166,7 @@ def run(args: argparse.Namespace) -> int:
             from app.cli.plan_simulate import simulated_lines
 
             print("\n".join(simulated_lines(comparison["simulated"])))  # type: ignore[arg-type]
-    for note in (*defaults.notes, *(() if walk is None else walk.notes)):
+    for note in (*notes, *(() if walk is None else walk.notes)):
         print(f"note: {note}")
     return 0
 

@@ -31,6 +31,7 @@ from app.core.robot.report import robot_report
 from app.core.walking.walk import Walk, build_walk
 from app.gait_jobs import build_gait_problem
 from app.jobs import SolverWorker
+from app.studio.gait_default_step import DefaultStep
 from app.studio.gait_solves import GaitSolves
 from app.studio.gait_text import GaitResults, Solve, results_table, stage_words, status_line
 from app.studio.gait_walks import ShownWalk
@@ -73,6 +74,8 @@ class GaitSession:
         self.solves = GaitSolves(package_roots)
         """The solve under way (`solves.running`), the last, its convergence history."""
         self.results = GaitResults()
+        self.default_step = DefaultStep()
+        """The search for a default step whose walk can start (S14's is too long)."""
         self._pipeline_job: str | None = None
         """The solve whose end continues the one-click pipeline."""
         self.progressed: Signal[int] = Signal("gait_progressed")
@@ -252,6 +255,21 @@ class GaitSession:
         self.panel.status.content = status_line(ended, self.results)
         self.show_results()
         pipeline, self._pipeline_job = self._pipeline_job, None
+        step = self.default_step.next_step(self.planar, ended)
+        if step is not None:  # the default step's walk cannot start: try a shorter one
+            self.panel.show_settings(dataclasses.replace(ended.settings, step_length_m=step))
+            next_job = self.solve(baseline=False)
+            if next_job is not None:
+                self.panel.status.content = (
+                    f"{self.default_step.words()}  \n{self.panel.status.content}"
+                )
+                if pipeline == ended.job_id:
+                    self._pipeline_job = next_job
+                self.finished.emit(ended)
+                return
+            self.default_step.stop()
+        elif (note := self.default_step.pop_note()) is not None:
+            self.panel.status.content += f"  \nnote: {note}"
         if pipeline == ended.job_id and ended.result is not None and ended.result.converged:
             self.play_result(None, then=PIPELINE_STAGES)
         self.finished.emit(ended)
@@ -338,6 +356,7 @@ class GaitSession:
         robot = loaded.robot
         self.results = GaitResults()  # gaits belong to their robot
         self.solves.last, self._shown.walk = None, None
+        self.default_step.robot(None)
         self.panel.load_robot.visible = robot.name != PAPER_ROBOT
         try:
             self.planar = PlanarModel(robot)
@@ -362,6 +381,8 @@ class GaitSession:
         lines += [f"note: {note}" for note in defaults.notes]
         self.panel.robot_note.content = "  \n".join(lines)
         self.panel.show_settings(defaults.settings)
+        if robot.name != PAPER_ROBOT:  # a robot-derived default step: shortened if need be
+            self.default_step.robot(defaults.settings.step_length_m)
         self.panel.show_plannable(True)
         self.show_results()
         if self._prepare:
