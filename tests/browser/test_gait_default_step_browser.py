@@ -2,9 +2,16 @@
 robot's default settings. Its robot-derived 16.9 cm steps leave no start ramp the legs can
 follow, so the panel tries shorter steps in the worker and the page says, in one line, that
 the default steps were shortened so the walk can start; *Walk this gait* then walks a gait
-whose start reaches the gait's speed (no "jump in speed" note)."""
+whose start reaches the gait's speed (no "jump in speed" note).
+
+The studio opens Roban S14 without its <visual> meshes (its collision meshes drawn instead):
+the same model, feet and gait, but 1.8 k triangles in the page instead of 308 k, which a
+software-WebGL tab took minutes to keep drawing; S14's full meshes are drawn by
+test_load_browser's upload test."""
 
 from __future__ import annotations
+
+import re
 
 import pytest
 
@@ -19,8 +26,14 @@ SEARCH_TIMEOUT_S = 900.0
 
 
 @pytest.fixture(scope="module")
-def studio_robot() -> str:
-    return str(ROBAN_URDF)
+def studio_robot(tmp_path_factory: pytest.TempPathFactory) -> str:
+    """Roban S14 without its <visual> elements, its collision meshes named by absolute path."""
+    text = re.sub(r"\s*<visual>.*?</visual>", "", ROBAN_URDF.read_text(), flags=re.S)
+    meshes = ROBAN_URDF.parents[1] / "meshes"
+    text = text.replace('filename="../meshes/', f'filename="{meshes}/')
+    path = tmp_path_factory.mktemp("s14") / "robanS14_collision_only.urdf"
+    path.write_text(text)
+    return str(path)
 
 
 def test_the_page_says_the_default_steps_were_shortened(page, studio: Studio) -> None:
