@@ -17,45 +17,42 @@ import numpy as np
 
 from app.core.collocation.planar_model import BASE_DOF, PlanarModel, evaluate
 from app.core.collocation.result import BoundCheck, GaitResult
-from app.core.collocation.sampling import sample_gait
+from app.core.collocation.sampling import interval_grid, sample_states
 from app.core.collocation.transcription import STANCE, GaitLayout, other, swing_z_rows
 
 
 def check_bounds(model: PlanarModel, result: GaitResult) -> BoundCheck:
-    """The bounds of `result.settings` on a grid of check_per_interval samples per interval."""
+    """The bounds of `result.settings` on a grid of check_per_interval samples per interval:
+    the three modes sampled in one go (sample_states) and their contact points in one call of
+    the model's mapped function (PlanarModel.contact_positions_at)."""
     s = result.settings
     n = s.check_per_interval
     layout = GaitLayout.from_knots(result.structure[0])
-    floor = height = speed = excess_range = torque = 0.0
-    count = 0
+    times, modes, swing = [], [], []
     for mode in range(3):
-        nodes = list(layout.nodes(mode))
+        nodes = layout.nodes(mode)
         t = np.concatenate(
-            [np.linspace(result.t[k], result.t[k + 1], n + 1)[1:-1] for k in nodes[:-1]]
-            + [result.t[nodes]]
+            [interval_grid(result.t, nodes, n, inner=True).ravel(), result.t[list(nodes)]]
         )
-        samples = sample_gait(result, t, np.full(len(t), mode))
-        rows = swing_z_rows(other(STANCE[mode]))
-        points = evaluate(model.contact_positions.map(len(t)), samples.q.T)
-        z = rows @ points.reshape(8, -1)
-        floor = max(floor, float(-z.min()))
-        height = max(height, float(z.max() - s.swing_height_m))
-        joints = samples.v[:, BASE_DOF:]
-        speed = max(speed, float(np.abs(joints).max() - s.qd_max))
-        q = samples.q[:, BASE_DOF:]
-        excess_range = max(
-            excess_range, float(np.max(q - model.upper)), float(np.max(model.lower - q))
-        )
-        torque = max(torque, float(np.abs(samples.u).max() - s.tau_max_Nm))
-        count += len(t)
+        times.append(t)
+        modes.append(np.full(len(t), mode))
+        rows = np.flatnonzero(swing_z_rows(other(STANCE[mode])).any(axis=0))  # heel z, toe z
+        swing.append(np.repeat(rows[:, None], len(t), axis=1))
+    t = np.concatenate(times)
+    q, v, u = sample_states(result, t, np.concatenate(modes))
+    points = model.contact_positions_at(q)
+    z = np.take_along_axis(points, np.concatenate(swing, axis=1), axis=0)  # (2, T) swing z
+    joints, q = v[:, BASE_DOF:], q[:, BASE_DOF:]
     return BoundCheck(
-        samples=count,
+        samples=len(t),
         per_interval=n,
-        floor_penetration_m=max(floor, 0.0),
-        swing_height_excess_m=max(height, 0.0),
-        joint_speed_excess_radps=max(speed, 0.0),
-        joint_range_excess_rad=max(excess_range, 0.0),
-        torque_excess_Nm=max(torque, 0.0),
+        floor_penetration_m=max(float(-z.min()), 0.0),
+        swing_height_excess_m=max(float(z.max() - s.swing_height_m), 0.0),
+        joint_speed_excess_radps=max(float(np.abs(joints).max() - s.qd_max), 0.0),
+        joint_range_excess_rad=max(
+            float(np.max(q - model.upper)), float(np.max(model.lower - q)), 0.0
+        ),
+        torque_excess_Nm=max(float(np.abs(u).max() - s.tau_max_Nm), 0.0),
     )
 
 

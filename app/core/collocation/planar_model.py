@@ -114,6 +114,8 @@ class PlanarModel:
             self.effort_Nm[k] = model.effortLimit[group.idx_v].min()
             self.velocity_radps[k] = model.velocityLimit[group.idx_v].min()
         self._build_functions()
+        self._mapped_points: dict[int, ca.Function] = {}
+        """contact_positions mapped over n configurations, by n (contact_positions_at)."""
         self.standing_height_m = -float(
             evaluate(self.contact_positions, np.zeros(self.nq))[1::2].min()
         )
@@ -220,6 +222,15 @@ class PlanarModel:
         self.com = ca.Function("com", [q], [self._com(q)], ["q"], ["com"])
         self.contact_jacobian = ca.Function("contact_jacobian", [q], [jac], ["q"], ["J"])
         self.contact_jdot_v = ca.Function("contact_jdot_v", [q, v], [jdot_v], ["q", "v"], ["Jdv"])
+
+    def contact_positions_at(self, qs: np.ndarray) -> np.ndarray:
+        """contact_positions at each row of `qs` (T, nq), as (8, T); the mapped casadi function
+        of T columns is built once per T and kept (a gait's readout asks for the same T at every
+        solve)."""
+        n = len(qs)
+        if n not in self._mapped_points:
+            self._mapped_points[n] = self.contact_positions.map(n)
+        return np.array(self._mapped_points[n](qs.T).full()).reshape(8, n)
 
     def _leg_asymmetry(self) -> float:
         left, right = (self.leg_joints[s] - BASE_DOF + 1 for s in ("left", "right"))

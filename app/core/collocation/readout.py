@@ -47,7 +47,7 @@ def read_result(
         slack = float(x[blocks["slack"][0]][0])
         x1 = (0.5 + slack) * s.step_length_m
     footholds = np.array([0.0, x1, s.step_length_m])
-    mode = np.array([layout.mode_of(k) for k in range(N)])
+    mode = np.searchsorted(np.cumsum(layout.sizes), np.arange(N), side="right")  # mode_of
     virtual = np.zeros(N, dtype=bool)
     virtual[[layout.first(1), layout.first(2)]] = True
     mid = np.full((N - 1, 3), np.nan)

@@ -72,6 +72,35 @@ def _hermite(
     return value, slope
 
 
+def _spline_points(
+    result: GaitResult, times: np.ndarray, chosen: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The interval k of each sample (from node k to k + 1, within its mode), its step h and
+    its place s ∈ [0, 1] in it (h and s as columns)."""
+    layout = GaitLayout.from_knots(result.structure[0])
+    k = np.zeros(len(times), dtype=int)
+    for mode in range(3):
+        rows = chosen == mode
+        nodes = np.array(layout.nodes(mode))
+        after = np.searchsorted(result.t[nodes], times[rows], side="right") - 1
+        k[rows] = nodes[0] + np.clip(after, 0, len(nodes) - 2)
+    h = (result.t[k + 1] - result.t[k])[:, None]
+    s = np.clip((times[:, None] - result.t[k][:, None]) / h, 0.0, 1.0)
+    return k, h, s
+
+
+def sample_states(
+    result: GaitResult, times: np.ndarray, modes: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q, v, u) of sample_gait at `times` in `modes`, without the accelerations and forces
+    (the bound check and the positive work of every solve need only these)."""
+    times = np.asarray(times, dtype=float)
+    k, h, s = _spline_points(result, times, np.asarray(modes, dtype=int).reshape(len(times)))
+    q = _hermite(result.q[k], result.v[k], result.q[k + 1], result.v[k + 1], h, s)[0]
+    v = _hermite(result.v[k], result.a[k], result.v[k + 1], result.a[k + 1], h, s)[0]
+    return q, v, (1 - s) * result.u[k] + s * result.u[k + 1]
+
+
 def sample_gait(
     result: GaitResult, times: np.ndarray, modes: np.ndarray | None = None
 ) -> GaitSamples:
@@ -79,7 +108,6 @@ def sample_gait(
     (default: from the time, the new mode at a touch-down)."""
     if not result.has_gait:
         raise StudioError(f"no gait to sample: {result.status}")
-    layout = GaitLayout.from_knots(result.structure[0])
     times = np.asarray(times, dtype=float)
     bounds = np.cumsum(result.durations_s)
     n = len(times)
@@ -88,14 +116,7 @@ def sample_gait(
         chosen = np.searchsorted(bounds[:2] - TIME_TOLERANCE_S, times, side="right")
     else:
         chosen = np.asarray(modes, dtype=int).reshape(n)
-    k = np.zeros(n, dtype=int)  # the interval of each sample: from node k to k + 1
-    for mode in range(3):
-        rows = chosen == mode
-        nodes = np.array(layout.nodes(mode))
-        after = np.searchsorted(result.t[nodes], times[rows], side="right") - 1
-        k[rows] = nodes[0] + np.clip(after, 0, len(nodes) - 2)
-    h = (result.t[k + 1] - result.t[k])[:, None]
-    s = np.clip((times[:, None] - result.t[k][:, None]) / h, 0.0, 1.0)
+    k, h, s = _spline_points(result, times, chosen)
     out["q"] = _hermite(result.q[k], result.v[k], result.q[k + 1], result.v[k + 1], h, s)[0]
     out["v"], out["a"] = _hermite(result.v[k], result.a[k], result.v[k + 1], result.a[k + 1], h, s)
     out["u"] = (1 - s) * result.u[k] + s * result.u[k + 1]
@@ -117,21 +138,35 @@ def sample_gait(
     )  # fmt: skip
 
 
+def interval_grid(t: np.ndarray, nodes: range, per_interval: int, *, inner: bool) -> np.ndarray:
+    """Times splitting each interval of `nodes` into `per_interval` steps, as np.linspace does
+    per interval (bit for bit), without a Python loop: (intervals, per_interval + 1), each row
+    from the interval's start to its end; `inner` drops both ends (the knots)."""
+    start, stop = t[nodes[0] : nodes[-1]], t[nodes[0] + 1 : nodes[-1] + 1]
+    step = (stop - start) / per_interval
+    grid = np.arange(per_interval + 1)[None, :] * step[:, None] + start[:, None]
+    grid[:, -1] = stop
+    return grid[:, 1:-1] if inner else grid
+
+
 def positive_work(result: GaitResult, per_interval: int = 24) -> float:
-    """E = ∫ Σ_joints max(τ·q̇, 0) dt [J], by the trapezoid rule on each mode's splines."""
+    """E = ∫ Σ_joints max(τ·q̇, 0) dt [J], by the trapezoid rule on each mode's splines (the
+    three modes sampled in one call, summed per mode)."""
     layout = GaitLayout.from_knots(result.structure[0])
-    total = 0.0
+    times, modes = [], []
     for mode in range(3):
-        nodes = list(layout.nodes(mode))
-        t = np.concatenate(
-            [np.linspace(result.t[k], result.t[k + 1], per_interval + 1)[:-1] for k in nodes[:-1]]
-            + [result.t[nodes[-1] : nodes[-1] + 1]]
-        )
-        if len(t) < 2:
-            continue
-        samples = sample_gait(result, t, np.full(len(t), mode))
-        power = np.maximum(samples.u * samples.v[:, 3:], 0.0).sum(axis=1)
-        total += float(np.sum(0.5 * (power[1:] + power[:-1]) * np.diff(t)))
+        nodes = layout.nodes(mode)
+        grid = interval_grid(result.t, nodes, per_interval, inner=False)[:, :-1]
+        t = np.concatenate([grid.ravel(), result.t[nodes[-1] : nodes[-1] + 1]])
+        times.append(t)
+        modes.append(np.full(len(t), mode))
+    _, v, u = sample_states(result, np.concatenate(times), np.concatenate(modes))
+    power = np.maximum(u * v[:, 3:], 0.0).sum(axis=1)
+    total, start = 0.0, 0
+    for t in times:
+        p, start = power[start : start + len(t)], start + len(t)
+        if len(t) >= 2:
+            total += float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(t)))
     return total
 
 
