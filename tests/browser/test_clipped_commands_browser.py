@@ -24,8 +24,8 @@ from tests.browser.page_helpers import (
 
 JOINT = "left_hip_roll"
 K_DEG_PER_NM = 20.0
-"""The one-leg stand's 3.65 N·m on the stance hip roll times this (the slider's top) is more than the room
-to its limit (about 17.4 °/(N·m) reaches it)."""
+"""The one-leg stand's 3.65 N·m on the stance hip roll times this (the slider's top) is more
+than the room to its limit (about 17.4 °/(N·m) reaches it)."""
 SIMULATE = "Simulate without / with compensation"
 SIMULATE_TIMEOUT_S = 180.0
 
