@@ -209,7 +209,7 @@ def _commands(
 
 
 def run(args: argparse.Namespace) -> int:
-    from app.core.simulation.experiments import clipped_commands
+    from app.core.simulation.experiments import clipped_commands, with_note
     from app.core.simulation.files import (
         read_servo_toml,
         sized_servos,
@@ -277,8 +277,8 @@ def run(args: argparse.Namespace) -> int:
     results = simulate_commands(
         robot, traj, commands, servo, options, law=law, balance=_balance(args)
     )
-    for key, one in results.items() if args.cmd is None and clip_note else ():
-        results[key] = dataclasses.replace(one, notes=(str(clip_note), *one.notes))
+    if args.cmd is None:
+        results = with_note(results, clip_note)
     main = results[label]
     figures = None
     if parts is not None and main.energy is not None:
@@ -380,7 +380,8 @@ def _print_report(
         e = main.energy
         print(
             f"energy over {e.duration_s:.2f} s: {e.electrical_J.sum():.1f} J electrical, "
-            f"{e.joule_J.sum():.1f} J heat (I²R); peak current {e.peak_current_A.max():.2f} A"
+            f"{e.joule_J.sum():.1f} J heat (I²R); peak current {e.peak_current_A.max():.2f} A on one "
+            "servo"
         )
     if figures is not None:
         print(_figures_line(figures))
@@ -412,10 +413,7 @@ def _figures_line(f) -> str:
         if f.sr_electrical is None and f.sr_planned is None
         else f"SR {_sr(f.sr_electrical)} electrical, {_sr(f.sr_planned)} planned work"
     )
-    line = (
-        f"average {f.average_power_W:.1f} W, {f.average_current_A:.2f} A from the supply; "
-        f"peak {f.peak_current_A:.2f} A on one joint (pack ≤ {f.peak_current_bound_A:.2f} A); {sr}"
-    )
+    line = f"average {f.average_power_W:.1f} W from the supply; {f.labelled_currents()}; {sr}"
     if f.battery_minutes is not None:
         line += f"; a {f.pack_Wh:g} Wh pack lasts {f.battery_minutes:.0f} min of this motion"
     return line

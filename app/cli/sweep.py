@@ -90,6 +90,8 @@ def run(args: argparse.Namespace) -> int:
                 what = f"SR {result.sr:.4f}" if result.solved else result.status
                 if spec.simulate and result.sim_status:
                     what += f"; {result.sim_status}"
+                if spec.simulate and result.sim_notes:
+                    what += f" (note: {result.sim_notes})"
                 print(
                     f"point {len(results)}/{len(points)} (#{result.index}): {what}", file=sys.stderr
                 )

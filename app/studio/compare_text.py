@@ -50,4 +50,6 @@ def simulation_summary(simulation: Simulation, drift_m: dict[str, float] | None 
         lines.append(
             "The simulated ghosts are drawn on the plan's stance foot, without that drift."
         )
+    notes = (note for label in (WITHOUT, WITH) for note in simulation.results[label].notes)
+    lines += [f"note: {note}" for note in dict.fromkeys(notes)]
     return "  \n".join(lines)

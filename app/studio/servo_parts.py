@@ -97,8 +97,7 @@ def energy_line(
     line = (
         f"**Energy** with compensation ({len(choice.chosen)} joint(s) on servo parts, "
         f"{f.duration_s:.1f} s): {f.electrical_J:.1f} J electrical, {f.joule_J:.1f} J heat; "
-        f"average {f.average_power_W:.1f} W, {f.average_current_A:.2f} A; peak "
-        f"{f.peak_current_A:.2f} A on one joint; {sr}"
+        f"average {f.average_power_W:.1f} W; {f.labelled_currents()}; {sr}"
     )
     if f.battery_minutes is not None:
         line += f"; a {f.pack_Wh:g} Wh pack lasts **{f.battery_minutes:.0f} min** of this motion"

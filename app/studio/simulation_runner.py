@@ -19,6 +19,7 @@ from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
 from app.core.servo.model import ServoModel
 from app.core.simulation.balance_feedback import BalanceGains
+from app.core.simulation.experiments import clipped_commands, with_note
 from app.core.simulation.on_plan import OnPlan, on_plan_stance
 from app.core.simulation.result import SimulationResult
 from app.core.simulation.servo_law import ServoLaw
@@ -55,6 +56,8 @@ class Simulation:
     """Why it failed ("cancelled", a blow-up's message, a crashed worker)."""
     waited_s: float | None = 0.0
     """Wall time of the run [s]; None for a run restored from a project that did not keep it."""
+    note: str | None = None
+    """What was done to the commands before the run (clipped to the joint limits), or None."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -127,17 +130,15 @@ class SimulationRunner:
     ) -> Simulation:
         """Check the runs here (SimulationInputError at once) and start them in the worker;
         `law` replaces the virtual servos' (servo parts); `balance`: both runs with the
-        balance feedback at these gains."""
-        job = simulation_job(
-            robot,
-            trajectory,
-            {WITHOUT: q_plan_rad, WITH: q_cmd_rad},
-            servo,
-            law=law,
-            balance=balance,
+        balance feedback at these gains. Commands past a joint limit are clipped to it, with a
+        note in both runs' notes (`clipped_commands`)."""
+        # computed commands: clipped to the limits as a servo clips its goal (as simulate does)
+        commands, note = clipped_commands(
+            robot, trajectory.t, {WITHOUT: q_plan_rad, WITH: q_cmd_rad}
         )
+        job = simulation_job(robot, trajectory, commands, servo, law=law, balance=balance)
         simulation = Simulation(
-            f"simulation-{next(self._ids)}", robot, trajectory, job, time.monotonic()
+            f"simulation-{next(self._ids)}", robot, trajectory, job, time.monotonic(), note=note
         )
         with self._lock:
             self.running = simulation
@@ -155,6 +156,7 @@ class SimulationRunner:
             return
         try:
             results = finish_job(simulation.robot, simulation.trajectory, simulation.job, runs)  # type: ignore[arg-type]
+            results = with_note(results, simulation.note)
         except Exception as error:  # the runs came back malformed: a bug, reported as failed
             self._end(job_id, error=f"{type(error).__name__}: {error}")
             return

@@ -164,4 +164,6 @@ def _describe(spec: SweepSpec, result: PointResult, front: bool) -> str:
     tail = ", ".join(f"{m} {result.metric(m):.4g}" for m in metrics)
     if spec.simulate:
         tail += f"; simulation: {result.sim_status}"
+        if result.sim_notes:
+            tail += f"  \nnote: {result.sim_notes}"
     return f"{head}  \n{tail}"

@@ -48,6 +48,21 @@ def test_figures_against_closed_forms():
     assert f.battery_minutes == pytest.approx(200.0)
 
 
+def test_the_currents_say_whose_they_are_when_the_packs_average_exceeds_one_servos_peak():
+    """Three servos each drawing 1 A on average (peaks 1.5 A) at 12 V for an hour: the pack
+    averages 3 A, more than any one servo's peak; the line and the JSON say which is whose."""
+    energy = _energy([12.0 * 3600.0] * 3, 3600.0, peaks=(1.5, 1.5, 1.5))
+    still = np.zeros((2, 2))
+    f = energy_figures(energy, np.full(3, 12.0), 6.0, 9.81, still, still, 0.0)
+    assert f.average_current_A == pytest.approx(3.0) and f.peak_current_A == 1.5
+    line = f.labelled_currents()
+    assert "pack average 3.00 A" in line and "peak 1.50 A on one servo" in line
+    assert "pack peak ≤ 4.50 A" in line
+    data = f.to_json()
+    assert data["average_current_A"] == data["pack_average_current_A"] == f.average_current_A
+    assert data["peak_current_A"] == data["one_servo_peak_current_A"] == 1.5
+
+
 def test_a_motion_in_place_has_no_specific_resistance():
     assert specific_resistance(10.0, 5.0, 0.02) is None
     assert specific_resistance(10.0, 5.0, 2.0, 9.81) == pytest.approx(10.0 / (5 * 9.81 * 2))

@@ -2,9 +2,10 @@
 
 From the parts' electrical energy (`part_law.PartEnergy`, per joint over the run):
 
-    average supply current   Ī = Σ_j max(E_j, 0) / (vin_j · T)        [A]  (regeneration not banked)
+    average supply current   Ī = Σ_j max(E_j, 0) / (vin_j · T)        [A]  (the whole pack;
+                             regeneration not banked)
     average power            P̄ = Σ_j max(E_j, 0) / T                  [W]
-    peak current             max_j peak |I_j|; the pack's peak is ≤ Σ_j peak |I_j| (each joint
+    peak current             max_j peak |I_j| (one servo's); the pack's peak is ≤ Σ_j peak |I_j| (each joint
                              draws duty·I_j ≤ |I_j| from the supply)
     specific resistance      SR = E / (M · g · d)                        (eq 9 of the gait paper;
                              the spring paper's Table 4 measures E at the motors)
@@ -96,7 +97,10 @@ class EnergyFigures:
     joule_J: float
     average_power_W: float
     average_current_A: float
+    """The whole pack's average supply current Ī (all servos together)."""
     peak_current_A: float
+    """The largest single servo's peak |I_j| (not the pack's: an "average" of the pack can
+    exceed it); `labelled_currents` says which is which."""
     peak_current_bound_A: float
     """Σ_j peak |I_j|: an upper bound on the pack's peak."""
     mass_kg: float
@@ -110,11 +114,24 @@ class EnergyFigures:
     battery_minutes: float | None = None
 
     def to_json(self) -> dict[str, object]:
-        """Strict JSON: a figure that is not finite (no travel, no draw) is null."""
+        """Strict JSON: a figure that is not finite (no travel, no draw) is null. The keys of
+        the fields, and the two currents again under names that say whose they are."""
+        fields = dataclasses.asdict(self) | {
+            "pack_average_current_A": self.average_current_A,
+            "one_servo_peak_current_A": self.peak_current_A,
+        }
         return {
             k: None if isinstance(v, float) and not math.isfinite(v) else v
-            for k, v in dataclasses.asdict(self).items()
+            for k, v in fields.items()
         }
+
+    def labelled_currents(self) -> str:
+        """The currents with whose they are, e.g. "pack average 6.70 A; peak 4.70 A on one
+        servo (pack peak ≤ 21.3 A)"."""
+        return (
+            f"pack average {self.average_current_A:.2f} A; peak {self.peak_current_A:.2f} A on "
+            f"one servo (pack peak ≤ {self.peak_current_bound_A:.2f} A)"
+        )
 
 
 def energy_figures(

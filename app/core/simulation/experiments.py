@@ -19,6 +19,7 @@ from app.core.robot.model import RobotModel
 from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
 from app.core.simulation.mjcf import SimOptions
+from app.core.simulation.result import SimulationResult
 from app.core.simulation.servo_law import ServoLaw
 
 LIMIT_TOLERANCE_RAD = 1e-9
@@ -54,6 +55,16 @@ def clipped_commands(
                 "commanded past its limits"
             )
     return out, note
+
+
+def with_note(
+    results: Mapping[str, SimulationResult], note: str | None
+) -> dict[str, SimulationResult]:
+    """The results with `note` (e.g. `clipped_commands`'s) first among each run's notes."""
+    return {
+        label: run if note is None else dataclasses.replace(run, notes=(note, *run.notes))
+        for label, run in results.items()
+    }
 
 
 @dataclasses.dataclass(frozen=True)

@@ -73,6 +73,8 @@ class PointResult:
     """The simulation's verdict, or why it did not run ("" without simulation)."""
     sim_s: float = 0.0
     """Time of the point's walk, torques and simulation [s]."""
+    sim_notes: str = ""
+    """The simulation's notes, "; "-joined (e.g. commands clipped to the joint limits)."""
     servo_mass_kg: float = math.nan
     """Total mass of the leg servos [kg] (a sweep with servo parts; NaN otherwise)."""
     servo_cost: float = math.nan

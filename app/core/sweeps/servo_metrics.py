@@ -128,6 +128,8 @@ class SimulationMetrics:
     """The verdict ("stays up", "falls at 1.69 s (...)"), or why there is no simulation."""
     sim_s: float
     """Time of the walk, torques and simulation [s]."""
+    sim_notes: str = ""
+    """The run's notes, "; "-joined (e.g. commands clipped to the joint limits)."""
     servo_mass_kg: float = math.nan
     """The servo parts' metrics (app.core.sweeps.part_metrics; NaN without a part)."""
     servo_cost: float = math.nan
@@ -177,11 +179,13 @@ def servo_settings(robot: Any, setup: SimulationSetup) -> tuple[Any, Any]:
 
 def walk_and_simulate(planar: Any, gait: Any, setup: SimulationSetup) -> tuple[Any, ...]:
     """The pipeline on a solved gait: (walk, feed-forward, commands, servos, simulation result).
-    Raises StudioError where a stage refuses (a walk it cannot make, commands out of the joint
-    limits, a simulation that diverges)."""
+    Raises StudioError where a stage refuses (a walk it cannot make, a simulation that
+    diverges); commands past a joint limit are clipped to it, with a note in the result's notes
+    (`clipped_commands`); `commands` are the computed ones, before clipping."""
     from app.core.dynamics.wbc import torque_feedforward
     from app.core.servo.commands import servo_commands
     from app.core.simulation.drive import compensated_torque_Nm
+    from app.core.simulation.experiments import clipped_commands, with_note
     from app.core.simulation.run import simulate
     from app.core.walking.walk import build_walk
 
@@ -197,15 +201,17 @@ def walk_and_simulate(planar: Any, gait: Any, setup: SimulationSetup) -> tuple[A
     # eq 7 on the servos' drive torque, as the studio compensates by default
     tau = compensated_torque_Nm(robot, walk.trajectory, feedforward.tau_Nm, "drive", servo, law)
     commands = servo_commands(robot, walk.trajectory, tau, params)
+    # computed commands: clipped to the limits as a servo clips its goal (as simulate does)
+    clipped, note = clipped_commands(robot, walk.trajectory.t, {"simulated": commands.q_cmd_rad})
     if law is None:
-        result = simulate(robot, walk.trajectory, commands.q_cmd_rad, servo)
+        result = simulate(robot, walk.trajectory, clipped["simulated"], servo)
     else:
         from app.core.simulation.run import simulate_commands
 
-        runs = {"simulated": commands.q_cmd_rad}
-        result = simulate_commands(robot, walk.trajectory, runs, servo, parallel=False, law=law)[
+        result = simulate_commands(robot, walk.trajectory, clipped, servo, parallel=False, law=law)[
             "simulated"
         ]
+    result = with_note({"simulated": result}, note)["simulated"]
     return walk, feedforward, commands, servo, result
 
 
@@ -253,4 +259,5 @@ def metrics_of_simulation(result: Any, q_plan: np.ndarray, seconds: float) -> Si
         rms_joint_error_deg=float(result.rms_joint_error_deg),
         sim_status=result.verdict(),
         sim_s=seconds,
+        sim_notes="; ".join(result.notes),
     )
