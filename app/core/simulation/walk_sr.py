@@ -58,6 +58,7 @@ def simulate_walk_sr(
     from app.core.servo.presets import preset_params
     from app.core.servo.scaling import scaled_ideal_servo
     from app.core.simulation.drive import plan_drive_torque_Nm
+    from app.core.simulation.experiments import clipped_commands, with_note
     from app.core.simulation.files import sized_servos
     from app.core.simulation.ideal_energy import run_ideal_sr
     from app.core.simulation.run import simulate
@@ -70,7 +71,9 @@ def simulate_walk_sr(
     drive = plan_drive_torque_Nm(robot, trajectory, tau, servo, law, options)
     params = preset_params("uniform", robot)
     command = compensated_command(joint_angles(robot, trajectory.q), drive, params)
-    result = simulate(robot, trajectory, command, servo, options, label=label)
+    clipped, note = clipped_commands(robot, trajectory.t, {label: command})
+    result = simulate(robot, trajectory, clipped[label], servo, options, label=label)
+    result = with_note({label: result}, note)[label]
     sr = run_ideal_sr(
         result, robot, trajectory, law, lambda: tau, options.timestep_s,
         options.command_hold == "linear",
