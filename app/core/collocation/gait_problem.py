@@ -79,11 +79,12 @@ IPOPT_OPTIONS: dict[str, Any] = {
     "ipopt.acceptable_iter": 10,
     "ipopt.max_iter": 100000,  # the per-solve limit is GaitSettings.max_iter, via the callback
     # Monotone barrier updates. The adaptive strategy took 25 iterations instead of 46 on the
-    # paper's case (first barrier parameter 0.1) (23 vs 31 on servo_biped, 33 vs 63 on Roban S14) to the same optima
-    # (tests/core/test_gait_speed.py), but on settings that admit no gait (|τ| ≤ 0.1 N·m) it
-    # runs to the iteration limit at a point where the torques are off their bound, so the
-    # one line blames the clearance and periodicity instead of the torque bound; monotone
-    # ends in "Infeasible_Problem_Detected" with the torques at the bound (test_cli.py).
+    # paper's case (first barrier parameter 0.1; 23 vs 31 on servo_biped, 33 vs 63 on Roban
+    # S14) to the same optima (tests/core/test_gait_speed.py), but on settings that admit no
+    # gait (|τ| ≤ 0.1 N·m) it runs to the iteration limit at a point where the torques are off
+    # their bound, so the one line blames the clearance and periodicity instead of the torque
+    # bound; monotone ends (at the iteration limit at 12 knots, or "Infeasible_Problem_Detected")
+    # with the torques at their bound, which the line then blames (test_cli.py, test_dircon.py).
     "ipopt.mu_strategy": "monotone",
 }
 WARM_ITERATIONS_BEFORE_FALLBACK = 40
