@@ -17,7 +17,7 @@ import pytest
 
 from tests.conftest import ROBAN_URDF
 from tests.test_cli import run
-from tests.test_cli_walk_simulate import _column
+from tests.test_cli_walk_simulate_roban import assert_starts_at_the_gaits_speed, simulated_walk
 
 
 @pytest.fixture(scope="module")
@@ -54,30 +54,13 @@ def test_the_default_step_is_shortened_and_plan_says_so(walk, default_step_m):
 
 def test_the_walk_starts_at_the_gaits_speed(walk):
     _, traj, report = walk
-    t, x = _column(traj, "t [s]"), _column(traj, "base_x [m]")
-    first_lift = report["walk"]["footprints"][0]["t_off_s"]
-    k = min(range(len(t)), key=lambda i: abs(t[i] - first_lift))
-    dt = t[1] - t[0]
-    before, after = (x[k] - x[k - 2]) / (2 * dt), (x[k + 2] - x[k]) / (2 * dt)
-    assert after > 0.1  # walking forward at lift-off
-    assert abs(after - before) < 0.25 * after
+    assert_starts_at_the_gaits_speed(traj, report)
 
 
 def test_the_default_walk_stays_up_and_covers_its_distance(walk):
     folder, traj, _ = walk
-    sim = folder / "sim.csv"
-    result = run(
-        "simulate", str(traj), "--robot", str(ROBAN_URDF), "--preset", "uniform",
-        "--drive-torque", "--out", str(sim), "--json", timeout_s=300,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
-    report = json.loads(result.stdout)
-    planned_x, simulated_x = _column(traj, "base_x [m]"), _column(sim, "base_x [m]")
-    planned = planned_x[-1] - planned_x[0]
-    covered = simulated_x[-1] - simulated_x[0]
+    _, planned, covered = simulated_walk(folder, traj)
     assert planned > 0.25
-    assert not report["fell"], report["verdict"]
-    assert report["verdict_kind"] != "falls"
     assert 0.9 * planned <= covered <= 1.2 * planned
 
 

@@ -37,9 +37,9 @@ def walk(tmp_path_factory):
     return folder, out, json.loads(result.stdout)
 
 
-def test_the_walk_starts_at_the_gaits_speed(walk):
-    _, traj, report = walk
-    # No jump in speed: the start ramp reaches the gait's speed with both feet down.
+def assert_starts_at_the_gaits_speed(traj, report) -> None:
+    """No jump in speed at the first lift-off, read off the walk CSV's base x (central finite
+    differences two samples either side), and `plan` says none."""
     assert not any("jump in speed" in note for note in report["walk"]["notes"])
     t, x = _column(traj, "t [s]"), _column(traj, "base_x [m]")
     first_lift = report["walk"]["footprints"][0]["t_off_s"]
@@ -50,8 +50,10 @@ def test_the_walk_starts_at_the_gaits_speed(walk):
     assert abs(after - before) < 0.25 * after
 
 
-def test_roban_walks_its_planned_distance_without_a_fall(walk):
-    folder, traj, _ = walk
+def simulated_walk(folder, traj) -> tuple[dict, float, float]:
+    """(`simulate --json`'s report, planned distance, distance covered [m]) of the walk on the
+    servos sized to S14, eq 7 on the drive torque; distances from the walk CSV's base x and the
+    simulation CSV's base_x column (MuJoCo's qpos). A run that falls fails here."""
     sim = folder / "sim.csv"
     result = run(
         "simulate", str(traj), "--robot", str(ROBAN_URDF), "--preset", "uniform",
@@ -59,13 +61,22 @@ def test_roban_walks_its_planned_distance_without_a_fall(walk):
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
-    planned_x = _column(traj, "base_x [m]")
-    simulated_x = _column(sim, "base_x [m]")
-    planned = planned_x[-1] - planned_x[0]
-    covered = simulated_x[-1] - simulated_x[0]
-    assert planned > 0.25  # four 5.9 cm steps and the start and stop
     assert not report["fell"], report["verdict"]
     assert report["verdict_kind"] != "falls"
+    planned_x, simulated_x = _column(traj, "base_x [m]"), _column(sim, "base_x [m]")
+    return report, planned_x[-1] - planned_x[0], simulated_x[-1] - simulated_x[0]
+
+
+def test_the_walk_starts_at_the_gaits_speed(walk):
+    _, traj, report = walk
+    # The start ramp reaches the gait's speed with both feet down.
+    assert_starts_at_the_gaits_speed(traj, report)
+
+
+def test_roban_walks_its_planned_distance_without_a_fall(walk):
+    folder, traj, _ = walk
+    report, planned, covered = simulated_walk(folder, traj)
+    assert planned > 0.25  # four 5.9 cm steps and the start and stop
     assert 0.9 * planned <= covered <= 1.2 * planned
     assert "covers" in report["verdict"]  # the CLI says how far it walked
     assert "sized to biped_s13" in report["servo_default"]

@@ -17,26 +17,16 @@ import numpy as np
 import pytest
 
 from app.core.collocation import gait_problem
-from app.core.collocation.defaults import robot_gait_defaults
 from app.core.collocation.gait_problem import GaitProblem
-from app.core.collocation.planar_model import PlanarModel
-from app.core.collocation.settings import GaitSettings
-from app.core.robot.loading import load_robot
+from tests.core.test_gait_speed import gait_case
 
 ROUND_3 = ("ipopt.mumps_pivtol", "ipopt.mumps_pivtolmax", "ipopt.mu_init")
-
-
-def _case(name: str) -> tuple[PlanarModel, GaitSettings]:
-    planar = PlanarModel(load_robot(name))
-    if name == "dircon_biped":
-        return planar, GaitSettings()
-    return planar, robot_gait_defaults(planar).settings
 
 
 @pytest.fixture(scope="module", params=["dircon_biped", "servo_biped"])
 def pair(request):
     """(settings, the studio's problem, the same problem under IPOPT's values)."""
-    planar, settings = _case(request.param)
+    planar, settings = gait_case(request.param)
     assert all(key in gait_problem.IPOPT_OPTIONS for key in ROUND_3)
     studio = GaitProblem(planar, settings.knots, settings.baseline)
     with pytest.MonkeyPatch.context() as patch:

@@ -27,7 +27,9 @@ from app.core.collocation.transcription import GaitLayout
 from app.core.robot.loading import load_robot
 
 
-def _case(name: str) -> tuple[PlanarModel, GaitSettings]:
+def gait_case(name: str) -> tuple[PlanarModel, GaitSettings]:
+    """A built-in robot's planar model and gait settings: the paper's for dircon_biped, the
+    robot-derived defaults otherwise."""
     planar = PlanarModel(load_robot(name))
     if name == "dircon_biped":
         return planar, GaitSettings()
@@ -37,7 +39,7 @@ def _case(name: str) -> tuple[PlanarModel, GaitSettings]:
 @pytest.fixture(scope="module", params=["dircon_biped", "servo_biped"])
 def both(request):
     """(adaptive result, monotone result) of the same cold solve."""
-    planar, settings = _case(request.param)
+    planar, settings = gait_case(request.param)
     monotone = GaitProblem(planar, settings.knots, settings.baseline)
     with pytest.MonkeyPatch.context() as patch:
         patch.setitem(gait_problem.IPOPT_OPTIONS, "ipopt.mu_strategy", "adaptive")
