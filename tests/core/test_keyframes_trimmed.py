@@ -1,56 +1,90 @@
-"""A keyframed motion sampled with the trimmed IK equals the same motion sampled with the IK
-as it was before (tests/oracles/previous_ik.py, unchanged): same contacts, same warnings, and
-samples within SAME_Q. They are not bit-identical: the previous IK's line search sometimes
-stopped up to 1e-4 short of the configuration its iterations converge to, where the trimmed
-one goes on (tests/core/test_ik_trimmed.py compares both with placo's own converged loop), and
-each sample starts from the one before. The previous IK solves every sample (tracking=False:
-it has no `track`), behind the call interpolate makes now (_PreviousIk)."""
+"""A keyframed motion sampled with the trimmed IK (one QP step from a prediction where that
+converges, WholeBodyIK.track; solve otherwise) against references of its own, sample by sample:
+
+- placo's own plain iteration of each sample's problem (the same targets, stance, posture,
+  damping and CoM polygon; no Python of ours in its loop) from the sample before, run until
+  |dq| < 1e-11: every sample must be within SAME_Q of the configuration those iterations
+  converge to (each sample is compared from the same start, so nothing accumulates);
+- pinocchio's frame placements and centre of mass: every sample reaches its targets (the motion
+  reports no shortfall, rightly) and its contacts are its stance feet and the feet on the
+  ground.
+"""
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
+import pinocchio as pin
+import placo
 
+from app.core.motions.keyframe_guards import CONTACT_BAND_M
 from app.core.motions.keyframes import interpolate
 from app.core.motions.library import MOTIONS, resolve_params
-from app.core.posing.ik import IkResult, WholeBodyIK
+from app.core.posing.ik import REACHED_M, REACHED_RAD, IkResult, IkTargets, WholeBodyIK
 from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT
 from app.core.robot.loading import load_robot
-from tests.oracles import previous_ik
+from app.core.robot.urdf_xml import canonical_urdf
+from tests.core.foot_drags import placo_solve_of
 
-SAME_Q = 1e-3
-"""[rad, m] per configuration entry (0.06°), over ~950 samples each started from the one
-before."""
-
-
-class _PreviousIk(previous_ik.WholeBodyIK):
-    """The previous IK answering solve's `explain` (ignored: it had no shortfall) with the
-    result record interpolate reads now (no placements: interpolate measures them itself)."""
-
-    def solve(self, q_start, targets, *, explain=True, **options):
-        return IkResult(**dataclasses.asdict(super().solve(q_start, targets, **options)))
+SAME_Q = 1e-5
+"""[rad, m] per configuration entry: one Gauss–Newton step from within 1e-3 leaves ~1e-6, and
+solve stops once the steps left are predicted below 1e-6 in norm (servo_biped: 2.4e-6 at most
+over the squats' 950 samples)."""
 
 
-def test_the_one_leg_squats_sample_as_with_the_previous_ik():
+class _Recording(WholeBodyIK):
+    """The IK, keeping each sample's question and answer: (start, targets, result) of every
+    outermost solve or track."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.asked: list[tuple[np.ndarray, IkTargets, IkResult]] = []
+        self._depth = 0
+
+    def _kept(self, answer, q_start, targets, *args, **kwargs) -> IkResult:
+        self._depth += 1
+        try:
+            result = answer(q_start, targets, *args, **kwargs)
+        finally:
+            self._depth -= 1
+        if self._depth == 0:
+            self.asked.append((np.array(q_start), targets, result))
+        return result
+
+    def solve(self, q_start, targets, *args, **kwargs) -> IkResult:
+        return self._kept(super().solve, q_start, targets, *args, **kwargs)
+
+    def track(self, q_from, targets, *args, **kwargs) -> IkResult:
+        return self._kept(super().track, q_from, targets, *args, **kwargs)
+
+
+def test_every_sample_of_the_one_leg_squats_is_placos_own_fixed_point_and_reaches_its_targets():
     robot = load_robot("servo_biped")
     plan = MOTIONS["one_leg_squats"].build(robot, **resolve_params("one_leg_squats", {}))
-    new = interpolate(
-        robot,
-        plan.keyframes,
-        dt=0.01,
-        ik=WholeBodyIK(robot, com_in_support=True, posture_weight=MOTION_POSTURE_WEIGHT),
-    )
-    old = interpolate(
-        robot,
-        plan.keyframes,
-        dt=0.01,
-        ik=_PreviousIk(  # type: ignore[arg-type]
-            robot, com_in_support=True, posture_weight=MOTION_POSTURE_WEIGHT
-        ),
-        tracking=False,
-    )
-    assert new.trajectory.q.shape == old.trajectory.q.shape
-    assert np.abs(new.trajectory.q - old.trajectory.q).max() < SAME_Q
-    assert np.array_equal(new.trajectory.contacts, old.trajectory.contacts)
-    assert [w.message for w in new.warnings] == [w.message for w in old.warnings]
+    ik = _Recording(robot, com_in_support=True, posture_weight=MOTION_POSTURE_WEIGHT)
+    motion = interpolate(robot, plan.keyframes, dt=0.01, ik=ik)
+    q, contacts = motion.trajectory.q, motion.trajectory.contacts
+    assert motion.warnings == ()
+    assert len(ik.asked) == len(q) > 900  # one IK answer per sample, kept as it is
+    wrapper = placo.RobotWrapper("", 0, canonical_urdf(robot.tree))
+    data = robot.model.createData()
+    for k, (q_start, targets, result) in enumerate(ik.asked):
+        assert np.array_equal(result.q, q[k]), k
+        if k > 0:
+            assert np.array_equal(q_start, q[k - 1]), k
+            fixed, iterations = placo_solve_of(robot, ik, q_start, targets, wrapper)
+            assert iterations < 50, k  # no crawl: the comparison holds on every sample
+            assert np.abs(q[k] - fixed).max() < SAME_Q, k
+        pin.framesForwardKinematics(robot.model, data, q[k])
+        stance = ("left", "right") if targets.stance == "both" else (targets.stance,)
+        for i, (foot, T_target) in enumerate(
+            zip(robot.feet, (targets.T_world_left, targets.T_world_right), strict=True)
+        ):
+            T = data.oMf[robot.model.getFrameId(foot.link, pin.BODY)]
+            assert T_target is not None
+            assert np.linalg.norm(T.translation - T_target[:3, 3]) < REACHED_M, k
+            assert np.linalg.norm(pin.log3(T_target[:3, :3].T @ T.rotation)) < REACHED_RAD, k
+            lowest = float((T.rotation @ foot.sole_corners_m.T)[2].min() + T.translation[2])
+            assert contacts[k, i] == (foot.side in stance or lowest <= CONTACT_BAND_M), k
+        if targets.com_xy is not None:
+            com = pin.centerOfMass(robot.model, data, q[k])[:2]
+            assert np.linalg.norm(com - np.asarray(targets.com_xy)[:2]) < REACHED_M, k
