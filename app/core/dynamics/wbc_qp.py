@@ -195,13 +195,7 @@ class WholeBodyQp(QpKinematicsMixin, FullQpMixin):
         if solver == "reduced" and reducible(nv, self.unactuated, len(self.loop_ids)):
             self.reduced = ReducedQp(
                 nv,
-                w_qdd=weights.w_qdd,
-                alpha=weights.alpha,
-                eta_max=weights.eta_max,
-                a=weights.a,
-                q_lqr=weights.q_lqr,
-                S=weights.S,
-                tau_max=weights.tau_max,
+                weights,
                 P_beta=P[self.cols["beta"], self.cols["beta"]],
                 G_u=self.G_u,
                 H_u=self.H_u,

@@ -35,7 +35,7 @@ import daqp
 import numpy as np
 from scipy.linalg.lapack import dposv
 
-from app.core.dynamics.wbc_terms import SampleInput, Terms, TermsBatch
+from app.core.dynamics.wbc_terms import QpWeights, SampleInput, Terms, TermsBatch
 
 DAQP_INFINITY = 1e30
 """DAQP's stand-in for an infinite bound."""
@@ -98,19 +98,14 @@ class ReducedQp:
 
     `P_beta` (32, 32) and `GH2` (32, 3) are the full QP's β block of the Hessian and the map
     from d = g − c̈_des to β's linear cost; `G_u` (3, 32), `H_u` (3, 3) ū = G_u β + d and
-    V's Hessian in ū (wbc_qp)."""
+    V's Hessian in ū (wbc_qp); `weights` the full QP's (it reads w_qdd, alpha, eta_max, a,
+    q_lqr, S and tau_max)."""
 
     def __init__(
         self,
         nv: int,
+        weights: QpWeights,
         *,
-        w_qdd: float,
-        alpha: float,
-        eta_max: float,
-        a: float,
-        q_lqr: float,
-        S: np.ndarray,
-        tau_max: np.ndarray,
         P_beta: np.ndarray,
         G_u: np.ndarray,
         H_u: np.ndarray,
@@ -118,11 +113,12 @@ class ReducedQp:
         b_com: np.ndarray,
     ) -> None:
         self.nv, self.na = nv, nv - 6
-        self.w_qdd, self.alpha, self.eta_max = w_qdd, alpha, eta_max
-        self.a, self.q_lqr, self.S, self.b_com = a, q_lqr, S, b_com
-        self.limited = np.flatnonzero(np.isfinite(tau_max))
+        w_qdd = weights.w_qdd
+        self.w_qdd, self.alpha, self.eta_max = w_qdd, weights.alpha, weights.eta_max
+        self.a, self.q_lqr, self.S, self.b_com = weights.a, weights.q_lqr, weights.S, b_com
+        self.limited = np.flatnonzero(np.isfinite(weights.tau_max))
         self.limited_v = 6 + self.limited
-        self.tau_max = tau_max[self.limited]
+        self.tau_max = weights.tau_max[self.limited]
         self.G_u, self.H_u, self.gravity = G_u, H_u, gravity
         self.GH2 = 2.0 * G_u.T @ H_u
         # Per contact state: β columns, foot rows, the Hessian's β block, T's constant part.
@@ -148,10 +144,10 @@ class ReducedQp:
             self._T0[state] = T0
             n_eta = len(rows)
             self._lower[state] = np.concatenate(
-                [np.zeros(nb), -self.tau_max, np.full(n_eta, -eta_max)]
+                [np.zeros(nb), -self.tau_max, np.full(n_eta, -self.eta_max)]
             )
             self._upper[state] = np.concatenate(
-                [np.full(nb, DAQP_INFINITY), self.tau_max, np.full(n_eta, eta_max)]
+                [np.full(nb, DAQP_INFINITY), self.tau_max, np.full(n_eta, self.eta_max)]
             )
             ny = nb + self.na
             diagonal = np.arange(nb, ny)
