@@ -44,6 +44,16 @@ def finite_float(cell: str, where: str, error: type[StudioError] = StudioError) 
     return value
 
 
+def refuse_unknown_keys(
+    keys: Iterable[str], known: Sequence[str], error: type[StudioError], where: str
+) -> None:
+    """`error` naming every one of `keys` (a table's) that is not in `known`, and the known
+    ones (a typo must never silently drop a value); `where` (a file, a table) starts the line."""
+    unknown = sorted(set(keys) - set(known))
+    if unknown:
+        raise error(f"{where}: unknown key(s) {', '.join(unknown)}; known: {', '.join(known)}")
+
+
 def refuse_unknown_joints(
     names: Iterable[str],
     joint_names: Sequence[str],

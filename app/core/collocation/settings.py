@@ -13,7 +13,7 @@ import math
 from pathlib import Path
 
 from app.core import input_gate
-from app.core.errors import StudioError
+from app.core.errors import StudioError, refuse_unknown_keys
 
 MIN_KNOTS = 5
 MAX_ITER = 10_000
@@ -178,11 +178,7 @@ class GaitSettings:
         """Settings from a dict (e.g. a parsed plan.toml), refusing unknown keys and bad types;
         fields not given keep `base`'s values (default: the class defaults, the paper's)."""
         fields = {f.name: f for f in dataclasses.fields(cls)}
-        unknown = sorted(set(values) - set(fields))
-        if unknown:
-            raise GaitSettingsError(
-                f"{source}: unknown key(s) {', '.join(unknown)}; known: {', '.join(fields)}"
-            )
+        refuse_unknown_keys(values, tuple(fields), GaitSettingsError, source)
         typed: dict[str, object] = {}
         for name, value in values.items():
             default = getattr(cls, name)

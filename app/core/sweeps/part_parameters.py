@@ -39,6 +39,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from app.core.errors import refuse_unknown_keys
 from app.core.sweeps.robot_variants import SweepSpecError
 
 PART_NAMES = ("servo", "kp")
@@ -178,11 +179,7 @@ def fixed_part(value: Any, source: str, files: tuple[Any, ...] = ()) -> tuple[tu
     """The [part] table: (("servo", key), ("kp", value)) as given."""
     if not isinstance(value, dict):
         raise SweepSpecError(f"{source}: [part] must be a table (servo, kp)")
-    unknown = sorted(set(value) - set(PART_NAMES))
-    if unknown:
-        raise SweepSpecError(
-            f"{source}: [part] unknown key(s) {', '.join(unknown)}; known: servo, kp"
-        )
+    refuse_unknown_keys(value, PART_NAMES, SweepSpecError, f"{source}: [part]")
     out: list[tuple[str, Any]] = []
     if "servo" in value:
         out.append(("servo", check_servo(value["servo"], f"{source}: [part]", files)))

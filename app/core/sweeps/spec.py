@@ -48,6 +48,7 @@ from typing import Any, Literal
 
 from app.core import input_gate
 from app.core.collocation.settings import GaitSettings, GaitSettingsError
+from app.core.errors import refuse_unknown_keys
 from app.core.sweeps.part_metrics import PART_METRICS, check_part_metrics
 from app.core.sweeps.part_parameters import (
     check_parts,
@@ -183,11 +184,7 @@ class SweepSpec:
         """Check user data (a parsed TOML, the panel's values) and build the spec."""
         if not isinstance(data, dict):
             raise SweepSpecError(f"{source}: a sweep is a table of keys, not {type(data).__name__}")
-        unknown = sorted(set(data) - set(TOP_KEYS))
-        if unknown:
-            raise SweepSpecError(
-                f"{source}: unknown key(s) {', '.join(unknown)}; known: {', '.join(TOP_KEYS)}"
-            )
+        refuse_unknown_keys(data, TOP_KEYS, SweepSpecError, source)
         robot = typed(data.get("robot", "dircon_biped"), str, f"{source}: robot")
         if robot not in BUILTIN_ROBOTS and not robot.lower().endswith(".urdf"):
             raise SweepSpecError(

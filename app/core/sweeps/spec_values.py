@@ -10,6 +10,7 @@ import math
 from typing import Any
 
 from app.core.collocation.settings import GaitSettings, GaitSettingsError
+from app.core.errors import refuse_unknown_keys
 from app.core.sweeps.part_parameters import PART_NAMES, check_kp, choices_of
 from app.core.sweeps.robot_variants import SweepSpecError, robot_parameter
 from app.core.sweeps.servo_metrics import SERVO_PARAMETERS
@@ -80,11 +81,7 @@ def sweep_parameter(
     """One [[parameter]] table checked: known keys, a kind, a range inside what the planner
     (`base` settings), the robot builder, the servo model or the part accepts."""
     entry = typed(entry, dict, where)
-    unknown = sorted(set(entry) - set(PARAMETER_KEYS))
-    if unknown:
-        raise SweepSpecError(
-            f"{where}: unknown key(s) {', '.join(unknown)}; known: {', '.join(PARAMETER_KEYS)}"
-        )
+    refuse_unknown_keys(entry, PARAMETER_KEYS, SweepSpecError, where)
     if "name" not in entry:
         raise SweepSpecError(f"{where}: missing 'name'")
     name = typed(entry["name"], str, f"{where}: name")
