@@ -30,6 +30,7 @@ from app.core.simulation.result import SimulationResult, slip_m
 from app.core.simulation.servo_law import ServoLaw, robot_servo_law
 from app.core.simulation.sim_model import SimModel
 from app.core.simulation.verdicts import judge
+from app.core.simulation.worker import finish_job, simulation_job
 
 GRAVITY_MPS2 = 9.81
 CONTACT_LOAD_FRACTION = 0.02
@@ -250,14 +251,8 @@ def simulate_commands(
     `progress(fraction of all runs)` is called as they go (in parallel: when each ends);
     raising from it stops a sequential run. `law` replaces the virtual servos' (servo parts);
     `balance`: each run with the balance feedback at these gains (None: off)."""
-    sim = build_sim_model(robot, options)
-    labels = list(commands)
-    inputs = [
-        prepare(
-            robot, trajectory, commands[label], servo, options, sim=sim, law=law, balance=balance
-        )
-        for label in labels
-    ]
+    job = simulation_job(robot, trajectory, commands, servo, options, law, balance)
+    inputs = job.inputs
     if parallel is None:
         simulated_s = len(inputs) * (trajectory.duration + SETTLE_S)
         parallel = (
@@ -280,10 +275,7 @@ def simulate_commands(
             run_engine(inp, None if progress is None else _scaled(progress, i, len(inputs)))
             for i, inp in enumerate(inputs)
         ]
-    return {
-        label: finish(robot, trajectory, inp, run, label)
-        for label, inp, run in zip(labels, inputs, runs, strict=True)
-    }
+    return finish_job(robot, trajectory, job, tuple(runs))
 
 
 def _scaled(progress: Callable[[float], None], i: int, n: int) -> Callable[[float], None]:
