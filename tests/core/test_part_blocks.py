@@ -39,6 +39,7 @@ from app.core.simulation.run import prepare
 from app.core.simulation.servo_law import Setpoints, actuators_xml
 from tests.conftest import ROBAN_URDF
 from tests.core.test_servo_parts import PENDULUM as SERVO_PARTS_PENDULUM
+from tests.core.test_servo_parts import hinge
 from tests.trajectory_slices import first_samples
 
 CATALOGUE = load_catalogue()
@@ -63,14 +64,8 @@ def _mx64(**settings):
 def _hinge(law, start_rad, gravity=True):
     """A hinge on the part's law in MuJoCo's actuators, held by `PartBlocks.hold`."""
     actuators, ctrl_joint = actuators_xml(law, ("hinge",))
-    model = mujoco.MjModel.from_xml_string(PENDULUM.format(actuators=actuators))
-    if not gravity:
-        model.opt.gravity[:] = 0.0
+    model, data = hinge(law, start_rad, gravity, PENDULUM.format(actuators=actuators))
     zero = np.array([0])
-    law.set_joint_dynamics(model, zero)
-    data = mujoco.MjData(model)
-    data.qpos[0] = start_rad
-    mujoco.mj_forward(model, data)
     first = np.zeros(1)
     loop = PartLoop(law, model.opt.timestep, first, model, data, zero)
     setpoints = Setpoints(law, model.opt.timestep, first)

@@ -101,16 +101,23 @@ PENDULUM = """
 """
 
 
-def _pendulum(law, commands, start, gravity=True):
-    """The engine's own loop on one hinge: (model, data, loop, energies, viscous heat)."""
-    model = mujoco.MjModel.from_xml_string(PENDULUM)
+def hinge(law, start, gravity=True, xml=PENDULUM):
+    """The pendulum (`xml`) with `law`'s joint dynamics, at `start` [rad] (forward pass done),
+    without gravity when asked: (model, data)."""
+    model = mujoco.MjModel.from_xml_string(xml)
     if not gravity:
         model.opt.gravity[:] = 0.0
-    dofs = np.array([0])
-    law.set_joint_dynamics(model, dofs)
+    law.set_joint_dynamics(model, np.array([0]))
     data = mujoco.MjData(model)
     data.qpos[0] = start
     mujoco.mj_forward(model, data)
+    return model, data
+
+
+def _pendulum(law, commands, start, gravity=True):
+    """The engine's own loop on one hinge: (model, data, loop, energies, viscous heat)."""
+    model, data = hinge(law, start, gravity)
+    dofs = np.array([0])
     loop = PartLoop(law, model.opt.timestep, np.array([commands[0]]), model, data, dofs)
     energy0 = float(data.energy.sum())
     viscous = 0.0
