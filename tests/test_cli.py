@@ -34,7 +34,8 @@ def run(
 def com_shift_csv(folder: Path) -> Path:
     """`motion com_shift --out folder/com_shift.csv`, checked to succeed; the file."""
     motion = folder / "com_shift.csv"
-    assert run("motion", "com_shift", "--out", str(motion)).returncode == 0
+    made = run("motion", "com_shift", "--out", str(motion))
+    assert made.returncode == 0, made.stderr
     return motion
 
 

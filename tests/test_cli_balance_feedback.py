@@ -10,15 +10,13 @@ import json
 
 import pytest
 
-from tests.test_cli import run
+from tests.test_cli import com_shift_csv, run
 
 
 @pytest.fixture(scope="module")
 def soft(tmp_path_factory):
     folder = tmp_path_factory.mktemp("balance")
-    traj = folder / "traj.csv"
-    made = run("motion", "com_shift", "--robot", "servo_biped", "--out", str(traj))
-    assert made.returncode == 0, made.stderr
+    traj = com_shift_csv(folder)
     servo = folder / "soft.toml"
     servo.write_text("compliance_deg_per_Nm = 5.0\nbacklash_deg = 0.5\n")
     return folder, traj, servo

@@ -9,7 +9,7 @@ import math
 import pytest
 
 from app.core.robot.loading import load_robot
-from tests.test_cli import run
+from tests.test_cli import com_shift_csv, run
 
 G = 9.81
 
@@ -17,10 +17,7 @@ G = 9.81
 @pytest.fixture(scope="module")
 def motion(tmp_path_factory):
     folder = tmp_path_factory.mktemp("simulate")
-    traj = folder / "traj.csv"
-    result = run("motion", "com_shift", "--robot", "servo_biped", "--out", str(traj))
-    assert result.returncode == 0, result.stderr
-    return folder, traj
+    return folder, com_shift_csv(folder)
 
 
 def _columns(path) -> dict[str, list[float]]:
