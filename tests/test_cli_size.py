@@ -3,20 +3,18 @@
 from __future__ import annotations
 
 import json
-import math
-import tomllib
 
 import numpy as np
 import pytest
 
-from app.core.dynamics.stand_stiffness import stand_check
 from app.core.motions.csv_files import read_trajectory_csv
 from app.core.robot.loading import load_robot
-from app.core.servo.catalogue import BAM_PARAMS_DIR, SERVOS_DIR, load_catalogue
+from app.core.servo.catalogue import load_catalogue
 from app.core.servo.files import read_torque_csv
 from app.core.servo.kp_sizing import MAX_SAG_DEG, STAND_MARGIN
 from app.core.servo.sizing import envelope
 from tests.core.test_servo_sizing import _brute_force
+from tests.kp_brute_force import cheapest_pairs
 from tests.test_cli import run
 
 
@@ -48,48 +46,17 @@ def test_size_json_picks_what_a_brute_force_search_picks(com_shift):
          "limit": envelope(r).torque_limit_Nm}
         for r in load_catalogue().values()
     ]  # fmt: skip
-    expected = _brute_force_with_kp(robot, traj.q[0], w, tau, servos, 0.3)
+    by_key = {s["key"]: s for s in servos}
+    expected = cheapest_pairs(
+        robot, traj.q[0], tau, {s["key"]: s["mass"] for s in servos},
+        lambda j, key: _brute_force(w[:, [j]], tau[:, [j]], [by_key[key]], 0.3) == [key],
+    )  # fmt: skip
     assert [(row["servo"], row["kp"]) for row in report["joints"]] == expected
     assert any(kp is not None for _servo, kp in expected)  # some joints' kp chosen
     assert report["stiffness"]["stand_margin"] == STAND_MARGIN
     assert report["stiffness"]["max_sag_deg"] == MAX_SAG_DEG
     assert report["sizing_time_s"] >= 0.0
     assert any("assumed" in note for note in report["notes"])
-
-
-def _brute_force_with_kp(robot, q_stand, w, tau, servos, margin):
-    """Per joint the cheapest (servo, kp) pair over every catalogue servo and its whole kp grid
-    1 … kp_max: the servo holds the points and heat (`_brute_force` on that servo alone), and
-    where its record has firmware constants, K = kt·vin·error_gain·kp/R (BAM's m1 file and the
-    record's TOML, read here) is at least (1 + STAND_MARGIN)·K* on a leg joint (K* = 1/the
-    stand check's uniform leg compliance) and (max|τ| + friction_base)/MAX_SAG_DEG. Pairs
-    ordered by (mass, key, kp); a servo without firmware constants has no kp (None)."""
-    assert len(robot.joint_names) == 12  # servo_biped: every joint a leg joint
-    leg = 1.0 / math.radians(
-        stand_check(robot, q_stand, np.zeros(12)).max_leg_compliance_deg_per_Nm
-    )
-    records = {(d := tomllib.loads(p.read_text()))["key"]: d for p in SERVOS_DIR.glob("*.toml")}
-    out = []
-    for j in range(12):
-        pairs = []
-        for servo in servos:
-            if _brute_force(w[:, [j]], tau[:, [j]], [servo], margin) != [servo["key"]]:
-                continue
-            record = records[servo["key"]]
-            if "firmware" not in record:
-                pairs.append((servo["mass"], servo["key"], None))
-                continue
-            fw = record["firmware"]
-            m1 = json.loads((BAM_PARAMS_DIR / record["identified"] / "m1.json").read_text())
-            grid = np.arange(1, int(fw["kp_max"]) + 1, dtype=float)
-            k = m1["kt"] * fw["vin_V"] * fw["error_gain"] * grid / m1["R"]
-            sag = (np.abs(tau[:, j]).max() + m1["friction_base"]) / math.radians(MAX_SAG_DEG)
-            ok = (k >= (1 + STAND_MARGIN) * leg) & (k >= sag)
-            if ok.any():
-                pairs.append((servo["mass"], servo["key"], float(grid[ok][0])))
-        best = min(pairs, default=None, key=lambda p: (p[0], p[1]))
-        out.append((None, None) if best is None else (best[1], best[2]))
-    return out
 
 
 def test_size_text_names_a_joint_no_servo_holds(com_shift, tmp_path):
@@ -116,6 +83,8 @@ def test_size_text_names_a_joint_no_servo_holds(com_shift, tmp_path):
         (("--margin", "nan"), "margin is nan"),
         (("--margin", "-0.2"), "margin is -0.2"),
         (("--robot", "no_such_robot"), "no_such_robot"),
+        (("--stand-margin", "-1"), "stand margin is -1"),
+        (("--max-sag-deg", "0"), "max sag is 0°"),
     ],
 )
 def test_hostile_options_are_one_line_and_exit_1(com_shift, extra, words):

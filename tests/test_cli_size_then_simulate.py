@@ -105,8 +105,6 @@ def test_compensated_commands_past_a_limit_are_clipped_and_said(sized):
         (["--servo-toml", "/nonexistent/dir/servo.toml"], "its folder does not exist"),
         (["--servo-toml", "{out}", "--kp", "-3"], "kp is -3"),
         (["--servo-toml", "{out}", "--kp", "nan"], "kp is nan"),
-        (["--stand-margin", "-1"], "stand margin is -1"),
-        (["--max-sag-deg", "0"], "max sag is 0°"),
     ],
 )
 def test_bad_size_options_are_one_line(tmp_path, args, words):
