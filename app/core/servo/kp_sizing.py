@@ -175,7 +175,7 @@ def kp_max(record: ServoRecord) -> float:
 
 @dataclasses.dataclass(frozen=True)
 class KpChoice:
-    """One servo's kp on one joint (app.core.servo.sizing.Stiffness)."""
+    """One servo's kp on one joint (a sizing Check's stiffness)."""
 
     kp: float | None
     """The smallest whole kp giving need_Nm_per_rad; None: none in range (or not checked)."""
