@@ -11,8 +11,10 @@ from app.core.motions.csv_files import read_trajectory_csv
 from app.core.robot.loading import load_robot
 from app.core.servo.catalogue import load_catalogue
 from app.core.servo.files import read_torque_csv
+from app.core.servo.kp_sizing import MAX_SAG_DEG, STAND_MARGIN
 from app.core.servo.sizing import envelope
 from tests.core.test_servo_sizing import _brute_force
+from tests.kp_brute_force import cheapest_pairs
 from tests.test_cli import run
 
 
@@ -44,8 +46,15 @@ def test_size_json_picks_what_a_brute_force_search_picks(com_shift):
          "limit": envelope(r).torque_limit_Nm}
         for r in load_catalogue().values()
     ]  # fmt: skip
-    expected = _brute_force(w, tau, servos, 0.3)
-    assert [row["servo"] for row in report["joints"]] == expected
+    by_key = {s["key"]: s for s in servos}
+    expected = cheapest_pairs(
+        robot, traj.q[0], tau, {s["key"]: s["mass"] for s in servos},
+        lambda j, key: _brute_force(w[:, [j]], tau[:, [j]], [by_key[key]], 0.3) == [key],
+    )  # fmt: skip
+    assert [(row["servo"], row["kp"]) for row in report["joints"]] == expected
+    assert any(kp is not None for _servo, kp in expected)  # some joints' kp chosen
+    assert report["stiffness"]["stand_margin"] == STAND_MARGIN
+    assert report["stiffness"]["max_sag_deg"] == MAX_SAG_DEG
     assert report["sizing_time_s"] >= 0.0
     assert any("assumed" in note for note in report["notes"])
 
@@ -74,6 +83,8 @@ def test_size_text_names_a_joint_no_servo_holds(com_shift, tmp_path):
         (("--margin", "nan"), "margin is nan"),
         (("--margin", "-0.2"), "margin is -0.2"),
         (("--robot", "no_such_robot"), "no_such_robot"),
+        (("--stand-margin", "-1"), "stand margin is -1"),
+        (("--max-sag-deg", "0"), "max sag is 0°"),
     ],
 )
 def test_hostile_options_are_one_line_and_exit_1(com_shift, extra, words):

@@ -1,11 +1,11 @@
 """Issue 27's "Roban S14 stands … with servos the sizing chose", as a user runs it: `size
---servo-toml` writes the choice, `simulate --servo` runs those parts.
+--servo-toml` writes the choice and the kp it chose per joint, `simulate` runs those parts.
 
 The file is checked against the sizing's own report (each joint's choice, or the closest servo
-where none holds) and the catalogue's files (every servo one the simulation can run); the run
-against the motor law's closed form (K = kt·vin·error_gain·kp/R from BAM's m1 file) and the
-stand check's threshold: at the records' kp 32 the ankle parts are softer than the robot needs
-(sizing checks torque and heat, not stiffness), at kp 128 they are stiff enough and it stands.
+where none holds, and its kp) and the catalogue's files (every servo one the simulation can
+run); the run against the motor law's closed form (K = kt·vin·error_gain·kp/R from BAM's m1
+file) and the stand check's threshold: the kp chosen for the ankles make them stiff enough to
+stand, where the records' kp 32 leaves them softer than the robot needs.
 """
 
 from __future__ import annotations
@@ -21,8 +21,6 @@ from app.core.servo.catalogue import BAM_PARAMS_DIR, SERVOS_DIR
 from tests.conftest import ROBAN_URDF
 from tests.test_cli import run
 
-KP = 128
-
 
 @pytest.fixture(scope="module")
 def sized(tmp_path_factory):
@@ -34,8 +32,7 @@ def sized(tmp_path_factory):
     )  # fmt: skip
     assert made.returncode == 0, made.stderr
     size = run(
-        "size", str(motion), "--robot", str(ROBAN_URDF), "--servo-toml", str(parts),
-        "--kp", str(KP), "--json",
+        "size", str(motion), "--robot", str(ROBAN_URDF), "--servo-toml", str(parts), "--json",
     )  # fmt: skip
     assert size.returncode == 0, size.stderr
     simulated = run(
@@ -53,19 +50,22 @@ def _records() -> dict[str, dict]:
 def test_the_written_file_is_the_sizings_choice_of_servos_the_simulation_runs(sized):
     report, parts, _sim = sized
     records = {data["key"]: data for data in _records().values()}
-    assert parts["kp"] == KP
+    assert "kp" not in parts  # one kp per joint, none for all
     for joint in report["joints"]:
-        expected = joint["servo"] if joint["holds"] else joint["closest"]["servo"]
-        assert parts["joints"][joint["joint"]] == {"servo": expected}, joint["joint"]
-        record = records[expected]
+        chosen = joint["chosen"] if joint["holds"] else joint["closest"]
+        kp = chosen["kp"] if chosen["kp"] is not None else chosen["kp_max"]
+        assert parts["joints"][joint["joint"]] == {"servo": chosen["servo"], "kp": kp}
+        assert joint["holds"] is False or joint["kp"] == kp
+        record = records[chosen["servo"]]
         assert "firmware" in record and "identified" in record  # a motor model to run
+        assert 1 <= kp <= record["firmware"]["kp_max"]
     assert report["unsized"]  # S14's stance joints: no catalogue servo holds them with 30 %
     assert any(f"no servo holds {report['unsized'][0]}" in n for n in report["notes"])
     assert any("left out" in n and "xm540_w270" in n for n in report["notes"])
 
 
-def test_s14_stays_up_on_the_sized_parts_at_kp_128(sized):
-    _report, _parts, sim = sized
+def test_s14_stays_up_on_the_sized_parts_at_their_kp(sized):
+    _report, parts, sim = sized
     assert sim["verdict"].startswith("stays up"), sim["verdict"]
     assert sim["stand_check"].startswith("stands"), sim["stand_check"]
     assert sim["rms_joint_error_deg"] < 1.0
@@ -74,18 +74,19 @@ def test_s14_stays_up_on_the_sized_parts_at_kp_128(sized):
         record = records[row["servo"]]
         m1 = json.loads((BAM_PARAMS_DIR / record["identified"] / "m1.json").read_text())
         fw = record["firmware"]
-        k = m1["kt"] * fw["vin_V"] * fw["error_gain"] * KP / m1["R"]
-        assert row["kp"] == KP and row["stiffness_Nm_per_rad"] == pytest.approx(k, rel=1e-12)
-    # At the records' kp 32 the ankles' parts are 4× softer: more compliant than the stand
-    # check's threshold, so the robot could not stand on them (sizing does not check it).
+        kp = parts["joints"][row["joint"]]["kp"]
+        k = m1["kt"] * fw["vin_V"] * fw["error_gain"] * kp / m1["R"]
+        assert row["kp"] == kp and row["stiffness_Nm_per_rad"] == pytest.approx(k, rel=1e-12)
+    # At the records' kp 32 the ankles' parts are softer than the stand check's threshold:
+    # the robot could not stand on them; the sizing's kp make them stiff enough.
     needed = float(re.search(r"needs ≤ ([0-9.]+) °/\(N·m\)", sim["stand_check"]).group(1))
     ankles = [r for r in sim["servos"] if r["joint"] in ("leg_l6_joint", "leg_r6_joint")]
     assert len(ankles) == 2
     for row in ankles:
-        k_128 = row["stiffness_Nm_per_rad"]
-        assert row["compliance_deg_per_Nm"] == pytest.approx(math.degrees(1 / k_128), rel=1e-12)
+        k = row["stiffness_Nm_per_rad"]
+        assert row["compliance_deg_per_Nm"] == pytest.approx(math.degrees(1 / k), rel=1e-12)
         assert row["compliance_deg_per_Nm"] < needed
-        assert math.degrees(1 / (k_128 * 32 / KP)) > needed  # K ∝ kp
+        assert math.degrees(1 / (k * 32 / row["kp"])) > needed  # K ∝ kp
 
 
 def test_compensated_commands_past_a_limit_are_clipped_and_said(sized):

@@ -36,6 +36,15 @@ def add_parser(sub) -> None:
         "computed by the whole-body QP)",
     )
     size.add_argument(
+        "--also",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="MOTION.csv",
+        help="another motion of the same robot to size against too (repeatable; its torques "
+        "by the whole-body QP): a servo and its kp must hold every motion",
+    )
+    size.add_argument(
         "--margin",
         type=float,
         default=0.3,
@@ -64,8 +73,24 @@ def add_parser(sub) -> None:
         "--kp",
         type=float,
         default=None,
-        help="with --servo-toml: the firmware P gain of every joint (default the records'); "
-        "the parts' stiffness, hence whether the robot stands, grows with it",
+        help="with --servo-toml: one firmware P gain for every joint, overriding the kp the "
+        "sizing chose per joint (the parts' stiffness, hence whether the robot stands, grows "
+        "with it)",
+    )
+    size.add_argument(
+        "--stand-margin",
+        type=float,
+        default=None,
+        help="per joint the smallest kp whose stiffness makes the robot stand by the stand "
+        "check's linearised balance, with this margin: it still stands with every leg servo "
+        "(1 + margin)× softer (default 0.5)",
+    )
+    size.add_argument(
+        "--max-sag-deg",
+        type=float,
+        default=None,
+        help="the largest quasi-static sag (load + the servo's friction)/K a joint may have in "
+        "any motion, which the chosen kp keeps (default 2°)",
     )
     size.add_argument(
         "--time", action="store_true", help="print how long the sizing itself took (not torques)"
@@ -76,13 +101,20 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
 
     from app.core.servo.catalogue import load_catalogue, read_user_servos, with_user_servos
+    from app.core.servo.kp_sizing import (
+        MAX_SAG_DEG,
+        STAND_MARGIN,
+        check_max_sag,
+        check_stand_margin,
+        size_with_kp,
+    )
     from app.core.servo.sizing import (
         CONTINUOUS_FRACTION_OF_STALL,
         check_fraction,
         check_margin,
         totals,
     )
-    from app.core.servo.sizing_work import motion_work, size_works
+    from app.core.servo.sizing_work import motion_work
 
     margin = check_margin(args.margin)
     fraction = check_fraction(
@@ -90,6 +122,10 @@ def run(args: argparse.Namespace) -> int:
         if args.continuous_fraction is None
         else args.continuous_fraction
     )
+    stand_margin = check_stand_margin(
+        STAND_MARGIN if args.stand_margin is None else args.stand_margin
+    )
+    max_sag_deg = check_max_sag(MAX_SAG_DEG if args.max_sag_deg is None else args.max_sag_deg)
     catalogue = load_catalogue()
     for path in args.servos:
         catalogue = with_user_servos(catalogue, read_user_servos(path))
@@ -112,16 +148,19 @@ def run(args: argparse.Namespace) -> int:
     tau, infeasible = _torques(args, inputs)
     motion = motion_work(robot, traj, tau, infeasible)
     flagged = motion.flagged
-    works = {"motion": motion, **_project_gaits(args, robot)}
+    works = {"motion": motion, **_project_gaits(args, robot), **_also(args.also, robot)}
     begin = time.perf_counter()
-    sizing = size_works(
-        robot.joint_names,
+    sizing = size_with_kp(
+        robot,
         works,
         float(traj.t[-1] - traj.t[0]),
         catalogue,
         margin,
         args.by,
         continuous_fraction=fraction,
+        trajectory=traj,
+        stand_margin=stand_margin,
+        max_sag_deg=max_sag_deg,
     )
     seconds = time.perf_counter() - begin
     total = totals(sizing, catalogue)
@@ -149,10 +188,12 @@ def run(args: argparse.Namespace) -> int:
             report["sizing_time_s"] = seconds
         print(json.dumps(report, indent=2))
         return 0
-    also = [label for label in works if label != "motion"]
+    gaits = [label for label in works if label.endswith(" gait")]
+    also = [label for label in works if label != "motion" and label not in gaits]
     print(
         f"sizing {traj.name} on {robot.name} ({traj.n_samples} samples"
-        + (f"; and the project's {', '.join(also)}" if also else "")
+        + (f"; and the project's {', '.join(gaits)}" if gaits else "")
+        + (f"; and {', '.join(also)}" if also else "")
         + f") over {len(catalogue)} "
         f"servos, margin {margin:.0%}, by {args.by}: "
         f"{len(robot.joint_names) - len(sizing.unsized)} of {len(robot.joint_names)} joints sized"
@@ -164,6 +205,7 @@ def run(args: argparse.Namespace) -> int:
             print(
                 f"  {joint.joint:20s} {c.servo:12s} peak margin {c.peak_margin:+6.0%}  "
                 f"RMS {c.rms_torque_Nm:6.3f} N·m of {c.continuous_torque_Nm:.3g} ({rating})"
+                + _stiffness_text(c.stiffness)
             )
         else:
             best = max(joint.checks, key=lambda c: min(c.peak_margin, c.thermal_margin))
@@ -177,6 +219,16 @@ def run(args: argparse.Namespace) -> int:
     if args.time:
         print(f"sizing took {seconds * 1e3:.1f} ms (torques excluded)")
     return 0
+
+
+def _stiffness_text(stiffness) -> str:
+    """ "  kp 95: K 166 N·m/rad, sag 1.0°" (or why there is none)."""
+    if stiffness is None or not stiffness.checked:
+        return "  kp: not checked (no firmware constants)"
+    return (
+        f"  kp {stiffness.kp:g}: K {stiffness.stiffness_Nm_per_rad:.3g} N·m/rad, "
+        f"sag {stiffness.sag_deg:.2g}°"
+    )
 
 
 def _torques(args: argparse.Namespace, inputs) -> tuple[np.ndarray, tuple[int, ...]]:
@@ -202,6 +254,24 @@ def _torques(args: argparse.Namespace, inputs) -> tuple[np.ndarray, tuple[int, .
 
         ff = torque_feedforward(robot, traj)
     return ff.tau_Nm, tuple(int(k) for k in ff.infeasible_samples)
+
+
+def _also(paths: list[Path], robot) -> dict:
+    """Each --also motion's work (label: its file name), torques by the whole-body QP."""
+    from app.core.dynamics.wbc import torque_feedforward
+    from app.core.motions.csv_files import read_trajectory_csv
+    from app.core.servo.sizing_work import motion_work
+
+    out = {}
+    for path in paths:
+        if path.name in out or path.name == "motion":
+            raise StudioError(f"--also {path}: a motion of that name is already sized")
+        traj = read_trajectory_csv(path, robot)
+        ff = torque_feedforward(robot, traj)
+        out[path.name] = motion_work(
+            robot, traj, ff.tau_Nm, [int(k) for k in ff.infeasible_samples]
+        )
+    return out
 
 
 def _project_gaits(args: argparse.Namespace, robot) -> dict:
@@ -240,5 +310,10 @@ def _write_parts(path: Path, sizing, kp: float | None, left_out: list[str]) -> l
     if parts.closest:
         notes.append(
             f"no servo holds {', '.join(parts.closest)}: the file gives each the closest one"
+        )
+    if parts.softer:
+        notes.append(
+            f"--kp {kp:g} is below the kp the stiffness needs on {', '.join(parts.softer)} "
+            "(to stand, or within the sag bound)"
         )
     return notes

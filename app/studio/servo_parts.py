@@ -30,7 +30,7 @@ from app.core.servo.choice import (
 )
 from app.core.servo.model import ServoModel
 from app.core.servo.parts import ServoPartsError
-from app.core.servo.sizing import Sizing, totals
+from app.core.servo.sizing import JointSizing, Sizing, totals
 from app.core.servo.sizing_work import Work
 from app.core.servo.user_files import UserServoFile, records
 from app.core.simulation.battery import run_energy_figures
@@ -179,6 +179,14 @@ def removed_text(name: str, keys: list[str], reset: list[str]) -> str:
     )
 
 
+def _kp_text(joint: JointSizing) -> str:
+    """ ", kp 95 (sag 1.0°)" of the servo chosen, "" where its stiffness was not checked."""
+    stiffness = None if joint.choice is None else joint.check(joint.choice).stiffness
+    if stiffness is None or stiffness.kp is None or stiffness.sag_deg is None:
+        return ""
+    return f", kp {stiffness.kp:g} (sag {stiffness.sag_deg:.2g}°)"
+
+
 def sizing_text(
     sizing: Sizing, works: dict[str, Work], records: dict[str, ServoRecord], total: int
 ) -> str:
@@ -195,7 +203,7 @@ def sizing_text(
             c = joint.check(joint.choice)
             lines.append(
                 f"{joint.joint}: **{c.servo}**, peak margin {c.peak_margin:+.0%}, RMS "
-                f"{c.rms_torque_Nm:.3g} of {c.continuous_torque_Nm:.3g} N·m"
+                f"{c.rms_torque_Nm:.3g} of {c.continuous_torque_Nm:.3g} N·m" + _kp_text(joint)
             )
         else:
             best = max(joint.checks, key=lambda c: min(c.peak_margin, c.thermal_margin))

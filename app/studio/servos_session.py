@@ -36,8 +36,9 @@ from app.core.servo.choice import (
     take_joints,
     with_parts,
 )
+from app.core.servo.kp_sizing import kp_of, size_with_kp
 from app.core.servo.sizing import Sizing, check_joint, envelope
-from app.core.servo.sizing_work import Work, gait_work, motion_work, size_works
+from app.core.servo.sizing_work import Work, gait_work, motion_work
 from app.core.servo.user_files import UserServoFile, adding, records, user_file
 from app.studio.notifier import Notifier
 from app.studio.servo_parts import (
@@ -370,7 +371,9 @@ class ServosSession:
                 if work is not None and gait is not None:
                     works[label] = work
                     duration = duration or gait.duration_s
-            sizing = size_works(robot.joint_names, works, max(duration, 1e-3), self.records, margin)
+            sizing = size_with_kp(
+                robot, works, max(duration, 1e-3), self.records, margin, trajectory=trajectory
+            )
         except StudioError as error:
             self.panel.sizing.content = f"⚠️ {error}"
             self._fail("Cannot size the servos", str(error), client)
@@ -380,7 +383,9 @@ class ServosSession:
         if choice is None or self._state.robot is not robot:
             return
         for joint in sizing.joints:
-            chosen = JointServo(joint.choice) if joint.choice is not None else JointServo()
+            chosen = (
+                JointServo() if joint.choice is None else JointServo(joint.choice, kp=kp_of(joint))
+            )
             choice = choice.with_joint(joint.joint, chosen)
         self.last = (sizing, works)
         total = len(offered_catalogue(choice, catalogue()))

@@ -3,7 +3,7 @@
 dropdowns, the page shows its compliance k = 1/K (checked against the motor law's closed form,
 K = kt·vin·error_gain·kp/R, from the record), a margin is typed, *Size servos* is clicked and
 the per-joint choice and its margins are read in the page, against the studio's state and a
-brute force over the servos offered. Last, the user's own servo file is uploaded through the
+brute force over the servos offered and their kp (tests/kp_brute_force.py). Last, the user's own servo file is uploaded through the
 folder's upload button (a bad one first: refused in one line, nothing changed), its servo
 picked from the dropdown and its k = 1/K read in the page against the file's own numbers.
 
@@ -32,6 +32,7 @@ from tests.browser.page_helpers import (
     wait_for,
     wait_notified,
 )
+from tests.kp_brute_force import cheapest_pairs
 from tests.studio.test_user_servos_in_studio import ERROR_GAIN, KP, KT, VIN, R, servo_toml
 
 MOTION = "one_leg_stand"
@@ -91,19 +92,24 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
     robot = studio.state.robot
     _, works = studio.servo_rooms.servos.last
     (work,) = works.values()
-    for j, name in enumerate(robot.joint_names):
-        holding = sorted(
-            (r.mass_kg, key)
-            for key, r in studio.servo_rooms.servos.records.items()
-            if check_joint(r, work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, MARGIN).holds
-        )
-        expected = holding[0][1] if holding else ""
-        assert parts.joint(name).servo == expected, name
+    records = studio.servo_rooms.servos.records
+    pairs = cheapest_pairs(
+        robot, studio.state.trajectory.q[0], work.torque_Nm,
+        {key: r.mass_kg for key, r in records.items()},
+        lambda j, key: check_joint(
+            records[key], work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, MARGIN
+        ).holds,
+    )  # fmt: skip
+    for j, (name, (expected, kp)) in enumerate(zip(robot.joint_names, pairs, strict=True)):
+        expected = expected or ""
+        assert (parts.joint(name).servo, parts.joint(name).kp) == (expected, kp), name
         if expected:
             line = re.search(
-                rf"^{re.escape(name)}: {expected}, peak margin ([+-](?:\d+|inf))%", text, re.M
+                rf"^{re.escape(name)}: {expected}, peak margin ([+-](?:\d+|inf))%.*, kp {kp:g} ",
+                text,
+                re.M,
             )
-            assert line is not None, f"{name}'s choice is not in the page:\n{text}"
+            assert line is not None, f"{name}'s choice and kp are not in the page:\n{text}"
             check = check_joint(
                 studio.servo_rooms.servos.records[expected], work.speed_rad_s[:, j], work.torque_Nm[:, j],
                 1.0, MARGIN,

@@ -18,6 +18,7 @@ from app.core.servo.edits import SetK
 from app.core.servo.sizing import check_joint
 from app.core.simulation.part_law import PartLaw
 from app.studio.servo_parts import catalogue
+from tests.kp_brute_force import cheapest_pairs
 from tests.studio.conftest import wait_for_signal, with_stand_torques
 
 
@@ -94,16 +95,19 @@ def test_size_servos_picks_the_lightest_that_holds_as_a_brute_force_does(studio)
     _, works = session.last
     (work,) = works.values()
     parts = studio.state.work.parts
-    for j, name in enumerate(robot.joint_names):
-        holding = []
-        for key, record in session.records.items():
-            check = check_joint(record, work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, 0.2)
-            if check.holds:
-                holding.append((record.mass_kg, key))
-        expected = min(holding)[1] if holding else ""
-        assert parts.joint(name).servo == expected, name
+    pairs = cheapest_pairs(
+        robot, studio.state.trajectory.q[0], work.torque_Nm,
+        {key: record.mass_kg for key, record in session.records.items()},
+        lambda j, key: check_joint(
+            session.records[key], work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, 0.2
+        ).holds,
+    )  # fmt: skip
+    for name, (expected, kp) in zip(robot.joint_names, pairs, strict=True):
+        expected = expected or ""
+        assert (parts.joint(name).servo, parts.joint(name).kp) == (expected, kp), name
         if expected:
             assert f"{name}: **{expected}**" in session.panel.sizing.content
+            assert f", kp {kp:g} (sag" in session.panel.sizing.content
         else:
             assert f"{name}: **no servo holds it**" in session.panel.sizing.content
     # The torque–speed plot of a sized joint: every planned point, over its servo's envelope,

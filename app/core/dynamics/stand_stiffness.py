@@ -61,6 +61,8 @@ class StandCheck:
     conventions)."""
     min_eigenvalue: float
     """Smallest eigenvalue of H with the given servos (negative: it falls)."""
+    leg_joints: tuple[int, ...] = ()
+    """The legs' actuated joints (robot.joints indices), left leg first, foot upwards."""
 
     def text(self) -> str:
         """One line for the user."""
@@ -203,6 +205,7 @@ def _stand_check(robot: RobotModel, q: np.ndarray, compliance_deg_per_Nm: np.nda
         max_ankle_compliance_deg_per_Nm=_limit(lambda c: min_eig(np.where(ankles, c, compliance))),
         max_leg_compliance_deg_per_Nm=_limit(lambda c: min_eig(np.full(12, c))),
         min_eigenvalue=given,
+        leg_joints=tuple(int(j) for j in legs.joints),
     )
 
 

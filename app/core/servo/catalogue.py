@@ -14,7 +14,8 @@ A record (the same fields for the built-in catalogue and a user's own file)::
     price = 300.0                     # optional, with price_currency = "USD"
     continuous_torque_Nm = 1.5        # optional: the continuous (thermal) rating, where published
     identified = "mx64"               # optional: a BAM-identified model (robots/servos/bam/params)
-    [firmware]                        # optional: vin_V, kp, error_gain, max_pwm, current_limit_A
+    [firmware]                        # optional: vin_V, kp, error_gain, max_pwm, current_limit_A,
+                                      #   kp_max (the P gain register's top, with its source)
     [motor]                           # optional, the user's own m1 fit: kt_Nm_per_A, R_ohm,
                                       #   armature_kgm2, friction_base_Nm, friction_viscous_Nms
                                       # [firmware] without identified or [motor]: a DC motor
@@ -54,7 +55,7 @@ FIGURES = (
 """Datasheet figures every record gives, each > 0 and with its source."""
 OPTIONAL_FIGURES = ("backlash_deg", "price", "continuous_torque_Nm")
 TEXT_FIELDS = ("key", "maker", "model")
-FIRMWARE_FIELDS = ("vin_V", "kp", "error_gain", "max_pwm", "current_limit_A")
+FIRMWARE_FIELDS = ("vin_V", "kp", "error_gain", "max_pwm", "current_limit_A", "kp_max")
 MOTOR_FIELDS = (
     "kt_Nm_per_A",
     "R_ohm",
@@ -227,7 +228,7 @@ def record_from_mapping(data: dict[str, Any], where: str) -> ServoRecord:
         if name in data
     }
     sources = _table(data, "sources", where) or {}
-    sourced = (*FIGURES, *OPTIONAL_FIGURES, "firmware", "motor")
+    sourced = (*FIGURES, *OPTIONAL_FIGURES, "firmware", "motor", "kp_max")
     odd = sorted(k for k, v in sources.items() if k not in sourced or not isinstance(v, str))
     if odd:
         raise ServoCatalogueError(
@@ -238,6 +239,8 @@ def record_from_mapping(data: dict[str, Any], where: str) -> ServoRecord:
     firmware_table = _table(data, "firmware", where)
     motor_table = _table(data, "motor", where)
     given += [name for name, t in (("firmware", firmware_table), ("motor", motor_table)) if t]
+    if firmware_table and "kp_max" in firmware_table:
+        given.append("kp_max")  # a control table's range: its own source
     for name in given:
         source = sources.get(name)
         if not isinstance(source, str) or not source.strip():
@@ -327,12 +330,18 @@ def _firmware(table: dict[str, Any], where: str) -> Firmware:
     if unknown:
         raise ServoCatalogueError(f"{where}: unknown field(s) {', '.join(unknown)}")
     values = {n: _number(table, n, where, positive=True) for n in FIRMWARE_FIELDS[:4]}
-    limit = None
+    limit = kp_max = None
     if "current_limit_A" in table:
         limit = _number(table, "current_limit_A", where, positive=True)
+    if "kp_max" in table:
+        kp_max = _number(table, "kp_max", where, positive=True)
+        if kp_max < values["kp"]:
+            raise ServoCatalogueError(
+                f"{where}: kp is {values['kp']:g}, past kp_max {kp_max:g} (the firmware's range)"
+            )
     if values["max_pwm"] > 1.0:
         raise ServoCatalogueError(f"{where}: max_pwm is {values['max_pwm']:g}; a duty is ≤ 1")
-    return Firmware(current_limit_A=limit, **values)
+    return Firmware(current_limit_A=limit, kp_max=kp_max, **values)
 
 
 def _motor(table: dict[str, Any], where: str) -> tuple[MotorConstants, FrictionM1]:

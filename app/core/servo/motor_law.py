@@ -68,6 +68,9 @@ class Firmware:
     """Largest duty cycle (0 … 1]."""
     current_limit_A: float | None = None
     """Firmware current limit [A], None where the firmware sets none."""
+    kp_max: float | None = None
+    """The largest kp the firmware's control table holds (its P gain register), None where the
+    record does not say (app.core.servo.parts.KP_MAX then)."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -181,7 +181,13 @@ def _part(
         error_gain=base.error_gain,
         max_pwm=base.max_pwm,
         current_limit_A=settings.get("current_limit_A", base.current_limit_A),
+        kp_max=base.kp_max,
     )
+    kp_max = KP_MAX if base.kp_max is None else base.kp_max
+    if firmware.kp > kp_max:
+        raise ServoPartsError(
+            f"{where}: kp is {firmware.kp:g}, outside {key}'s firmware range 0 … {kp_max:g}"
+        )
     try:
         motor_law.check_law(fit.motor, firmware, where)
     except motor_law.MotorLawError as error:

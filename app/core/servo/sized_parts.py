@@ -3,9 +3,11 @@ servo the sizing chose for each joint, or, where no servo holds a joint, the clo
 largest of its smaller margin, peak or thermal), said in a comment on that joint and in the
 notes; a firmware kp for every joint where one is asked.
 
-Sizing checks torque and heat (the envelope at full duty does not depend on kp); whether the
-robot then stands is the parts' stiffness K = kt·vin·error_gain·kp/R against gravity, which kp
-sets: `simulate` reports it as its stand check.
+Each joint gets the kp the sizing chose (app.core.servo.kp_sizing: the smallest that stands
+and keeps the sag bound; a closest servo whose range holds none: its largest kp), unless one
+kp is given for every joint (`size --kp`): whether the robot then stands is the parts'
+stiffness K = kt·vin·error_gain·kp/R against gravity, which `simulate` reports as its stand
+check.
 """
 
 from __future__ import annotations
@@ -26,6 +28,8 @@ class SizedParts:
     text: str
     closest: tuple[str, ...]
     """Joints no servo holds (given the closest servo)."""
+    softer: tuple[str, ...] = ()
+    """Joints where a kp given for all is below the kp their stiffness needs."""
 
 
 def check_kp(kp: float | None) -> float | None:
@@ -36,8 +40,8 @@ def check_kp(kp: float | None) -> float | None:
 
 
 def sized_parts(sizing: Sizing, kp: float | None = None) -> SizedParts:
-    """The servo.toml of `sizing` (module docstring); `kp` for every joint (None: each
-    record's own firmware kp)."""
+    """The servo.toml of `sizing` (module docstring); `kp` for every joint (None: the kp the
+    sizing chose per joint where it chose one, else the record's own)."""
     check_kp(kp)
     lines = [
         "# Servo parts chosen by biped-studio size (margin "
@@ -45,7 +49,7 @@ def sized_parts(sizing: Sizing, kp: float | None = None) -> SizedParts:
     ]
     if kp is not None:
         lines += [f"kp = {kp:g}"]
-    closest = []
+    closest, softer = [], []
     for joint in sizing.joints:
         if joint.choice is not None:
             key, comment = joint.choice, ""
@@ -58,4 +62,16 @@ def sized_parts(sizing: Sizing, kp: float | None = None) -> SizedParts:
             joint.joint if re.fullmatch(r"[A-Za-z0-9_-]+", joint.joint) else json.dumps(joint.joint)
         )
         lines += ["", f"[joints.{name}]", f"servo = {json.dumps(key)}{comment}"]
-    return SizedParts("\n".join(lines) + "\n", tuple(closest))
+        chosen = joint.check(key).stiffness
+        if chosen is None or not chosen.checked:
+            continue
+        if kp is None:  # no kp in range stiff enough (a closest servo): its stiffest
+            lines.append(f"kp = {chosen.kp if chosen.kp is not None else chosen.kp_max:g}")
+        elif kp > chosen.kp_max:
+            raise SizingError(
+                f"kp is {kp:g}, outside {key}'s firmware range 0 … {chosen.kp_max:g} "
+                f"({joint.joint})"
+            )
+        elif chosen.kp is None or kp < chosen.kp:
+            softer.append(joint.joint)
+    return SizedParts("\n".join(lines) + "\n", tuple(closest), tuple(softer))

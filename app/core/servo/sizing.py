@@ -32,13 +32,16 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from app.core.errors import StudioError
 from app.core.servo import motor_law
 from app.core.servo.catalogue import ServoRecord
+
+if TYPE_CHECKING:
+    from app.core.servo.kp_sizing import KpChoice
 
 CONTINUOUS_FRACTION_OF_STALL = 0.25
 """The continuous rating assumed where a record publishes none: a quarter of the stall torque
@@ -150,6 +153,11 @@ class Check:
     """The motion the worst point is in (several motions: `combine`)."""
     rms_work: str = ""
     """The motion of the largest RMS torque."""
+    stiffness: KpChoice | None = None
+    worst_torque_Nm: float = 0.0
+    """The torque of the worst point (its speed: worst_speed_rad_s)."""
+    worst_speed_rad_s: float = 0.0
+    """The firmware kp the stiffness needs (app.core.servo.kp_sizing); None: not checked."""
 
     @property
     def thermal_margin(self) -> float:
@@ -167,15 +175,24 @@ class Check:
         return self.thermal_margin >= self.margin
 
     @property
+    def holds_stiffness(self) -> bool:
+        """A kp in the firmware's range gives the stiffness needed (True where not checked, or
+        where the record has no motor law to check it with: said in the sizing's notes)."""
+        return self.stiffness is None or self.stiffness.holds
+
+    @property
     def holds(self) -> bool:
-        return self.holds_peaks and self.holds_thermal
+        return self.holds_peaks and self.holds_thermal and self.holds_stiffness
 
     def violations(self) -> list[str]:
         out = []
+        if not self.holds_stiffness and self.stiffness is not None:
+            out.append(self.stiffness.violation())
         if not self.holds_peaks:
             where = f"{self.work} " if self.work else ""
             out.append(
-                f"peak: {where}sample {self.worst_sample} needs {1.0 / (1.0 + self.peak_margin):.2f}× "
+                f"peak: {where}sample {self.worst_sample} ({self.worst_torque_Nm:.3g} N·m at "
+                f"{self.worst_speed_rad_s:.2g} rad/s) needs {1.0 / (1.0 + self.peak_margin):.2f}× "
                 f"the envelope (margin {self.peak_margin:+.0%}, asked {self.margin:+.0%})"
             )
         if not self.holds_thermal:
@@ -201,6 +218,7 @@ class Check:
             "continuous_assumed": self.continuous_assumed,
             "thermal_margin": _finite(self.thermal_margin),
             "violations": self.violations(),
+            **({} if self.stiffness is None else self.stiffness.to_json()),
         }
 
 
@@ -234,7 +252,17 @@ def check_joint(
     scale = env.scale(speed_rad_s, torque_Nm)
     worst = int(np.argmin(scale))
     rms = float(np.sqrt(np.mean(np.square(torque_Nm)))) if duration_s > 0 else 0.0
-    return Check(record.key, float(scale[worst]) - 1.0, worst, rms, rating, assumed, margin)
+    return Check(
+        record.key,
+        float(scale[worst]) - 1.0,
+        worst,
+        rms,
+        rating,
+        assumed,
+        margin,
+        worst_torque_Nm=float(torque_Nm[worst]),
+        worst_speed_rad_s=float(speed_rad_s[worst]),
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -254,6 +282,7 @@ class JointSizing:
         return {
             "joint": self.joint,
             "servo": self.choice,
+            "kp": None if chosen is None or chosen.stiffness is None else chosen.stiffness.kp,
             "holds": self.choice is not None,
             "chosen": None if chosen is None else chosen.to_json(),
             "closest": None if chosen is not None else best.to_json(),
@@ -267,6 +296,8 @@ class Sizing:
     by: Criterion
     envelopes: dict[str, Envelope]
     notes: tuple[str, ...] = ()
+    stiffness: dict[str, object] | None = None
+    """How the kp were chosen (app.core.servo.kp_sizing), None where they were not."""
 
     @property
     def unsized(self) -> tuple[str, ...]:
@@ -283,7 +314,13 @@ class Sizing:
                 for k, e in self.envelopes.items()
             },
             "notes": list(self.notes),
+            "stiffness": self.stiffness,
         }
+
+
+def cost(record: ServoRecord, by: Criterion) -> float:
+    """What sizing minimises: the record's mass or price (inf where it has none)."""
+    return _cost(record, by)
 
 
 def _cost(record: ServoRecord, by: Criterion) -> float:
