@@ -241,21 +241,18 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
                 if fall_index == 0:
                     reason = f"while settling on the first pose: {reason}"
                 stop = min(n_samples, fall_index + post)
-        if k1 == stop < n_samples and fall_index >= 0 and _on_floor(recorder, fall_index, k1) < 0:
+        if (
+            k1 == stop < n_samples
+            and fall_index >= 0
+            and recorder.first_touching(fall_index, k1) < 0
+        ):
             # no link down yet: on until one is, or POST_FALL_MAX_S
             stop = min(n_samples, k1 + post, fall_index + round(POST_FALL_MAX_S / inp.dt_cmd_s))
         k0 = k1
     if progress is not None:
         progress(1.0)
-    floor_index = _on_floor(recorder, fall_index, stop) if fall_index >= 0 else -1
+    floor_index = recorder.first_touching(fall_index, stop) if fall_index >= 0 else -1
     return _engine_run(inp, recorder, stop - 1, (fall_index, reason, floor_index), stepper, begin)
-
-
-def _on_floor(recorder: Recorder, begin: int, end: int) -> int:
-    """The first sample of [begin, end) at which a link other than a foot is on the floor
-    (`Recorder.touching`), −1 if none."""
-    touching = recorder.touching(begin, end)
-    return begin + int(np.argmax(touching)) if touching.any() else -1
 
 
 def _engine_run(
