@@ -1,7 +1,9 @@
 """`biped-studio simulate --balance-feedback`, run as a user runs it: servo_biped's CoM shift
 on leg servos too soft to stand (5 °/(N·m): the stand check says so) goes over without the
 feedback and stays up with it, read from the base height MuJoCo wrote in the run's CSV; the
-report names the feedback and the gains asked for."""
+report names the feedback and the gains asked for; a run with the feedback also gives the
+verdict of the same run without it (printed beside, `verdict_without_feedback`), equal to
+that of a run made without it."""
 
 from __future__ import annotations
 
@@ -54,6 +56,15 @@ def test_the_feedback_keeps_a_soft_robot_up_and_says_so(soft):
     ) in on.stdout
     z_on = _base_z(folder / "on.csv")
     assert min(z_on) > 0.9 * z_on[0]  # up all along
+    # one run says both verdicts: the same run without the feedback is the run above
+    fell = f"falls at {report['fall_time_s']:.2f} s ({report['fall_link']})"
+    assert f"without compensation: with balance feedback: stays up · without: {fell}" in on.stdout
+    both = run(*common, "--servo", str(servo), "--balance-feedback", "--json")
+    assert both.returncode == 0, both.stderr
+    both_report = json.loads(both.stdout)
+    assert both_report["verdict"].startswith("stays up with balance feedback")
+    assert both_report["verdict_without_feedback"] == report["verdict"]
+    assert "verdict_without_feedback" not in report
 
 
 @pytest.mark.parametrize(

@@ -274,9 +274,11 @@ def run(args: argparse.Namespace) -> int:
     if args.cmd is None:  # computed commands: clipped to the limits as a servo clips its goal
         commands, clip_note = clipped_commands(robot, traj.t, commands)
     stand = _stand_check(robot, traj, servo)
-    results = simulate_commands(
-        robot, traj, commands, servo, options, law=law, balance=_balance(args)
-    )
+    balance = _balance(args)
+    results = simulate_commands(robot, traj, commands, servo, options, law=law, balance=balance)
+    unaided = None  # with the feedback: the same runs without it, for the verdict beside
+    if balance is not None:
+        unaided = simulate_commands(robot, traj, commands, servo, options, law=law)
     if args.cmd is None:
         results = with_note(results, clip_note)
     main = results[label]
@@ -291,8 +293,12 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(
             json.dumps(
-                _json_report(
-                    args, robot, traj, results, main, parts, figures, stand, mass_note, sized
+                _add_unaided(
+                    _json_report(
+                        args, robot, traj, results, main, parts, figures, stand, mass_note, sized
+                    ),
+                    unaided,
+                    label,
                 )
                 | ({} if ideal is None else {"ideal_servo_energy": ideal}),
                 indent=2,
@@ -300,6 +306,8 @@ def run(args: argparse.Namespace) -> int:
         )
         return 0
     _print_report(args, robot, traj, results, main, figures, stand, mass_note, sized)
+    if unaided is not None:
+        print(_pair_lines(robot, traj, results, unaided))
     if ideal is not None and ideal["sr_planned"] is not None:
         print(_ideal_line(ideal))
     return 0
@@ -314,6 +322,32 @@ def _balance(args: argparse.Namespace):
             raise StudioError("--balance-gain goes with --balance-feedback")
         return None
     return gains_from_pairs(args.balance_gain)
+
+
+def _add_unaided(report: dict, unaided: dict | None, label: str) -> dict:
+    """With the balance feedback, each run's verdict without it: `verdict_without_feedback`
+    of the main run and of the baseline (in its dict); the report as it was without it."""
+    if unaided is not None:
+        report["verdict_without_feedback"] = unaided[label].verdict()
+        if "baseline" in report:
+            report["baseline"]["verdict_without_feedback"] = unaided[
+                "without compensation"
+            ].verdict()
+    return report
+
+
+def _pair_lines(robot, traj, results: dict, unaided: dict) -> str:
+    """Per run: "with balance feedback: stays up · without: falls at 0.14 s (base)"."""
+    from app.core.simulation.balance_feedback import LABEL
+    from app.core.simulation.verdicts import pair_text
+
+    lines = []
+    for label, result in results.items():
+        aided, alone = result.outcome, unaided[label].outcome
+        if aided is not None and alone is not None:
+            pair = pair_text(aided, alone, f"with {LABEL}")
+            lines.append(f"{robot.name}, {traj.name} {label}: {pair}")
+    return "\n".join(lines)
 
 
 def _ideal_energy(robot, traj, servo, options, main, planned_tau: Callable[[], np.ndarray]) -> dict:

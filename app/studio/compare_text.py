@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from app.core.servo.model import Prediction
+from app.core.simulation.balance_feedback import LABEL
+from app.core.simulation.verdicts import pair_text
 from app.studio.simulation_runner import WITH, WITHOUT, Simulation
 
 QUICK_ESTIMATE = "Quick estimate"
@@ -39,8 +41,13 @@ def simulation_summary(simulation: Simulation, drift_m: dict[str, float] | None 
         run = simulation.results[label]
         roll = np.degrees(np.max(np.abs(run.roll_rad - run.roll_planned_rad)))
         pitch = np.degrees(np.max(np.abs(run.pitch_rad - run.pitch_planned_rad)))
-        line = (
-            f"{label}: **{run.verdict()}**; simulated largest torso error roll {roll:.2f}°, "
+        line = f"{label}: **{run.verdict()}**; "
+        alone = simulation.unaided.get(label)
+        if alone is not None and run.outcome is not None and alone.outcome is not None:
+            line = f"{label}: **{pair_text(run.outcome, alone.outcome, f'with {LABEL}')}**; "
+            line += f"{run.verdict()}; "
+        line += (
+            f"simulated largest torso error roll {roll:.2f}°, "
             f"pitch {pitch:.2f}° (×{run.real_time_factor:.0f} real time)"
         )
         if drift_m is not None and label in drift_m:

@@ -25,6 +25,7 @@ from app.core.simulation.result import SimulationResult
 from app.core.simulation.servo_law import ServoLaw
 from app.core.simulation.worker import (
     SIMULATION_KEY,
+    UNAIDED,
     SimulationJob,
     build_simulation_problem,
     finish_job,
@@ -58,6 +59,9 @@ class Simulation:
     """Wall time of the run [s]; None for a run restored from a project that did not keep it."""
     note: str | None = None
     """What was done to the commands before the run (clipped to the joint limits), or None."""
+    unaided: dict[str, SimulationResult] = dataclasses.field(default_factory=dict)
+    """With the balance feedback, each run (by label) made again without it, for the verdict
+    beside ({} without the feedback, and for a run restored from a project)."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -130,13 +134,16 @@ class SimulationRunner:
     ) -> Simulation:
         """Check the runs here (SimulationInputError at once) and start them in the worker;
         `law` replaces the virtual servos' (servo parts); `balance`: both runs with the
-        balance feedback at these gains. Commands past a joint limit are clipped to it, with a
+        balance feedback at these gains, and both again without it (`Simulation.unaided`).
+        Commands past a joint limit are clipped to it, with a
         note in both runs' notes (`clipped_commands`)."""
         # computed commands: clipped to the limits as a servo clips its goal (as simulate does)
         commands, note = clipped_commands(
             robot, trajectory.t, {WITHOUT: q_plan_rad, WITH: q_cmd_rad}
         )
-        job = simulation_job(robot, trajectory, commands, servo, law=law, balance=balance)
+        job = simulation_job(
+            robot, trajectory, commands, servo, law=law, balance=balance, unaided=True
+        )
         simulation = Simulation(
             f"simulation-{next(self._ids)}", robot, trajectory, job, time.monotonic(), note=note
         )
@@ -160,10 +167,20 @@ class SimulationRunner:
         except Exception as error:  # the runs came back malformed: a bug, reported as failed
             self._end(job_id, error=f"{type(error).__name__}: {error}")
             return
-        self._end(job_id, results=results)
+        unaided = {
+            label.removesuffix(UNAIDED): run
+            for label, run in results.items()
+            if label.endswith(UNAIDED)
+        }
+        main = {label: run for label, run in results.items() if not label.endswith(UNAIDED)}
+        self._end(job_id, results=main, unaided=unaided)
 
     def _end(
-        self, job_id: str, results: dict[str, SimulationResult] | None = None, error: str = ""
+        self,
+        job_id: str,
+        results: dict[str, SimulationResult] | None = None,
+        error: str = "",
+        unaided: dict[str, SimulationResult] | None = None,
     ) -> None:
         with self._lock:
             simulation = self.running
@@ -173,6 +190,7 @@ class SimulationRunner:
         ended = dataclasses.replace(
             simulation,
             results=results or {},
+            unaided=unaided or {},
             error=error,
             waited_s=time.monotonic() - simulation.started_s,
         )

@@ -133,7 +133,7 @@ class SimulationSession:
         self.panel.verdict.content = (
             f"Simulating **{trajectory.name}** without and with compensation "
             f"({trajectory.duration:.1f} s each"
-            + ("" if balance is None else f", with {BALANCE_LABEL}")
+            + ("" if balance is None else f", with {BALANCE_LABEL}, then again without it")
             + ")…"
         )
 

@@ -1,12 +1,14 @@
 """End to end in a real headless Chromium: the Simulation rows' *Balance feedback (IMU →
 ankles/hips)* box. The page shows the feedback's gains; ticked, *Simulate* runs both runs with
-it and the verdicts in the page say "with balance feedback"; unticked, the next simulation's
-verdicts no longer do."""
+it and again without it, and the verdicts in the page say both ("with balance feedback: stays
+up · without: …"); unticked, the next simulation's verdicts no longer mention it, and are the
+ones the first click gave without it."""
 
 from __future__ import annotations
 
 import re
 
+from app.core.simulation.verdicts import short_text
 from app.studio import Studio
 from panels.simulation_panel import BALANCE_FEEDBACK
 from tests.browser.page_helpers import (
@@ -64,16 +66,22 @@ def test_the_balance_feedback_box_shows_its_gains_and_names_it_in_the_verdict(pa
     assert "hips Kp" in gains and "per joint" in gains
 
     _tick(page, studio, True)
-    run = _simulate(page, studio)
+    run = aided = _simulate(page, studio)
     text = wait_for(
-        "the verdicts with the feedback in the page",
-        lambda: shows(page, SIMULATION, r"with compensation: stays up with balance feedback"),
+        "the verdicts with and without the feedback in the page",
+        lambda: shows(
+            page, SIMULATION, r"with compensation: with balance feedback: stays up · without: "
+        ),
         RENDER_TIMEOUT_S,
     )
     assert re.search(r"without compensation: \w[^\n]* with balance feedback", text), text
-    for result in run.results.values():
+    for label, result in run.results.items():
         assert result.balance_feedback is not None and result.verdict() in text
         assert result.balance_offsets_rad is not None and result.balance_offsets_rad.any()
+        alone = run.unaided[label]  # the same run without the feedback, in the same click
+        assert alone.balance_feedback is None and alone.outcome is not None
+        shown = f"{label}: with balance feedback: {short_text(result.outcome)} · without: "
+        assert shown + short_text(alone.outcome) in text, text
 
     _tick(page, studio, False)
     run = _simulate(page, studio)
@@ -89,3 +97,6 @@ def test_the_balance_feedback_box_shows_its_gains_and_names_it_in_the_verdict(pa
         RENDER_TIMEOUT_S,
     )
     assert all(result.balance_feedback is None for result in run.results.values()), text
+    assert not run.unaided and " · without: " not in text
+    for label, result in run.results.items():  # what the first click said without it
+        assert result.verdict() == aided.unaided[label].verdict()

@@ -136,7 +136,8 @@ def test_a_foot_without_sole_geometry_is_refused(write_urdf):
 
 def test_convex_hulls_are_an_option():
     robot = load_robot("servo_biped")
-    plain = mujoco.MjModel.from_xml_string(build_sim_model(robot).xml)
+    soles = build_sim_model(robot, SimOptions(links_collide=False)).xml
+    plain = mujoco.MjModel.from_xml_string(soles)
     hulls = mujoco.MjModel.from_xml_string(build_sim_model(robot, SimOptions(hulls=True)).xml)
     assert plain.nmesh == 0 and plain.ngeom == 3  # floor and two soles
     assert hulls.nmesh > 0 and hulls.ngeom > plain.ngeom

@@ -14,7 +14,9 @@ can run in a worker process without pinocchio. Sequence:
    torso's roll or
    pitch more than `FALL_TILT_DEG` away from the plan's, or the root below
    `FALL_HEIGHT_FRACTION` of its planned height. After a fall the simulation goes on for
-   `POST_FALL_S` and stops; later samples repeat the last state.
+   `POST_FALL_S` (longer, up to `POST_FALL_MAX_S`, until a link other than a foot is on the
+   floor: the run names the first one and when, `floor_link`) and stops; later samples
+   repeat the last state.
 
 Samples run a block at a time (no longer than `POST_FALL_S`, so a fall never needs a sample
 the block has not made), each block's verdicts checked on its recorded rows (`recording`).
@@ -78,6 +80,9 @@ __all__ = [
 
 DROP_M = 0.0005
 POST_FALL_S = 0.5
+POST_FALL_MAX_S = 2.0
+"""After a fall with no link on the floor yet, the run goes on up to this long after the
+fall [s] to see which link comes down first (then stops as after POST_FALL_S)."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -131,6 +136,11 @@ class EngineRun:
     fall_index: int
     """First sample at which the robot has fallen, −1 if never."""
     fall_reason: str
+    floor_link: str
+    """The first link other than a foot on the floor from the fall on ("" if none, or no
+    fall)."""
+    floor_link_index: int
+    """The sample at which `floor_link` was first on the floor, −1 if none."""
     n_simulated: int
     wall_time_s: float
     energy: PartEnergy | None = None
@@ -231,24 +241,33 @@ def _run(inp: EngineInput, progress: Callable[[float], None] | None) -> EngineRu
                 if fall_index == 0:
                     reason = f"while settling on the first pose: {reason}"
                 stop = min(n_samples, fall_index + post)
+        if (
+            k1 == stop < n_samples
+            and fall_index >= 0
+            and recorder.first_touching(fall_index, k1) < 0
+        ):
+            # no link down yet: on until one is, or POST_FALL_MAX_S
+            stop = min(n_samples, k1 + post, fall_index + round(POST_FALL_MAX_S / inp.dt_cmd_s))
         k0 = k1
     if progress is not None:
         progress(1.0)
-    return _engine_run(inp, recorder, stop - 1, fall_index, reason, stepper, begin)
+    floor_index = recorder.first_touching(fall_index, stop) if fall_index >= 0 else -1
+    return _engine_run(inp, recorder, stop - 1, (fall_index, reason, floor_index), stepper, begin)
 
 
 def _engine_run(
     inp: EngineInput,
     recorder: Recorder,
     last: int,
-    fall_index: int,
-    reason: str,
+    fall: tuple[int, str, int],
     stepper: _Stepper,
     begin: float,
 ) -> EngineRun:
     """The recorded rows in the run's layouts; samples after `last` repeat it (no torque
-    after the last recorded sample, as the step loop applies none)."""
+    after the last recorded sample, as the step loop applies none). `fall`: the fall's
+    sample, reason, and the first sample with a link on the floor (−1: none)."""
     rec, sim = recorder, inp.sim
+    fall_index, reason, floor_index = fall
     rec.tau[last:] = 0.0
     for raw in (rec.qpos, rec.qvel, rec.xmat_root, rec.sole, rec.body_xpos, rec.touched_body):
         raw[last + 1 :] = raw[last]
@@ -269,6 +288,8 @@ def _engine_run(
         non_foot_contact=rec.touching(),
         fall_index=fall_index,
         fall_reason=reason,
+        floor_link=rec.touched_link(floor_index) if floor_index >= 0 else "",
+        floor_link_index=floor_index,
         n_simulated=last + 1,
         wall_time_s=time.perf_counter() - begin,
         energy=stepper.servo.energy() if isinstance(stepper.servo, PartLoop) else None,

@@ -11,8 +11,11 @@ The MJCF mirrors the pinocchio model joint by joint, so the two have the same dy
 - each declared loop `<loop_closure link_a link_b>` becomes a `connect` equality between two
   sites at the origins of link_a and link_b (the origins must coincide);
 - each foot's sole rectangle (`Foot.sole_corners_m`) becomes a box of `SOLE_THICKNESS_M`
-  whose bottom face is the sole; with `hulls=True` every link's collision (else visual)
-  meshes add their convex hull, so a knee or the torso can hit the floor;
+  whose bottom face is the sole: the feet touch the floor by their soles only;
+- every other link collides with the floor by its URDF collision shapes, or a box or capsule
+  fitted to its visual geometry (`link_geoms`; `links_collide`), so a fallen robot lies on
+  its torso, knees or arms instead of sinking through the floor; with `hulls=True` every
+  link's collision (else visual) meshes add their convex hull instead (the feet's too);
 - a floor plane with Coulomb friction μ (0.6 by default, as the paper's whole-body QP).
 
 Geoms collide with the floor only (no self-collision). The servos' reflected rotor inertia
@@ -37,6 +40,7 @@ from scipy.spatial import QhullError
 from app.core.quaternions import matrix_to_wxyz
 from app.core.robot.model import RobotModel
 from app.core.simulation.errors import SimulationInputError
+from app.core.simulation.link_geoms import link_geoms
 from app.core.simulation.servo_law import servo_damping_Nms_per_rad
 from app.core.simulation.sim_model import SimModel
 
@@ -58,7 +62,11 @@ class SimOptions:
     friction: float = FLOOR_FRICTION
     """Floor-sole Coulomb friction coefficient μ."""
     hulls: bool = False
-    """Add the convex hull of every link's meshes as collision geometry (slower)."""
+    """Add the convex hull of every link's meshes as collision geometry (slower), the
+    feet's too, instead of `links_collide`'s shapes."""
+    links_collide: bool = True
+    """Every link not on a foot collides with the floor (`link_geoms`); False: the soles
+    only (the model before, for comparisons)."""
     armature_kgm2: float = 0.01
     """Reflected rotor inertia of each servo [kg·m²], added on every actuated joint's
     diagonal of the mass matrix (a hobby servo's rotor times its gear ratio squared is
@@ -234,6 +242,17 @@ def build_sim_model(robot: RobotModel, options: SimOptions | None = None) -> Sim
             mesh_assets, geoms = _hull_geoms(robot, jid, names[jid])
             assets += mesh_assets
             extras.setdefault(jid, []).extend(geoms)
+    elif options.links_collide:
+        on_feet = {
+            j
+            for foot in robot.feet
+            for j in _subtree(model, model.frames[robot.link_frame_ids[foot.link]].parentJoint)
+        }
+        for jid in range(1, model.njoints):
+            if jid not in on_feet:
+                mesh_assets, geoms = link_geoms(robot, jid, names[jid])
+                assets += mesh_assets
+                extras.setdefault(jid, []).extend(geoms)
 
     def body(jid: int) -> str:
         armature = options.armature_kgm2 if model.names[jid] in actuated else 0.0
@@ -266,6 +285,15 @@ def build_sim_model(robot: RobotModel, options: SimOptions | None = None) -> Sim
     return _index(robot, xml, names, tuple(notes))
 
 
+def _subtree(model: pin.Model, jid: int) -> list[int]:
+    """Joint jid and every joint below it (pinocchio numbers children after their parent)."""
+    members = [jid]
+    for child in range(jid + 1, model.njoints):
+        if model.parents[child] in members:
+            members.append(child)
+    return members
+
+
 def _index(robot: RobotModel, xml: str, names: list[str], notes: tuple[str, ...]) -> SimModel:
     import mujoco
 
@@ -289,11 +317,7 @@ def _index(robot: RobotModel, xml: str, names: list[str], notes: tuple[str, ...]
     actuated_v = [int(mj.joint(name).dofadr[0]) for name in robot.joint_names]
 
     def subtree(jid: int) -> tuple[str, ...]:
-        members = [jid]
-        for child in range(jid + 1, model.njoints):
-            if model.parents[child] in members:
-                members.append(child)
-        return tuple(names[j] for j in members)
+        return tuple(names[j] for j in _subtree(model, jid))
 
     feet = tuple(
         subtree(model.frames[robot.link_frame_ids[foot.link]].parentJoint) for foot in robot.feet

@@ -248,6 +248,12 @@ class Recorder:
         low = self.body_xpos[begin:end, self.scene.non_foot, 2].min(axis=1)
         return contact | (low < NON_FOOT_CLEARANCE_M)
 
+    def first_touching(self, begin: int, end: int) -> int:
+        """The first sample of [begin, end) at which a link other than a foot is on the floor
+        (`touching`), −1 if none."""
+        touching = self.touching(begin, end)
+        return begin + int(np.argmax(touching)) if touching.any() else -1
+
     def touched_link(self, k: int) -> str:
         """The first non-foot link found on the floor at sample k ("" if none)."""
         body = int(self.touched_body[k])

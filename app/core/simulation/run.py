@@ -181,6 +181,8 @@ def finish(
         run.fall_index,
         run.fall_reason,
         aid="" if inp.balance is None else f"with {BALANCE_LABEL}",
+        floor_index=run.floor_link_index,
+        floor_link=run.floor_link,
     )
     simulated_s = (done - 1) * trajectory.dt + inp.settle_s
     return SimulationResult(

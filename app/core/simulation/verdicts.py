@@ -3,7 +3,9 @@ falls; and for a motion that travels, how far it went and where its feet landed.
 
 The rules (numpy only; `judge` takes the run's arrays, so each rule is testable alone):
 
-- **falls**: the step loop's fall test (`engine`), with when and why (which link touched);
+- **falls**: the step loop's fall test (`engine`), with when and why, and the first link other
+  than a foot that came down on the floor and when (`floor_link`: it may touch after the
+  torso has tilted past the fall test);
 - **leans on the lifted foot**: a foot the plan has in the air (`Trajectory.contacts` false)
   carries more than `LEAN_LOAD_FRACTION` of the robot's weight (vertical floor force) for
   more than `LEAN_MIN_S` in a row. This is the paper's failure at the 4.3 cm shift without
@@ -95,6 +97,10 @@ class Verdict:
     text: str
     fall_time_s: float | None
     fall_reason: str
+    floor_link: str
+    """After a fall, the first link other than a foot on the floor ("" if none came down)."""
+    floor_link_time_s: float | None
+    """When `floor_link` first touched the floor [s] (None if none did)."""
     lean: Episode | None
     """The first episode of leaning on a lifted foot (longer than LEAN_MIN_S), if any."""
     lifted_foot_load_s: float
@@ -123,6 +129,8 @@ class Verdict:
             "lean_start_s": None if self.lean is None else self.lean.start_s,
             "lean_side": None if self.lean is None else self.lean.side,
             "scuffs": len(self.scuffs),
+            "fall_link": self.floor_link or None,
+            "fall_link_time_s": self.floor_link_time_s,
         }
         if self.travel is not None:
             out["distance_planned_m"] = self.travel.distance_planned_m
@@ -151,13 +159,16 @@ def judge(
     fall_index: int = -1,
     fall_reason: str = "",
     aid: str = "",
+    floor_index: int = -1,
+    floor_link: str = "",
 ) -> Verdict:
     """The verdict of a run sampled at t_s (T,): planned contacts (T, 2) bool (left, right);
     simulated floor force on each sole (T, 2, 3) [N] and the robot's weight [N]; slide of each
     sole since its touch-down (T, 2) [m]; simulated and planned sole centres (T, 2, 2) [m];
     simulated (MuJoCo's root body) and planned root positions (T, 2) [m]; the first fallen
     sample (−1: none) and why; `aid`: what helped the run, named after its kind in the text
-    ("with balance feedback": "stays up with balance feedback; …")."""
+    ("with balance feedback": "stays up with balance feedback; …"); after a fall, the first
+    link other than a foot on the floor and its sample (−1: none came down)."""
     t_s = np.asarray(t_s, dtype=float)
     n = len(t_s)
     dt = float(t_s[1] - t_s[0]) if n > 1 else 0.0
@@ -209,6 +220,10 @@ def judge(
         text="",
         fall_time_s=fall_time,
         fall_reason=fall_reason,
+        floor_link=floor_link if fall_index >= 0 and floor_index >= 0 else "",
+        floor_link_time_s=float(t_s[floor_index])
+        if fall_index >= 0 and floor_index >= 0 and floor_link
+        else None,
         lean=lean,
         lifted_foot_load_s=float(np.count_nonzero(heavy.any(axis=1)) * dt),
         lifted_foot_peak_load_frac=float(lifted_load.max()) if lifted_load.size else 0.0,
@@ -236,6 +251,31 @@ def _kind(v: Verdict) -> Kind:
     return "stays up"
 
 
+def _floor_text(v: Verdict) -> str:
+    """ "; the link X is on the floor at 0.52 s" after a fall whose reason does not name it
+    already ("" when none came down)."""
+    if not v.floor_link or v.floor_link_time_s is None or f"link {v.floor_link} " in v.fall_reason:
+        return ""
+    return f"; {v.floor_link} on the floor at {v.floor_link_time_s:.2f} s"
+
+
+def short_text(v: Verdict) -> str:
+    """The verdict in a few words, for a line that puts two side by side: "stays up",
+    "leans on the lifted foot", "slips 1.5 cm", "falls at 0.14 s (base)" (the first link on
+    the floor, else the fall's reason)."""
+    if v.kind == "falls":
+        return f"falls at {v.fall_time_s:.2f} s ({v.floor_link or v.fall_reason})"
+    if v.kind == "slips":
+        return f"slips {100 * v.slip_m:.1f} cm"
+    return v.kind
+
+
+def pair_text(aided: Verdict, unaided: Verdict, aid: str) -> str:
+    """A run with and without what helped it, on one line: "with balance feedback: stays up ·
+    without: falls at 0.14 s (base)" (`short_text` of each)."""
+    return f"{aid}: {short_text(aided)} · without: {short_text(unaided)}"
+
+
 def _lean_text(v: Verdict) -> str:
     assert v.lean is not None
     return (
@@ -249,7 +289,7 @@ def _text(v: Verdict, kind: Kind, aid: str = "") -> str:
     """One line: the kind first (as the old verdict: "stays up", "falls at 3.42 s (…)"),
     then what else happened; `aid` after the kind's words."""
     if kind == "falls":
-        head = f"falls at {v.fall_time_s:.2f} s ({v.fall_reason})"
+        head = f"falls at {v.fall_time_s:.2f} s ({v.fall_reason}{_floor_text(v)})"
     elif kind == "leans on the lifted foot":
         head = f"leans on the lifted foot: {_lean_text(v)}"
     elif kind == "slips":

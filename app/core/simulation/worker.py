@@ -32,6 +32,8 @@ if TYPE_CHECKING:
     from app.core.simulation.result import SimulationResult
     from app.core.simulation.servo_law import ServoLaw
 
+UNAIDED = " (without balance feedback)"
+"""The label suffix of a run's twin without the balance feedback (`simulation_job`)."""
 SIMULATION_KEY = "simulation"
 """The structure key of simulation jobs (nothing is cached between them)."""
 
@@ -80,22 +82,27 @@ def simulation_job(
     options: SimOptions | None = None,
     law: ServoLaw | None = None,
     balance: BalanceGains | None = None,
+    unaided: bool = False,
 ) -> SimulationJob:
     """Checked, picklable runs (raises SimulationInputError in the caller, not the worker);
     `law` replaces the virtual servos' (servo parts: `part_law.law_with_parts`); `balance`:
-    the balance feedback's gains (None: off)."""
+    the balance feedback's gains (None: off); `unaided` with `balance`: each run also without
+    the feedback, labelled `label + UNAIDED` (the verdicts side by side, one click)."""
     from app.core.simulation.mjcf import build_sim_model
     from app.core.simulation.run import prepare
 
     sim = build_sim_model(robot, options)
-    labels = tuple(commands)
+    runs = [(label, balance) for label in commands]
+    if unaided and balance is not None:
+        runs += [(label + UNAIDED, None) for label in commands]
     inputs = tuple(
         prepare(
-            robot, trajectory, commands[label], servo, options, sim=sim, law=law, balance=balance
+            robot, trajectory, commands[label.removesuffix(UNAIDED)], servo, options, sim=sim,
+            law=law, balance=gains,
         )
-        for label in labels
-    )
-    return SimulationJob(labels, inputs)
+        for label, gains in runs
+    )  # fmt: skip
+    return SimulationJob(tuple(label for label, _gains in runs), inputs)
 
 
 def finish_job(
