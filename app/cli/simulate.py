@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import functools
-import json
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -13,12 +12,16 @@ from typing import TYPE_CHECKING
 
 from app.cli.common import (
     MotionInputs,
+    add_coefficients_arguments,
     add_motion_command,
     add_output_arguments,
+    add_torques_argument,
     add_user_servos_argument,
     coefficients_from_args,
     motion_inputs,
     output_target,
+    print_report,
+    written,
 )
 from app.core.errors import StudioError
 
@@ -34,25 +37,17 @@ def add_parser(sub) -> None:
         "simulate",
         help="simulate a motion on compliant servos with dead bands (MuJoCo): does it stay up?",
     )
-    source = simulate.add_mutually_exclusive_group()
-    source.add_argument("--cmd", type=Path, help="servo commands CSV (biped-studio compensate)")
-    source.add_argument(
-        "--compensation", type=Path, help="k.toml: command q + k·τ (+ φ·sign) from these"
-    )
-    source.add_argument(
-        "--preset",
-        choices=PRESETS,
-        help="plan: the plan as it is (no compensation); uniform: k = the servos' compliance "
+    source = add_coefficients_arguments(
+        simulate,
+        PRESETS,
+        "plan: the plan as it is (no compensation); uniform: k = the servos' compliance "
         "on the legs (1.4 °/(N·m) on the paper's robot, sized to the robot by m·g·h); "
         "table3 / table2: the paper's coefficients; parts: k = 1/K and φ = half the dead band "
         "of the servo parts a --servo file names (eq 23, torque sign)",
+        toml_flag="--compensation",
     )
-    simulate.add_argument(
-        "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
-    )
-    simulate.add_argument(
-        "--tau", type=Path, default=None, help="torque CSV (default: computed by the whole-body QP)"
-    )
+    source.add_argument("--cmd", type=Path, help="servo commands CSV (biped-studio compensate)")
+    add_torques_argument(simulate, "computed by the whole-body QP")
     simulate.add_argument(
         "--drive-torque",
         action="store_true",
@@ -289,16 +284,10 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         write_simulation_csv(args.out, main)
     if args.json:
-        print(
-            json.dumps(
-                _json_report(
-                    args, robot, traj, results, main, parts, figures, stand, mass_note, sized
-                )
-                | ({} if ideal is None else {"ideal_servo_energy": ideal}),
-                indent=2,
-            )
+        return print_report(
+            _json_report(args, robot, traj, results, main, parts, figures, stand, mass_note, sized)
+            | ({} if ideal is None else {"ideal_servo_energy": ideal})
         )
-        return 0
     _print_report(args, robot, traj, results, main, figures, stand, mass_note, sized)
     if ideal is not None and ideal["sr_planned"] is not None:
         print(_ideal_line(ideal))
@@ -344,8 +333,8 @@ def _json_report(
 ) -> dict:
     """What --json prints: the main run's summary (with `balance_feedback`: on, its gains),
     the baseline's, energy and notes."""
-    report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
-    report["out"] = None if args.out is None else str(args.out)
+    report = {"robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
+    report["out"] = written(args.out)
     report["stand_check"] = stand
     report["servo_default"] = sized
     if len(results) > 1:
