@@ -35,7 +35,9 @@ def add_robot_argument(parser: argparse.ArgumentParser, default: str = DEFAULTS.
 
 def add_robot_options(parser: argparse.ArgumentParser) -> None:
     """--package-root (repeatable) and --feet."""
-    _add_paths(parser, "--package-root", "folder holding package://NAME folders (repeatable)")
+    add_paths_argument(
+        parser, "--package-root", "folder holding package://NAME folders (repeatable)"
+    )
     parser.add_argument(
         "--feet", default=None, help="LEFT,RIGHT foot link names, overriding detection"
     )
@@ -96,12 +98,12 @@ def add_coefficients_arguments(
 
 def add_user_servos_argument(parser: argparse.ArgumentParser) -> None:
     """--servos FILE (repeatable): the user's own servos added to the catalogue."""
-    _add_paths(
+    add_paths_argument(
         parser, "--servos", "a TOML file of your own servos for the catalogue (repeatable)", "FILE"
     )
 
 
-def _add_paths(
+def add_paths_argument(
     parser: argparse.ArgumentParser, flag: str, help: str, metavar: str | None = None
 ) -> None:
     """A repeatable path option: its paths in the order given (none: [])."""

@@ -11,7 +11,13 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from app.cli.common import add_output_arguments, output_target, print_report, written
+from app.cli.common import (
+    add_output_arguments,
+    add_paths_argument,
+    output_target,
+    print_report,
+    written,
+)
 from app.core.errors import StudioError
 
 if TYPE_CHECKING:
@@ -41,15 +47,13 @@ def add_parser(sub) -> None:
         action="store_true",
         help="if the scheduler cannot be reached, run on a local cluster instead of failing",
     )
-    sweep.add_argument(
+    add_paths_argument(
+        sweep,
         "--servo-file",
-        action="append",
-        default=[],
-        type=Path,
-        metavar="FILE",
-        help="a TOML file of your own servos (the catalogue's fields), added to the sweep's "
+        "a TOML file of your own servos (the catalogue's fields), added to the sweep's "
         "servo_files: its servos join the choices a part parameter or [part] may name "
         "(repeatable)",
+        "FILE",
     )
     add_output_arguments(sweep, "results table to write: Parquet for .parquet / .pq, CSV otherwise")
 
