@@ -34,6 +34,19 @@ K_SLIDER_DEG_PER_NM = 20.0
 paper's identifiable 1.3–1.6 at 0.01 per step; larger values (Table 3's −650) are typed."""
 
 
+def _k_slider(gui: viser.GuiApi, label: str, hint: str) -> viser.GuiSliderHandle[float]:
+    """A slider of a compliance k [°/(N·m)] (eq 7's, or the virtual servo's true one) over
+    ±K_SLIDER_DEG_PER_NM, starting at 0."""
+    return gui.add_slider(
+        label,
+        min=-K_SLIDER_DEG_PER_NM,
+        max=K_SLIDER_DEG_PER_NM,
+        step=0.01,
+        initial_value=0.0,
+        hint=hint,
+    )
+
+
 class CompensationActions(Protocol):
     """What the coefficients' rows ask for."""
 
@@ -143,13 +156,10 @@ class CompensationPanel:
 
     def _add_joint_controls(self, gui: viser.GuiApi) -> None:
         self.enabled = gui.add_checkbox("Compensate", False)
-        self.k = gui.add_slider(
+        self.k = _k_slider(
+            gui,
             "k [°/(N·m)]",
-            min=-K_SLIDER_DEG_PER_NM,
-            max=K_SLIDER_DEG_PER_NM,
-            step=0.01,
-            initial_value=0.0,
-            hint="Spring compensation of eq 7: q_cmd = q + k·τ. Drag here, or type any value below",
+            "Spring compensation of eq 7: q_cmd = q + k·τ. Drag here, or type any value below",
         )
         self.k_exact = gui.add_number(
             "k, typed [°/(N·m)]",
@@ -168,13 +178,10 @@ class CompensationPanel:
             initial_value=0.0,
             hint="Clearance compensation of eq 23: + φ·sign(·) (the paper found 8°)",
         )
-        self.compliance = gui.add_slider(
+        self.compliance = _k_slider(
+            gui,
             "servo compliance [°/(N·m)]",
-            min=-K_SLIDER_DEG_PER_NM,
-            max=K_SLIDER_DEG_PER_NM,
-            step=0.01,
-            initial_value=0.0,
-            hint="The virtual servo's true k: how far it sags per N·m",
+            "The virtual servo's true k: how far it sags per N·m",
         )
         self.backlash = gui.add_slider(
             "servo backlash [°]",

@@ -1,16 +1,24 @@
 """The architecture's rules, checked on the source (every import, including those under
 TYPE_CHECKING): computation never imports the GUI, panels never import the studio, views never
 import panels, sessions never import one another, and no import circle among the studio's
-modules."""
+modules; and the sizes a reader can hold (issue 25): no module of app/ or panels/ over
+MAX_MODULE_LINES lines, no function there over MAX_FUNCTION_LINES, no class of the studio over
+MAX_METHODS methods or MAX_ATTRIBUTES attributes."""
 
 from __future__ import annotations
 
 import ast
+import functools
 import itertools
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 STUDIO_PACKAGES = ("app", "panels")
+MAX_MODULE_LINES = 450
+MAX_FUNCTION_LINES = 100
+MAX_METHODS = 20
+MAX_ATTRIBUTES = 15
+"""Distinct `self.X` stores and class-level annotated fields of one class."""
 
 
 def _module(path: Path) -> str:
@@ -18,10 +26,17 @@ def _module(path: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
+@functools.cache
+def _parsed(path: Path) -> tuple[int, ast.Module]:
+    """The file's number of lines and its syntax tree (parsed once for every rule here)."""
+    text = path.read_text()
+    return len(text.splitlines()), ast.parse(text)
+
+
 def _imports(path: Path) -> set[str]:
     """Every module imported by the file, as written (absolute), anywhere in it."""
     names = set()
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in ast.walk(_parsed(path)[1]):
         if isinstance(node, ast.Import):
             names.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom) and node.module:
@@ -110,3 +125,78 @@ def test_no_import_circle_among_the_studio_modules():
         if not any(a.startswith(b + ".") or b.startswith(a + ".") for a, b in itertools.pairwise(c))
     ]
     assert real == []
+
+
+def _own_nodes(node: ast.AST) -> list[ast.AST]:
+    """The nodes below `node`, not entering a class defined inside it."""
+    found = []
+    for child in ast.iter_child_nodes(node):
+        found.append(child)
+        if not isinstance(child, ast.ClassDef):
+            found += _own_nodes(child)
+    return found
+
+
+def class_size(cls: ast.ClassDef) -> tuple[int, int]:
+    """(methods, attributes) of `cls`: its body's functions (properties included); the distinct
+    names it stores on `self` and its class-level annotated fields."""
+    methods = [n for n in cls.body if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef)]
+    attributes = {
+        n.target.id
+        for n in cls.body
+        if isinstance(n, ast.AnnAssign) and isinstance(n.target, ast.Name)
+    }
+    attributes |= {
+        n.attr
+        for n in _own_nodes(cls)
+        if isinstance(n, ast.Attribute)
+        and isinstance(n.ctx, ast.Store)
+        and isinstance(n.value, ast.Name)
+        and n.value.id == "self"
+    }
+    return len(methods), len(attributes)
+
+
+def test_no_module_function_or_studio_class_outgrows_a_reader():
+    too_long, long_functions, big_classes = {}, {}, {}
+    for path in (p for package in STUDIO_PACKAGES for p in (REPO / package).rglob("*.py")):
+        name = str(path.relative_to(REPO))
+        lines, tree = _parsed(path)
+        if lines > MAX_MODULE_LINES:
+            too_long[name] = lines
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                length = node.end_lineno - node.lineno + 1  # type: ignore[operator]
+                if length > MAX_FUNCTION_LINES:
+                    long_functions[f"{name}:{node.lineno} {node.name}"] = length
+            elif isinstance(node, ast.ClassDef) and name.startswith("app/studio/"):
+                methods, attributes = class_size(node)
+                if methods > MAX_METHODS or attributes > MAX_ATTRIBUTES:
+                    big_classes[f"{name} {node.name}"] = (methods, attributes)
+    assert too_long == {}, f"modules over {MAX_MODULE_LINES} lines"
+    assert long_functions == {}, f"functions over {MAX_FUNCTION_LINES} lines"
+    assert big_classes == {}, f"(methods, attributes) over ({MAX_METHODS}, {MAX_ATTRIBUTES})"
+
+
+def test_class_size_counts_methods_stores_and_fields():
+    """The counting itself, on a class whose numbers are known by eye."""
+    (cls,) = ast.parse(
+        "class A:\n"
+        "    x: int = 0\n"
+        "    y = 1\n"  # not annotated: not counted
+        "    def __init__(self):\n"
+        "        self.a, self.b = 1, 2\n"
+        "        self.a += 1\n"
+        "        other.c = 3\n"
+        "        class Inner:\n"
+        "            def f(self):\n"
+        "                self.d = 4\n"
+        "    @property\n"
+        "    def p(self):\n"
+        "        return self.a\n"
+        "    async def q(self):\n"
+        "        for self.e in ():\n"
+        "            pass\n"
+    ).body
+    assert isinstance(cls, ast.ClassDef)
+    assert class_size(cls) == (3, 4)  # __init__, p, q; x, a, b, e

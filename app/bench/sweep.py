@@ -178,7 +178,7 @@ def bench_studio_first_result() -> dict:
             with stopwatch() as preparing:
                 # the load runs while the workers start and build
                 (prepared_load_s,) = timed(lambda: prepared.robots.load("dircon_biped"), 1)
-                prepared.sweep.prepared.wait()
+                prepared.sweep.workers.prepared.wait()
             prepare_s = preparing.wall_s
             prepared_first_s = _first_result_s(prepared)
         finally:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -24,15 +25,19 @@ MAX_WARNING_LINES = 12
 """Commands print at most this many warning lines on stderr (--json lists them all)."""
 
 
-def add_robot_argument(parser: argparse.ArgumentParser) -> None:
-    """--robot (built-in name or URDF path), --package-root and --feet."""
-    parser.add_argument("--robot", default=DEFAULTS.robot, help="built-in name or URDF path")
+def add_robot_argument(parser: argparse.ArgumentParser, default: str = DEFAULTS.robot) -> None:
+    """--robot (built-in name or URDF path; `default` without it), --package-root and --feet."""
+    parser.add_argument(
+        "--robot", default=default, help=f"built-in name or URDF path (default {default})"
+    )
     add_robot_options(parser)
 
 
 def add_robot_options(parser: argparse.ArgumentParser) -> None:
     """--package-root (repeatable) and --feet."""
-    _add_paths(parser, "--package-root", "folder holding package://NAME folders (repeatable)")
+    add_paths_argument(
+        parser, "--package-root", "folder holding package://NAME folders (repeatable)"
+    )
     parser.add_argument(
         "--feet", default=None, help="LEFT,RIGHT foot link names, overriding detection"
     )
@@ -54,14 +59,51 @@ def add_output_arguments(parser: argparse.ArgumentParser, out_help: str | None) 
     parser.add_argument("--json", action="store_true")
 
 
+def add_torques_argument(parser: argparse.ArgumentParser, default: str) -> None:
+    """--tau FILE: the motion's joint torques as `feedforward --out` writes them; `default`
+    says where they come from without it."""
+    parser.add_argument(
+        "--tau",
+        type=Path,
+        default=None,
+        help=f"torque CSV (biped-studio feedforward --out: t [s], tau:<joint> [N·m]…, status; "
+        f"default: {default})",
+    )
+
+
+def add_coefficients_arguments(
+    parser: argparse.ArgumentParser,
+    presets: tuple[str, ...],
+    preset_help: str,
+    toml_flag: str | None = None,
+    default: str | None = None,
+) -> argparse._MutuallyExclusiveGroup:
+    """Where the compensation coefficients come from (read by `coefficients_from_args`):
+    `--preset KEY` (one of `presets`, `default` without it) with --clearance, or a k.toml
+    under `toml_flag`, one or the other; the group, for another source to join it."""
+    source = parser.add_mutually_exclusive_group()
+    if toml_flag is not None:
+        source.add_argument(
+            toml_flag,
+            type=Path,
+            help="k.toml: [joints.<name>] k_deg_per_Nm, phi_deg, enabled (commands q + k·τ "
+            "(+ φ·sign))",
+        )
+    source.add_argument("--preset", choices=presets, default=default, help=preset_help)
+    parser.add_argument(
+        "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
+    )
+    return source
+
+
 def add_user_servos_argument(parser: argparse.ArgumentParser) -> None:
     """--servos FILE (repeatable): the user's own servos added to the catalogue."""
-    _add_paths(
+    add_paths_argument(
         parser, "--servos", "a TOML file of your own servos for the catalogue (repeatable)", "FILE"
     )
 
 
-def _add_paths(
+def add_paths_argument(
     parser: argparse.ArgumentParser, flag: str, help: str, metavar: str | None = None
 ) -> None:
     """A repeatable path option: its paths in the order given (none: [])."""
@@ -86,6 +128,17 @@ def load_robot_from_args(args: argparse.Namespace, name: str | None = None) -> R
         package_roots=tuple(args.package_root),
         feet=parse_feet(args.feet),
     )
+
+
+def print_report(fields: dict[str, object]) -> int:
+    """A command's --json answer, `{"ok": true, …fields}`; the exit status (0)."""
+    print(json.dumps({"ok": True, **fields}, indent=2))
+    return 0
+
+
+def written(out: Path | None) -> str | None:
+    """--out in a --json answer: the file written, or None (null) when none was."""
+    return None if out is None else str(out)
 
 
 def output_target(out: Path | None) -> str:

@@ -8,11 +8,15 @@ import sys
 from pathlib import Path
 
 from app.cli.common import (
+    add_coefficients_arguments,
     add_motion_command,
     add_output_arguments,
+    add_torques_argument,
     coefficients_from_args,
     motion_inputs,
     output_target,
+    print_report,
+    written,
 )
 from app.core.atomic_write import write_atomically
 from app.core.errors import StudioError
@@ -28,24 +32,13 @@ def add_parser(sub) -> None:
         "compensate",
         help="servo commands q + k·τ (+ φ·sign) for a motion and its torque feed-forward",
     )
-    compensate.add_argument(
-        "--tau",
-        type=Path,
-        default=None,
-        help="torque CSV: t [s], tau:<joint> [N·m]…, status (default: a project's torques)",
-    )
-    source = compensate.add_mutually_exclusive_group()
-    source.add_argument(
-        "--coeffs", type=Path, help="k.toml: [joints.<name>] k_deg_per_Nm, phi_deg, enabled"
-    )
-    source.add_argument(
-        "--preset",
-        choices=PRESET_CHOICES,
-        help="a preset: uniform k (Table 2's identifiable servos), the paper's Table 3 "
+    add_torques_argument(compensate, "a project's torques")
+    add_coefficients_arguments(
+        compensate,
+        PRESET_CHOICES,
+        "a preset: uniform k (Table 2's identifiable servos), the paper's Table 3 "
         "(servos 2, 3, 8, 9) or Table 2 (all 12)",
-    )
-    compensate.add_argument(
-        "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
+        toml_flag="--coeffs",
     )
     add_output_arguments(compensate, "command CSV to write")
     calibrate = sub.add_parser(
@@ -102,18 +95,17 @@ def run(args: argparse.Namespace) -> int:
         if params.enabled[i]
     ]
     if args.json:
-        report = {
-            "ok": True,
-            "robot": robot.name,
-            "n_samples": traj.n_samples,
-            "clearance_sign": params.clearance_sign,
-            "compensated": joints,
-            "notes": list(params.notes),
-            "warnings": warnings,
-            "out": None if args.out is None else str(args.out),
-        }
-        print(json.dumps(report, indent=2))
-        return 0
+        return print_report(
+            {
+                "robot": robot.name,
+                "n_samples": traj.n_samples,
+                "clearance_sign": params.clearance_sign,
+                "compensated": joints,
+                "notes": list(params.notes),
+                "warnings": warnings,
+                "out": written(args.out),
+            }
+        )
     target = output_target(args.out)
     print(
         f"{len(joints)} of {robot.n_actuated} joints compensated, {traj.n_samples} samples{target}"

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from app.cli.common import (
@@ -12,6 +11,8 @@ from app.cli.common import (
     add_output_arguments,
     motion_inputs,
     output_target,
+    print_report,
+    written,
 )
 from app.core.errors import StudioError
 
@@ -62,24 +63,23 @@ def run(args: argparse.Namespace) -> int:
     summary = torque_peaks(robot, traj, ff)
     peaks = summary.max_abs_tau_Nm  # over samples neither infeasible nor over the speed limits
     if args.json:
-        report = {
-            "ok": True,
-            "robot": robot.name,
-            "trajectory": str(args.trajectory),
-            "n_samples": traj.n_samples,
-            "out": None if args.out is None else str(args.out),
-            **summary.to_json(),
-            "infeasible_samples": bad,
-            "first_problems": [
-                {"index": k, "status": ff.status[k]} for k in bad[:MAX_WARNING_LINES]
-            ],
-            "solve_time_s": seconds,
-            "qp_time_median_ms": float(np.median(ff.qp_time_s) * 1e3),
-            "qp_time_p95_ms": float(np.percentile(ff.qp_time_s, 95) * 1e3),
-            "notes": list(ff.notes),
-        }
-        print(json.dumps(report, indent=2))
-        return 0
+        return print_report(
+            {
+                "robot": robot.name,
+                "trajectory": str(args.trajectory),
+                "n_samples": traj.n_samples,
+                "out": written(args.out),
+                **summary.to_json(),
+                "infeasible_samples": bad,
+                "first_problems": [
+                    {"index": k, "status": ff.status[k]} for k in bad[:MAX_WARNING_LINES]
+                ],
+                "solve_time_s": seconds,
+                "qp_time_median_ms": float(np.median(ff.qp_time_s) * 1e3),
+                "qp_time_p95_ms": float(np.percentile(ff.qp_time_s, 95) * 1e3),
+                "notes": list(ff.notes),
+            }
+        )
     worst = int(np.argmax(peaks))
     target = output_target(args.out)
     print(

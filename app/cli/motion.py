@@ -12,6 +12,8 @@ from app.cli.common import (
     add_robot_argument,
     load_robot_from_args,
     output_target,
+    print_report,
+    written,
 )
 from app.core.budgets import check_dt
 from app.core.errors import StudioError
@@ -83,32 +85,31 @@ def run(args: argparse.Namespace) -> int:
         write_trajectory_csv(traj, args.out, robot)
     summary = result.summary()
     if args.json:
-        report = {
-            "ok": True,
-            "motion": args.name,
-            "robot": robot.name,
-            "params": params,
-            "dt_s": traj.dt,
-            "duration_s": traj.duration,
-            "n_samples": traj.n_samples,
-            "out": None if args.out is None else str(args.out),
-            "n_warnings": len(result.warnings),
-            "jump_samples": list(result.jump_samples),
-            "notes": list(result.notes),
-            "warnings": list(summary[len(result.notes) :]),
-        }
-        print(json.dumps(report, indent=2))
-    else:
-        target = output_target(args.out)
-        print(
-            f"{args.name} on {robot.name}: {traj.n_samples} samples, {traj.duration:.2f} s "
-            f"at dt {traj.dt:g} s{target}"
+        return print_report(
+            {
+                "motion": args.name,
+                "robot": robot.name,
+                "params": params,
+                "dt_s": traj.dt,
+                "duration_s": traj.duration,
+                "n_samples": traj.n_samples,
+                "out": written(args.out),
+                "n_warnings": len(result.warnings),
+                "jump_samples": list(result.jump_samples),
+                "notes": list(result.notes),
+                "warnings": list(summary[len(result.notes) :]),
+            }
         )
-        for line in summary[:MAX_WARNING_LINES]:
-            print(f"warning: {line}", file=sys.stderr)
-        if len(summary) > MAX_WARNING_LINES:
-            print(
-                f"warning: … {len(summary) - MAX_WARNING_LINES} more (--json lists them all)",
-                file=sys.stderr,
-            )
+    target = output_target(args.out)
+    print(
+        f"{args.name} on {robot.name}: {traj.n_samples} samples, {traj.duration:.2f} s "
+        f"at dt {traj.dt:g} s{target}"
+    )
+    for line in summary[:MAX_WARNING_LINES]:
+        print(f"warning: {line}", file=sys.stderr)
+    if len(summary) > MAX_WARNING_LINES:
+        print(
+            f"warning: … {len(summary) - MAX_WARNING_LINES} more (--json lists them all)",
+            file=sys.stderr,
+        )
     return 0

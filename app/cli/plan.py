@@ -4,17 +4,27 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from app.cli.common import (
     add_output_arguments,
-    add_robot_options,
+    add_robot_argument,
     load_robot_from_args,
     output_target,
+    print_report,
+    written,
 )
 from app.core.budgets import check_dt, check_samples
 from app.core.errors import StudioError
+
+if TYPE_CHECKING:
+    from app.core.collocation.dircon import GaitProblem
+    from app.core.collocation.result import GaitResult
+    from app.core.collocation.settings import GaitSettings
+    from app.core.motions.trajectory import Trajectory
+    from app.core.robot.model import RobotModel
+    from app.core.walking.walk import Walk
 
 MAX_STEPS = 100
 """Most steps `plan --steps` walks."""
@@ -28,10 +38,7 @@ def add_parser(sub) -> None:
         help="plan the gait paper's symmetric walking gait (DIRCON, IPOPT) for a biped, and "
         "optionally a whole-body walk of N steps",
     )
-    plan.add_argument(
-        "--robot", default=PLAN_ROBOT, help=f"built-in name or URDF path (default {PLAN_ROBOT})"
-    )
-    add_robot_options(plan)
+    add_robot_argument(plan, PLAN_ROBOT)
     plan.add_argument(
         "--config",
         type=Path,
@@ -66,21 +73,68 @@ def add_parser(sub) -> None:
     add_output_arguments(plan, "gait or walk CSV to write")
 
 
-def run(args: argparse.Namespace) -> int:
-    from app.core.collocation.defaults import PAPER_ROBOT, robot_gait_defaults
-    from app.core.collocation.dircon import GaitProblem, read_settings_toml, to_trajectory
-    from app.core.collocation.settings import GaitSettings
-    from app.core.motions.csv_files import write_trajectory_csv
+@dataclasses.dataclass
+class _Planned:
+    """What `plan` computed on the robot, in the order it is reported."""
 
-    check_dt(args.dt, "--dt")  # before the solve, not after minutes of it
+    robot: RobotModel
+    problem: GaitProblem
+    settings: GaitSettings
+    result: GaitResult
+    notes: list[str]
+    """The settings' notes (robot-derived defaults, a shortened default step)."""
+    walk: Walk | None = None
+    trajectory: Trajectory | None = None
+    """The walk's, or one gait cycle's (what --out writes)."""
+    comparison: dict[str, object] | None = None
+    """Table 4's comparison (--compare), with the simulated walks (--simulate)."""
+
+
+def run(args: argparse.Namespace) -> int:
+    _check_args(args)
+    planned = _planned_gait(args, load_robot_from_args(args))
+    base = None
+    if args.compare and not planned.settings.baseline:
+        planned.comparison, base = _table4_comparison(
+            planned.problem, planned.settings, planned.result
+        )
+    _walk(args, planned)
+    if planned.comparison is not None and args.simulate:
+        from app.cli.plan_simulate import WALK_STEPS, simulated_comparison
+
+        planned.comparison["simulated"] = simulated_comparison(
+            planned.robot, planned.problem.model, {"symmetric": planned.result, "baseline": base},
+            args.steps or WALK_STEPS, args.step_width, args.dt, planned.walk,
+        )  # fmt: skip
+    if args.out is not None and planned.trajectory is not None:
+        from app.core.motions.csv_files import write_trajectory_csv
+
+        write_trajectory_csv(planned.trajectory, args.out, planned.robot)
+    if args.json:
+        return print_report(_json_fields(args, planned))
+    _print_text(args, planned)
+    return 0
+
+
+def _check_args(args: argparse.Namespace) -> None:
+    """The options that need no robot, checked before the solve (not after minutes of it)."""
+    check_dt(args.dt, "--dt")
     if not 0 <= args.steps <= MAX_STEPS:
         raise StudioError(f"--steps must be in [0, {MAX_STEPS}], got {args.steps}")
     if args.simulate and (not args.compare or args.baseline):
         raise StudioError("--simulate goes with --compare (and not --baseline)")
+
+
+def _planned_gait(args: argparse.Namespace, robot: RobotModel) -> _Planned:
+    """The gait solved with --config's settings over the robot's defaults (a robot-derived
+    step shortened until its walk can start); StudioError (one line) when it did not converge."""
+    from app.core.collocation.defaults import PAPER_ROBOT, robot_gait_defaults
+    from app.core.collocation.dircon import GaitProblem, read_settings_toml
+    from app.core.collocation.settings import GaitSettings
+
     values = read_settings_toml(args.config) if args.config is not None else {}
     if args.baseline:
         values["baseline"] = True
-    robot = load_robot_from_args(args)
     defaults = robot_gait_defaults(robot)
     settings = GaitSettings.from_mapping(
         values, source=str(args.config or "settings"), base=defaults.settings
@@ -104,55 +158,57 @@ def run(args: argparse.Namespace) -> int:
         if "iterations" not in reason:
             reason += f" ({result.iterations} iterations)"
         raise StudioError(f"{reason}; {result.blame}" if result.blame else reason)
-    comparison, base = None, None
-    if args.compare and not settings.baseline:
-        comparison, base = _table4_comparison(problem, settings, result)
-    walk = None
+    return _Planned(robot, problem, settings, result, notes)
+
+
+def _walk(args: argparse.Namespace, planned: _Planned) -> None:
+    """The walk of --steps steps (none for 0) and the trajectory --out writes."""
     if args.steps > 0:
         from app.core.walking.walk import build_walk
 
-        walk = build_walk(
-            problem.model, result, steps=args.steps, step_width_m=args.step_width, dt=args.dt
+        planned.walk = build_walk(
+            planned.problem.model,
+            planned.result,
+            steps=args.steps,
+            step_width_m=args.step_width,
+            dt=args.dt,
         )
-        trajectory = walk.trajectory
+        planned.trajectory = planned.walk.trajectory
     else:
-        trajectory = to_trajectory(robot, result, dt=args.dt)
-    if comparison is not None and args.simulate:
-        from app.cli.plan_simulate import WALK_STEPS, simulated_comparison
+        from app.core.collocation.dircon import to_trajectory
 
-        comparison["simulated"] = simulated_comparison(
-            robot, problem.model, {"symmetric": result, "baseline": base},
-            args.steps or WALK_STEPS, args.step_width, args.dt, walk,
-        )  # fmt: skip
-    if args.out is not None:
-        write_trajectory_csv(trajectory, args.out, robot)
-    summary = result.summary()
-    if args.json:
-        report = {
-            "ok": True,
-            "robot": robot.name,
-            **summary,
-            "build_s": problem.build_s,
-            "settings_notes": notes,
-            "step_length_m": settings.step_length_m,
-            "table4": comparison,
-            "walk": None if walk is None else _walk_json(walk, args.steps),
-            "out": None if args.out is None else str(args.out),
-        }
-        print(json.dumps(report, indent=2))
-        return 0
+        planned.trajectory = to_trajectory(planned.robot, planned.result, dt=args.dt)
+
+
+def _json_fields(args: argparse.Namespace, planned: _Planned) -> dict[str, object]:
+    """`plan --json`'s answer."""
+    walk, settings = planned.walk, planned.settings
+    return {
+        "robot": planned.robot.name,
+        **planned.result.summary(),
+        "build_s": planned.problem.build_s,
+        "settings_notes": planned.notes,
+        "step_length_m": settings.step_length_m,
+        "table4": planned.comparison,
+        "walk": None if walk is None else _walk_json(walk, args.steps),
+        "out": written(args.out),
+    }
+
+
+def _print_text(args: argparse.Namespace, planned: _Planned) -> None:
+    """The gait's line, Table 4's comparison (--compare) and the notes."""
+    result, walk, comparison = planned.result, planned.walk, planned.comparison
     lsp, rsp = result.step_lengths_m
-    target = output_target(args.out)
-    kind = "baseline DIRCON" if settings.baseline else "symmetric"
+    kind = "baseline DIRCON" if planned.settings.baseline else "symmetric"
     walked = (
         "" if walk is None else f"; walk of {args.steps} steps, {walk.trajectory.duration:.2f} s"
     )
     print(
-        f"{robot.name}: {kind} gait: {result.status} in {result.solve_s:.2f} s "
-        f"({result.iterations} iterations, built in {problem.build_s:.1f} s); max |tau| "
+        f"{planned.robot.name}: {kind} gait: {result.status} in {result.solve_s:.2f} s "
+        f"({result.iterations} iterations, built in {planned.problem.build_s:.1f} s); max |tau| "
         f"{result.max_abs_tau_Nm:.2f} N·m, steps {lsp:.3f} / {rsp:.3f} m, slack0 "
         f"{result.slack0:.3g}, SR {result.sr:.3f} ({result.sr_incl_impacts:.3f} with impacts)"
-        f"{walked}{target}"
+        f"{walked}{output_target(args.out)}"
     )
     if comparison is not None:
         for row in comparison["rows"]:  # type: ignore[attr-defined]
@@ -166,9 +222,8 @@ def run(args: argparse.Namespace) -> int:
             from app.cli.plan_simulate import simulated_lines
 
             print("\n".join(simulated_lines(comparison["simulated"])))  # type: ignore[arg-type]
-    for note in (*notes, *(() if walk is None else walk.notes)):
+    for note in (*planned.notes, *(() if walk is None else walk.notes)):
         print(f"note: {note}")
-    return 0
 
 
 def _table4_comparison(problem, settings, result) -> tuple[dict[str, object], object]:

@@ -4,10 +4,15 @@ local server for one."""
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
-from app.cli.common import add_robot_argument, coefficients_from_args, load_robot_from_args
+from app.cli.common import (
+    add_coefficients_arguments,
+    add_robot_argument,
+    coefficients_from_args,
+    load_robot_from_args,
+    print_report,
+)
 from app.cli.motion import _params
 from app.core.errors import StudioError
 
@@ -30,13 +35,12 @@ def add_parser(sub) -> None:
         "--param", action="append", default=[], metavar="NAME=VALUE", help="motion parameter"
     )
     export.add_argument("--dt", type=float, default=0.01, help="motion sample time step [s]")
-    export.add_argument(
-        "--preset",
-        choices=("uniform", "table3", "table2"),
+    add_coefficients_arguments(
+        export,
+        ("uniform", "table3", "table2"),
+        "compensation coefficients for the 'compensated' ghosts (default: uniform)",
         default="uniform",
-        help="compensation coefficients for the 'compensated' ghosts (default: uniform)",
     )
-    export.add_argument("--clearance", action="store_true", help="with --preset table3: φ = 8°")
     export.add_argument("--fps", type=float, default=30.0, help="frames per second (≤ 60)")
     export.add_argument("--out", type=Path, required=True, help="replay folder to write")
     export.add_argument("--zip", action="store_true", help="also write OUT.zip")
@@ -88,20 +92,19 @@ def _export(args: argparse.Namespace) -> int:
     result = export_replay(robot, scene, args.out, make_zip=args.zip, force=args.force)
     folder = result.folder
     if args.json:
-        report = {
-            "ok": True,
-            "out": str(folder.path),
-            "zip": None if folder.zip_path is None else str(folder.zip_path),
-            "robot": robot.name,
-            "motion": args.motion,
-            "n_frames": result.n_frames,
-            "duration_s": result.duration_s,
-            "recording_bytes": folder.recording_bytes,
-            "total_bytes": folder.total_bytes,
-            "record_s": result.record_s,
-        }
-        print(json.dumps(report, indent=2))
-        return 0
+        return print_report(
+            {
+                "out": str(folder.path),
+                "zip": None if folder.zip_path is None else str(folder.zip_path),
+                "robot": robot.name,
+                "motion": args.motion,
+                "n_frames": result.n_frames,
+                "duration_s": result.duration_s,
+                "recording_bytes": folder.recording_bytes,
+                "total_bytes": folder.total_bytes,
+                "record_s": result.record_s,
+            }
+        )
     zipped = f" and {folder.zip_path}" if folder.zip_path is not None else ""
     print(
         f"replay of {args.motion} on {robot.name}: {result.n_frames} frames, "

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import functools
-import json
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -13,13 +12,18 @@ from typing import TYPE_CHECKING
 
 from app.cli.common import (
     MotionInputs,
+    add_coefficients_arguments,
     add_motion_command,
     add_output_arguments,
+    add_torques_argument,
     add_user_servos_argument,
     coefficients_from_args,
     motion_inputs,
     output_target,
+    print_report,
+    written,
 )
+from app.cli.energy_lines import figures_line, ideal_energy, ideal_line
 from app.core.errors import StudioError
 
 if TYPE_CHECKING:
@@ -34,25 +38,17 @@ def add_parser(sub) -> None:
         "simulate",
         help="simulate a motion on compliant servos with dead bands (MuJoCo): does it stay up?",
     )
-    source = simulate.add_mutually_exclusive_group()
-    source.add_argument("--cmd", type=Path, help="servo commands CSV (biped-studio compensate)")
-    source.add_argument(
-        "--compensation", type=Path, help="k.toml: command q + k·τ (+ φ·sign) from these"
-    )
-    source.add_argument(
-        "--preset",
-        choices=PRESETS,
-        help="plan: the plan as it is (no compensation); uniform: k = the servos' compliance "
+    source = add_coefficients_arguments(
+        simulate,
+        PRESETS,
+        "plan: the plan as it is (no compensation); uniform: k = the servos' compliance "
         "on the legs (1.4 °/(N·m) on the paper's robot, sized to the robot by m·g·h); "
         "table3 / table2: the paper's coefficients; parts: k = 1/K and φ = half the dead band "
         "of the servo parts a --servo file names (eq 23, torque sign)",
+        toml_flag="--compensation",
     )
-    simulate.add_argument(
-        "--clearance", action="store_true", help="with --preset table3: add φ = 8° (eq 23)"
-    )
-    simulate.add_argument(
-        "--tau", type=Path, default=None, help="torque CSV (default: computed by the whole-body QP)"
-    )
+    source.add_argument("--cmd", type=Path, help="servo commands CSV (biped-studio compensate)")
+    add_torques_argument(simulate, "computed by the whole-body QP")
     simulate.add_argument(
         "--drive-torque",
         action="store_true",
@@ -287,29 +283,25 @@ def run(args: argparse.Namespace) -> int:
         figures = _energy_figures(args, robot, traj, inputs, parts, main)
     ideal = None
     if law is None:  # the ideal servo: electrical energy from the stated default motor
-        ideal = _ideal_energy(robot, traj, servo, options, main, planned_tau)
+        ideal = ideal_energy(robot, traj, servo, options, main, planned_tau)
     if args.out is not None:
         write_simulation_csv(args.out, main)
     if args.json:
-        print(
-            json.dumps(
-                _add_unaided(
-                    _json_report(
-                        args, robot, traj, results, main, parts, figures, stand, mass_note, sized
-                    ),
-                    unaided,
-                    label,
-                )
-                | ({} if ideal is None else {"ideal_servo_energy": ideal}),
-                indent=2,
+        return print_report(
+            _add_unaided(
+                _json_report(
+                    args, robot, traj, results, main, parts, figures, stand, mass_note, sized
+                ),
+                unaided,
+                label,
             )
+            | ({} if ideal is None else {"ideal_servo_energy": ideal})
         )
-        return 0
     _print_report(args, robot, traj, results, main, figures, stand, mass_note, sized)
     if unaided is not None:
         print(_pair_lines(robot, traj, results, unaided))
     if ideal is not None and ideal["sr_planned"] is not None:
-        print(_ideal_line(ideal))
+        print(ideal_line(ideal))
     return 0
 
 
@@ -350,36 +342,13 @@ def _pair_lines(robot, traj, results: dict, unaided: dict) -> str:
     return "\n".join(lines)
 
 
-def _ideal_energy(robot, traj, servo, options, main, planned_tau: Callable[[], np.ndarray]) -> dict:
-    """The run's electrical energy on the ideal servo from the default motor, its SR beside
-    the planned work's (a motion that travels), as JSON (`ideal_energy.run_ideal_sr`)."""
-    from app.core.simulation.ideal_energy import run_ideal_sr
-    from app.core.simulation.servo_law import robot_servo_law
-
-    return run_ideal_sr(
-        main, robot, traj, robot_servo_law(robot, servo), planned_tau, options.timestep_s,
-        options.command_hold == "linear",
-    ).to_json()  # fmt: skip
-
-
-def _ideal_line(ideal: dict) -> str:
-    return (
-        f"energy on the ideal servo over {ideal['duration_s']:.2f} s"
-        + (" (up to the fall)" if ideal["fell"] else "")
-        + ": "
-        f"{ideal['total_electrical_J']:.1f} J electrical ({ideal['total_mechanical_J']:.1f} J "
-        f"mechanical, {ideal['total_joule_J']:.1f} J I²R); SR {_sr(ideal['sr_electrical'])} "
-        f"electrical, {_sr(ideal['sr_planned'])} planned work ({ideal['motor']})"
-    )
-
-
 def _json_report(
     args: argparse.Namespace, robot, traj, results, main, parts, figures, stand, mass_note, sized
 ) -> dict:
     """What --json prints: the main run's summary (with `balance_feedback`: on, its gains),
     the baseline's, energy and notes."""
-    report = {"ok": True, "robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
-    report["out"] = None if args.out is None else str(args.out)
+    report = {"robot": robot.name, "n_samples": traj.n_samples, **main.summary()}
+    report["out"] = written(args.out)
     report["stand_check"] = stand
     report["servo_default"] = sized
     if len(results) > 1:
@@ -418,7 +387,7 @@ def _print_report(
             "servo"
         )
     if figures is not None:
-        print(_figures_line(figures))
+        print(figures_line(figures))
     if mass_note is not None:
         print(f"note: {mass_note}", file=sys.stderr)
     if sized is not None:
@@ -439,22 +408,6 @@ def _energy_figures(args, robot, traj, inputs: MotionInputs, parts, result):
     return run_energy_figures(
         result, robot, traj, vin, lambda: _torques(args, robot, traj, inputs), args.battery_Wh
     )
-
-
-def _figures_line(f) -> str:
-    sr = (
-        "in place: no SR"
-        if f.sr_electrical is None and f.sr_planned is None
-        else f"SR {_sr(f.sr_electrical)} electrical, {_sr(f.sr_planned)} planned work"
-    )
-    line = f"average {f.average_power_W:.1f} W from the supply; {f.labelled_currents()}; {sr}"
-    if f.battery_minutes is not None:
-        line += f"; a {f.pack_Wh:g} Wh pack lasts {f.battery_minutes:.0f} min of this motion"
-    return line
-
-
-def _sr(value: float | None) -> str:
-    return "-" if value is None else f"{value:.3g}"
 
 
 def _swap_masses(args: argparse.Namespace, robot, parts):

@@ -4,21 +4,27 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from app.cli.common import (
+    MotionInputs,
     add_motion_command,
     add_output_arguments,
+    add_torques_argument,
     add_user_servos_argument,
     motion_inputs,
+    print_report,
 )
 from app.core.errors import StudioError
 
 if TYPE_CHECKING:
     import numpy as np
+
+    from app.core.servo.catalogue import ServoRecord
+    from app.core.servo.sizing import Sizing
+    from app.core.servo.sizing_work import Work
 
 
 def add_parser(sub) -> None:
@@ -28,13 +34,7 @@ def add_parser(sub) -> None:
         help="pick per joint the lightest (or cheapest) catalogue servo whose torque–speed "
         "envelope holds a motion's planned torques with a margin",
     )
-    size.add_argument(
-        "--tau",
-        type=Path,
-        default=None,
-        help="torque CSV (biped-studio feedforward --out; default: a project's torques, else "
-        "computed by the whole-body QP)",
-    )
+    add_torques_argument(size, "a project's torques, else computed by the whole-body QP")
     size.add_argument(
         "--also",
         type=Path,
@@ -99,8 +99,6 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-
-    from app.core.servo.catalogue import load_catalogue, read_user_servos, with_user_servos
     from app.core.servo.kp_sizing import (
         MAX_SAG_DEG,
         STAND_MARGIN,
@@ -108,12 +106,7 @@ def run(args: argparse.Namespace) -> int:
         check_stand_margin,
         size_with_kp,
     )
-    from app.core.servo.sizing import (
-        CONTINUOUS_FRACTION_OF_STALL,
-        check_fraction,
-        check_margin,
-        totals,
-    )
+    from app.core.servo.sizing import CONTINUOUS_FRACTION_OF_STALL, check_fraction, check_margin
     from app.core.servo.sizing_work import motion_work
 
     margin = check_margin(args.margin)
@@ -126,28 +119,11 @@ def run(args: argparse.Namespace) -> int:
         STAND_MARGIN if args.stand_margin is None else args.stand_margin
     )
     max_sag_deg = check_max_sag(MAX_SAG_DEG if args.max_sag_deg is None else args.max_sag_deg)
-    catalogue = load_catalogue()
-    for path in args.servos:
-        catalogue = with_user_servos(catalogue, read_user_servos(path))
-    if args.kp is not None and args.servo_toml is None:
-        raise StudioError("--kp goes with --servo-toml (the firmware P gain it writes)")
-    from app.core.servo.sized_parts import check_kp
-
-    check_kp(args.kp)
-    left_out = []
-    if args.servo_toml is not None:  # parts the simulation can run
-        from app.core.servo.choice import simulatable
-
-        runnable = simulatable(catalogue)
-        left_out = sorted(set(catalogue) - set(runnable))
-        catalogue = runnable
-        if not args.servo_toml.resolve().parent.is_dir():
-            raise StudioError(f"--servo-toml {args.servo_toml}: its folder does not exist")
+    catalogue, left_out = _catalogue(args)
     inputs = motion_inputs(args)
     robot, traj = inputs.robot, inputs.trajectory
     tau, infeasible = _torques(args, inputs)
     motion = motion_work(robot, traj, tau, infeasible)
-    flagged = motion.flagged
     works = {"motion": motion, **_project_gaits(args, robot), **_also(args.also, robot)}
     begin = time.perf_counter()
     sizing = size_with_kp(
@@ -163,38 +139,91 @@ def run(args: argparse.Namespace) -> int:
         max_sag_deg=max_sag_deg,
     )
     seconds = time.perf_counter() - begin
-    total = totals(sizing, catalogue)
     notes = list(sizing.notes)
     if args.servo_toml is not None:
         notes += _write_parts(args.servo_toml, sizing, args.kp, left_out)
-    if flagged:
+    if motion.flagged:
         notes.append(
-            f"{len(flagged)} flagged sample(s) left out (not solved, or a joint over its speed "
-            "limit: torques there are artefacts)"
+            f"{len(motion.flagged)} flagged sample(s) left out (not solved, or a joint over its "
+            "speed limit: torques there are artefacts)"
         )
+    sized = _Sized(inputs, catalogue, works, sizing, notes, seconds)
     if args.json:
-        report = {
-            "ok": True,
-            "robot": robot.name,
-            "motion": inputs.source,
-            "n_samples": traj.n_samples,
-            "n_servos": len(catalogue),
-            "works": list(works),
-            **sizing.to_json(),
-            "totals": dataclasses.asdict(total),
-            "notes": notes,
-        }
-        if args.time:
-            report["sizing_time_s"] = seconds
-        print(json.dumps(report, indent=2))
-        return 0
-    gaits = [label for label in works if label.endswith(" gait")]
-    also = [label for label in works if label != "motion" and label not in gaits]
+        return print_report(_json_fields(args, sized))
+    _print_text(args, sized, margin)
+    return 0
+
+
+@dataclasses.dataclass(frozen=True)
+class _Sized:
+    """What `size` computed, for its report."""
+
+    inputs: MotionInputs
+    catalogue: dict[str, ServoRecord]
+    """The servos sized over."""
+    works: dict[str, Work]
+    """The motion's work and a project's planned gaits'."""
+    sizing: Sizing
+    notes: list[str]
+    seconds: float
+    """How long the sizing itself took [s] (torques excluded)."""
+
+
+def _catalogue(args: argparse.Namespace) -> tuple[dict[str, ServoRecord], list[str]]:
+    """The servos to size over (the catalogue with --servos'; with --servo-toml only those
+    the simulation can run), and the keys left out for that."""
+    from app.core.servo.catalogue import load_catalogue, read_user_servos, with_user_servos
+    from app.core.servo.sized_parts import check_kp
+
+    catalogue = load_catalogue()
+    for path in args.servos:
+        catalogue = with_user_servos(catalogue, read_user_servos(path))
+    if args.kp is not None and args.servo_toml is None:
+        raise StudioError("--kp goes with --servo-toml (the firmware P gain it writes)")
+    check_kp(args.kp)
+    if args.servo_toml is None:
+        return catalogue, []
+    from app.core.servo.choice import simulatable
+
+    runnable = simulatable(catalogue)
+    if not args.servo_toml.resolve().parent.is_dir():
+        raise StudioError(f"--servo-toml {args.servo_toml}: its folder does not exist")
+    return runnable, sorted(set(catalogue) - set(runnable))
+
+
+def _json_fields(args: argparse.Namespace, sized: _Sized) -> dict[str, object]:
+    """`size --json`'s answer."""
+    from app.core.servo.sizing_totals import totals
+
+    traj = sized.inputs.trajectory
+    fields = {
+        "robot": sized.inputs.robot.name,
+        "motion": sized.inputs.source,
+        "n_samples": traj.n_samples,
+        "n_servos": len(sized.catalogue),
+        "works": list(sized.works),
+        **sized.sizing.to_json(),
+        "totals": dataclasses.asdict(totals(sized.sizing, sized.catalogue)),
+        "notes": sized.notes,
+    }
+    if args.time:
+        fields["sizing_time_s"] = sized.seconds
+    return fields
+
+
+def _print_text(args: argparse.Namespace, sized: _Sized, margin: float) -> None:
+    """The sizing's line, a line per joint (its servo, or the closest and why not), the total
+    and the notes."""
+    from app.core.servo.sizing_totals import totals
+
+    robot, traj, sizing = sized.inputs.robot, sized.inputs.trajectory, sized.sizing
+    gaits = [label for label in sized.works if label.endswith(" gait")]
+    also = [label for label in sized.works if label != "motion" and label not in gaits]
     print(
         f"sizing {traj.name} on {robot.name} ({traj.n_samples} samples"
         + (f"; and the project's {', '.join(gaits)}" if gaits else "")
         + (f"; and {', '.join(also)}" if also else "")
-        + f") over {len(catalogue)} "
+        + f") over {len(sized.catalogue)} "
         f"servos, margin {margin:.0%}, by {args.by}: "
         f"{len(robot.joint_names) - len(sizing.unsized)} of {len(robot.joint_names)} joints sized"
     )
@@ -213,12 +242,11 @@ def run(args: argparse.Namespace) -> int:
                 f"  {joint.joint:20s} NO SERVO holds it; closest {best.servo}: "
                 + "; ".join(best.violations())
             )
-    print(f"total: {total.line()}")
-    for note in notes:
+    print(f"total: {totals(sizing, sized.catalogue).line()}")
+    for note in sized.notes:
         print(f"note: {note}")
     if args.time:
-        print(f"sizing took {seconds * 1e3:.1f} ms (torques excluded)")
-    return 0
+        print(f"sizing took {sized.seconds * 1e3:.1f} ms (torques excluded)")
 
 
 def _stiffness_text(stiffness) -> str:

@@ -29,12 +29,11 @@ from app.core.projects.project import Project
 from app.core.robot.loading import load_robot
 from app.core.robot.report import robot_report
 from app.core.walking.walk import Walk, build_walk
-from app.gait_jobs import build_gait_problem
-from app.jobs import SolverWorker
 from app.studio.gait_default_step import DefaultStep
 from app.studio.gait_solves import GaitSolves
 from app.studio.gait_text import GaitResults, Solve, results_table, stage_words, status_line
 from app.studio.gait_walks import ShownWalk
+from app.studio.gait_worker import GaitWorker
 from app.studio.notifier import Notifier
 from app.studio.signals import Signal
 from app.studio.state import LoadedRobot, StudioState
@@ -52,7 +51,7 @@ MAX_PROGRESS_ITERATIONS = 200.0
 
 
 class GaitSession:
-    """Owns the Gait panel and the solver worker."""
+    """Owns the Gait panel and the solver worker (`worker`, app/studio/gait_worker.py)."""
 
     def __init__(
         self,
@@ -64,13 +63,12 @@ class GaitSession:
         prepare: bool = False,
     ) -> None:
         self._server, self._state, self._notifier = server, state, notifier
-        self._prepare = prepare
-        """Build each robot's default problem in the worker when the robot loads."""
         self.panel = GaitPanel(server.gui, self)
         self.planar: PlanarModel | None = None
         """The loaded robot's planar model, None when the planner cannot handle it."""
         self._shown = ShownWalk(server)
-        self._worker: SolverWorker | None = None
+        self.worker = GaitWorker(self._on_progress, self._end, prepare_ahead=prepare)
+        """The solver worker (started on first need)."""
         self.solves = GaitSolves(package_roots)
         """The solve under way (`solves.running`), the last, its convergence history."""
         self.results = GaitResults()
@@ -87,8 +85,6 @@ class GaitSession:
         self.pipeline_started: Signal[str] = Signal("pipeline_started")
         """Emitted when the one click is taken, with its first stage ("planning", or
         "walking" when the last gait still fits the settings)."""
-        self.prepared: Signal[object] = Signal("gait_prepared")
-        """Emitted with the structure key when the worker has built a problem ahead of time."""
         state.on_robot.connect(self._on_robot)
         state.on_motion.connect(self._shown.on_motion)
 
@@ -100,6 +96,11 @@ class GaitSession:
     @property
     def footprints(self) -> FootprintsView | None:
         return self._shown.footprints
+
+    @property
+    def prepared(self) -> Signal[object]:
+        """Emitted with the structure key when the worker has built a problem ahead of time."""
+        return self.worker.prepared
 
     # --- projects (HoldsWork) -------------------------------------------------------------------
 
@@ -142,19 +143,7 @@ class GaitSession:
                 self._shown.walk = shown
                 self._shown.show_footprints(robot, shown)
 
-    # --- worker --------------------------------------------------------------------------------
-
-    def _ensure_worker(self) -> SolverWorker:
-        if self._worker is None:
-            worker = SolverWorker(build_gait_problem)
-            worker.on_progress(self._on_progress)
-            worker.on_done(lambda job_id, result: self._end(job_id, result=result))
-            # a failure may have crashed and restarted the worker; a cancel restarts it
-            worker.on_failed(lambda job_id, message: self._end(job_id, message, forget=True))
-            worker.on_cancelled(lambda job_id: self._end(job_id, "cancelled", forget=True))
-            worker.on_prepared(self._on_prepared)
-            self._worker = worker
-        return self._worker
+    # --- solves in the worker ------------------------------------------------------------------
 
     def solve(self, baseline: bool, client: viser.ClientHandle | None = None) -> str | None:
         """Launch a solve with the panel's settings on the loaded robot; returns its job id."""
@@ -192,26 +181,18 @@ class GaitSession:
             f"({settings.knots} knots) if this structure is new, then IPOPT{plan}…"
         )
         self.panel.show_running(True)
-        self._ensure_worker().submit(job_id, settings, key)
+        self.worker.submit(job_id, settings, key)
         self.solves.submitted(key)
         return job_id
 
     def cancel(self) -> None:
-        if self._worker is not None:
-            self._worker.cancel()
+        self.worker.cancel()
 
     def close(self) -> None:
-        if self._worker is not None:
-            self._worker.close()
-            self._worker = None
+        self.worker.close()
         self.solves.forget_structures()
 
     # --- events from the worker (the "solver-events" thread) ------------------------------------
-
-    def _on_prepared(self, key: object, error: str) -> None:
-        if error:  # the solve will meet the same error and report it; keep a trace meanwhile
-            log.warning("building the gait problem ahead of time failed: %s", error)
-        self.prepared.emit(key)
 
     def _on_progress(self, job_id: str, iteration: int, objective: float, violation: float) -> None:
         progressed = self.solves.progress(job_id, iteration, objective, violation)
@@ -385,7 +366,7 @@ class GaitSession:
             self.default_step.robot(defaults.settings.step_length_m)
         self.panel.show_plannable(True)
         self.show_results()
-        if self._prepare:
+        if self.worker.prepare_ahead:
             self.prepare(defaults.settings)
 
     def prepare(self, settings: GaitSettings) -> bool:
@@ -394,4 +375,4 @@ class GaitSession:
         robot = self._state.robot
         if robot is None or self.planar is None:
             return False
-        return self._ensure_worker().prepare(self.solves.key(robot, settings))
+        return self.worker.prepare(self.solves.key(robot, settings))

@@ -159,7 +159,7 @@ class Studio:
             servos=servos,
         )
         self._open_first_project(config)
-        self.sweep.start_preparing()  # started: prepare the sweep workers in the background
+        self.sweep.workers.start_preparing()  # started: prepare the sweep workers in the background
 
     def _open_first_project(self, config: StudioConfig) -> None:
         """The project asked for on the command line, or the autosave to restore; autosaving."""

@@ -30,7 +30,8 @@ from app.core.servo.choice import (
 )
 from app.core.servo.model import ServoModel
 from app.core.servo.parts import ServoPartsError
-from app.core.servo.sizing import JointSizing, Sizing, totals
+from app.core.servo.sizing import JointSizing, Sizing
+from app.core.servo.sizing_totals import totals
 from app.core.servo.sizing_work import Work
 from app.core.servo.user_files import UserServoFile, records
 from app.core.simulation.battery import run_energy_figures

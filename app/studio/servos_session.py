@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 import threading
 from collections.abc import Callable
 from dataclasses import replace
@@ -23,7 +22,6 @@ import viser
 
 from app.core.collocation.result import GaitResult
 from app.core.errors import StudioError
-from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
 from app.core.servo.catalogue import ServoRecord
 from app.core.servo.choice import (
     IDEAL,
@@ -37,10 +35,11 @@ from app.core.servo.choice import (
     with_parts,
 )
 from app.core.servo.kp_sizing import kp_of, size_with_kp
-from app.core.servo.sizing import Sizing, check_joint, envelope
+from app.core.servo.sizing import Sizing
 from app.core.servo.sizing_work import Work, gait_work, motion_work
 from app.core.servo.user_files import UserServoFile, adding, records, user_file
 from app.studio.notifier import Notifier
+from app.studio.servo_joint import joint_line, sizing_plot
 from app.studio.servo_parts import (
     added_text,
     catalogue,
@@ -255,73 +254,17 @@ class ServosSession:
     # --- display ----------------------------------------------------------------------------
 
     def _show_selected(self) -> None:
+        """The selected joint's servo, settings and line, and its points of the last sizing
+        (app/studio/servo_joint.py)."""
         choice = self.choice()
         with self._state.lock:
             coefficients = self._state.work.coefficients
         if choice is None or self._selected not in choice.joint_names:
             return
-        joint = choice.joint(self._selected)
-        i = choice.joint_names.index(self._selected)
-        settings: dict[str, float] = {}
-        if joint.servo == IDEAL or coefficients is None:
-            compliance = (
-                float(coefficients.servo.compliance_deg_per_Nm[i]) if coefficients else math.nan
-            )
-            line = (
-                f"**{self._selected}**: ideal servo, compliance {compliance:.3g} °/(N·m) "
-                f"(Compensation panel); the paper's k: {TYPICAL_COMPLIANCE_DEG_PER_NM:g} °/(N·m)"
-            )
-        else:
-            try:
-                one = ServoChoice((self._selected,), (joint,), user_servos=choice.user_servos)
-                parts = choice_parts(one, (self._selected,), catalogue())
-            except StudioError as error:
-                parts, line = None, f"⚠️ {error}"
-            if parts is not None:
-                part = parts.parts[0]
-                settings = {
-                    "kp": part.firmware.kp,
-                    "vin_V": part.firmware.vin_V,
-                    "current_limit_A": part.firmware.current_limit_A or 0.0,
-                    "dead_band_deg": part.dead_band_deg,
-                }
-                k_now = float(coefficients.params.k_deg_per_Nm[i])
-                line = (
-                    f"**{self._selected}**: {joint.servo}, stiffness K = "
-                    f"{part.stiffness_Nm_per_rad:.1f} N·m/rad, compliance **k = 1/K = "
-                    f"{part.compliance_deg_per_Nm:.3g} °/(N·m)** (the paper's k: "
-                    f"{TYPICAL_COMPLIANCE_DEG_PER_NM:g}); stall {part.stall_torque_Nm:.2f} N·m"
-                )
-                if not np.isclose(k_now, part.compliance_deg_per_Nm, rtol=1e-6):
-                    line += f"  \n⚠️ eq 7's k is {k_now:.3g} (edited in the Compensation panel)"
-        self.panel.show_joint(joint.servo, settings, line, choice.battery_Wh or 0.0)
-        self._show_plot(joint.servo)
-
-    def _show_plot(self, servo: str) -> None:
-        last, joint = self.last, self._selected
-        if last is None:
-            self.panel.show_plot("", np.zeros(0), np.zeros(0), None, "")
-            return
-        sizing, works = last
-        j = [s.joint for s in sizing.joints].index(joint)
-        w = np.concatenate([work.speed_rad_s[:, j] for work in works.values()])
-        tau = np.concatenate([work.torque_Nm[:, j] for work in works.values()])
-        record = self.records.get(servo)
-        env = envelope(record) if record is not None else None
-        bounds = None
-        note = f"{joint}: planned points of {', '.join(works)} (ideal servo: no envelope)"
-        if env is not None and record is not None:
-            bounds = (env.stall_torque_Nm, env.no_load_speed_rad_s, env.torque_limit_Nm)
-            checked = [c for c in sizing.joints[j].checks if c.servo == servo]
-            # a servo added after the sizing: checked on the same points now
-            check = checked[0] if checked else check_joint(record, w, tau, 1.0, sizing.margin)
-            verdict = "holds" if check.holds else "⚠️ " + "; ".join(check.violations())
-            note = (
-                f"{joint} on {servo} ({env.source}): peak margin {check.peak_margin:+.0%}, RMS "
-                f"{check.rms_torque_Nm:.3g} N·m vs {check.continuous_torque_Nm:.3g} N·m "
-                f"continuous{' (assumed)' if check.continuous_assumed else ''}: {verdict}"
-            )
-        self.panel.show_plot(f"{joint}: torque [N·m] vs speed", w, tau, bounds, note)
+        servo = choice.joint(self._selected).servo
+        settings, line = joint_line(choice, self._selected, coefficients)
+        self.panel.show_joint(servo, settings, line, choice.battery_Wh or 0.0)
+        self.panel.show_plot(*sizing_plot(self.last, self._selected, servo, self.records))
 
     # --- sizing ----------------------------------------------------------------------------
 

@@ -22,15 +22,9 @@ from app.core.simulation.balance_feedback import BalanceGains
 from app.core.simulation.experiments import clipped_commands, with_note
 from app.core.simulation.on_plan import OnPlan, on_plan_stance
 from app.core.simulation.result import SimulationResult
+from app.core.simulation.run import UNAIDED, finish_job, simulation_job
 from app.core.simulation.servo_law import ServoLaw
-from app.core.simulation.worker import (
-    SIMULATION_KEY,
-    UNAIDED,
-    SimulationJob,
-    build_simulation_problem,
-    finish_job,
-    simulation_job,
-)
+from app.core.simulation.worker import SIMULATION_KEY, SimulationJob, build_simulation_problem
 from app.jobs import SolverWorker
 from app.studio.signals import Signal
 

@@ -21,7 +21,8 @@ robot (an uploaded URDF, a loaded sweep design) as its .urdf file, with gait and
 parameters only. When the robot changes, the panel's choices and ranges start again for the new
 robot and a running sweep is cancelled (its points so far stay shown, as the old robot's);
 `on_choices` announces it. With `prepare=True` (what `serve` does) the workers are prepared for
-every robot loaded once the studio has started (`start_preparing`); `on_prepared` announces it.
+every robot loaded once the studio has started (`workers.start_preparing`); `workers.on_prepared`
+announces it.
 """
 
 from __future__ import annotations
@@ -102,7 +103,9 @@ class SweepSession:
         self._state = state
         self._notifier = notifier
         self._swept = SweptRobot(package_roots=tuple(str(root) for root in package_roots))
-        self._workers = SweepWorkers(prepare, self._prepare_plan, self._prepared)
+        self.workers = SweepWorkers(prepare, self._prepare_plan, self._prepared)
+        """The Dask engine and the preparing of its workers (`start_preparing` once the studio
+        has started; `prepared`, `prepared_s` and `on_prepared` say when and at what cost)."""
         self._loader = PointLoader(server, state, variants_dir, servos)
         self._running = _Running()
         self.outcome: SweepOutcome | None = None
@@ -155,7 +158,7 @@ class SweepSession:
         offered = choices(swept.robot, swept.shown_defaults(), swept.user_servos)
         self.panel.offer(ordered(offered), offered, swept.line())
         self.on_choices.emit(swept.robot)
-        self._workers.robot_loaded()
+        self.workers.robot_loaded()
 
     def _on_parts(self, choice: Any) -> None:
         """The servo parts changed: the project's own servo files join part:servo's choices."""
@@ -164,25 +167,6 @@ class SweepSession:
         self._swept = swept = dataclasses.replace(self._swept, user_servos=choice.user_servos)
         offered = choices(swept.robot, swept.shown_defaults(), swept.user_servos)
         self.panel.offer_servos(offered, swept.line())
-
-    @property
-    def prepared_s(self) -> dict[str, float]:
-        """What the last preparing cost each worker [s] (0.0 where it was warm)."""
-        return self._workers.prepared_s
-
-    @property
-    def prepared(self) -> threading.Event:
-        """Set when the workers have been prepared once (`prepared_s` says what it cost)."""
-        return self._workers.prepared
-
-    @property
-    def on_prepared(self) -> Signal[dict[str, float]]:
-        return self._workers.on_prepared
-
-    def start_preparing(self) -> None:
-        """The studio has started: with `prepare`, prepare the workers for the loaded robot
-        now and for every robot loaded later."""
-        self._workers.start_preparing()
 
     def _prepare_plan(self) -> tuple[SweepPoint, int] | None:
         """The anchor point to prepare at the panel's knots, and the panel's workers; None
@@ -208,7 +192,7 @@ class SweepSession:
 
     def _prepared(self, point: SweepPoint) -> None:
         if self.outcome is None and not self._running.alive():
-            self._view.prepared(point, len(self.prepared_s), point.robot.robot)
+            self._view.prepared(point, len(self.workers.prepared_s), point.robot.robot)
 
     # --- running ------------------------------------------------------------------------------
 
@@ -253,7 +237,7 @@ class SweepSession:
         cancelled = False
         start = time.perf_counter()
         try:
-            engine = self._workers.engine_for(workers)
+            engine = self.workers.engine_for(workers)
             running.run = run = engine.start(points)
             if running.cancelling:  # cancelled while the engine started
                 run.cancel()
@@ -294,7 +278,7 @@ class SweepSession:
 
     def load_point(self, client: viser.ClientHandle | None = None) -> None:
         """Load the chosen point's robot and play a walk of its gait, on "sweep-loader"."""
-        outcome, engine = self.outcome, self._workers.engine
+        outcome, engine = self.outcome, self.workers.engine
         try:
             index = whole(self.panel.point.value, "Point #")
             if outcome is None:
@@ -318,7 +302,7 @@ class SweepSession:
     def _load(self, engine: Any, point: SweepPoint, client: Any) -> None:
         try:
             if engine is None:  # a sweep restored from a project: start the workers now
-                engine = self._workers.engine_for(1)
+                engine = self.workers.engine_for(1)
             outcome = self.outcome
             self._loader.load(engine, point, outcome.spec.user_servos if outcome else ())
         except Exception as error:  # a thread boundary: bad input, or a worker lost meanwhile
@@ -361,4 +345,4 @@ class SweepSession:
         thread = self._running.thread
         if thread is not None:
             thread.join(30.0)
-        self._workers.close()
+        self.workers.close()

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from app.core.servo.catalogue import BAM_PARAMS_DIR, SERVOS_DIR, load_catalogue
-from app.core.servo.sizing import size_joints, totals
+from app.core.servo.sizing import size_joints
+from app.core.servo.sizing_totals import totals
 from tests.core.test_servo_sizing import _brute_force
 
 PRICED = {"mx106", "xc430_w240", "xh430_w350", "xl330_m288", "xm540_w270", "xw540_t260"}

@@ -78,7 +78,8 @@ def test_the_studio_worker_runs_a_simulation_job(servo_biped, com_shift):
     results equal the same runs made here."""
     import threading
 
-    from app.core.simulation.worker import SIMULATION_KEY, finish_job, simulation_job
+    from app.core.simulation.run import finish_job, simulation_job
+    from app.core.simulation.worker import SIMULATION_KEY
     from app.jobs import SolverWorker
 
     q_plan = joint_angles(servo_biped, com_shift.q)

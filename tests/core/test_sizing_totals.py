@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from app.core.servo.catalogue import record_from_mapping
-from app.core.servo.sizing import check_joint, size_joints, totals
+from app.core.servo.sizing import check_joint, size_joints
+from app.core.servo.sizing_totals import totals
 
 
 def servo(key: str, stall: float, mass: float, price: float | None, currency: str = "USD"):

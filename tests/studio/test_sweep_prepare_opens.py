@@ -47,7 +47,7 @@ def test_many_project_opens_prepare_quietly_for_the_last_robot(tmp_path):
             if f"with {last}'s" in studio.sweep.panel.status.content:
                 done.set()
 
-        disconnect = studio.sweep.on_prepared.connect(prepared)
+        disconnect = studio.sweep.workers.on_prepared.connect(prepared)
         try:
             prepared(None)  # it may already be prepared for the last robot
             assert done.wait(GUARD_S), studio.sweep.panel.status.content

@@ -69,8 +69,9 @@ def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepare
     studio = prepared_studio
     session, panel = studio.sweep, studio.sweep.panel
     # the workers were prepared in the background when the robot loaded: each built the NLP
-    assert session.prepared.wait(GUARD_S)
-    assert len(session.prepared_s) == 2 and all(s > 0 for s in session.prepared_s.values())
+    workers = session.workers
+    assert workers.prepared.wait(GUARD_S)
+    assert len(workers.prepared_s) == 2 and all(s > 0 for s in workers.prepared_s.values())
     assert "2 workers ready" in panel.status.content
 
     panel.param_a.value = "servo:compliance_deg_per_Nm"

@@ -30,20 +30,42 @@ figures, and a figure without its source, are refused with one line naming the f
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 from pathlib import Path
 from typing import Any
 
 from app.core import input_gate
-from app.core.errors import StudioError
 from app.core.servo import motor_law
+from app.core.servo.bam_models import (  # re-exported: the catalogue's public names
+    BAM_PARAMS_DIR,
+    IdentifiedModel,
+    identified_model,
+    identified_names,
+)
 from app.core.servo.motor_law import Firmware, FrictionM1, FrictionM6, MotorConstants
+from app.core.servo.record_numbers import ServoCatalogueError
+from app.core.servo.record_numbers import number_field as _number
 from robots.catalogue import ROBOTS_DIR
 
 SERVOS_DIR = ROBOTS_DIR / "servos"
-BAM_PARAMS_DIR = SERVOS_DIR / "bam" / "params"
+
+__all__ = [
+    "BAM_PARAMS_DIR",
+    "SERVOS_DIR",
+    "Fit",
+    "IdentifiedModel",
+    "ServoCatalogueError",
+    "ServoRecord",
+    "identified_model",
+    "identified_names",
+    "load_catalogue",
+    "read_user_servos",
+    "record_from_mapping",
+    "records_from_toml",
+    "why_not_simulated",
+    "with_user_servos",
+]
 
 FIGURES = (
     "supply_voltage_V",
@@ -73,24 +95,6 @@ KNOWN_KEYS = (
     "motor",
     "sources",
 )
-M6_FIELDS = tuple(f.name for f in dataclasses.fields(FrictionM6))
-
-
-class ServoCatalogueError(StudioError):
-    """A catalogue record or a user's servo file that cannot be used."""
-
-
-@dataclasses.dataclass(frozen=True)
-class IdentifiedModel:
-    """A servo model identified on a bench (BAM): motor, m1 fit and, where identified, m6."""
-
-    name: str
-    motor: MotorConstants | None
-    """None where the fit gives no winding resistance (eRob80-100)."""
-    m1: FrictionM1
-    m6: FrictionM6 | None
-    m6_motor: MotorConstants | None
-    """kt, R, armature of the m6 fit (each fit identifies its own)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -177,21 +181,6 @@ class ServoRecord:
             out["fits"][fit.name] = entry
         out["not_simulated"] = why_not_simulated(self) or None
         return out
-
-
-def _number(data: dict[str, Any], name: str, where: str, *, positive: bool) -> float:
-    if name not in data:
-        raise ServoCatalogueError(f"{where}: {name} is missing")
-    value = data[name]
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ServoCatalogueError(f"{where}: {name} is {value!r}; give a number")
-    value = float(value)
-    if not math.isfinite(value):
-        raise ServoCatalogueError(f"{where}: {name} is {value}; give a finite number")
-    if value < 0.0 or (positive and value == 0.0):
-        bound = "> 0" if positive else "≥ 0"
-        raise ServoCatalogueError(f"{where}: {name} is {value:g}; it must be {bound}")
-    return value
 
 
 def _text(data: dict[str, Any], name: str, where: str) -> str:
@@ -353,57 +342,6 @@ def _motor(table: dict[str, Any], where: str) -> tuple[MotorConstants, FrictionM
     motor = MotorConstants(kt, r, rest.get("armature_kgm2", 0.0))
     friction = FrictionM1(rest.get("friction_base_Nm", 0.0), rest.get("friction_viscous_Nms", 0.0))
     return motor, friction
-
-
-def _bam_file(name: str, model: str) -> dict[str, Any] | None:
-    path = BAM_PARAMS_DIR / name / f"{model}.json"
-    if not path.is_file():
-        return None
-    data = json.loads(path.read_text())
-    if not isinstance(data, dict):
-        raise ServoCatalogueError(f"{path}: not a BAM parameter file")
-    return data
-
-
-def identified_model(name: str) -> IdentifiedModel:
-    """The BAM fits of `name` (a folder of robots/servos/bam/params), checked."""
-    available = sorted(p.name for p in BAM_PARAMS_DIR.iterdir() if p.is_dir())
-    if name not in available:
-        raise ServoCatalogueError(
-            f"identified model {name!r} is not one of BAM's: {', '.join(available)}"
-        )
-    m1 = _bam_file(name, "m1")
-    if m1 is None:
-        raise ServoCatalogueError(f"BAM model {name} has no m1 fit")
-    where = f"BAM {name} m1"
-    motor = None
-    if "R" in m1:
-        motor = MotorConstants(
-            _number(m1, "kt", where, positive=True),
-            _number(m1, "R", where, positive=True),
-            _number(m1, "armature", where, positive=False),
-        )
-    friction = FrictionM1(
-        _number(m1, "friction_base", where, positive=False),
-        _number(m1, "friction_viscous", where, positive=False),
-    )
-    m6 = _bam_file(name, "m6")
-    m6_friction, m6_motor = None, None
-    if m6 is not None:
-        where = f"BAM {name} m6"
-        m6_friction = FrictionM6(**{n: _number(m6, n, where, positive=False) for n in M6_FIELDS})
-        if "R" in m6:
-            m6_motor = MotorConstants(
-                _number(m6, "kt", where, positive=True),
-                _number(m6, "R", where, positive=True),
-                _number(m6, "armature", where, positive=False),
-            )
-    return IdentifiedModel(name, motor, friction, m6_friction, m6_motor)
-
-
-def identified_names() -> tuple[str, ...]:
-    """Every BAM model shipped (robots/servos/bam/params)."""
-    return tuple(sorted(p.name for p in BAM_PARAMS_DIR.iterdir() if p.is_dir()))
 
 
 def load_catalogue(directory: Path = SERVOS_DIR) -> dict[str, ServoRecord]:

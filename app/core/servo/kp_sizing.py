@@ -35,6 +35,7 @@ from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
 from app.core.servo.catalogue import ServoRecord
+from app.core.servo.kp_choice import KpChoice
 from app.core.servo.motor_law import FrictionM1
 from app.core.servo.parts import KP_MAX
 from app.core.servo.sizing import (
@@ -171,65 +172,6 @@ def kp_max(record: ServoRecord) -> float:
     """The top of the firmware's kp range: the record's, else parts.KP_MAX."""
     top = None if record.firmware is None else record.firmware.kp_max
     return KP_MAX if top is None else top
-
-
-@dataclasses.dataclass(frozen=True)
-class KpChoice:
-    """One servo's kp on one joint (a sizing Check's stiffness)."""
-
-    kp: float | None
-    """The smallest whole kp giving need_Nm_per_rad; None: none in range (or not checked)."""
-    kp_max: float
-    per_kp_Nm_per_rad: float | None
-    """K per unit of kp; None: the record has no motor law (not checked)."""
-    need_Nm_per_rad: float
-    stand_Nm_per_rad: float
-    sag_Nm_per_rad: float
-    peak_torque_Nm: float
-    friction_Nm: float
-    max_sag_deg: float
-
-    @property
-    def checked(self) -> bool:
-        return self.per_kp_Nm_per_rad is not None
-
-    @property
-    def holds(self) -> bool:
-        return not self.checked or self.kp is not None
-
-    @property
-    def stiffness_Nm_per_rad(self) -> float | None:
-        if self.kp is None or self.per_kp_Nm_per_rad is None:
-            return None
-        return self.kp * self.per_kp_Nm_per_rad
-
-    @property
-    def sag_deg(self) -> float | None:
-        k = self.stiffness_Nm_per_rad
-        return None if not k else math.degrees((self.peak_torque_Nm + self.friction_Nm) / k)
-
-    def violation(self) -> str:
-        top = (self.per_kp_Nm_per_rad or 0.0) * self.kp_max
-        why = (
-            "stand" if self.stand_Nm_per_rad >= self.sag_Nm_per_rad else "sag"
-        ) + f" {max(self.stand_Nm_per_rad, self.sag_Nm_per_rad):.3g}"
-        return (
-            f"stiffness: needs K ≥ {self.need_Nm_per_rad:.3g} N·m/rad ({why}; sag "
-            f"≤ {self.max_sag_deg:g}° of {self.peak_torque_Nm + self.friction_Nm:.3g} N·m), "
-            f"kp ≤ {self.kp_max:g} gives {top:.3g}"
-        )
-
-    def to_json(self) -> dict[str, object]:
-        return {
-            "kp": self.kp,
-            "kp_max": self.kp_max,
-            "stiffness_checked": self.checked,
-            "stiffness_Nm_per_rad": self.stiffness_Nm_per_rad,
-            "stiffness_need_Nm_per_rad": self.need_Nm_per_rad,
-            "stand_need_Nm_per_rad": self.stand_Nm_per_rad,
-            "sag_need_Nm_per_rad": self.sag_Nm_per_rad,
-            "sag_deg": self.sag_deg,
-        }
 
 
 def choose_kp(record: ServoRecord, need: StiffnessNeed, joint: int) -> KpChoice:

@@ -32,16 +32,14 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 import numpy as np
 
 from app.core.errors import StudioError
 from app.core.servo import motor_law
 from app.core.servo.catalogue import ServoRecord
-
-if TYPE_CHECKING:
-    from app.core.servo.kp_sizing import KpChoice
+from app.core.servo.kp_choice import KpChoice
 
 CONTINUOUS_FRACTION_OF_STALL = 0.25
 """The continuous rating assumed where a record publishes none: a quarter of the stall torque
@@ -417,42 +415,3 @@ def combine(sizings: dict[str, Sizing], catalogue: dict[str, ServoRecord]) -> Si
         joints.append(JointSizing(joint.joint, ranked[0].servo if ranked else None, tuple(checks)))
     notes = tuple(dict.fromkeys(n for s in sizings.values() for n in s.notes))
     return Sizing(tuple(joints), first.margin, first.by, first.envelopes, notes)
-
-
-@dataclasses.dataclass(frozen=True)
-class Totals:
-    """What the servos a sizing chose add up to (the joints no servo holds left out)."""
-
-    servos: int
-    mass_kg: float
-    price: float | None
-    """Their summed price, None when a chosen servo has none published or currencies differ."""
-    currency: str | None
-    unpriced: tuple[str, ...]
-    """The chosen servos without a published price."""
-
-    def line(self) -> str:
-        """One line: count, mass and price (or why there is no price)."""
-        text = f"{self.servos} servos, {self.mass_kg * 1000:.0f} g"
-        if self.price is not None:
-            return text + f", {self.price:.2f} {self.currency}"
-        if self.unpriced:
-            return text + f"; price unpublished for {', '.join(self.unpriced)}"
-        return text + "; prices in different currencies, not summed"
-
-
-def totals(sizing: Sizing, catalogue: dict[str, ServoRecord]) -> Totals:
-    """The chosen servos' count, mass and price (catalogue: the records sized over)."""
-    chosen = [catalogue[j.choice] for j in sizing.joints if j.choice is not None]
-    unpriced = tuple(sorted({r.key for r in chosen if r.price is None}))
-    currencies = {r.price_currency for r in chosen if r.price is not None}
-    price = None
-    if chosen and not unpriced and len(currencies) == 1:
-        price = math.fsum(r.price for r in chosen if r.price is not None)
-    return Totals(
-        len(chosen),
-        math.fsum(r.mass_kg for r in chosen),
-        price,
-        next(iter(currencies)) if len(currencies) == 1 else None,
-        unpriced,
-    )

@@ -30,7 +30,7 @@ from app.core.simulation.result import SimulationResult, slip_m
 from app.core.simulation.servo_law import ServoLaw, robot_servo_law
 from app.core.simulation.sim_model import SimModel
 from app.core.simulation.verdicts import judge
-from app.core.simulation.worker import finish_job, simulation_job
+from app.core.simulation.worker import SimulationJob
 
 GRAVITY_MPS2 = 9.81
 CONTACT_LOAD_FRACTION = 0.02
@@ -310,3 +310,50 @@ def simulate_plan_and_compensated(
         parallel,
     )
     return results[labels[0]], results[labels[1]]
+
+
+UNAIDED = " (without balance feedback)"
+"""The label suffix of a run's twin without the balance feedback (`simulation_job`)."""
+
+
+def simulation_job(
+    robot: RobotModel,
+    trajectory: Trajectory,
+    commands: dict[str, np.ndarray],
+    servo: ServoModel,
+    options: SimOptions | None = None,
+    law: ServoLaw | None = None,
+    balance: BalanceGains | None = None,
+    unaided: bool = False,
+) -> SimulationJob:
+    """Checked, picklable runs (raises SimulationInputError in the caller, not the worker);
+    `law` replaces the virtual servos' (servo parts: `part_law.law_with_parts`); `balance`:
+    the balance feedback's gains (None: off); `unaided` with `balance`: each run also without
+    the feedback, labelled `label + UNAIDED` (the verdicts side by side, one click)."""
+    from app.core.simulation.mjcf import build_sim_model
+
+    sim = build_sim_model(robot, options)
+    runs = [(label, balance) for label in commands]
+    if unaided and balance is not None:
+        runs += [(label + UNAIDED, None) for label in commands]
+    inputs = tuple(
+        prepare(
+            robot, trajectory, commands[label.removesuffix(UNAIDED)], servo, options, sim=sim,
+            law=law, balance=gains,
+        )
+        for label, gains in runs
+    )  # fmt: skip
+    return SimulationJob(tuple(label for label, _gains in runs), inputs)
+
+
+def finish_job(
+    robot: RobotModel,
+    trajectory: Trajectory,
+    job: SimulationJob,
+    runs: tuple[EngineRun, ...],
+) -> dict[str, SimulationResult]:
+    """The typed results of a job's runs, by label."""
+    return {
+        label: finish(robot, trajectory, inp, run, label)
+        for label, inp, run in zip(job.labels, job.inputs, runs, strict=True)
+    }

@@ -4,19 +4,17 @@ the servo law in MuJoCo's actuators (`blocks`, `part_blocks`) or a law in Python
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from app.core.simulation.balance_feedback import Balancer
 from app.core.simulation.blocks import Blocks
+from app.core.simulation.engine_io import EngineInput
 from app.core.simulation.part_blocks import PartBlocks
 from app.core.simulation.part_law import PartLaw, PartLoop
 from app.core.simulation.recording import FORWARD_TOLERANCE, Recorder
 from app.core.simulation.servo_law import ServoLoop, Setpoints
-
-if TYPE_CHECKING:
-    from app.core.simulation.engine import EngineInput
 
 __all__ = ["Stepper", "contiguous", "split_spans"]
 
