@@ -51,7 +51,8 @@ def _entry_plan_sweep_point(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             SWEEP_POINT_TARGET_S,
             row["defaults_point_cpu_s"],
             "the same NLP, IPOPT defaults, the same points from the same anchor (CPU, median)",
-            f"median of {len(K0_FACTORS)} points (solve, readout and metrics, one BLAS thread), "
+            f"median of {len(K0_FACTORS)} points (solve, readout and metrics, one BLAS thread, "
+            f"derivatives {'compiled' if row['compiled'] else 'not compiled'}), "
             f"{row['iterations']} iterations vs {row['defaults_iterations']}; solved cold "
             f"from the built-in guess {row['cold_point_cpu_s']:.2f} s, "
             f"{row['cold_iterations']} iterations",
@@ -62,6 +63,9 @@ def _entry_plan_sweep_point(ctx: BenchContext) -> tuple[dict, list[Figure]]:
 
 def _bench_sweep_point() -> dict:
     """Run `_points_in_worker` in a child process with one BLAS thread (as a sweep worker)."""
+    from app.bench.gait import compile_derivatives
+
+    compile_derivatives()  # in the disk cache the worker loads them from
     context = multiprocessing.get_context("spawn")
     with single_thread_environment():
         pool = ProcessPoolExecutor(max_workers=1, mp_context=context)
@@ -105,6 +109,7 @@ def _points_in_worker() -> dict:
         "defaults_iterations": int(statistics.median(d["iterations"] for d in defaults)),
         "defaults_status": sorted({d["status"] for d in defaults}),
         "converged": anchor.converged and all(ok for *_, ok in warm + cold),
+        "compiled": all(kind.loaded for kind in problem.nlp.kinds),
         "includes": "evaluate_point: warm solve from the anchor, readout, metrics; "
         "one BLAS thread; process CPU",
     }
