@@ -66,7 +66,12 @@ def cache_folder() -> Path | None:
 def kind_key(kind: BlockKind) -> str:
     """The cache key of a block kind whose variables are classified."""
     digest = hashlib.sha256()
-    for part in (ca.__version__, str(CODEGEN_VERSION), " ".join(COMPILER), str(kind.variables)):
+    for part in (
+        ca.CasadiMeta.version(),
+        str(CODEGEN_VERSION),
+        " ".join(COMPILER),
+        str(kind.variables),
+    ):
         digest.update(part.encode("utf-8") + b"\0")
     digest.update(kind.function.serialize().encode("utf-8"))
     return digest.hexdigest()[:32]
@@ -156,6 +161,6 @@ def _compile_one(where: Path, source: str, sparsity: dict[str, np.ndarray]) -> N
         built = Path(scratch) / LIBRARY
         command = ["nice", "-n", "10", *COMPILER, str(c_file), "-o", str(built), "-lm"]
         subprocess.run(command, check=True, capture_output=True)
-        np.savez(Path(scratch) / SPARSITY, **sparsity)
+        np.savez(Path(scratch) / SPARSITY, allow_pickle=False, **sparsity)
         os.replace(Path(scratch) / SPARSITY, where / SPARSITY)
         os.replace(built, where / LIBRARY)
