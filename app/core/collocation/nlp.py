@@ -167,7 +167,10 @@ class SxNlp:
         if self.blocks:
             exact = options.get("ipopt.hessian_approximation", "exact") == "exact"
             g_fn = ca.Function("nlp_g_values", [x, p], [g])
-            derivatives = block_derivatives(self._calls, self.cost, x, p, g, g_fn, exact=exact)
+            derivatives = block_derivatives(
+                self._calls, self.cost, x, p, g, g_fn, exact=exact,
+                load=nlp_codegen.load_compiled,
+            )  # fmt: skip
             if compile_missing:
                 nlp_codegen.compile_missing([k for k in self.kinds if not k.loaded])
             oracle = _oracle(x, p, self.cost, g_fn)

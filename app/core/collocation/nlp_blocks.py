@@ -16,8 +16,6 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from app.core.collocation.nlp_codegen import load_compiled
-
 
 class BlockRecorder:
     """What a block builder constrains (SxNlp.block): the same call as SxNlp.constrain."""
@@ -148,14 +146,15 @@ def block_derivatives(
     g_fn: ca.Function,
     *,
     exact: bool,
-    cached: bool = True,
+    load: Callable[[BlockKind], bool] | None = None,
 ) -> dict[str, ca.Function]:
     """IPOPT's derivative functions, assembled from each block kind's derivatives (taken
     once, on its local symbols, and evaluated over its instances with Function.map) and
     the derivatives of the rest (constraints added with `constrain`, and the cost), taken
-    on their own small graph. With `cached`, a kind whose compiled derivatives are in the
-    codegen cache (nlp_codegen.py) uses them instead of deriving its own. Differentiating the whole problem at once costs time in
-    proportion to its size times the colours of its sparsity (~20 s at 160 knots)."""
+    on their own small graph. A kind that `load` (nlp_codegen.load_compiled) gives compiled
+    derivatives from the codegen cache uses them instead of deriving its own.
+    Differentiating the whole problem at once costs time in proportion to its size times the
+    colours of its sparsity (~20 s at 160 knots)."""
     nx, npar, ng = x.shape[0], p.shape[0], g.shape[0]
     # Where each symbol is in z = [x; p; lam_g] (the derivative functions' inputs).
     z_index = {h: i for i, h in enumerate(_hashes(x) + _hashes(p))}
@@ -169,9 +168,9 @@ def block_derivatives(
         kind[1].append(np.concatenate(idx))
         kind[2].append(row)
         in_block[row : row + entry.n_rows] = True
-    if cached:
+    if load is not None:
         for entry, _, _ in by_kind.values():
-            load_compiled(entry)
+            load(entry)
     xm, pm = ca.MX.sym("x", nx), ca.MX.sym("p", npar)
     lam_fm, lam_gm = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", ng)
     z_xp, z = ca.vertcat(xm, pm), ca.vertcat(xm, pm, lam_gm)
