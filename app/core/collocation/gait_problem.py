@@ -118,10 +118,13 @@ class GaitProblem:
         baseline: bool = False,
         *,
         hessian: str = "exact",
+        compile_derivatives: bool = False,
     ) -> None:
         """Build the NLP for dircon_biped (or `robot`): `hessian` is "exact" (default, about 20
         iterations) or "limited-memory" (L-BFGS: thousands of iterations here, kept for
-        comparison)."""
+        comparison). Derivatives compiled for this structure before are loaded from the disk
+        cache (nlp_codegen.py); with `compile_derivatives`, missing ones are compiled into it
+        in the background (~35 s of CPU once), for the next build."""
         if not isinstance(robot, RobotModel | PlanarModel | None):
             raise TypeError(f"GaitProblem's first argument is the robot, not {robot!r}")
         GaitSettings(knots=knots, baseline=baseline).validate()
@@ -147,7 +150,7 @@ class GaitProblem:
             options.pop("ipopt.mu_init")
         if hessian != "exact":
             options["ipopt.hessian_approximation"] = "limited-memory"
-        self.compiled: CompiledNlp = self.nlp.compile(options)
+        self.compiled: CompiledNlp = self.nlp.compile(options, compile_missing=compile_derivatives)
         self.compiled.warm_solver()  # built now, so that the first slider re-solve does not pay it
         self.build_s = time.perf_counter() - start
         """Time to build the NLP and IPOPT's derivative functions [s]."""

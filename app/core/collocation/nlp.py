@@ -36,6 +36,7 @@ from typing import Any, Protocol
 import casadi as ca
 import numpy as np
 
+from app.core.collocation import nlp_codegen
 from app.core.collocation.nlp_blocks import (
     BlockBuilder,
     BlockCall,
@@ -100,6 +101,11 @@ class SxNlp:
         self._calls: list[BlockCall] = []
         """(kind, arguments, first row) of every block instance, for its derivatives."""
 
+    @property
+    def kinds(self) -> list[BlockKind]:
+        """The block kinds (their derivatives classified once `compile` ran)."""
+        return list(self._kinds.values())
+
     def variable(self, block: str, n: int) -> ca.SX:
         """n new variables, recorded (in order) under `block` for reading the solution back."""
         slices = self.x_blocks.setdefault(block, [])
@@ -149,7 +155,10 @@ class SxNlp:
             start += n
         self._calls.append((entry, tuple(args), row))
 
-    def compile(self, options: dict[str, Any]) -> CompiledNlp:
+    def compile(self, options: dict[str, Any], *, compile_missing: bool = False) -> CompiledNlp:
+        """The IPOPT solver pair. Block kinds whose compiled derivatives are in the codegen
+        cache (nlp_codegen.py) use them; with `compile_missing`, the others are compiled into
+        it in the background, for the next build."""
         x, p, g = ca.vertcat(*self._x), ca.vertcat(*self._p), ca.vertcat(*self._g)
         callback = IpoptCallback(x.shape[0], g.shape[0])
         problem = {"x": x, "p": p, "f": self.cost, "g": g}
@@ -158,7 +167,12 @@ class SxNlp:
         if self.blocks:
             exact = options.get("ipopt.hessian_approximation", "exact") == "exact"
             g_fn = ca.Function("nlp_g_values", [x, p], [g])
-            derivatives = block_derivatives(self._calls, self.cost, x, p, g, g_fn, exact=exact)
+            derivatives = block_derivatives(
+                self._calls, self.cost, x, p, g, g_fn, exact=exact,
+                load=nlp_codegen.load_compiled,
+            )  # fmt: skip
+            if compile_missing:
+                nlp_codegen.compile_missing([k for k in self.kinds if not k.loaded])
             oracle = _oracle(x, p, self.cost, g_fn)
         options = {**options, "iteration_callback": callback, **derivatives}
         solver = ca.nlpsol("gait", "ipopt", oracle, options)

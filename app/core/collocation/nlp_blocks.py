@@ -49,6 +49,7 @@ class BlockKind:
         self.variables: tuple[int, ...] | None = None
         self._jacobian: tuple[ca.Function, np.ndarray, np.ndarray] | None = None
         self._hessian: tuple[ca.Function, np.ndarray, np.ndarray] | None = None
+        self._given = False
 
     def classify(self, variable: list[bool], parameter: list[bool]) -> None:
         """Record which arguments are variables; every other must be a parameter, and every
@@ -60,6 +61,22 @@ class BlockKind:
             self.variables = variables
         elif self.variables != variables:
             raise ValueError(f"{self.name}: calls differ in which arguments are variables")
+
+    def set_derivatives(
+        self,
+        jacobian: tuple[ca.Function, np.ndarray, np.ndarray],
+        hessian: tuple[ca.Function, np.ndarray, np.ndarray],
+    ) -> None:
+        """Use these derivative functions (compiled ones, nlp_codegen.py), of the same inputs
+        and nonzeros as `jacobian()` and `hessian()` would derive."""
+        self._jacobian, self._hessian = jacobian, hessian
+        self._given = True
+
+    @property
+    def loaded(self) -> bool:
+        """Whether the derivatives were given (set_derivatives: compiled, from the cache)
+        rather than derived here."""
+        return self._given
 
     def _w(self) -> ca.SX:
         assert self.variables is not None
@@ -129,12 +146,15 @@ def block_derivatives(
     g_fn: ca.Function,
     *,
     exact: bool,
+    load: Callable[[BlockKind], bool] | None = None,
 ) -> dict[str, ca.Function]:
     """IPOPT's derivative functions, assembled from each block kind's derivatives (taken
     once, on its local symbols, and evaluated over its instances with Function.map) and
     the derivatives of the rest (constraints added with `constrain`, and the cost), taken
-    on their own small graph. Differentiating the whole problem at once costs time in
-    proportion to its size times the colours of its sparsity (~20 s at 160 knots)."""
+    on their own small graph. A kind that `load` (nlp_codegen.load_compiled) gives compiled
+    derivatives from the codegen cache uses them instead of deriving its own.
+    Differentiating the whole problem at once costs time in proportion to its size times the
+    colours of its sparsity (~20 s at 160 knots)."""
     nx, npar, ng = x.shape[0], p.shape[0], g.shape[0]
     # Where each symbol is in z = [x; p; lam_g] (the derivative functions' inputs).
     z_index = {h: i for i, h in enumerate(_hashes(x) + _hashes(p))}
@@ -148,6 +168,9 @@ def block_derivatives(
         kind[1].append(np.concatenate(idx))
         kind[2].append(row)
         in_block[row : row + entry.n_rows] = True
+    if load is not None:
+        for entry, _, _ in by_kind.values():
+            load(entry)
     xm, pm = ca.MX.sym("x", nx), ca.MX.sym("p", npar)
     lam_fm, lam_gm = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", ng)
     z_xp, z = ca.vertcat(xm, pm), ca.vertcat(xm, pm, lam_gm)
