@@ -358,7 +358,7 @@ def _npy_header(stream: typing.Any) -> tuple[tuple[int, ...], bool, np.dtype, in
             if version == (1, 0)
             else np.lib.format.read_array_header_2_0
         )
-        shape, fortran, dtype = parse(again, max_header_size=NPY_MAX_HEADER_BYTES)
+        shape, fortran, dtype = parse(again)  # its own limit is NPY_MAX_HEADER_BYTES too
         return tuple(shape), bool(fortran), dtype, prefix + header_size
     descr, fortran, dims = match.groups()
     shape = tuple(int(d) for d in dims.split(b",") if d.strip())
