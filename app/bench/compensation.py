@@ -21,7 +21,8 @@ import numpy as np
 from app.bench.registry import BenchContext, bench_entry, motion_with_torques
 from app.bench.report import Figure
 from app.bench.timing import laps_each, percentiles_ms, stopwatch, timed_each
-from app.core.motions.trajectory import repeated
+from app.core.dynamics.wbc import FeedForward
+from app.core.motions.trajectory import Trajectory, repeated
 from app.studio import Studio
 from panels.quiet import set_value
 
@@ -66,8 +67,13 @@ def _uncached_prediction_s(studio: Studio) -> float:
 @bench_entry("compensation_slider_long")
 def _entry_compensation_slider_long(ctx: BenchContext) -> tuple[dict, list[Figure]]:
     rows, figures = {}, []
+    _bench_compensation_slider(ctx.studio, repeats=1)  # the 10 s motion and its τ, once
+    base, feedforward = ctx.studio.state.trajectory, ctx.studio.state.work.torques
+    assert base is not None and feedforward is not None
     for samples, target_ms in COMPENSATION_LONG_TARGETS_MS.items():
-        row = rows[str(samples)] = _bench_compensation_slider_long(ctx.studio, samples)
+        row = rows[str(samples)] = _bench_compensation_slider_long(
+            ctx.studio, samples, base, feedforward
+        )
         figures.append(
             Figure.at_most(
                 f"compensation slider → prediction, ghosts, plots ({row['samples']} samples, "
@@ -113,15 +119,16 @@ def _bench_compensation_slider(studio: Studio, repeats: int = 20) -> dict:
     return {"samples": studio.state.trajectory.n_samples, **percentiles_ms(times)}
 
 
-def _bench_compensation_slider_long(studio: Studio, samples: int, repeats: int = 20) -> dict:
-    """The k slider on the one-leg squats repeated to about `samples` samples, its τ tiled
-    from the 10 s motion's (the slider never recomputes τ, so tiling changes no work)."""
+def _bench_compensation_slider_long(
+    studio: Studio, samples: int, base: Trajectory, feedforward: FeedForward, repeats: int = 20
+) -> dict:
+    """The k slider on the one-leg squats (`base`, its torques `feedforward`, loaded once by
+    the caller) repeated to about `samples` samples, its τ tiled from the 10 s motion's (the
+    slider never recomputes τ, so tiling changes no work)."""
     from app.core.servo.model import predict
 
-    _bench_compensation_slider(studio, repeats=1)  # the 10 s motion and its τ
     session, robot = studio.servo_rooms.compensation, studio.state.robot
-    base, feedforward = studio.state.trajectory, studio.state.work.torques
-    assert robot is not None and base is not None and feedforward is not None
+    assert robot is not None
     copies = max(1, round(samples / base.n_samples))
     trajectory = repeated(base, copies)
     n, t = trajectory.n_samples, trajectory.t

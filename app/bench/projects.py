@@ -102,7 +102,11 @@ def bench_project() -> Project:
     gait = GaitProblem(planar, settings.knots, settings.baseline).solve(settings)
     steps = max(2, math.ceil(10.0 / max(gait.duration_s, 1e-3)))
     walk = build_walk(planar, gait, steps=steps)
-    while walk.trajectory.duration < 10.0 and steps < 200:  # standing at both ends adds time
+    if walk.trajectory.duration < 10.0:  # a cycle is two steps: add the cycles still missing
+        cycles = math.ceil((10.0 - walk.trajectory.duration) / max(gait.duration_s, 1e-3))
+        steps = min(200, steps + 2 * cycles)
+        walk = build_walk(planar, gait, steps=steps)
+    while walk.trajectory.duration < 10.0 and steps < 200:  # rounding: a cycle more
         steps += 2
         walk = build_walk(planar, gait, steps=steps)
     feedforward = torque_feedforward(robot, walk.trajectory)

@@ -202,12 +202,13 @@ class Reader:
         if not isinstance(data, list) or len(data) > MAX_ITEMS:
             raise ProjectError(f"{where} is {_show(data)}; give a list")
         if len(args) == 2 and args[1] is Ellipsis:
-            if args[0] is float and all(type(item) in (float, int) for item in data):
-                numbers = tuple(float(item) for item in data)  # plain numbers: checked at once
+            kinds = set(map(type, data))  # plain items are checked at once, in C loops
+            if args[0] is float and kinds <= {float, int}:
+                numbers = tuple(map(float, data))
                 if all(map(math.isfinite, numbers)):
                     return numbers
-            plain = args[0] in (str, bool) and all(type(item) is args[0] for item in data)
-            if plain and (args[0] is bool or all(len(item) <= MAX_TEXT_CHARS for item in data)):
+            plain = args[0] in (str, bool) and kinds <= {args[0]}
+            if plain and (args[0] is bool or max(map(len, data), default=0) <= MAX_TEXT_CHARS):
                 return tuple(data)  # plain texts or booleans: nothing more to check
             return tuple(
                 self.decode(args[0], item, f"{where}[{i}]", owner) for i, item in enumerate(data)
@@ -294,16 +295,10 @@ def read_npy_stream(stream: typing.Any, size: int, where: str) -> np.ndarray:
     array is the only copy (a Fortran-order one, which this studio never writes, is made
     C-contiguous: one copy more)."""
     try:
-        version = np.lib.format.read_magic(stream)
-        if version == (1, 0):
-            shape, fortran, dtype = np.lib.format.read_array_header_1_0(stream)
-        elif version == (2, 0):
-            shape, fortran, dtype = np.lib.format.read_array_header_2_0(stream)
-        else:
-            raise ValueError(f".npy format version {version[0]}.{version[1]} is not read")
-        body_bytes = size - stream.tell()
-    except (ValueError, OSError, EOFError, SyntaxError) as error:
+        shape, fortran, dtype, header_bytes = _npy_header(stream)
+    except (ValueError, OSError, EOFError, SyntaxError, TypeError) as error:
         raise ProjectError(f"{where}: not a readable array ({error})") from None
+    body_bytes = size - header_bytes
     if dtype.hasobject:
         raise ProjectError(f"{where}: not a readable array (it holds Python objects)")
     if dtype.kind not in "fiub":
@@ -324,6 +319,54 @@ def read_npy_stream(stream: typing.Any, size: int, where: str) -> np.ndarray:
         filled += got
     array = flat.reshape(shape, order="F" if fortran else "C")
     return np.ascontiguousarray(array) if fortran and array.ndim > 1 else array
+
+
+_NPY_MAGIC = b"\x93NUMPY"
+_NPY_HEADER = re.compile(
+    rb"\{'descr': '([<>|=][fiub][1248])', 'fortran_order': (False|True), "
+    rb"'shape': \(((?:[0-9]{1,19}, )*(?:[0-9]{1,19},?)?)\), \} *\n"
+)
+"""The header `np.save` writes for an array of numbers or booleans, read without numpy's
+`ast.literal_eval` (a third of a small array's read); any other header goes to numpy's
+parser, which refuses what it cannot read."""
+
+
+def _npy_header(stream: typing.Any) -> tuple[tuple[int, ...], bool, np.dtype, int]:
+    """(shape, Fortran order, dtype, bytes before the data) of the `.npy` at the stream's start
+    (numpy's format 1.0 or 2.0)."""
+    lead = stream.read(10)
+    if len(lead) < 10 or lead[:6] != _NPY_MAGIC:
+        raise ValueError("it does not start as an .npy array")
+    if lead[6:8] == b"\x01\x00":
+        prefix, header_size = 10, int.from_bytes(lead[8:10], "little")
+    elif lead[6:8] == b"\x02\x00":
+        more = stream.read(2)
+        prefix, header_size = 12, int.from_bytes(lead[8:10] + more, "little")
+    else:
+        raise ValueError(f".npy format version {lead[6]}.{lead[7]} is not read")
+    if header_size > NPY_MAX_HEADER_BYTES:
+        raise ValueError(f"its header of {header_size} bytes is too long")
+    header = stream.read(header_size)
+    if len(header) != header_size:
+        raise EOFError("the entry ends inside its header")
+    match = _NPY_HEADER.fullmatch(header)
+    if match is None:  # not as np.save writes it: numpy's own parser decides
+        again = io.BytesIO(lead[:prefix] + header)
+        version = np.lib.format.read_magic(again)
+        parse = (
+            np.lib.format.read_array_header_1_0
+            if version == (1, 0)
+            else np.lib.format.read_array_header_2_0
+        )
+        shape, fortran, dtype = parse(again)  # its own limit is NPY_MAX_HEADER_BYTES too
+        return tuple(shape), bool(fortran), dtype, prefix + header_size
+    descr, fortran, dims = match.groups()
+    shape = tuple(int(d) for d in dims.split(b",") if d.strip())
+    return shape, fortran == b"True", np.dtype(descr.decode()), prefix + header_size
+
+
+NPY_MAX_HEADER_BYTES = 10_000
+"""Longest `.npy` header read (numpy's own limit for untrusted files)."""
 
 
 def _show(data: Json) -> str:

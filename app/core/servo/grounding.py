@@ -13,6 +13,7 @@ pinocchio, sample by sample.
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 import pinocchio as pin
@@ -89,12 +90,12 @@ class LegChains:
         # mixes columns, elementwise over long rows.
         columns = [np.eye(3)[:, j, None] for j in range(3)]
         position = np.zeros((3, 1))
-        for joint in self.joints[foot]:
+        for joint, step in zip(self.joints[foot], self._steps[foot], strict=True):
             # T ← T · placement · motion(q)
-            if np.any(joint.placement[:3, 3]):
-                position = position + _combine(joint.placement[:3, 3], columns)
-            if not np.array_equal(joint.placement[:3, :3], np.eye(3)):
-                columns = _compose(columns, joint.placement[:3, :3])
+            if step.offset is not None:
+                position = position + _combine(step.offset, columns)
+            if step.rotation is not None:
+                columns = _compose(columns, step.rotation)
             if joint.kind == "prismatic":
                 position = position + _combine(joint.axis, columns) * q[:, joint.idx_q]
                 continue
@@ -103,12 +104,12 @@ class LegChains:
             else:
                 angle = q[:, joint.idx_q]
             sin, cos = np.sin(angle), np.cos(angle)
-            aligned = np.flatnonzero(joint.axis)
-            if len(aligned) == 1 and joint.axis[aligned[0]] in (1.0, -1.0):
+            if step.about is not None:
                 # about a coordinate axis: only the two other columns turn
-                i = int(aligned[0])
+                i, sign = step.about
                 j, k = (i + 1) % 3, (i + 2) % 3
-                sin = joint.axis[i] * sin
+                if sign < 0.0:
+                    sin = -sin
                 columns = list(columns)
                 columns[j], columns[k] = (
                     cos * columns[j] + sin * columns[k],
@@ -125,6 +126,13 @@ class LegChains:
             rotation[:, j] = column
         position = position + _combine(foot_placement[:3, 3], columns)
         return rotation, np.broadcast_to(position, (3, n))
+
+    @functools.cached_property
+    def _steps(self) -> tuple[tuple[_Step, ...], tuple[_Step, ...]]:
+        """What each joint's placement and axis ask of `base_to_foot_parts`, found once (the
+        slider's re-prediction runs the chains a block of samples at a time)."""
+        left, right = (tuple(_Step.of(joint) for joint in chain) for chain in self.joints)
+        return left, right
 
     def stance_to_base_parts(
         self, right: np.ndarray, q: np.ndarray
@@ -149,6 +157,30 @@ class LegChains:
             mask = right == bool(foot)
             out[mask] = self.base_to_foot(foot, q[mask])
         return out
+
+
+@dataclasses.dataclass(frozen=True)
+class _Step:
+    """A chain joint as `base_to_foot_parts` applies it: its placement's translation (None when
+    zero) and rotation (None when the identity), and the coordinate axis it turns about as
+    (index, ±1) (None for another axis)."""
+
+    offset: np.ndarray | None
+    rotation: np.ndarray | None
+    about: tuple[int, float] | None
+
+    @classmethod
+    def of(cls, joint: ChainJoint) -> _Step:
+        offset, rotation = joint.placement[:3, 3], joint.placement[:3, :3]
+        aligned = np.flatnonzero(joint.axis)
+        about = None
+        if len(aligned) == 1 and joint.axis[aligned[0]] in (1.0, -1.0):
+            about = (int(aligned[0]), float(joint.axis[aligned[0]]))
+        return cls(
+            offset.copy() if np.any(offset) else None,
+            None if np.array_equal(rotation, np.eye(3)) else rotation.copy(),
+            about,
+        )
 
 
 def _chain_joint(model: pin.Model, data: pin.Data, j: int) -> ChainJoint | None:

@@ -12,7 +12,12 @@ import pinocchio as pin
 from app.core.motions.trajectory import Trajectory
 from app.core.quaternions import matrices_to_xyzquat, xyzquat_to_matrices
 from app.core.robot.model import RobotModel
-from app.core.servo.compensation import CompensationParams, checked_command, compensated_command
+from app.core.servo.compensation import (
+    CompensationParams,
+    checked_command,
+    compensated_command,
+    k_rad_per_Nm,
+)
 from app.core.servo.grounding import LegChains
 from app.core.servo.model import (
     Prediction,
@@ -119,9 +124,18 @@ class Predictor:
         checked once, each block's commands are."""
         q_cmd, q_comp = np.empty_like(self.tau), np.empty_like(self.tau)
         lag, dead_band = self._servo_terms(servos)
+        # eq 7 alone on every joint (no φ, none disabled, the usual slider): `checked_command`'s
+        # arithmetic without its passes that would add zeros and keep every column
+        k_rad = k_rad_per_Nm(params.k_deg_per_Nm)
+        spring_only = bool(np.all(params.enabled)) and not np.any(params.phi_deg)
 
         def angles(rows: slice) -> np.ndarray:
-            q_cmd[rows] = checked_command(self.q_plan[rows], self.tau[rows], params)
+            if spring_only:
+                with np.errstate(over="ignore", invalid="ignore"):  # huge τ: refused below
+                    np.multiply(k_rad, self.tau[rows], out=q_comp[rows])
+                    np.add(self.q_plan[rows], q_comp[rows], out=q_cmd[rows])
+            else:
+                q_cmd[rows] = checked_command(self.q_plan[rows], self.tau[rows], params)
             if not np.isfinite(q_cmd[rows]).all():
                 servo_response(q_cmd[rows], self.tau[rows], servos)  # raises its error
             # `settled`'s equation, its two terms computed once for these servos
