@@ -193,28 +193,7 @@ def block_derivatives(
             with_lam = ca.reshape(z[np.hstack([index, lam_index]).ravel().tolist()], -1, n)
             values = function.map(n)(with_lam)
             hess.add(cols[:, r].ravel(), cols[:, c].ravel(), ca.vec(values))
-    # The rest: small, differentiated as a whole (SX), called on the MX symbols.
-    x_index = {h: i for i, h in enumerate(_hashes(x))}
-    rest_rows = np.flatnonzero(~in_block)
-    lam_f, lam_g = ca.SX.sym("lam_f"), ca.SX.sym("lam_g", ng)
-    g_rest = g[rest_rows.tolist()]
-    lagrangian = lam_f * cost + ca.dot(lam_g[rest_rows.tolist()], g_rest)
-    for expr, is_hessian in ((g_rest, False), (lagrangian, True)):
-        if is_hessian and not exact:
-            continue
-        symbols = [s for s in ca.symvar(expr) if s.element_hash() in x_index]
-        if not symbols:
-            continue
-        w = ca.vertcat(*symbols)
-        cols_rest = np.array([x_index[h] for h in _hashes(w)], dtype=int)
-        D = ca.hessian(expr, w)[0] if is_hessian else ca.jacobian(expr, w)
-        r, c = (np.array(a, dtype=int) for a in D.sparsity().get_triplet())
-        if is_hessian:
-            nz = ca.Function("rest_hessian", [x, p, lam_f, lam_g], [D.nz[:]])
-            hess.add(cols_rest[r], cols_rest[c], nz(xm, pm, lam_fm, lam_gm))
-        else:
-            nz = ca.Function("rest_jacobian", [x, p], [D.nz[:]])
-            jac.add(rest_rows[r], cols_rest[c], nz(xm, pm))
+    _rest_derivatives(x, p, g, cost, ~in_block, exact, (xm, pm, lam_fm, lam_gm), jac, hess)
     out: dict[str, ca.Function] = {
         "grad_f": ca.Function(
             "nlp_grad_f",
@@ -240,6 +219,45 @@ def block_derivatives(
             ["triu_hess_gamma_x_x"],
         )
     return out
+
+
+def _rest_derivatives(
+    x: ca.SX,
+    p: ca.SX,
+    g: ca.SX,
+    cost: Any,
+    rest: np.ndarray,
+    exact: bool,
+    mx: tuple[ca.MX, ca.MX, ca.MX, ca.MX],
+    jac: _Triplets,
+    hess: _Triplets,
+) -> None:
+    """The derivatives of what no block holds (constraint rows `rest`, a boolean mask, and
+    the cost): small, differentiated as a whole (SX), called on the MX symbols `mx` (x, p,
+    lam_f, lam_g) and added to `jac` and `hess`."""
+    xm, pm, lam_fm, lam_gm = mx
+    ng = g.shape[0]
+    x_index = {h: i for i, h in enumerate(_hashes(x))}
+    rest_rows = np.flatnonzero(rest)
+    lam_f, lam_g = ca.SX.sym("lam_f"), ca.SX.sym("lam_g", ng)
+    g_rest = g[rest_rows.tolist()]
+    lagrangian = lam_f * cost + ca.dot(lam_g[rest_rows.tolist()], g_rest)
+    for expr, is_hessian in ((g_rest, False), (lagrangian, True)):
+        if is_hessian and not exact:
+            continue
+        symbols = [s for s in ca.symvar(expr) if s.element_hash() in x_index]
+        if not symbols:
+            continue
+        w = ca.vertcat(*symbols)
+        cols_rest = np.array([x_index[h] for h in _hashes(w)], dtype=int)
+        D = ca.hessian(expr, w)[0] if is_hessian else ca.jacobian(expr, w)
+        r, c = (np.array(a, dtype=int) for a in D.sparsity().get_triplet())
+        if is_hessian:
+            nz = ca.Function("rest_hessian", [x, p, lam_f, lam_g], [D.nz[:]])
+            hess.add(cols_rest[r], cols_rest[c], nz(xm, pm, lam_fm, lam_gm))
+        else:
+            nz = ca.Function("rest_jacobian", [x, p], [D.nz[:]])
+            jac.add(rest_rows[r], cols_rest[c], nz(xm, pm))
 
 
 def _hashes(symbols: ca.SX) -> list[int]:
