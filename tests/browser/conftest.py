@@ -101,9 +101,10 @@ def page(browser_page, studio_url: str):
     return open_studio(browser_page, studio_url)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def chromium() -> Iterator[object]:
-    """A headless Debian Chromium driven by Playwright."""
+    """A headless Debian Chromium driven by Playwright, launched once for the run: each module
+    still gets a context of its own (`browser_page`: its own cookies, storage and pages)."""
     if not CHROMIUM.exists():
         _unavailable(f"{CHROMIUM} not found: run `apt-get install chromium chromium-driver`")
     try:

@@ -376,7 +376,7 @@ def static_server(folder: Path) -> Iterator[str]:
             return False
 
     try:
-        wait_for("the static server", answers, 30.0)
+        wait_for("the static server", answers, UI_TIMEOUT_S)
         yield url
     finally:
         server.terminate()

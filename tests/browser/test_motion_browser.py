@@ -177,7 +177,11 @@ def test_space_plays_and_pauses_and_j_l_step_one_frame(page, studio: Studio) -> 
     k = min(max(k, 1), trajectory.n_samples - 3)
     studio.playback.seek(float(trajectory.t[k]))
     page.keyboard.press("l")
-    wait_for("L to show the next sample", lambda: studio.state.time_s == trajectory.t[k + 1], 10)
+    wait_for(
+        "L to show the next sample",
+        lambda: studio.state.time_s == trajectory.t[k + 1],
+        UI_TIMEOUT_S,
+    )
     page.keyboard.press("l")
     page.keyboard.press("j")
     page.keyboard.press("j")

@@ -20,6 +20,7 @@ from app.replay_recorder import export_replay
 from tests.browser.conftest import VIEWPORT
 from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
+    UI_TIMEOUT_S,
     changed,
     not_blank,
     static_server,
@@ -78,12 +79,12 @@ def wait_until_playing(page) -> None:
 def test_the_replay_plays_from_a_static_server(chromium, static_url: str):
     context = studio_context(chromium, viewport=VIEWPORT)
     page = context.new_page()
-    page.set_default_timeout(60_000)
+    page.set_default_timeout(UI_TIMEOUT_S * 1000)  # busy machines are slow
     requested: list[str] = []
     page.on("request", lambda request: requested.append(request.url))
     try:
         page.goto(static_url)
-        wait_for("index.html to open the viewer", lambda: "playbackPath=" in page.url, 30.0)
+        wait_for("index.html to open the viewer", lambda: "playbackPath=" in page.url, UI_TIMEOUT_S)
         wait_until_playing(page)
         # Paused (space bar, viser's playback shortcut): the view stops changing, so the
         # change above came from playback, not from the page settling.
@@ -202,10 +203,10 @@ def test_the_replay_legend_is_in_the_page_with_colours(chromium, static_url: str
 
     context = studio_context(chromium, viewport=VIEWPORT)
     page = context.new_page()
-    page.set_default_timeout(60_000)
+    page.set_default_timeout(UI_TIMEOUT_S * 1000)  # busy machines are slow
     try:
         page.goto(static_url)
-        wait_for("index.html to open the viewer", lambda: "playbackPath=" in page.url, 30.0)
+        wait_for("index.html to open the viewer", lambda: "playbackPath=" in page.url, UI_TIMEOUT_S)
         card = page.locator(f"#{ELEMENT_ID}")
         card.wait_for(state="visible")
         box = card.bounding_box()
