@@ -21,16 +21,25 @@ QUIET: dict[str, Any] = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time"
 """Output off: not a solver option (IPOPT's defaults otherwise, max_iter 3000 included)."""
 
 
-def defaults_solver(problem: Any) -> Any:
-    """nlpsol with the defaults on the `GaitProblem`'s expressions (to reuse over points)."""
+def defaults_solver(problem: Any, max_cpu_s: float | None = None) -> Any:
+    """nlpsol with the defaults on the `GaitProblem`'s expressions (to reuse over points);
+    `max_cpu_s`: IPOPT stops there (a bound on a baseline that may take many minutes, not a
+    tuning: its status then says Maximum_CpuTime_Exceeded and its time is a lower bound)."""
     import casadi as ca
 
     nlp = problem.compiled.problem  # {"x", "p", "f", "g"}: the expressions the studio solves
-    return ca.nlpsol("baseline", "ipopt", nlp, QUIET)
+    options = dict(QUIET)
+    if max_cpu_s is not None:
+        options["ipopt.max_cpu_time"] = float(max_cpu_s)
+    return ca.nlpsol("baseline", "ipopt", nlp, options)
 
 
 def ipopt_defaults(
-    problem: Any, settings: Any, start_z: np.ndarray | None = None, solver: Any = None
+    problem: Any,
+    settings: Any,
+    start_z: np.ndarray | None = None,
+    solver: Any = None,
+    max_cpu_s: float | None = None,
 ) -> dict:
     """Build (nlpsol on the problem's expressions, unless `solver` from `defaults_solver` is
     given: then the build costs 0) and solve the `GaitProblem`'s NLP for `settings` with the
@@ -40,7 +49,7 @@ def ipopt_defaults(
     x0 = problem._guess(settings) if start_z is None else start_z
     with stopwatch(PROCESS_CPU) as build:
         if solver is None:
-            solver = defaults_solver(problem)
+            solver = defaults_solver(problem, max_cpu_s)
     with stopwatch(PROCESS_CPU) as solve:
         out = solver(
             x0=np.clip(x0, lbx, ubx),
