@@ -216,6 +216,16 @@ def click_button(page, name: str) -> None:
     button.click()
 
 
+def pause_playback(page) -> None:
+    """Click *Pause* if a motion is playing (a loaded sweep point or a simulation plays on a
+    loop), as a user does before editing: while it plays, a software renderer redraws the scene
+    between clicks and each click waits 3-5 s for the page."""
+    pause = page.get_by_role("button", name="Pause", exact=True)
+    if pause.is_visible():
+        pause.click()
+        page.get_by_role("button", name="Play", exact=True).wait_for(state="visible")
+
+
 def type_number(page, label: str, value: float) -> None:
     """Type `value` into the number input `label` and press Enter. The panel may redraw its
     inputs while the page settles (a motion's parameters after a pick): an input replaced

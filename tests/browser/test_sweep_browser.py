@@ -29,6 +29,7 @@ from tests.browser.page_helpers import (
     folder,
     folder_title,
     gui_row_input,
+    pause_playback,
     scene_canvas_box,
     screen_point,
     select_option,
@@ -124,6 +125,7 @@ def test_a_users_servo_file_in_a_sweep_over_parts_and_removed(page, studio: Stud
     from tests.browser.test_servos_browser import upload
     from tests.test_sweep_part_axes import user_mx106
 
+    pause_playback(page)  # the point loaded above plays its walk on a loop
     expand_folder(page, "Servos", "Add servo file (.toml)")
     servos = folder(page, "Servos")
     upload(page, "mine.toml", user_mx106())

@@ -35,6 +35,7 @@ from tests.browser.page_helpers import (
     expand_folder,
     folder,
     open_studio,
+    pause_playback,
     select_option,
     type_number,
     wait_for,
@@ -217,6 +218,7 @@ def _set_ankles(page, studio: Studio, value: float) -> None:
 
 
 def test_the_stand_check_says_when_soft_ankles_cannot_hold_the_robot(page, studio: Studio):
+    pause_playback(page)  # the walk simulated above plays on a loop
     expand_folder(page, "Compensation", "Compute torque feed-forward")
     first = wait_for(
         "the stand check's line",
