@@ -33,6 +33,7 @@ from tests.browser.page_helpers import (
     folder,
     generate_motion,
     not_blank,
+    pause_playback,
     record_texts,
     scene_canvas_box,
     screen_point,
@@ -167,6 +168,9 @@ def test_torques_then_the_paper_table3_preset_then_simulate(page, studio: Studio
         assert compensation.get_by_text(f"{label}: {run.verdict()}", exact=False).count() >= 1
     # Back to the uniform preset for the walk ahead: Table 3's k (up to 1 200 °/(N·m)) would
     # push a walk's commands past the joint limits (the one click then stops and says so).
+    # The simulated motion plays on a loop: paused first, as a user does before editing
+    # (clicks while it plays: tests/browser/test_compensation_browser.py).
+    pause_playback(page)
     select_option(page, "Preset", PRESETS["uniform"].label)
     wait_for(
         "the uniform preset in the studio",
@@ -239,6 +243,7 @@ def test_the_one_click_walks_computes_and_simulates_in_the_page(page, studio: St
 def test_export_a_replay_from_the_tab_and_play_it_from_a_static_server(
     page, studio: Studio, chromium
 ) -> None:
+    pause_playback(page)  # the one click's simulated walk plays on a loop
     expand_folder(page, "Share", "Export replay")
     click_button(page, "Export replay")
     share = folder(page, "Share")

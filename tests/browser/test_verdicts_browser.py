@@ -140,6 +140,7 @@ def test_the_planned_walk_walks_on_the_drive_torque_in_the_page(page, studio: St
     assert percent >= 90 and root_covered >= 0.9 * root_planned, text
     _check_landings(text, record.run, studio)
 
+    pause_playback(page)  # the simulated walk plays on a loop; the user pauses to edit
     select_option(page, "Compensate", COMPENSATED_TORQUE_LABELS["load"])
     wait_for(
         "the load torque compensated",
