@@ -210,9 +210,9 @@ def test_undo_takes_a_part_change_back(studio):
     assert studio.state.work.parts.joint(joint).servo == "mx106"
 
 
-def _without_sizing_bounds(path, tmp_path):
-    """A copy of the project at `path` as a file saved before the sizing bounds were kept
-    (its servo_parts without stand_margin and max_sag_deg)."""
+def _older_with_an_m6_knee(path, tmp_path, knee: int):
+    """A copy of the project at `path` as a file saved before the sizing bounds were kept (its
+    servo_parts without stand_margin and max_sag_deg), joint `knee` running the m6 fit."""
     import json
     import zipfile
 
@@ -221,6 +221,7 @@ def _without_sizing_bounds(path, tmp_path):
     manifest = json.loads(entries["manifest.json"])
     parts = manifest["project"]["servo_parts"]
     del parts["stand_margin"], parts["max_sag_deg"]
+    parts["joints"][knee]["friction_model"] = "m6"
     entries["manifest.json"] = json.dumps(manifest).encode()
     old = tmp_path / "old.bstudio"
     with zipfile.ZipFile(old, "w") as archive:
@@ -229,11 +230,18 @@ def _without_sizing_bounds(path, tmp_path):
     return old
 
 
-def test_size_servos_takes_the_sizing_bounds_and_a_project_keeps_them(studio, tmp_path):
+def test_size_servos_takes_the_bounds_and_each_joints_fit_and_a_project_keeps_them(
+    studio, tmp_path
+):
     """The stand margin and largest sag beside *Size servos*: kept with the parts (the
     coefficients and simulation untouched), a bad one refused in one line with the last good
     value kept, used by the sizing as the brute force uses them, saved and opened with the
-    project; a file saved before they were kept opens with the defaults."""
+    project. A file saved before they were kept opens with the defaults; its knee running the
+    m6 fit is sized on m6 and stays on it: K = kt·vin·error_gain·kp/R with the m6 file's kt and
+    R (read here), the other joints on m1."""
+    import json
+
+    from app.core.servo.catalogue import BAM_PARAMS_DIR
     from app.core.servo.kp_sizing import MAX_SAG_DEG, STAND_MARGIN
 
     robot, session = studio.state.robot, studio.servo_rooms.servos
@@ -286,44 +294,23 @@ def test_size_servos_takes_the_sizing_bounds_and_a_project_keeps_them(studio, tm
     assert studio.project.open(str(path))
     assert (studio.state.work.parts.stand_margin, studio.state.work.parts.max_sag_deg) == (1.0, 1.5)
     assert (panel.stand_margin.value, panel.max_sag.value) == (1.0, 1.5)
-    assert studio.project.open(str(_without_sizing_bounds(path, tmp_path)))
+    knee = robot.joint_names.index("left_knee")
+    assert sized.joints[knee].servo == "mx64"
+    assert studio.project.open(str(_older_with_an_m6_knee(path, tmp_path, knee)))
     opened = studio.state.work.parts
     assert (opened.stand_margin, opened.max_sag_deg) == (STAND_MARGIN, MAX_SAG_DEG)
     assert [j.servo for j in opened.joints] == [j.servo for j in sized.joints]
     assert (panel.stand_margin.value, panel.max_sag.value) == (STAND_MARGIN, MAX_SAG_DEG)
 
-
-def test_size_servos_chooses_kp_on_the_fit_a_joint_runs(studio, tmp_path):
-    """A project whose knee runs the m6 fit: *Size servos* chooses that knee's kp on m6 and
-    keeps it on m6; the part installed has K = kt·vin·error_gain·kp/R with the m6 file's kt
-    and R (read here), the other joints stay on m1."""
-    import dataclasses
-    import json
-
-    from app.core.servo.catalogue import BAM_PARAMS_DIR
-
-    session, joint = studio.servo_rooms.servos, "left_knee"
-    pick(studio, joint, "mx64")
-    path = tmp_path / "m6.bstudio"
-    assert studio.project.save_as(str(path))
-    project = read_project(path)
-    m6_knee = project.servo_parts.with_joint(joint, JointServo("mx64", friction_model="m6"))
-    with open(path, "wb") as file:
-        write_project(file, dataclasses.replace(project, servo_parts=m6_knee))
-    assert studio.project.open(str(path))
-    session.panel.margin.value = 0.2
     sizing = wait_for_signal(session.sized, lambda: session.size_servos())
     assert not isinstance(sizing, str), sizing
     parts = studio.state.work.parts
-    knee = parts.joint(joint)
-    assert (knee.servo, knee.friction_model) == ("mx64", "m6")
-    others = [j for n, j in zip(parts.joint_names, parts.joints, strict=True) if n != joint]
-    assert {j.friction_model for j in others} == {"m1"}
+    assert (parts.joints[knee].servo, parts.joints[knee].friction_model) == ("mx64", "m6")
+    assert {j.friction_model for i, j in enumerate(parts.joints) if i != knee} == {"m1"}
     m6 = json.loads((BAM_PARAMS_DIR / "mx64" / "m6.json").read_text())
-    firmware = catalogue()["mx64"].firmware
-    stiffness = m6["kt"] * firmware.vin_V * firmware.error_gain * knee.kp / m6["R"]
-    i = studio.state.robot.joint_names.index(joint)
-    k = studio.state.work.coefficients.params.k_deg_per_Nm[i]
+    firmware, kp = catalogue()["mx64"].firmware, parts.joints[knee].kp
+    stiffness = m6["kt"] * firmware.vin_V * firmware.error_gain * kp / m6["R"]
+    k = studio.state.work.coefficients.params.k_deg_per_Nm[knee]
     assert k == pytest.approx(math.degrees(1.0 / stiffness), rel=1e-12)
-    assert f"{joint}: **mx64**" in session.panel.sizing.content
-    assert f", kp {knee.kp:g} on m6 (sag" in session.panel.sizing.content
+    assert "left_knee: **mx64**, peak margin" in panel.sizing.content
+    assert f", kp {kp:g} on m6 (sag" in panel.sizing.content
