@@ -1,7 +1,8 @@
 """The "Servos" folder: a servo per joint (the ideal servo, or a catalogue servo with its
 firmware settings; the user's own servo files added by upload, and removed), the stiffness K and compliance k = 1/K that follow beside the paper's k,
-*Size servos* with its margin, the per-joint choice and its violations, the battery, and a
-torque–speed plot of the selected joint (its planned points over its servo's envelope).
+*Size servos* with its margin, stand margin and largest sag, the per-joint choice and its
+violations, the battery, and a torque–speed plot of the selected joint (its planned points over
+its servo's envelope).
 
 Callbacks only say what changed; the servos session checks and recomputes.
 """
@@ -15,6 +16,7 @@ import numpy as np
 import viser
 import viser.uplot as uplot
 
+from app.core.servo.kp_sizing import MAX_SAG_DEG, MAX_STAND_MARGIN, STAND_MARGIN
 from panels.quiet import Quiet, set_value
 
 IDEAL_LABEL = "ideal servo"
@@ -27,6 +29,12 @@ SETTING_LABELS = {
 """The firmware settings' rows, by JointServo field."""
 NO_PLOT = "Size servos to draw the selected joint's planned torque–speed points here."
 NO_FILE = "(none added)"
+CHOICE_LABELS = {
+    "stand_margin": "Stand margin",
+    "max_sag_deg": "Largest sag [°]",
+    "battery_Wh": "Battery [Wh]",
+}
+"""The rows of values kept with the whole choice (not a joint's), by ServoChoice field."""
 
 
 class ServosActions(Protocol):
@@ -35,7 +43,9 @@ class ServosActions(Protocol):
     def select_joint(self, joint: str) -> None: ...
     def select_servo(self, key: str) -> None: ...
     def set_setting(self, name: str, value: float) -> None: ...
-    def set_battery(self, pack_Wh: float) -> None: ...
+    def set_choice_value(
+        self, name: str, value: float, client: viser.ClientHandle | None
+    ) -> None: ...
     def add_servo_file(
         self, name: str, content: bytes, client: viser.ClientHandle | None
     ) -> bool: ...
@@ -86,6 +96,18 @@ class ServosPanel:
                 "Margin", min=0.0, max=1.0, step=0.05, initial_value=0.3,
                 hint="Headroom asked of every planned point and of the RMS torque (0.3: 30 %)",
             )  # fmt: skip
+            self.stand_margin = gui.add_number(
+                CHOICE_LABELS["stand_margin"], STAND_MARGIN, step=0.05,
+                hint="Each leg servo's kp is chosen stiff enough that the robot still stands "
+                "with every leg servo (1 + this)× softer (the stand check's K*; 0.5: 1.5× K*, "
+                f"0: just stands; at most {MAX_STAND_MARGIN:g}); the CLI's size --stand-margin",
+            )  # fmt: skip
+            self.max_sag = gui.add_number(
+                CHOICE_LABELS["max_sag_deg"], MAX_SAG_DEG, step=0.1,
+                hint="The largest quasi-static sag (load + the servo's friction)/K a joint may "
+                "have in any motion, which its kp keeps (degrees in (0, 90]); the CLI's size "
+                "--max-sag-deg",
+            )  # fmt: skip
             self.size = gui.add_button(
                 "Size servos",
                 icon=viser.Icon.RULER_MEASURE,
@@ -99,6 +121,16 @@ class ServosPanel:
                 "motion it lasts (0: not said)",
             )  # fmt: skip
             self.plot_note = gui.add_markdown(NO_PLOT)
+        self.choice_values = {
+            "stand_margin": self.stand_margin,
+            "max_sag_deg": self.max_sag,
+            "battery_Wh": self.battery,
+        }
+        """The inputs of CHOICE_LABELS, by ServoChoice field."""
+        self._bind(session)
+
+    def _bind(self, session: ServosActions) -> None:
+        """Each input's callback: say what changed to `session` (not while the panel shows)."""
 
         @self.joint.on_update
         def _(_event: viser.GuiEvent) -> None:
@@ -129,10 +161,13 @@ class ServosPanel:
             if name != NO_FILE:
                 session.remove_servo_file(name, event.client)
 
-        @self.battery.on_update
-        def _(_event: viser.GuiEvent) -> None:
-            if not self._quiet.is_quiet():
-                session.set_battery(float(self.battery.value))
+        for name, handle in self.choice_values.items():
+
+            def changed_value(event: viser.GuiEvent, name: str = name, handle=handle) -> None:
+                if not self._quiet.is_quiet():
+                    session.set_choice_value(name, float(handle.value), event.client)
+
+            handle.on_update(changed_value)
 
         @self.size.on_click
         def _(event: viser.GuiEvent) -> None:
@@ -159,17 +194,18 @@ class ServosPanel:
             set_value(self.joint, selected or "—")
 
     def show_joint(
-        self, servo: str, settings: dict[str, float], stiffness: str, battery_Wh: float
+        self, servo: str, settings: dict[str, float], stiffness: str, values: dict[str, float]
     ) -> None:
         """The selected joint's servo (key, "" ideal), its settings (the values in use) and
-        the stiffness line."""
+        the stiffness line; `values`: the whole choice's (CHOICE_LABELS' fields)."""
         label = next((lab for lab, key in self._labels.items() if key == servo), IDEAL_LABEL)
         with self._quiet.quietly():
             set_value(self.servo, label)
             for name, handle in self.settings.items():
                 handle.disabled = not servo
                 set_value(handle, float(settings.get(name, 0.0)))
-            set_value(self.battery, battery_Wh)
+            for name, handle in self.choice_values.items():
+                set_value(handle, float(values[name]))
         self.stiffness.content = stiffness
 
     def show_sizing(self, running: bool) -> None:

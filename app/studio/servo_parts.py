@@ -185,7 +185,16 @@ def _kp_text(joint: JointSizing) -> str:
     stiffness = None if joint.choice is None else joint.check(joint.choice).stiffness
     if stiffness is None or stiffness.kp is None or stiffness.sag_deg is None:
         return ""
-    return f", kp {stiffness.kp:g} (sag {stiffness.sag_deg:.2g}°)"
+    on = "" if stiffness.fit == "m1" else f" on {stiffness.fit}"
+    return f", kp {stiffness.kp:g}{on} (sag {stiffness.sag_deg:.2g}°)"
+
+
+def _bounds_text(sizing: Sizing) -> str:
+    """ ", stand margin 0.5, sag ≤ 2°" of a sizing that chose kp ("" where it did not)."""
+    bounds = sizing.stiffness or {}
+    if "stand_margin" not in bounds:
+        return ""
+    return f", stand margin {bounds['stand_margin']:g}, sag ≤ {bounds['max_sag_deg']:g}°"
 
 
 def sizing_text(
@@ -196,8 +205,8 @@ def sizing_text(
     held = len(sizing.joints) - len(sizing.unsized)
     lines = [
         f"**Sized** against {', '.join(works)} over {len(records)} servos the simulation can run "
-        f"(of {total} in the catalogue), margin {sizing.margin:.0%}: {held} of "
-        f"{len(sizing.joints)} joints"
+        f"(of {total} in the catalogue), margin {sizing.margin:.0%}{_bounds_text(sizing)}: "
+        f"{held} of {len(sizing.joints)} joints"
     ]
     for joint in sizing.joints:
         if joint.choice is not None:

@@ -2,7 +2,9 @@
 firmware settings), kept in the state (`StudioState.work.parts`) with the coefficients and
 virtual servos that follow from it (app.core.servo.choice.with_parts: the part's compliance
 1/K and dead band for the quick estimate, eq 7's k = 1/K); *Size servos* against the current
-motion's torques and the planned gaits (app.core.servo.sizing_work) on a named thread.
+motion's torques and the planned gaits (app.core.servo.sizing_work) on a named thread, with the
+stand margin and largest sag typed beside it (kept in the choice, so in the project) and each
+joint's kp chosen on the fit its part runs (m1, or m6 where the choice says so).
 
 A joint put back on the ideal servo keeps the compliance and dead band it had (the Compensation
 panel edits them; *Undo* puts the earlier servo and values back).
@@ -27,14 +29,17 @@ from app.core.servo.choice import (
     IDEAL,
     JointServo,
     ServoChoice,
+    check_sizing_bounds,
     choice_parts,
     ideal_choice,
     offered_catalogue,
     simulatable,
+    sizing_fits,
     take_joints,
     with_parts,
 )
-from app.core.servo.kp_sizing import kp_of, size_with_kp
+from app.core.servo.kp_sizing import fit_of, kp_of, size_with_kp
+from app.core.servo.parts import ServoPartsError
 from app.core.servo.sizing import Sizing
 from app.core.servo.sizing_work import Work, gait_work, motion_work
 from app.core.servo.user_files import UserServoFile, adding, records, user_file
@@ -153,12 +158,33 @@ class ServosSession:
         changed = dataclasses.replace(joint, **{name: float(value)})  # type: ignore[arg-type]
         self._apply(choice.with_joint(self._selected, changed), "parts")
 
-    def set_battery(self, pack_Wh: float) -> None:
-        choice = self.choice()
-        if choice is None:
-            return
-        pack = None if pack_Wh == 0.0 else float(pack_Wh)
-        self._apply(replace(choice, battery_Wh=pack), "parts")
+    def set_choice_value(
+        self, name: str, value: float, client: viser.ClientHandle | None = None
+    ) -> None:
+        """A value of the whole choice, kept with the parts (and the project): the battery
+        pack [Wh] (0: not said), or *Size servos*' stand margin or largest sag [°] (the CLI's
+        checks; refused with one line, the last good value kept and shown again)."""
+        with self._state.lock:
+            choice = self.choice()
+            if choice is None:
+                return
+            if name == "battery_Wh":
+                self._apply(replace(choice, battery_Wh=None if value == 0.0 else value), "parts")
+                return
+            bounds = {"stand_margin": choice.stand_margin, "max_sag_deg": choice.max_sag_deg}
+            if name not in bounds:
+                raise ValueError(f"the servo choice has no value {name!r}")  # a panel's bug
+            bounds[name] = value
+            changed = replace(
+                choice, stand_margin=bounds["stand_margin"], max_sag_deg=bounds["max_sag_deg"]
+            )
+            try:
+                check_sizing_bounds(changed, "Size servos")
+            except ServoPartsError as error:
+                self._fail("Sizing bound refused", str(error), client)
+                self._show_selected()
+                return
+            self._state.work.set_sizing_bounds(changed)
 
     def add_servo_file(
         self, name: str, content: bytes, client: viser.ClientHandle | None = None
@@ -263,7 +289,12 @@ class ServosSession:
             return
         servo = choice.joint(self._selected).servo
         settings, line = joint_line(choice, self._selected, coefficients)
-        self.panel.show_joint(servo, settings, line, choice.battery_Wh or 0.0)
+        values = {
+            "stand_margin": choice.stand_margin,
+            "max_sag_deg": choice.max_sag_deg,
+            "battery_Wh": choice.battery_Wh or 0.0,
+        }
+        self.panel.show_joint(servo, settings, line, values)
         self.panel.show_plot(*sizing_plot(self.last, self._selected, servo, self.records))
 
     # --- sizing ----------------------------------------------------------------------------
@@ -314,9 +345,14 @@ class ServosSession:
                 if work is not None and gait is not None:
                     works[label] = work
                     duration = duration or gait.duration_s
+            asked = self.choice()
+            if asked is None:
+                return
             sizing = size_with_kp(
-                robot, works, max(duration, 1e-3), self.records, margin, trajectory=trajectory
-            )
+                robot, works, max(duration, 1e-3), self.records, margin, trajectory=trajectory,
+                stand_margin=asked.stand_margin, max_sag_deg=asked.max_sag_deg,
+                fits=sizing_fits(asked),
+            )  # fmt: skip
         except StudioError as error:
             self.panel.sizing.content = f"⚠️ {error}"
             self._fail("Cannot size the servos", str(error), client)
@@ -326,9 +362,9 @@ class ServosSession:
         if choice is None or self._state.robot is not robot:
             return
         for joint in sizing.joints:
-            chosen = (
-                JointServo() if joint.choice is None else JointServo(joint.choice, kp=kp_of(joint))
-            )
+            chosen = JointServo()
+            if joint.choice is not None:
+                chosen = JointServo(joint.choice, kp=kp_of(joint), friction_model=fit_of(joint))
             choice = choice.with_joint(joint.joint, chosen)
         self.last = (sizing, works)
         total = len(offered_catalogue(choice, catalogue()))

@@ -170,6 +170,9 @@ def _parts_edit(before: ServoChoice | None, after: ServoChoice | None) -> str:
         names = ", ".join(f.name for f in after.user_servos) or "none"
         return f"servo files ({names})"
     if not changed:
+        was = before if before is not None else ServoChoice(after.joint_names, after.joints)
+        if (was.stand_margin, was.max_sag_deg) != (after.stand_margin, after.max_sag_deg):
+            return "sizing bounds"
         return "battery" if before is None or before.battery_Wh != after.battery_Wh else ""
     if len(changed) > NAMED_JOINTS:
         return f"servos of {len(changed)} joints"

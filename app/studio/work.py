@@ -121,6 +121,30 @@ class MotionWork:
             self.parts = choice
             self.on_parts.emit(choice)
 
+    def set_sizing_bounds(self, choice: ServoChoice) -> None:
+        """The current choice with other *Size servos* bounds (stand margin, largest sag):
+        nothing follows from them until the next sizing, so on_parts only (the coefficients,
+        estimate and simulation stand); raises StudioError for a choice that differs otherwise
+        (set_parts then; before any choice is kept, one with a part or a battery)."""
+        with self._lock:
+            robot = self._current()[0]
+            if robot is None or choice.joint_names != robot.joint_names:
+                raise StudioError("the servo parts are for another robot's joints")
+            now = self.parts
+            if now is None:
+                same = not choice.chosen and choice.battery_Wh is None  # every joint ideal
+            else:
+                same = (
+                    dataclasses.replace(
+                        choice, stand_margin=now.stand_margin, max_sag_deg=now.max_sag_deg
+                    )
+                    == now
+                )
+            if not same:
+                raise StudioError("only the sizing bounds may change this way")
+            self.parts = choice
+            self.on_parts.emit(choice)
+
     def set_prediction(
         self, prediction: Prediction, torques: FeedForward, coefficients: Coefficients
     ) -> bool:

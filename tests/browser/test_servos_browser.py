@@ -3,7 +3,9 @@
 dropdowns, the page shows its compliance k = 1/K (checked against the motor law's closed form,
 K = kt·vin·error_gain·kp/R, from the record), a margin is typed, *Size servos* is clicked and
 the per-joint choice and its margins are read in the page, against the studio's state and a
-brute force over the servos offered and their kp (tests/kp_brute_force.py). Last, the user's own servo file is uploaded through the
+brute force over the servos offered and their kp (tests/kp_brute_force.py); a stand margin is
+typed beside *Size servos* and the kp it changes are read in the page against the same brute
+force with that margin (a bad one refused in one line, the last good kept). Last, the user's own servo file is uploaded through the
 folder's upload button (a bad one first: refused in one line, nothing changed), its servo
 picked from the dropdown and its k = 1/K read in the page against the file's own numbers.
 
@@ -17,6 +19,7 @@ import re
 
 import pytest
 
+from app.core.servo.kp_sizing import MAX_SAG_DEG, STAND_MARGIN
 from app.core.servo.sizing import check_joint
 from app.studio import Studio
 from app.studio.servo_parts import catalogue
@@ -27,6 +30,8 @@ from tests.browser.page_helpers import (
     expand_folder,
     folder,
     generate_motion,
+    gui_row_input,
+    pause_playback,
     select_option,
     type_number,
     wait_for,
@@ -39,6 +44,8 @@ MOTION = "one_leg_stand"
 JOINT = "left_knee"
 SERVO = "mx64"
 MARGIN = 0.2
+TYPED_STAND_MARGIN = 1.0
+"""Above the default 0.5: on the one-leg stand, hip pitch kp 19 → 26 (standing sets it)."""
 
 
 def test_pick_a_catalogue_servo_for_a_joint(page, studio: Studio) -> None:
@@ -121,6 +128,61 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
             assert check.peak_margin >= MARGIN
         else:
             assert re.search(rf"{re.escape(name)}: no servo holds it", text), name
+
+
+def test_a_stand_margin_typed_changes_the_kp_the_sizing_chooses(page, studio: Studio) -> None:
+    pause_playback(page)
+    before = studio.state.work.parts
+    assert before is not None and before.stand_margin == STAND_MARGIN, "run the tests before"
+    type_number(page, "Stand margin", TYPED_STAND_MARGIN)
+    wait_for(
+        f"the stand margin {TYPED_STAND_MARGIN:g} in the studio",
+        lambda: (p := studio.state.work.parts) is not None and p.stand_margin == TYPED_STAND_MARGIN,
+        UI_TIMEOUT_S,
+    )
+    before = studio.state.work.parts
+    click_button(page, "Size servos")
+    servos = folder(page, "Servos")
+    servos.get_by_text(
+        f"stand margin {TYPED_STAND_MARGIN:g}, sag ≤ {MAX_SAG_DEG:g}°", exact=False
+    ).wait_for(state="visible", timeout=RENDER_TIMEOUT_S * 1000)
+    parts = wait_for(
+        "the sized parts", lambda: (p := studio.state.work.parts) is not before and p, UI_TIMEOUT_S
+    )
+    text = servos.inner_text()
+    robot, records = studio.state.robot, studio.servo_rooms.servos.records
+    _, works = studio.servo_rooms.servos.last
+    (work,) = works.values()
+    pairs = cheapest_pairs(
+        robot, studio.state.trajectory.q[0], work.torque_Nm,
+        {key: r.mass_kg for key, r in records.items()},
+        lambda j, key: check_joint(
+            records[key], work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, MARGIN
+        ).holds,
+        stand_margin=TYPED_STAND_MARGIN,
+    )  # fmt: skip
+    changed = []
+    for name, (servo, kp) in zip(robot.joint_names, pairs, strict=True):
+        assert (parts.joint(name).servo or None, parts.joint(name).kp) == (servo, kp), name
+        if servo is not None and kp != before.joint(name).kp:
+            changed.append(name)
+            line = rf"^{re.escape(name)}: {servo}, peak margin .*, kp {kp:g} \(sag"
+            assert re.search(line, text, re.M), f"{name}'s new kp {kp:g} is not in the page"
+    assert changed, "the typed stand margin changed no joint's kp"
+
+    # a bad value: one line, the last good one kept (in the studio and in the page)
+    type_number(page, "Stand margin", -1.0)
+    wait_notified(page, "Sizing bound refused", "stand margin is -1", UI_TIMEOUT_S)
+    servos.get_by_text("stand margin is -1; give a number in [0, 10]", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    box = gui_row_input(page, "Stand margin", "input.mantine-NumberInput-input")
+    wait_for(
+        "the page to show the last good stand margin",
+        lambda: box.input_value() == f"{TYPED_STAND_MARGIN:g}",
+        UI_TIMEOUT_S,
+    )
+    assert studio.state.work.parts is parts
 
 
 def upload(page, name: str, text: str) -> None:

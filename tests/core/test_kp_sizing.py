@@ -206,6 +206,7 @@ def test_the_servo_toml_carries_each_joints_kp_and_a_kp_for_all_overrides_it(ser
         ({"stand_margin": -0.1}, "stand margin is -0.1"),
         ({"stand_margin": float("nan")}, "stand margin is nan"),
         ({"max_sag_deg": 0.0}, "max sag is 0°"),
+        ({"stand_margin": 11.0}, r"stand margin is 11; give a number in \[0, 10\]"),
         ({"max_sag_deg": float("inf")}, "max sag is inf"),
     ],
 )
@@ -215,4 +216,98 @@ def test_bad_stiffness_options_are_one_line(servo_biped, standing, options, word
         size_with_kp(
             servo_biped, _still(servo_biped, traj), 1.0, {"s": _servo("s", k_star, 10)},
             trajectory=traj, **options,
+        )  # fmt: skip
+
+
+def _bam(key: str, fit: str) -> dict:
+    """BAM's fit file of `key` (robots/servos/bam, a copy of ../shared/actuators/bam) and the
+    firmware table of its record's TOML, as the files say."""
+    import json
+    import tomllib
+
+    from app.core.servo.catalogue import BAM_PARAMS_DIR, SERVOS_DIR
+
+    firmware = tomllib.loads((SERVOS_DIR / f"{key}.toml").read_text())["firmware"]
+    return {**json.loads((BAM_PARAMS_DIR / key / f"{fit}.json").read_text()), **firmware}
+
+
+def _at_rest_friction_Nm(fit: dict, load_Nm: float) -> float:
+    """The fit's friction at rest holding `load_Nm` (the motor torque opposing it): m1's
+    friction_base; m6's budget with s = 1 (q̇ = 0), BAM's m6 terms written out."""
+    if fit["model"] == "m1":
+        return fit["friction_base"]
+    return (
+        fit["friction_base"]
+        + fit["friction_stribeck"]
+        + load_Nm * (fit["load_friction_external"] + fit["load_friction_motor"])
+        + load_Nm * (fit["load_friction_external_stribeck"] + fit["load_friction_motor_stribeck"])
+    )
+
+
+def test_the_kp_rule_uses_the_fit_the_joints_part_runs(servo_biped, standing):
+    """An MX-64 sized on m6 (as a servo.toml or project asks) takes K = kt·vin·error_gain·kp/R
+    with the m6 file's kt and R (1.7× the m1 fit's per kp) and m6's friction at rest under
+    the load: per joint the smallest whole kp with K ≥ max((1 + margin)·K* on a leg joint,
+    (|τ| + friction) / max sag), as the closed forms give it from the files' numbers; the
+    servo.toml written runs m6 with that K."""
+    import tomllib
+
+    from app.core.servo.catalogue import load_catalogue
+    from app.core.servo.motor_law import FrictionM6
+
+    robot = servo_biped
+    traj, k_star = standing
+    legs = set(stand_check(robot, traj.q[0], np.zeros(robot.n_actuated)).leg_joints)
+    work = _still(robot, traj)["stand"]
+    tau = work.torque_Nm.copy()
+    knees = [j for j, name in enumerate(robot.joint_names) if "knee" in name]
+    tau[:, knees] = 0.8  # the sag bound sets the knees' kp, m6's load friction with it
+    works = {"load": Work(work.speed_rad_s, tau, work.sample_index)}
+    record = load_catalogue()["mx64"]
+    kps = {}
+    for name in ("m1", "m6"):
+        fit = _bam("mx64", name)
+        per_kp = fit["kt"] * fit["vin_V"] * fit["error_gain"] / fit["R"]
+        sizing = size_with_kp(
+            robot, works, traj.duration, {"mx64": record}, trajectory=traj,
+            fits={joint: name for joint in robot.joint_names},
+        )  # fmt: skip
+        kps[name] = _kps(sizing)
+        for j, joint in enumerate(sizing.joints):
+            load = float(np.abs(tau[:, j]).max())
+            need = max(
+                1.5 * k_star if j in legs else 0.0,
+                (load + _at_rest_friction_Nm(fit, load)) / math.radians(2.0),
+            )
+            grid = np.arange(1, fit["kp_max"] + 1, dtype=float)
+            chosen = joint.check("mx64").stiffness
+            assert chosen.fit == name
+            assert chosen.per_kp_Nm_per_rad == pytest.approx(per_kp, rel=1e-12)
+            assert chosen.kp == grid[grid * per_kp >= need][0], joint.joint
+        if name == "m6":
+            data = tomllib.loads(sized_parts(sizing).text)
+            assert data["joints"]["left_knee"]["friction_model"] == "m6"
+            parts = parts_from_mapping(data, robot.joint_names, {"mx64": record}, "sized")
+            for part, kp in zip(parts.parts, kps["m6"], strict=True):
+                assert isinstance(part.friction, FrictionM6)
+                assert part.stiffness_Nm_per_rad == pytest.approx(kp * per_kp, rel=1e-12)
+    assert kps["m6"] != kps["m1"]  # the fits differ enough for the rule to tell them apart
+    assert all(a < b for a, b in zip(kps["m6"], kps["m1"], strict=True) if a != b)
+
+
+def test_a_servo_without_an_m6_fit_is_sized_on_its_m1_and_said(servo_biped, standing):
+    robot = servo_biped
+    traj, k_star = standing
+    record = _servo("own", k_star / 10, 254)  # the user's own m1 fit only
+    assert record.fit("m6") is None
+    sizing = size_with_kp(
+        robot, _still(robot, traj), traj.duration, {"own": record}, trajectory=traj,
+        fits={robot.joint_names[0]: "m6"},
+    )  # fmt: skip
+    assert {j.check("own").stiffness.fit for j in sizing.joints} == {"m1"}
+    assert "no m6 fit: own sized on m1 where m6 was asked" in sizing.notes
+    with pytest.raises(SizingError, match="friction model 'm9'"):
+        size_with_kp(
+            robot, _still(robot, traj), traj.duration, {"own": record}, trajectory=traj,
+            fits={robot.joint_names[0]: "m9"},
         )  # fmt: skip

@@ -169,6 +169,13 @@ def test_a_project_keeps_the_parts_and_refuses_hostile_ones(studio, tmp_path):
         bad = project.servo_parts.with_joint(joint, hostile)
         with pytest.raises(ProjectError, match=field):
             check_fits(_replace(project, servo_parts=bad), studio.state.robot)
+    for bounds, words in (
+        ({"stand_margin": -1.0}, "stand margin is -1"),
+        ({"max_sag_deg": 1e9}, "max sag is 1e[+]09°"),
+    ):
+        bad = _replace(project.servo_parts, **bounds)
+        with pytest.raises(ProjectError, match=f"project.servo_parts: {words}"):
+            check_fits(_replace(project, servo_parts=bad), studio.state.robot)
     # Written and read back: refused on open with one line, the work untouched.
     path = tmp_path / "hostile.bstudio"
     with open(path, "wb") as file:
@@ -201,3 +208,109 @@ def test_undo_takes_a_part_change_back(studio):
     assert f"Undid: servo {joint} mx106" in studio.project.panel.status.content
     assert studio.project.redo()
     assert studio.state.work.parts.joint(joint).servo == "mx106"
+
+
+def _older_with_an_m6_knee(path, tmp_path, knee: int):
+    """A copy of the project at `path` as a file saved before the sizing bounds were kept (its
+    servo_parts without stand_margin and max_sag_deg), joint `knee` running the m6 fit."""
+    import json
+    import zipfile
+
+    with zipfile.ZipFile(path) as archive:
+        entries = {name: archive.read(name) for name in archive.namelist()}
+    manifest = json.loads(entries["manifest.json"])
+    parts = manifest["project"]["servo_parts"]
+    del parts["stand_margin"], parts["max_sag_deg"]
+    parts["joints"][knee]["friction_model"] = "m6"
+    entries["manifest.json"] = json.dumps(manifest).encode()
+    old = tmp_path / "old.bstudio"
+    with zipfile.ZipFile(old, "w") as archive:
+        for name, content in entries.items():
+            archive.writestr(name, content)
+    return old
+
+
+def test_size_servos_takes_the_bounds_and_each_joints_fit_and_a_project_keeps_them(
+    studio, tmp_path
+):
+    """The stand margin and largest sag beside *Size servos*: kept with the parts (the
+    coefficients and simulation untouched), a bad one refused in one line with the last good
+    value kept, used by the sizing as the brute force uses them, saved and opened with the
+    project. A file saved before they were kept opens with the defaults; its knee running the
+    m6 fit is sized on m6 and stays on it: K = kt·vin·error_gain·kp/R with the m6 file's kt and
+    R (read here), the other joints on m1."""
+    import json
+
+    from app.core.servo.catalogue import BAM_PARAMS_DIR
+    from app.core.servo.kp_sizing import MAX_SAG_DEG, STAND_MARGIN
+
+    robot, session = studio.state.robot, studio.servo_rooms.servos
+    panel = session.panel
+    coefficients = studio.state.work.coefficients
+    studio.project.autosave.now()  # the work before: a step
+    panel.stand_margin.value = 1.0
+    panel.max_sag.value = 1.5
+    parts = studio.state.work.parts
+    assert (parts.stand_margin, parts.max_sag_deg) == (1.0, 1.5)
+    assert studio.state.work.coefficients is coefficients  # nothing follows until a sizing
+    for handle, bad, words in (
+        (panel.stand_margin, -1.0, "stand margin is -1; give a number in [0, 10]"),
+        (panel.stand_margin, 50.0, "stand margin is 50; give a number in [0, 10]"),
+        (panel.max_sag, 0.0, "max sag is 0°; give a number of degrees in (0, 90]"),
+        (panel.max_sag, 120.0, "max sag is 120°"),
+    ):
+        handle.value = bad
+        assert studio.state.work.parts is parts
+        assert words in panel.status.content and "\n" not in panel.status.content
+        assert (panel.stand_margin.value, panel.max_sag.value) == (1.0, 1.5)
+    studio.project.autosave.now()
+    assert studio.project.undo()
+    assert "Undid: sizing bounds" in studio.project.panel.status.content
+    assert studio.project.redo()
+    assert studio.state.work.parts.stand_margin == 1.0
+
+    panel.margin.value = 0.2
+    sizing = wait_for_signal(session.sized, lambda: session.size_servos())
+    assert not isinstance(sizing, str), sizing
+    assert (sizing.stiffness["stand_margin"], sizing.stiffness["max_sag_deg"]) == (1.0, 1.5)
+    assert "stand margin 1, sag ≤ 1.5°" in panel.sizing.content
+    _, works = session.last
+    (work,) = works.values()
+    pairs = cheapest_pairs(
+        robot, studio.state.trajectory.q[0], work.torque_Nm,
+        {key: record.mass_kg for key, record in session.records.items()},
+        lambda j, key: check_joint(
+            session.records[key], work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, 0.2
+        ).holds,
+        stand_margin=1.0, max_sag_deg=1.5,
+    )  # fmt: skip
+    sized = studio.state.work.parts
+    assert [(j.servo or None, j.kp) for j in sized.joints] == pairs
+    assert (sized.stand_margin, sized.max_sag_deg) == (1.0, 1.5)
+
+    path = tmp_path / "bounds.bstudio"
+    assert studio.project.save_as(str(path))
+    panel.stand_margin.value = 0.25
+    assert studio.project.open(str(path))
+    assert (studio.state.work.parts.stand_margin, studio.state.work.parts.max_sag_deg) == (1.0, 1.5)
+    assert (panel.stand_margin.value, panel.max_sag.value) == (1.0, 1.5)
+    knee = robot.joint_names.index("left_knee")
+    assert sized.joints[knee].servo == "mx64"
+    assert studio.project.open(str(_older_with_an_m6_knee(path, tmp_path, knee)))
+    opened = studio.state.work.parts
+    assert (opened.stand_margin, opened.max_sag_deg) == (STAND_MARGIN, MAX_SAG_DEG)
+    assert [j.servo for j in opened.joints] == [j.servo for j in sized.joints]
+    assert (panel.stand_margin.value, panel.max_sag.value) == (STAND_MARGIN, MAX_SAG_DEG)
+
+    sizing = wait_for_signal(session.sized, lambda: session.size_servos())
+    assert not isinstance(sizing, str), sizing
+    parts = studio.state.work.parts
+    assert (parts.joints[knee].servo, parts.joints[knee].friction_model) == ("mx64", "m6")
+    assert {j.friction_model for i, j in enumerate(parts.joints) if i != knee} == {"m1"}
+    m6 = json.loads((BAM_PARAMS_DIR / "mx64" / "m6.json").read_text())
+    firmware, kp = catalogue()["mx64"].firmware, parts.joints[knee].kp
+    stiffness = m6["kt"] * firmware.vin_V * firmware.error_gain * kp / m6["R"]
+    k = studio.state.work.coefficients.params.k_deg_per_Nm[knee]
+    assert k == pytest.approx(math.degrees(1.0 / stiffness), rel=1e-12)
+    assert "left_knee: **mx64**, peak margin" in panel.sizing.content
+    assert f", kp {kp:g} on m6 (sag" in panel.sizing.content

@@ -2,7 +2,8 @@
 or a catalogue servo with its firmware settings (`Project.servo_parts`).
 
 Only the choice is kept (catalogue keys and settings, None where the record's own value is
-taken); the parts it names are made from the catalogue with the same checks as a servo.toml
+taken; the fit each part runs; the battery and *Size servos*' stand margin and sag bound); the
+parts it names are made from the catalogue with the same checks as a servo.toml
 (`app.core.servo.parts.parts_from_mapping`: kp within the firmware's range, positive voltage
 and current limit, a dead band of 0 … 10°, a servo the simulation can run), so a project's
 hostile values are refused with the same one line.
@@ -17,8 +18,10 @@ from typing import Any, Literal
 
 import numpy as np
 
+from app.core.errors import StudioError
 from app.core.servo.catalogue import ServoCatalogueError, ServoRecord
 from app.core.servo.compensation import CompensationParams
+from app.core.servo.kp_sizing import MAX_SAG_DEG, STAND_MARGIN, check_max_sag, check_stand_margin
 from app.core.servo.model import ServoModel
 from app.core.servo.parts import ServoParts, ServoPartsError, parts_from_mapping
 from app.core.servo.user_files import UserServoFile, with_user_files
@@ -58,6 +61,11 @@ class ServoChoice:
     user_servos: tuple[UserServoFile, ...] = ()
     """The user's own servo files (TOML texts), beside the built-in catalogue; read and
     checked again wherever the choice is resolved (app.core.servo.user_files)."""
+    stand_margin: float = STAND_MARGIN
+    """*Size servos*' stand margin (app.core.servo.kp_sizing, the CLI's --stand-margin); the
+    default in files saved before it was kept."""
+    max_sag_deg: float = MAX_SAG_DEG
+    """*Size servos*' bound on a joint's sag [°] (the CLI's --max-sag-deg)."""
 
     def joint(self, name: str) -> JointServo:
         return self.joints[self.joint_names.index(name)]
@@ -105,12 +113,29 @@ def choice_parts(
     pack = choice.battery_Wh
     if pack is not None and not (math.isfinite(pack) and 0.0 < pack <= 1.0e5):
         raise ServoPartsError(f"{where}: battery_Wh is {pack:g}; give 0 < Wh ≤ 100000")
+    check_sizing_bounds(choice, where)
     offered = offered_catalogue(choice, catalogue, where)
     chosen = choice.chosen
     if not chosen:
         return None
     data = {"joints": {name: joint_mapping(choice.joint(name)) for name in chosen}}
     return parts_from_mapping(data, chosen, offered, where)
+
+
+def check_sizing_bounds(choice: ServoChoice, where: str = "servo parts") -> None:
+    """ServoPartsError naming a stand margin or sag bound *Size servos* cannot use (the CLI's
+    checks: app.core.servo.kp_sizing)."""
+    try:
+        check_stand_margin(choice.stand_margin)
+        check_max_sag(choice.max_sag_deg)
+    except StudioError as error:
+        raise ServoPartsError(f"{where}: {error}") from None
+
+
+def sizing_fits(choice: ServoChoice) -> dict[str, str]:
+    """The fit each joint's part runs now ("m1" or "m6", by joint name): *Size servos* chooses
+    kp on it (app.core.servo.kp_sizing.part_fit)."""
+    return {n: j.friction_model for n, j in zip(choice.joint_names, choice.joints, strict=True)}
 
 
 def offered_catalogue(

@@ -24,7 +24,10 @@ class KpChoice:
     sag_Nm_per_rad: float
     peak_torque_Nm: float
     friction_Nm: float
+    """The servo's friction at rest holding the peak load (app.core.servo.kp_sizing)."""
     max_sag_deg: float
+    fit: str = "m1"
+    """The fit whose kt, R and friction gave K and the sag: the one the joint's part runs."""
 
     @property
     def checked(self) -> bool:
@@ -66,4 +69,5 @@ class KpChoice:
             "stand_need_Nm_per_rad": self.stand_Nm_per_rad,
             "sag_need_Nm_per_rad": self.sag_Nm_per_rad,
             "sag_deg": self.sag_deg,
+            "fit": self.fit,
         }

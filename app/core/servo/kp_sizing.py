@@ -1,9 +1,11 @@
 """Sizing chooses kp too: per joint the smallest firmware kp whose stiffness keeps the robot
 standing and every motion's sag within a bound.
 
-A part's static stiffness K = kt·vin·error_gain·kp/R (`motor_law`, the m1 fit the simulation
-runs by default) grows with kp, so per servo and joint the kp chosen is the smallest whole kp
-in 1 … kp_max (the record's control table, else `parts.KP_MAX`) with K ≥ K_need:
+A part's static stiffness K = kt·vin·error_gain·kp/R (`motor_law`) grows with kp, so per servo
+and joint the kp chosen is the smallest whole kp in 1 … kp_max (the record's control table,
+else `parts.KP_MAX`) with K ≥ K_need. kt and R are those of the fit the joint's part runs
+(`part_fit`: m1 by default, m6 where the joint's servo.toml or project asks it and the record
+has it; each fit identifies its own kt and R, so an MX-64 on m6 is 1.7× stiffer per kp):
 
     K_need  = max(K_stand, K_sag)
     K_stand = (1 + stand_margin) · K*         on the leg joints (0 on the others)
@@ -15,8 +17,10 @@ indefinite. H only stiffens as any one servo stiffens (Gᵀ·diag(K)·G grows), 
 at K ≥ K* stands: a rule per joint (each joint sized by itself), sufficient, not necessary
 (a hip yaw could be softer). With the margin the robot still stands with every leg stiffness
 divided by (1 + stand_margin). The sag is the spring's quasi-static deflection |τ|/K under
-the load and the servo's own Coulomb friction τ_f (its m1 friction_base: the error the P loop
-needs before the joint moves at all); a dead band comes on top (eq 23's φ).
+the load and the servo's own friction at rest τ_f (the torque the P loop must overcome before the
+joint moves at all: m1's friction_base; m6's budget at rest holding the load |τ|,
+friction_base + friction_stribeck + |τ|·(λ_e + λ_m + λ_es + λ_ms), `static_friction_Nm`); a
+dead band comes on top (eq 23's φ).
 
 Where no kp in range gives K_need, that servo does not hold the joint (the next one is
 taken); where no servo does, the joint is unsized and says why. A record without a motor law
@@ -27,6 +31,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
+from typing import Literal
 
 import numpy as np
 
@@ -36,8 +42,8 @@ from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
 from app.core.servo.catalogue import ServoRecord
 from app.core.servo.kp_choice import KpChoice
-from app.core.servo.motor_law import FrictionM1
-from app.core.servo.parts import KP_MAX
+from app.core.servo.motor_law import FrictionM1, FrictionM6, m6_budget
+from app.core.servo.parts import FRICTION_MODELS, KP_MAX
 from app.core.servo.sizing import (
     CONTINUOUS_FRACTION_OF_STALL,
     Criterion,
@@ -50,6 +56,9 @@ from app.core.servo.sizing_work import Work, size_works
 
 STAND_MARGIN = 0.5
 """Default: the robot still stands with every leg servo 1.5× softer than chosen."""
+MAX_STAND_MARGIN = 10.0
+"""The largest stand margin taken: leg servos 11× stiffer than standing needs (a safety factor
+past any a design asks; a larger one is a typing slip)."""
 MAX_SAG_DEG = 2.0
 """Default bound on a joint's quasi-static sag (|τ| + τ_f)/K over every motion [°]. Roban S14
 standing uncompensated on parts sized with 5° (its knees sagging 3.3°) fell in the first
@@ -59,8 +68,11 @@ standing uncompensated on parts sized with 5° (its knees sagging 3.3°) fell in
 def check_stand_margin(value: float) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise SizingError(f"stand margin is {value!r}; give a finite number ≥ 0")
-    if value < 0.0:
-        raise SizingError(f"stand margin is {value:g}; give a number ≥ 0 (0.5: 50 % stiffer)")
+    if not 0.0 <= value <= MAX_STAND_MARGIN:
+        raise SizingError(
+            f"stand margin is {value:g}; give a number in [0, {MAX_STAND_MARGIN:g}] "
+            "(0.5: 50 % stiffer than standing needs)"
+        )
     return float(value)
 
 
@@ -152,19 +164,31 @@ def stiffness_need(
     )
 
 
-def stiffness_per_kp(record: ServoRecord) -> float | None:
-    """K per unit of kp [N·m/rad]: kt·vin·error_gain/R of the m1 fit; None without a law."""
-    law = record.law("m1")
+def part_fit(record: ServoRecord, asked: str = "m1") -> str:
+    """The fit a part of `record` runs where `asked` ("m1", "m6") is asked: the asked one
+    where the record has it, else m1 (a record without an m6 fit runs m1)."""
+    if asked not in FRICTION_MODELS:
+        raise SizingError(f"friction model {asked!r}; give one of {', '.join(FRICTION_MODELS)}")
+    return asked if record.fit(asked) is not None else "m1"
+
+
+def stiffness_per_kp(record: ServoRecord, fit: str = "m1") -> float | None:
+    """K per unit of kp [N·m/rad]: kt·vin·error_gain/R of `fit`'s kt and R; None without a
+    law (no firmware constants, or no such fit)."""
+    law = record.law(fit)
     if law is None:
         return None
     motor, firmware = law
     return motor.kt_Nm_per_A * firmware.vin_V * firmware.error_gain / motor.R_ohm
 
 
-def coulomb_friction_Nm(record: ServoRecord) -> float:
-    """The m1 fit's friction_base [N·m] (0 without a fit)."""
-    fit = record.fit("m1")
-    friction = None if fit is None else fit.friction
+def static_friction_Nm(record: ServoRecord, fit: str = "m1", load_Nm: float = 0.0) -> float:
+    """The friction at rest [N·m] of `fit` holding `load_Nm` (module docstring; 0 without a
+    fit): m1's friction_base, m6's budget at q̇ = 0 with the motor torque opposing the load."""
+    found = record.fit(fit)
+    friction = None if found is None else found.friction
+    if isinstance(friction, FrictionM6):
+        return float(m6_budget(friction, abs(load_Nm), -abs(load_Nm), 0.0)[0])
     return friction.friction_base_Nm if isinstance(friction, FrictionM1) else 0.0
 
 
@@ -174,12 +198,16 @@ def kp_max(record: ServoRecord) -> float:
     return KP_MAX if top is None else top
 
 
-def choose_kp(record: ServoRecord, need: StiffnessNeed, joint: int) -> KpChoice:
-    """The smallest whole kp in 1 … kp_max of `record` whose K reaches joint `joint`'s need."""
-    per_kp, top = stiffness_per_kp(record), kp_max(record)
+def choose_kp(
+    record: ServoRecord, need: StiffnessNeed, joint: int, asked_fit: str = "m1"
+) -> KpChoice:
+    """The smallest whole kp in 1 … kp_max of `record` whose K reaches joint `joint`'s need,
+    K and friction those of the fit its part runs (`part_fit` of `asked_fit`)."""
+    fit = part_fit(record, asked_fit)
+    per_kp, top = stiffness_per_kp(record, fit), kp_max(record)
     stand = float(need.stand_Nm_per_rad[joint])
-    friction = coulomb_friction_Nm(record)
     peak = float(need.peak_torque_Nm[joint])
+    friction = static_friction_Nm(record, fit, peak)
     sag = (peak + friction) / math.radians(need.max_sag_deg)
     needed = max(stand, sag)
     kp = None
@@ -199,20 +227,30 @@ def choose_kp(record: ServoRecord, need: StiffnessNeed, joint: int) -> KpChoice:
         peak,
         friction,
         need.max_sag_deg,
+        fit,
     )
 
 
 def with_stiffness(
-    sizing: Sizing, need: StiffnessNeed, catalogue: dict[str, ServoRecord]
+    sizing: Sizing,
+    need: StiffnessNeed,
+    catalogue: dict[str, ServoRecord],
+    fits: Mapping[str, str] | None = None,
 ) -> Sizing:
     """`sizing` with each candidate's kp (`choose_kp`) and the choice made again: the least
-    `by` among the servos that hold the torque, the heat and the stiffness."""
+    `by` among the servos that hold the torque, the heat and the stiffness. `fits`: the fit
+    each joint's part runs, by joint name ("m1" where not given)."""
     if [j.joint for j in sizing.joints] != list(need.joint_names):
         raise SizingError("the stiffness need is for other joints than the sizing's")
+    asked = dict(fits or {})
+    unknown = sorted(set(asked) - set(need.joint_names))
+    if unknown:
+        raise SizingError(f"friction model asked for {unknown[0]!r}, not a joint of the robot")
     joints = []
     for j, joint in enumerate(sizing.joints):
+        fit = asked.get(joint.joint, "m1")
         checks = tuple(
-            dataclasses.replace(c, stiffness=choose_kp(catalogue[c.servo], need, j))
+            dataclasses.replace(c, stiffness=choose_kp(catalogue[c.servo], need, j, fit))
             for c in joint.checks
         )
         ranked = sorted(
@@ -232,6 +270,18 @@ def with_stiffness(
         else []
     )
     notes = [need.note]
+    fallback = sorted(
+        {
+            c.servo
+            for joint in joints
+            for c in joint.checks
+            if asked.get(joint.joint, "m1") != "m1"
+            and c.stiffness is not None
+            and c.stiffness.fit == "m1"
+        }
+    )
+    if fallback:
+        notes.append(f"no m6 fit: {', '.join(fallback)} sized on m1 where m6 was asked")
     if unchecked:
         notes.append(
             f"stiffness not checked for {', '.join(unchecked)} (no firmware constants: kp and "
@@ -253,6 +303,13 @@ def kp_of(joint: JointSizing) -> float | None:
     return None if stiffness is None else stiffness.kp
 
 
+def fit_of(joint: JointSizing) -> Literal["m1", "m6"]:
+    """The fit the sizing chose `joint`'s kp on: the one its part is to run ("m1" where no
+    servo was chosen or its stiffness was not checked)."""
+    stiffness = None if joint.choice is None else joint.check(joint.choice).stiffness
+    return "m6" if stiffness is not None and stiffness.fit == "m6" else "m1"
+
+
 def size_with_kp(
     robot: RobotModel,
     works: dict[str, Work],
@@ -264,13 +321,14 @@ def size_with_kp(
     trajectory: Trajectory | None = None,
     stand_margin: float = STAND_MARGIN,
     max_sag_deg: float = MAX_SAG_DEG,
+    fits: Mapping[str, str] | None = None,
 ) -> Sizing:
-    """Torque, heat (`size_works`) and stiffness (`with_stiffness`) at the standing pose of
-    `trajectory` (its first sample with both feet down, else the ready pose): the CLI's `size`
-    and the studio's *Size servos*."""
+    """Torque, heat (`size_works`) and stiffness (`with_stiffness`, each joint on the fit of
+    `fits`, m1 where not given) at the standing pose of `trajectory` (its first sample with
+    both feet down, else the ready pose): the CLI's `size` and the studio's *Size servos*."""
     need_args = (check_stand_margin(stand_margin), check_max_sag(max_sag_deg))
     sizing = size_works(
         robot.joint_names, works, duration_s, catalogue, margin, by, continuous_fraction
     )
     need = stiffness_need(robot, standing_pose(robot, trajectory), works, *need_args)
-    return with_stiffness(sizing, need, catalogue)
+    return with_stiffness(sizing, need, catalogue, fits)

@@ -41,7 +41,8 @@ def check_kp(kp: float | None) -> float | None:
 
 def sized_parts(sizing: Sizing, kp: float | None = None) -> SizedParts:
     """The servo.toml of `sizing` (module docstring); `kp` for every joint (None: the kp the
-    sizing chose per joint where it chose one, else the record's own)."""
+    sizing chose per joint where it chose one, else the record's own); a joint sized on m6
+    gets friction_model = "m6", the fit its kp was chosen on."""
     check_kp(kp)
     lines = [
         "# Servo parts chosen by biped-studio size (margin "
@@ -63,6 +64,8 @@ def sized_parts(sizing: Sizing, kp: float | None = None) -> SizedParts:
         )
         lines += ["", f"[joints.{name}]", f"servo = {json.dumps(key)}{comment}"]
         chosen = joint.check(key).stiffness
+        if chosen is not None and chosen.fit != "m1":  # the fit its kp was chosen on
+            lines.append(f"friction_model = {json.dumps(chosen.fit)}")
         if chosen is None or not chosen.checked:
             continue
         if kp is None:  # no kp in range stiff enough (a closest servo): its stiffest
