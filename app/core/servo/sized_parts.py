@@ -63,6 +63,9 @@ def sized_parts(sizing: Sizing, kp: float | None = None) -> SizedParts:
         )
         lines += ["", f"[joints.{name}]", f"servo = {json.dumps(key)}{comment}"]
         chosen = joint.check(key).stiffness
+        if chosen is not None and chosen.stated:  # no kp law: the stiffness it needs
+            lines.append(f"stiffness_Nm_per_rad = {chosen.stated_Nm_per_rad:g}")
+            continue
         if chosen is None or not chosen.checked:
             continue
         if kp is None:  # no kp in range stiff enough (a closest servo): its stiffest
