@@ -179,3 +179,39 @@ def test_s14s_stance_hip_roll_gets_a_servo_whose_continuous_rating_holds_it(cata
         if tc >= 1.3 * load and tc / ic * limit_mA / 1000 >= 1.3 * load
     ]
     assert choice == min(fits)[1]
+
+
+def test_the_part_sags_as_its_stated_stiffness_says_and_stalls_at_its_current_limit(catalogue):
+    """In MuJoCo (the motor law's pendulum): a PH54-200 part at a stated K holds a 2 kg arm of
+    1 m with K·e = m·g·l·cos(e); held far from its target it gives τc/Ic × 22.74 A."""
+    from scipy.optimize import brentq
+
+    from tests.core.test_motor_law import _hold
+
+    data = {"joints": {"j": {"servo": "ph54_200_s500", "stiffness_Nm_per_rad": 1159}}}
+    (part,) = parts_from_mapping(data, ["j"], catalogue, "servo.toml").parts
+    mass, length = 2.0, 1.0
+    sag = brentq(lambda e: 1159.0 * e - mass * 9.81 * length * math.cos(e), 0.0, 1.0)
+    q, dq = _hold(part.motor, part.firmware, 0.0, mass, length)
+    assert abs(dq) < 1e-6 and -q == pytest.approx(sag, rel=1e-3)
+    stalled = motor_law.drive(1.0e4, 0.0, 0.0, part.motor, part.firmware).torque_Nm
+    assert float(stalled) == pytest.approx(44.7 / 9.3 * 22.74, rel=1e-12)
+
+
+def test_biped_studio_servos_lists_them_without_a_stall_torque():
+    import json
+
+    from tests.test_cli import run
+
+    result = run("servos", "--json")
+    assert result.returncode == 0, result.stderr
+    rows = {row["key"]: row for row in json.loads(result.stdout)["servos"]}
+    for key, (_w0, _i0, _wc, tc, _ic, grams, _gear, _limit) in PAGES.items():
+        row = rows[key]
+        assert row["stall_torque_Nm"] is None and row["continuous_torque_Nm"] == tc
+        assert row["mass_kg"] == pytest.approx(grams / 1000)
+        assert row["not_simulated"] is None and "no kp law" in row["kp_law"]
+        assert row["rated"]["torque_limit_Nm"] < row["rated"]["line_stall_torque_Nm"]
+    text = run("servos").stdout.splitlines()
+    (line,) = [ln for ln in text if ln.startswith("ph54_200_s500 ")]
+    assert "44.70" in line and line.endswith("DC model (continuous point)")
