@@ -68,7 +68,7 @@ def test_size_text_names_a_joint_no_servo_holds(com_shift, tmp_path):
     assert knee is not None, header
     rows = [line.split(",") for line in lines[1:]]
     for row in rows:
-        row[knee] = repr(50.0)  # beyond every servo's stall torque
+        row[knee] = repr(150.0)  # past every servo's peak (PH54-200: 109 N·m)
     heavy.write_text("\n".join([lines[0], *(",".join(r) for r in rows)]) + "\n")
     result = run("size", str(motion), "--tau", str(heavy))
     assert result.returncode == 0, result.stderr

@@ -51,16 +51,29 @@ def test_the_written_file_is_the_sizings_choice_of_servos_the_simulation_runs(si
     report, parts, _sim = sized
     records = {data["key"]: data for data in _records().values()}
     assert "kp" not in parts  # one kp per joint, none for all
+    rated = []
     for joint in report["joints"]:
         chosen = joint["chosen"] if joint["holds"] else joint["closest"]
+        if chosen["stiffness_stated"]:  # rated by a continuous point: no kp law, K stated
+            k = chosen["stiffness_Nm_per_rad"]
+            assert k == math.ceil(chosen["stiffness_need_Nm_per_rad"]) and chosen["kp"] is None
+            assert parts["joints"][joint["joint"]] == {
+                "servo": chosen["servo"],
+                "stiffness_Nm_per_rad": k,
+            }
+            record = records[chosen["servo"]]
+            assert "drive" in record and "stall_torque_Nm" not in record
+            rated.append(joint["joint"])
+            continue
         kp = chosen["kp"] if chosen["kp"] is not None else chosen["kp_max"]
         assert parts["joints"][joint["joint"]] == {"servo": chosen["servo"], "kp": kp}
         assert joint["holds"] is False or joint["kp"] == kp
         record = records[chosen["servo"]]
         assert "firmware" in record and "identified" in record  # a motor model to run
         assert 1 <= kp <= record["firmware"]["kp_max"]
-    assert report["unsized"]  # S14's stance joints: no catalogue servo holds them with 30 %
-    assert any(f"no servo holds {report['unsized'][0]}" in n for n in report["notes"])
+    # S14's stance joints, which no stall-rated servo holds with 30 %, get Dynamixel-P parts
+    assert not report["unsized"] and rated
+    assert any("no kp law for" in n for n in report["notes"])
     assert any("left out" in n and "xm540_w270" in n for n in report["notes"])
 
 
@@ -72,6 +85,11 @@ def test_s14_stays_up_on_the_sized_parts_at_their_kp(sized):
     records = {data["key"]: data for data in _records().values()}
     for row in sim["servos"]:  # K = kt·vin·error_gain·kp/R, BAM's m1 fit and the record's firmware
         record = records[row["servo"]]
+        if "drive" in record:  # no kp law: the stiffness the file states
+            assert row["kp"] is None
+            stated = parts["joints"][row["joint"]]["stiffness_Nm_per_rad"]
+            assert row["stiffness_Nm_per_rad"] == pytest.approx(stated, rel=1e-12)
+            continue
         m1 = json.loads((BAM_PARAMS_DIR / record["identified"] / "m1.json").read_text())
         fw = record["firmware"]
         kp = parts["joints"][row["joint"]]["kp"]
@@ -86,7 +104,8 @@ def test_s14_stays_up_on_the_sized_parts_at_their_kp(sized):
         k = row["stiffness_Nm_per_rad"]
         assert row["compliance_deg_per_Nm"] == pytest.approx(math.degrees(1 / k), rel=1e-12)
         assert row["compliance_deg_per_Nm"] < needed
-        assert math.degrees(1 / (k * 32 / row["kp"])) > needed  # K ∝ kp
+        if row["kp"] is not None:
+            assert math.degrees(1 / (k * 32 / row["kp"])) > needed  # K ∝ kp
 
 
 def test_compensated_commands_past_a_limit_are_clipped_and_said(sized):

@@ -185,7 +185,9 @@ def _catalogue(args: argparse.Namespace) -> tuple[dict[str, ServoRecord], list[s
         return catalogue, []
     from app.core.servo.choice import simulatable
 
-    runnable = simulatable(catalogue)
+    runnable = {  # a kp law and firmware, or a continuous point (stiffness stated)
+        k: r for k, r in catalogue.items() if k in simulatable(catalogue) or r.rated is not None
+    }
     if not args.servo_toml.resolve().parent.is_dir():
         raise StudioError(f"--servo-toml {args.servo_toml}: its folder does not exist")
     return runnable, sorted(set(catalogue) - set(runnable))
@@ -251,6 +253,11 @@ def _print_text(args: argparse.Namespace, sized: _Sized, margin: float) -> None:
 
 def _stiffness_text(stiffness) -> str:
     """ "  kp 95: K 166 N·m/rad, sag 1.0°" (or why there is none)."""
+    if stiffness is not None and stiffness.stated:
+        return (
+            f"  no kp law: K {stiffness.stiffness_Nm_per_rad:.3g} N·m/rad stated, "
+            f"sag {stiffness.sag_deg:.2g}°"
+        )
     if stiffness is None or not stiffness.checked:
         return "  kp: not checked (no firmware constants)"
     return (

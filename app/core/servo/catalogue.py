@@ -13,6 +13,10 @@ A record (the same fields for the built-in catalogue and a user's own file)::
     backlash_deg = 0.33               # optional: where published
     price = 300.0                     # optional, with price_currency = "USD"
     continuous_torque_Nm = 1.5        # optional: the continuous (thermal) rating, where published
+    # A servo rated by a continuous point (Dynamixel-P/PRO: no stall torque published) gives
+    # no_load_current_A, continuous_speed_rpm, continuous_current_A and continuous_torque_Nm
+    # instead of stall_torque_Nm, and a [drive] table (max_pwm, current_limit_A, p_gain_max):
+    # app.core.servo.rated_point derives its motor; it has no kp law (stiffness stated).
     identified = "mx64"               # optional: a BAM-identified model (robots/servos/bam/params)
     [firmware]                        # optional: vin_V, kp, error_gain, max_pwm, current_limit_A,
                                       #   kp_max (the P gain register's top, with its source)
@@ -44,6 +48,7 @@ from app.core.servo.bam_models import (  # re-exported: the catalogue's public n
     identified_names,
 )
 from app.core.servo.motor_law import Firmware, FrictionM1, FrictionM6, MotorConstants
+from app.core.servo.rated_point import NO_KP_LAW, RATED_FIGURES, RATED_FIT, RatedPoint, rated_point
 from app.core.servo.record_numbers import ServoCatalogueError
 from app.core.servo.record_numbers import number_field as _number
 from robots.catalogue import ROBOTS_DIR
@@ -52,6 +57,8 @@ SERVOS_DIR = ROBOTS_DIR / "servos"
 
 __all__ = [
     "BAM_PARAMS_DIR",
+    "NO_KP_LAW",
+    "RATED_FIT",
     "SERVOS_DIR",
     "Fit",
     "IdentifiedModel",
@@ -74,7 +81,8 @@ FIGURES = (
     "mass_kg",
     "gear_ratio",
 )
-"""Datasheet figures every record gives, each > 0 and with its source."""
+"""Datasheet figures every record gives, each > 0 and with its source (a record rated by a
+continuous point gives no stall torque: `rated_point`)."""
 OPTIONAL_FIGURES = ("backlash_deg", "price", "continuous_torque_Nm")
 TEXT_FIELDS = ("key", "maker", "model")
 FIRMWARE_FIELDS = ("vin_V", "kp", "error_gain", "max_pwm", "current_limit_A", "kp_max")
@@ -89,8 +97,10 @@ KNOWN_KEYS = (
     *TEXT_FIELDS,
     *FIGURES,
     *OPTIONAL_FIGURES,
+    *RATED_FIGURES,
     "price_currency",
     "identified",
+    "drive",
     "firmware",
     "motor",
     "sources",
@@ -117,7 +127,8 @@ class ServoRecord:
     maker: str
     model: str
     supply_voltage_V: float
-    stall_torque_Nm: float
+    stall_torque_Nm: float | None
+    """None for a servo rated by a continuous point (its maker publishes no stall torque)."""
     no_load_speed_rpm: float
     mass_kg: float
     gear_ratio: float
@@ -134,6 +145,14 @@ class ServoRecord:
     """Identified models, simplest first (m1, then m6 where identified)."""
     origin: str = ""
     """The file the record was read from."""
+    rated: RatedPoint | None = None
+    """The published no-load and continuous points and drive limits (Dynamixel-P/PRO), None
+    for a servo rated by its stall torque."""
+
+    @property
+    def kp_law(self) -> bool:
+        """Whether a firmware kp sets its stiffness (False: no conversion published)."""
+        return self.rated is None
 
     @property
     def no_load_speed_rad_s(self) -> float:
@@ -180,6 +199,8 @@ class ServoRecord:
                 entry["compliance_deg_per_Nm"] = motor_law.compliance_deg_per_Nm(motor, firmware)
             out["fits"][fit.name] = entry
         out["not_simulated"] = why_not_simulated(self) or None
+        out["rated"] = None if self.rated is None else self.rated.to_json()
+        out["kp_law"] = None if self.kp_law else NO_KP_LAW
         return out
 
 
@@ -210,21 +231,30 @@ def record_from_mapping(data: dict[str, Any], where: str) -> ServoRecord:
     key = _text(data, "key", where)
     where = f"{where} [{key}]"
     texts = {name: _text(data, name, where) for name in TEXT_FIELDS}
-    figures = {name: _number(data, name, where, positive=True) for name in FIGURES}
+    drive_table = _table(data, "drive", where)
+    rated = rated_point(data, drive_table, where)
+    required = [n for n in FIGURES if not (rated is not None and n == "stall_torque_Nm")]
+    if rated is not None and "stall_torque_Nm" in data:
+        raise ServoCatalogueError(
+            f"{where}: give stall_torque_Nm or a continuous point with [drive], not both"
+        )
+    figures = {name: _number(data, name, where, positive=True) for name in required}
+    stall = figures.pop("stall_torque_Nm", None)
     optional = {
         name: _number(data, name, where, positive=False)
         for name in OPTIONAL_FIGURES
         if name in data
     }
     sources = _table(data, "sources", where) or {}
-    sourced = (*FIGURES, *OPTIONAL_FIGURES, "firmware", "motor", "kp_max")
+    sourced = (*FIGURES, *OPTIONAL_FIGURES, *RATED_FIGURES, "drive", "firmware", "motor", "kp_max")
     odd = sorted(k for k, v in sources.items() if k not in sourced or not isinstance(v, str))
     if odd:
         raise ServoCatalogueError(
             f"{where}: [sources] {odd[0]} is not a figure's source; give text for any of "
             f"{', '.join(sourced)}"
         )
-    given = [*FIGURES, *optional]
+    given = [*required, *optional, *(RATED_FIGURES if rated is not None else ())]
+    given += ["drive"] if drive_table is not None else []
     firmware_table = _table(data, "firmware", where)
     motor_table = _table(data, "motor", where)
     given += [name for name, t in (("firmware", firmware_table), ("motor", motor_table)) if t]
@@ -255,8 +285,16 @@ def record_from_mapping(data: dict[str, Any], where: str) -> ServoRecord:
         if fits:
             raise ServoCatalogueError(f"{where}: give identified or a [motor] table, not both")
         fits.append(Fit("m1", *_motor(motor_table, f"{where} motor")))
-    if firmware is not None and not fits:
-        fits.append(_datasheet_fit(figures, firmware))
+    if rated is not None:
+        if firmware_table or fits:
+            raise ServoCatalogueError(
+                f"{where}: a continuous point's motor is derived from it; give no [firmware], "
+                "[motor] or identified beside [drive]"
+            )
+        motor = rated.motor(DATASHEET_ARMATURE_KGM2)
+        fits.append(Fit("m1", motor, FrictionM1(0.0, 0.0), RATED_FIT))
+    if firmware is not None and not fits and stall is not None:
+        fits.append(_datasheet_fit({**figures, "stall_torque_Nm": stall}, firmware))
     if firmware is not None:
         for fit in fits:
             try:
@@ -276,6 +314,8 @@ def record_from_mapping(data: dict[str, Any], where: str) -> ServoRecord:
         firmware=firmware,
         fits=tuple(fits),
         origin=where.split(" [")[0],
+        rated=rated,
+        stall_torque_Nm=stall,
         **figures,
     )
 
@@ -305,8 +345,8 @@ def _datasheet_fit(figures: dict[str, float], firmware: Firmware) -> Fit:
 def why_not_simulated(record: ServoRecord) -> str:
     """Why the simulation cannot run `record` ("" when it can): it needs the firmware's
     position loop (error_gain, max_pwm, kp), which datasheets do not publish."""
-    if record.firmware is not None and record.fit("m1") is not None:
-        return ""
+    if record.fit("m1") is not None and (record.firmware is not None or record.rated is not None):
+        return ""  # a rated part runs from a servo.toml's stated stiffness (rated_point)
     return (
         "no identified motor model and no firmware constants (error_gain, max_pwm, kp: the "
         "datasheet publishes neither); give [firmware] in your own servo file to simulate it "

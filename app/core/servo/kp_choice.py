@@ -28,6 +28,9 @@ class KpChoice:
     max_sag_deg: float
     fit: str = "m1"
     """The fit whose kt, R and friction gave K and the sag: the one the joint's part runs."""
+    stated: bool = False
+    """A part with no kp law (app.core.servo.rated_point): no kp, its stiffness stated as the
+    need (the P gain set to give it), `kp` None and `checked` False."""
 
     @property
     def checked(self) -> bool:
@@ -39,9 +42,16 @@ class KpChoice:
 
     @property
     def stiffness_Nm_per_rad(self) -> float | None:
+        if self.stated:
+            return self.stated_Nm_per_rad
         if self.kp is None or self.per_kp_Nm_per_rad is None:
             return None
         return self.kp * self.per_kp_Nm_per_rad
+
+    @property
+    def stated_Nm_per_rad(self) -> float:
+        """The whole N·m/rad a part without a kp law is given: the need rounded up (≥ 1)."""
+        return float(max(1, math.ceil(self.need_Nm_per_rad)))
 
     @property
     def sag_deg(self) -> float | None:
@@ -64,6 +74,7 @@ class KpChoice:
             "kp": self.kp,
             "kp_max": self.kp_max,
             "stiffness_checked": self.checked,
+            "stiffness_stated": self.stated,
             "stiffness_Nm_per_rad": self.stiffness_Nm_per_rad,
             "stiffness_need_Nm_per_rad": self.need_Nm_per_rad,
             "stand_need_Nm_per_rad": self.stand_Nm_per_rad,

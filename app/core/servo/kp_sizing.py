@@ -24,7 +24,10 @@ dead band comes on top (eq 23's φ).
 
 Where no kp in range gives K_need, that servo does not hold the joint (the next one is
 taken); where no servo does, the joint is unsized and says why. A record without a motor law
-(no firmware constants) cannot be checked: it stays a candidate, said in the notes.
+(no firmware constants) cannot be checked: it stays a candidate, said in the notes. A servo
+rated by a continuous point (app.core.servo.rated_point: no published conversion of its P gain)
+has no kp: it is a position servo stiff as the joint needs, K_need stated (rounded up to a
+whole N·m/rad) for its P gain to be tuned to, said in the notes.
 """
 
 from __future__ import annotations
@@ -210,6 +213,12 @@ def choose_kp(
     friction = static_friction_Nm(record, fit, peak)
     sag = (peak + friction) / math.radians(need.max_sag_deg)
     needed = max(stand, sag)
+    if not record.kp_law:
+        top = math.inf if record.rated is None else record.rated.p_gain_max
+        stated = math.isfinite(needed)  # inf: cannot stand on any servo
+        return KpChoice(
+            None, top, None, needed, stand, sag, peak, friction, need.max_sag_deg, fit, stated
+        )
     kp = None
     if per_kp is not None and math.isfinite(needed):
         kp = max(1.0, float(math.ceil(needed / per_kp)))
@@ -263,7 +272,7 @@ def with_stiffness(
             {
                 c.servo
                 for c in sizing.joints[0].checks
-                if stiffness_per_kp(catalogue[c.servo]) is None
+                if stiffness_per_kp(catalogue[c.servo]) is None and catalogue[c.servo].kp_law
             }
         )
         if sizing.joints
@@ -282,6 +291,15 @@ def with_stiffness(
     )
     if fallback:
         notes.append(f"no m6 fit: {', '.join(fallback)} sized on m1 where m6 was asked")
+    stated = sorted(
+        {j.choice for j in joints if j.choice is not None and not catalogue[j.choice].kp_law}
+    )
+    if stated:
+        notes.append(
+            f"no kp law for {', '.join(stated)} (rated by a continuous point; the P gain's "
+            "conversion is not published): each joint's stiffness K is stated, the need rounded "
+            "up; tune the P gain to give it"
+        )
     if unchecked:
         notes.append(
             f"stiffness not checked for {', '.join(unchecked)} (no firmware constants: kp and "

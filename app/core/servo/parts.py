@@ -12,7 +12,9 @@
 
 Every actuated joint needs a servo whose record carries an identified motor model and firmware
 constants (the motor law needs kt, R and error_gain); each value is checked, one line naming the
-field. The part's stiffness K = kt·vin·error_gain·kp/R gives the compliance 1/K that the
+field. A servo rated by a continuous point (Dynamixel-P/PRO, app.core.servo.rated_point) has no
+kp law: its joint gives `stiffness_Nm_per_rad = 1200` instead of kp (a kp in its table is
+refused; a kp for every joint applies to the others), and runs the P loop with that stiffness. The part's stiffness K = kt·vin·error_gain·kp/R gives the compliance 1/K that the
 quasi-static servo model and eq 7 use (`ServoParts.servo_model`).
 """
 
@@ -34,7 +36,7 @@ from app.core.servo.compensation import CompensationParams
 from app.core.servo.model import ServoModel
 from app.core.servo.motor_law import Firmware, FrictionM1, FrictionM6, MotorConstants
 
-SETTINGS = ("kp", "vin_V", "current_limit_A", "dead_band_deg")
+SETTINGS = ("kp", "vin_V", "current_limit_A", "dead_band_deg", "stiffness_Nm_per_rad")
 FRICTION_MODELS = ("m1", "m6")
 KP_MAX = 16383.0
 """The largest position P gain a Dynamixel control table holds (X series, 2 bytes)."""
@@ -65,6 +67,9 @@ class JointPart:
     """BAM's m1 or m6 fit, with `motor` the same fit's kt, R, armature."""
     dead_band_deg: float
     mass_kg: float
+    kp_law: bool = True
+    """False for a part rated by a continuous point: firmware.kp then holds its stated
+    stiffness [N·m/rad] (app.core.servo.rated_point)."""
 
     @property
     def stiffness_Nm_per_rad(self) -> float:
@@ -114,7 +119,7 @@ class ServoParts:
             {
                 "joint": p.joint,
                 "servo": p.servo,
-                "kp": p.firmware.kp,
+                "kp": p.firmware.kp if p.kp_law else None,
                 "vin_V": p.firmware.vin_V,
                 "current_limit_A": p.firmware.current_limit_A,
                 "dead_band_deg": p.dead_band_deg,
@@ -162,11 +167,21 @@ def _part(
     catalogue: dict[str, ServoRecord],
     where: str,
     friction_model: str = "m1",
+    own: set[str] | frozenset[str] = frozenset(),
 ) -> JointPart:
+    """`key`'s part on `joint`; `own`: the settings the joint's own table gives (a kp or a
+    stiffness for all joints applies to the parts it fits; in a joint's table it must fit)."""
     record = catalogue.get(key)
     if record is None:
         raise ServoPartsError(
             f"{where}: servo {key!r} is not in the catalogue; known: {', '.join(sorted(catalogue))}"
+        )
+    if not record.kp_law:
+        return _stated_part(joint, record, settings, where, friction_model, "kp" in own)
+    if "stiffness_Nm_per_rad" in own:
+        raise ServoPartsError(
+            f"{where}: {key} has a kp law: give kp, not stiffness_Nm_per_rad (that is for "
+            "servos rated by a continuous point)"
         )
     fit = record.fit(friction_model)
     base = record.firmware
@@ -194,6 +209,43 @@ def _part(
         raise ServoPartsError(str(error)) from None
     dead_band = settings.get("dead_band_deg", record.backlash_deg or 0.0)
     return JointPart(joint, key, fit.motor, firmware, fit.friction, dead_band, record.mass_kg)
+
+
+def _stated_part(
+    joint: str,
+    record: ServoRecord,
+    settings: dict[str, float],
+    where: str,
+    friction_model: str,
+    own_kp: bool,
+) -> JointPart:
+    """The part of a servo rated by a continuous point, at the stiffness its table states."""
+    rated, fit = record.rated, record.fit("m1")
+    if rated is None or fit is None:
+        raise ServoPartsError(f"{where}: servo {record.key!r} cannot be simulated")
+    if friction_model != "m1":
+        raise ServoPartsError(f"{where}: servo {record.key!r} has no identified {friction_model}")
+    stiffness = settings.get("stiffness_Nm_per_rad")
+    if stiffness is None or own_kp:
+        raise ServoPartsError(
+            f"{where}: {record.key} has no kp law (rated by a continuous point): give "
+            "stiffness_Nm_per_rad = <N·m/rad> for this joint, not kp"
+        )
+    limit = settings.get("current_limit_A")
+    if limit is not None and limit > rated.current_limit_A:
+        raise ServoPartsError(
+            f"{where}: current_limit_A is {limit:g}, past {record.key}'s register's "
+            f"{rated.current_limit_A:g} A"
+        )
+    firmware = rated.firmware(stiffness, settings.get("vin_V"), limit)
+    try:
+        motor_law.check_law(fit.motor, firmware, where)
+    except motor_law.MotorLawError as error:
+        raise ServoPartsError(str(error)) from None
+    dead_band = settings.get("dead_band_deg", record.backlash_deg or 0.0)
+    return JointPart(
+        joint, record.key, fit.motor, firmware, fit.friction, dead_band, record.mass_kg, False
+    )
 
 
 def parts_from_mapping(
@@ -238,10 +290,11 @@ def parts_from_mapping(
                 f"{', '.join(SETTINGS)} only"
             )
         settings = dict(defaults)
-        settings.update({n: v for n in SETTINGS if (v := _setting(table, n, where)) is not None})
+        own = {n: v for n in SETTINGS if (v := _setting(table, n, where)) is not None}
+        settings.update(own)
         key = table.get("servo", default_servo)
         friction = _friction_model(table, where, default_friction)
-        parts.append(_part(name, str(key), settings, catalogue, where, friction))
+        parts.append(_part(name, str(key), settings, catalogue, where, friction, set(own)))
     return ServoParts(tuple(parts))
 
 

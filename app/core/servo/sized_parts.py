@@ -64,6 +64,9 @@ def sized_parts(sizing: Sizing, kp: float | None = None) -> SizedParts:
         )
         lines += ["", f"[joints.{name}]", f"servo = {json.dumps(key)}{comment}"]
         chosen = joint.check(key).stiffness
+        if chosen is not None and chosen.stated:  # no kp law: the stiffness it needs
+            lines.append(f"stiffness_Nm_per_rad = {chosen.stated_Nm_per_rad:g}")
+            continue
         if chosen is not None and chosen.fit != "m1":  # the fit its kp was chosen on
             lines.append(f"friction_model = {json.dumps(chosen.fit)}")
         if chosen is None or not chosen.checked:

@@ -9,8 +9,9 @@ torque the motor gives at output speed ω lies in
 — the line from stall torque τ_s (ω = 0) to no-load speed ω_0 (τ = 0) in the motoring
 quadrants, and more torque when braking (τ·ω < 0). τ_s and ω_0 come from the identified motor
 model and firmware (τ_s = kt·vin·max_pwm/R, ω_0 = vin·max_pwm/kt: the law the simulation
-uses) where the record has one, else from the datasheet's stall torque and no-load speed at its
-rated supply voltage.
+uses) where the record has one; for a servo rated by a continuous point (`rated_point`) the
+line through its no-load speed and continuous point, capped at τ_c/I_c × its firmware's current
+limit; else from the datasheet's stall torque and no-load speed at its rated supply voltage.
 
 The envelope is convex and holds the origin, so a point x = (ω, τ) has a *scale*: the largest s
 with s·x inside, s = min over the bounds a·x ≤ b that x pushes against (a·x > 0) of b / (a·x).
@@ -94,8 +95,18 @@ class Envelope:
 
 
 def envelope(record: ServoRecord) -> Envelope:
-    """The record's envelope: its m1 motor model with its firmware where identified, else the
-    datasheet's stall torque and no-load speed."""
+    """The record's envelope: its m1 motor model with its firmware where identified, its
+    continuous point's line and current limit where rated so, else the datasheet's stall
+    torque and no-load speed."""
+    rated = record.rated
+    if rated is not None:
+        return Envelope(
+            rated.line_stall_torque_Nm,
+            rated.no_load_speed_rad_s,
+            rated.torque_limit_Nm,
+            f"continuous-point DC model at {rated.supply_voltage_V:g} V, capped at "
+            f"{rated.torque_limit_Nm:.3g} N·m (τc/Ic × current limit)",
+        )
     law = record.law("m1")
     if law is not None:
         motor, firmware = law
@@ -108,7 +119,7 @@ def envelope(record: ServoRecord) -> Envelope:
             f" at {firmware.vin_V:g} V",
         )
     return Envelope(
-        record.stall_torque_Nm,
+        float(record.stall_torque_Nm or 0.0),  # only a rated record has none (above)
         record.no_load_speed_rad_s,
         math.inf,
         f"datasheet at {record.supply_voltage_V:g} V",

@@ -92,7 +92,7 @@ def default_motor(effort_Nm: np.ndarray, catalogue: dict | None = None) -> Defau
     fits = {
         r.key: (r, fit)
         for r in (load_catalogue() if catalogue is None else catalogue).values()
-        if (fit := r.fit()) is not None
+        if (fit := r.fit()) is not None and r.firmware is not None and r.stall_torque_Nm
     }
     if not fits:
         raise SimulationInputError("no catalogue servo has a motor model for the default motor")
@@ -103,13 +103,13 @@ def default_motor(effort_Nm: np.ndarray, catalogue: dict | None = None) -> Defau
         if not (math.isfinite(tau_max) and tau_max > 0.0):
             raise SimulationInputError(f"joint {j}: torque limit {tau_max} N·m; give one > 0")
         record, fit = min(
-            fits.values(), key=lambda rf: abs(math.log(rf[0].stall_torque_Nm / tau_max))
+            fits.values(), key=lambda rf: abs(math.log((rf[0].stall_torque_Nm or 1.0) / tau_max))
         )
-        motor = fit.motor
-        ratio = tau_max / record.stall_torque_Nm
+        motor, stall = fit.motor, float(record.stall_torque_Nm or 0.0)
+        ratio = tau_max / stall
         kt[j], r_ohm[j] = motor.kt_Nm_per_A * ratio, motor.R_ohm
-        used.setdefault((record.key, record.stall_torque_Nm, round(ratio, 3)), 0)
-        used[(record.key, record.stall_torque_Nm, round(ratio, 3))] += 1
+        used.setdefault((record.key, stall, round(ratio, 3)), 0)
+        used[(record.key, stall, round(ratio, 3))] += 1
     text = "; ".join(
         f"{count} joint(s): {key} ({stall:g} N·m) geared ×{ratio:g}"
         for (key, stall, ratio), count in used.items()
