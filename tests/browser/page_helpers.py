@@ -38,12 +38,13 @@ T = TypeVar("T")
 
 
 def wait_for(what: str, probe: Callable[[], T | None], timeout_s: float) -> T:
-    """Poll `probe` until it returns something other than None or False; fail naming `what`
+    """Poll `probe` until it returns something other than None or False (numpy's False too: a
+    probe `a and b` gives `np.False_` while a numpy comparison fails); fail naming `what`
     after the timeout."""
     deadline = time.monotonic() + timeout_s
     while True:
         result = probe()
-        if result is not None and result is not False:
+        if result is not None and not (isinstance(result, (bool, np.bool_)) and not result):
             return result
         if time.monotonic() > deadline:
             pytest.fail(f"timed out after {timeout_s:.0f} s waiting for {what}", pytrace=False)
