@@ -166,14 +166,11 @@ class SxNlp:
         oracle: dict[str, Any] | ca.Function = problem
         if self.blocks:
             exact = options.get("ipopt.hessian_approximation", "exact") == "exact"
-            g_fn = ca.Function("nlp_g_values", [x, p], [g])
-            derivatives = block_derivatives(
-                self._calls, self.cost, x, p, g, g_fn, exact=exact,
-                load=nlp_codegen.load_compiled,
-            )  # fmt: skip
+            derivatives, oracle = block_derivatives(
+                self._calls, self.cost, x, p, g, exact=exact, load=nlp_codegen.load_compiled
+            )
             if compile_missing:
                 nlp_codegen.compile_missing([k for k in self.kinds if not k.loaded])
-            oracle = _oracle(x, p, self.cost, g_fn)
         options = {**options, "iteration_callback": callback, **derivatives}
         solver = ca.nlpsol("gait", "ipopt", oracle, options)
         return CompiledNlp(
@@ -186,14 +183,3 @@ class SxNlp:
             derivatives=derivatives,
             oracle=oracle,
         )
-
-
-def _oracle(x: ca.SX, p: ca.SX, cost: Any, g_fn: ca.Function) -> ca.Function:
-    """nlpsol's problem as an MX function of (x, p) calling the SX functions of the cost and
-    of the constraints (`g_fn`, shared with the Jacobian's function). Given the SX expressions themselves,
-    nlpsol spends about 0.5 s of CPU per instance setting up the paper's case (38 knots)
-    around the whole expression graph; given this function, 0.25 s for the first instance and
-    next to nothing for the warm one, with the same values and derivatives."""
-    xm, pm = ca.MX.sym("x", x.shape[0]), ca.MX.sym("p", p.shape[0])
-    f_fn = ca.Function("nlp_f_values", [x, p], [cost])
-    return ca.Function("gait_nlp", [xm, pm], [f_fn(xm, pm), g_fn(xm, pm)], ["x", "p"], ["f", "g"])

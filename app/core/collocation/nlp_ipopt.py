@@ -135,7 +135,8 @@ class CompiledNlp:
     """IPOPT's derivative functions (grad_f, jac_g, hess_lag), shared by both instances."""
     oracle: dict[str, Any] | ca.Function | None = None
     """What both instances are built on: `problem` itself (SxNlp(blocks=False)), or an MX
-    function of (x, p) -> (f, g) over the same SX functions (_oracle)."""
+    function of (x, p) -> (f, g) assembled from the block kinds' values and the rest's
+    (nlp_blocks.block_derivatives)."""
     _warm: ca.Function | None = None
 
     def warm_solver(self) -> ca.Function:
