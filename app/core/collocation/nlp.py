@@ -100,6 +100,25 @@ class SxNlp:
         self._kinds: dict[Hashable, BlockKind] = {}
         self._calls: list[BlockCall] = []
         """(kind, arguments, first row) of every block instance, for its derivatives."""
+        self.from_cache = False
+        """Only the layout, read from the disk cache (SxNlp.restored)."""
+
+    @classmethod
+    def restored(
+        cls,
+        x_blocks: dict[str, list[slice]],
+        g_blocks: dict[str, list[slice]],
+        p_index: dict[str, int],
+        nx: int,
+        ng: int,
+    ) -> SxNlp:
+        """The layout of an NLP read from the disk cache (nlp_cache.py): its variable and row
+        blocks and parameters, without expressions (it cannot be compiled again)."""
+        nlp = cls()
+        nlp.x_blocks, nlp.g_blocks, nlp.p_index = x_blocks, g_blocks, p_index
+        nlp.nx, nlp.ng = nx, ng
+        nlp.from_cache = True
+        return nlp
 
     @property
     def kinds(self) -> list[BlockKind]:
@@ -159,6 +178,8 @@ class SxNlp:
         """The IPOPT solver pair. Block kinds whose compiled derivatives are in the codegen
         cache (nlp_codegen.py) use them; with `compile_missing`, the others are compiled into
         it in the background, for the next build."""
+        if self.from_cache:
+            raise RuntimeError("an NLP read from the disk cache has no expressions to compile")
         x, p, g = ca.vertcat(*self._x), ca.vertcat(*self._p), ca.vertcat(*self._g)
         callback = IpoptCallback(x.shape[0], g.shape[0])
         problem = {"x": x, "p": p, "f": self.cost, "g": g}
