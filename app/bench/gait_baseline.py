@@ -27,7 +27,7 @@ def defaults_solver(problem: Any, max_cpu_s: float | None = None) -> Any:
     tuning: its status then says Maximum_CpuTime_Exceeded and its time is a lower bound)."""
     import casadi as ca
 
-    nlp = problem.compiled.problem  # {"x", "p", "f", "g"}: the expressions the studio solves
+    nlp = problem.expressions()  # {"x", "p", "f", "g"}: the expressions the studio solves
     options = dict(QUIET)
     if max_cpu_s is not None:
         options["ipopt.max_cpu_time"] = float(max_cpu_s)

@@ -110,6 +110,7 @@ def _points_in_worker() -> dict:
         "defaults_status": sorted({d["status"] for d in defaults}),
         "converged": anchor.converged and all(ok for *_, ok in warm + cold),
         "compiled": all(kind.loaded for kind in problem.nlp.kinds),
+        "from_cache": problem.from_cache,
         "includes": "evaluate_point: warm solve from the anchor, readout, metrics; "
         "one BLAS thread; process CPU",
     }

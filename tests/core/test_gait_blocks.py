@@ -10,7 +10,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from app.core.collocation import gait_problem
+from app.core.collocation import gait_problem, nlp_codegen
 from app.core.collocation.gait_problem import GaitProblem
 from app.core.collocation.nlp import SxNlp
 from app.core.collocation.settings import GaitSettings
@@ -99,8 +99,10 @@ def test_both_constructions_reach_the_same_optimum(pair):
     )
 
 
-def test_building_grows_slower_with_blocks():
+def test_building_grows_slower_with_blocks(monkeypatch):
     """Not a clock: the derivative work per knot. The blocks differentiate each kind once, so
-    the number of block kinds does not grow with the knots."""
+    the number of block kinds does not grow with the knots (built: not read from the disk
+    cache, nlp_cache.py)."""
+    monkeypatch.setenv(nlp_codegen.CACHE_ENV, "off")
     small, large = GaitProblem(knots=8), GaitProblem(knots=gait_problem.COARSE_KNOTS)
     assert len(small.nlp._kinds) == len(large.nlp._kinds) <= 6

@@ -49,7 +49,7 @@ def test_refined_gait_equals_the_direct_fine_solve(solved):
 
 def test_refined_gait_meets_the_fine_constraints(solved):
     fine, settings, refined, *_ = solved
-    problem = fine.compiled.problem
+    problem = fine.expressions()
     g = ca.Function("g", [problem["x"], problem["p"]], [problem["g"]])
     lbx, ubx, lbg, ubg = fine._bounds(settings)
     values = np.asarray(g(refined.z, fine._parameters(settings))).ravel()

@@ -49,7 +49,7 @@ def _previous_setup(problem: GaitProblem, settings: GaitSettings) -> tuple[float
     """(objective, x) of the cold solve as the previous set-up ran it."""
     compiled = problem.compiled
     options = {k: v for k, v in compiled.options.items() if k != "iteration_callback"}
-    solver = ca.nlpsol("previous", "ipopt", compiled.problem, options)
+    solver = ca.nlpsol("previous", "ipopt", problem.expressions(), options)
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(LegPosture, "solve_many", _one_by_one)
         x0 = problem._new_guess(settings)

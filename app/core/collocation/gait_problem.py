@@ -13,8 +13,10 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import casadi as ca
 import numpy as np
 
+from app.core.collocation import nlp_cache
 from app.core.collocation.blame import Scales, hardest_constraint
 from app.core.collocation.gait_bounds import (
     BASE_PITCH_BOUNDS_RAD,
@@ -122,9 +124,11 @@ class GaitProblem:
     ) -> None:
         """Build the NLP for dircon_biped (or `robot`): `hessian` is "exact" (default, about 20
         iterations) or "limited-memory" (L-BFGS: thousands of iterations here, kept for
-        comparison). Derivatives compiled for this structure before are loaded from the disk
-        cache (nlp_codegen.py); with `compile_derivatives`, missing ones are compiled into it
-        in the background (~35 s of CPU once), for the next build."""
+        comparison). An NLP saved for this robot and structure before is read from the disk
+        cache (nlp_cache.py) instead of built; else derivatives compiled for its block kinds
+        are loaded from the codegen cache (nlp_codegen.py). With `compile_derivatives`, missing
+        ones are compiled into it in the background (~35 s of CPU once), and a build whose
+        kinds all had them is saved, for the next build."""
         if not isinstance(robot, RobotModel | PlanarModel | None):
             raise TypeError(f"GaitProblem's first argument is the robot, not {robot!r}")
         GaitSettings(knots=knots, baseline=baseline).validate()
@@ -137,10 +141,8 @@ class GaitProblem:
         self.layout = GaitLayout.from_knots(knots)
         self.structure = (knots, baseline)
         self.baseline = baseline
-        self.nlp = SxNlp()
         self.knot_swing: list[slice] = []
         """The swing-foot height rows of each node (gait_nlp.build_gait_nlp)."""
-        self._build()
         options = dict(IPOPT_OPTIONS)
         if baseline:
             # IPOPT's own first barrier parameter (0.1): the baseline's NLP (free mode
@@ -150,7 +152,25 @@ class GaitProblem:
             options.pop("ipopt.mu_init")
         if hessian != "exact":
             options["ipopt.hessian_approximation"] = "limited-memory"
-        self.compiled: CompiledNlp = self.nlp.compile(options, compile_missing=compile_derivatives)
+        key = nlp_cache.problem_key(self.model, knots, baseline, hessian == "exact")
+        # A subclass that builds another NLP (the tests' inlined one) never reads this one's.
+        standard = type(self)._build is GaitProblem._build
+        saved = nlp_cache.load(key) if standard else None
+        self.from_cache = saved is not None
+        """Whether the NLP's functions were read from the disk cache (nlp_cache.py) rather
+        than built."""
+        if saved is not None:
+            self.nlp = SxNlp.restored(
+                saved.x_blocks, saved.g_blocks, saved.p_index, saved.nx, saved.ng
+            )
+            self.knot_swing = saved.knot_swing
+            self.compiled: CompiledNlp = saved.compile(options)
+        else:
+            self.nlp = SxNlp()
+            self._build()
+            self.compiled = self.nlp.compile(options, compile_missing=compile_derivatives)
+            if compile_derivatives and standard:
+                nlp_cache.save(key, self.nlp, self.knot_swing, self.compiled)
         self.compiled.warm_solver()  # built now, so that the first slider re-solve does not pay it
         self.build_s = time.perf_counter() - start
         """Time to build the NLP and IPOPT's derivative functions [s]."""
@@ -166,6 +186,19 @@ class GaitProblem:
     def _build(self) -> None:
         """The NLP's variables, constraints and cost, added to self.nlp (gait_nlp.py)."""
         self.knot_swing = build_gait_nlp(self.nlp, self.model, self.layout, self.baseline)
+
+    def expressions(self) -> dict[str, Any]:
+        """The NLP's SX expressions {"x", "p", "f", "g"} (the same variables and rows as the
+        solver's), built now when the NLP was read from the disk cache (the bench's baseline
+        hands them to nlpsol with its defaults)."""
+        if self.compiled.problem is not None:
+            return self.compiled.problem
+        nlp = SxNlp()
+        build_gait_nlp(nlp, self.model, self.layout, self.baseline)
+        return {
+            "x": ca.vertcat(*nlp._x), "p": ca.vertcat(*nlp._p), "f": nlp.cost,
+            "g": ca.vertcat(*nlp._g),
+        }  # fmt: skip
 
     # -- solving -------------------------------------------------------------------------------
 

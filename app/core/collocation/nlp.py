@@ -100,6 +100,25 @@ class SxNlp:
         self._kinds: dict[Hashable, BlockKind] = {}
         self._calls: list[BlockCall] = []
         """(kind, arguments, first row) of every block instance, for its derivatives."""
+        self.from_cache = False
+        """Only the layout, read from the disk cache (SxNlp.restored)."""
+
+    @classmethod
+    def restored(
+        cls,
+        x_blocks: dict[str, list[slice]],
+        g_blocks: dict[str, list[slice]],
+        p_index: dict[str, int],
+        nx: int,
+        ng: int,
+    ) -> SxNlp:
+        """The layout of an NLP read from the disk cache (nlp_cache.py): its variable and row
+        blocks and parameters, without expressions (it cannot be compiled again)."""
+        nlp = cls()
+        nlp.x_blocks, nlp.g_blocks, nlp.p_index = x_blocks, g_blocks, p_index
+        nlp.nx, nlp.ng = nx, ng
+        nlp.from_cache = True
+        return nlp
 
     @property
     def kinds(self) -> list[BlockKind]:
@@ -159,6 +178,8 @@ class SxNlp:
         """The IPOPT solver pair. Block kinds whose compiled derivatives are in the codegen
         cache (nlp_codegen.py) use them; with `compile_missing`, the others are compiled into
         it in the background, for the next build."""
+        if self.from_cache:
+            raise RuntimeError("an NLP read from the disk cache has no expressions to compile")
         x, p, g = ca.vertcat(*self._x), ca.vertcat(*self._p), ca.vertcat(*self._g)
         callback = IpoptCallback(x.shape[0], g.shape[0])
         problem = {"x": x, "p": p, "f": self.cost, "g": g}
@@ -166,14 +187,11 @@ class SxNlp:
         oracle: dict[str, Any] | ca.Function = problem
         if self.blocks:
             exact = options.get("ipopt.hessian_approximation", "exact") == "exact"
-            g_fn = ca.Function("nlp_g_values", [x, p], [g])
-            derivatives = block_derivatives(
-                self._calls, self.cost, x, p, g, g_fn, exact=exact,
-                load=nlp_codegen.load_compiled,
-            )  # fmt: skip
+            derivatives, oracle = block_derivatives(
+                self._calls, self.cost, x, p, g, exact=exact, load=nlp_codegen.load_compiled
+            )
             if compile_missing:
                 nlp_codegen.compile_missing([k for k in self.kinds if not k.loaded])
-            oracle = _oracle(x, p, self.cost, g_fn)
         options = {**options, "iteration_callback": callback, **derivatives}
         solver = ca.nlpsol("gait", "ipopt", oracle, options)
         return CompiledNlp(
@@ -186,14 +204,3 @@ class SxNlp:
             derivatives=derivatives,
             oracle=oracle,
         )
-
-
-def _oracle(x: ca.SX, p: ca.SX, cost: Any, g_fn: ca.Function) -> ca.Function:
-    """nlpsol's problem as an MX function of (x, p) calling the SX functions of the cost and
-    of the constraints (`g_fn`, shared with the Jacobian's function). Given the SX expressions themselves,
-    nlpsol spends about 0.5 s of CPU per instance setting up the paper's case (38 knots)
-    around the whole expression graph; given this function, 0.25 s for the first instance and
-    next to nothing for the warm one, with the same values and derivatives."""
-    xm, pm = ca.MX.sym("x", x.shape[0]), ca.MX.sym("p", p.shape[0])
-    f_fn = ca.Function("nlp_f_values", [x, p], [cost])
-    return ca.Function("gait_nlp", [xm, pm], [f_fn(xm, pm), g_fn(xm, pm)], ["x", "p"], ["f", "g"])

@@ -91,6 +91,10 @@ class BlockKind:
             self._jacobian = (ca.Function(f"{self.name}_jac", [inputs], [J.nz[:]]), r, c)
         return self._jacobian
 
+    def values(self) -> ca.Function:
+        """inputs (concatenated) -> the block's constraint values (what `function` gives)."""
+        return ca.Function(f"{self.name}_g", [ca.vertcat(*self.local)], [self.expr])
+
     def hessian(self) -> tuple[ca.Function, np.ndarray, np.ndarray]:
         """([inputs; λ] -> nonzeros of ∇²(λᵀ g), their rows and columns among the variables)."""
         if self._hessian is None:
@@ -143,18 +147,22 @@ def block_derivatives(
     x: ca.SX,
     p: ca.SX,
     g: ca.SX,
-    g_fn: ca.Function,
     *,
     exact: bool,
     load: Callable[[BlockKind], bool] | None = None,
-) -> dict[str, ca.Function]:
+) -> tuple[dict[str, ca.Function], ca.Function]:
     """IPOPT's derivative functions, assembled from each block kind's derivatives (taken
     once, on its local symbols, and evaluated over its instances with Function.map) and
     the derivatives of the rest (constraints added with `constrain`, and the cost), taken
-    on their own small graph. A kind that `load` (nlp_codegen.load_compiled) gives compiled
-    derivatives from the codegen cache uses them instead of deriving its own.
+    on their own small graph; and nlpsol's problem, (x, p) -> (f, g), g assembled the same
+    way from the kinds' values (the block rows) and the rest's. A kind that `load`
+    (nlp_codegen.load_compiled) gives compiled derivatives from the codegen cache uses them
+    instead of deriving its own.
     Differentiating the whole problem at once costs time in proportion to its size times the
-    colours of its sparsity (~20 s at 160 knots)."""
+    colours of its sparsity (~20 s at 160 knots); a flat SX function of all the constraints
+    (~70 000 instructions at 38 knots) costs nlpsol ~0.1 s of CPU per build to differentiate
+    for its own use, and ~7 MB to serialise (nlp_cache.py), where the maps cost next to
+    nothing."""
     nx, npar, ng = x.shape[0], p.shape[0], g.shape[0]
     # Where each symbol is in z = [x; p; lam_g] (the derivative functions' inputs).
     z_index = {h: i for i, h in enumerate(_hashes(x) + _hashes(p))}
@@ -174,7 +182,7 @@ def block_derivatives(
     xm, pm = ca.MX.sym("x", nx), ca.MX.sym("p", npar)
     lam_fm, lam_gm = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", ng)
     z_xp, z = ca.vertcat(xm, pm), ca.vertcat(xm, pm, lam_gm)
-    jac, hess = _Triplets(), _Triplets()
+    jac, hess, values_g = _Triplets(), _Triplets(), _Triplets()
     for entry, arg_index, rows in by_kind.values():
         n = len(rows)
         index = np.stack(arg_index)  # (instances, local inputs)
@@ -184,8 +192,11 @@ def block_derivatives(
         )
         cols = index[:, local_cols]  # x index of each local variable, per instance
         row0 = np.array(rows)[:, None]
+        block_rows = (row0 + np.arange(entry.n_rows)).ravel()
+        inputs = ca.reshape(z_xp[index.ravel().tolist()], -1, n)
+        values_g.add(block_rows, np.zeros_like(block_rows), ca.vec(entry.values().map(n)(inputs)))
         function, r, c = entry.jacobian()
-        values = function.map(n)(ca.reshape(z_xp[index.ravel().tolist()], -1, n))
+        values = function.map(n)(inputs)
         jac.add((row0 + r).ravel(), cols[:, c].ravel(), ca.vec(values))
         if exact:
             function, r, c = entry.hessian()
@@ -194,6 +205,13 @@ def block_derivatives(
             values = function.map(n)(with_lam)
             hess.add(cols[:, r].ravel(), cols[:, c].ravel(), ca.vec(values))
     _rest_derivatives(x, p, g, cost, ~in_block, exact, (xm, pm, lam_fm, lam_gm), jac, hess)
+    rest_rows = np.flatnonzero(~in_block)
+    if rest_rows.size:
+        g_rest = ca.Function("rest_values", [x, p], [g[rest_rows.tolist()]])
+        values_g.add(rest_rows, np.zeros_like(rest_rows), g_rest(xm, pm))
+    g_mx = ca.densify(values_g.matrix(ng, 1))
+    f_fn = ca.Function("nlp_f_values", [x, p], [cost])
+    oracle = ca.Function("gait_nlp", [xm, pm], [f_fn(xm, pm), g_mx], ["x", "p"], ["f", "g"])
     out: dict[str, ca.Function] = {
         "grad_f": ca.Function(
             "nlp_grad_f",
@@ -205,7 +223,7 @@ def block_derivatives(
         "jac_g": ca.Function(
             "nlp_jac_g",
             [xm, pm],
-            [g_fn(xm, pm), jac.matrix(ng, nx)],
+            [g_mx, jac.matrix(ng, nx)],
             ["x", "p"],
             ["g", "jac_g_x"],
         ),
@@ -218,7 +236,7 @@ def block_derivatives(
             ["x", "p", "lam_f", "lam_g"],
             ["triu_hess_gamma_x_x"],
         )
-    return out
+    return out, oracle
 
 
 def _rest_derivatives(

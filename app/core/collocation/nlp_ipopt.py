@@ -129,13 +129,16 @@ class CompiledNlp:
     callback: IpoptCallback
     lbg: np.ndarray
     ubg: np.ndarray
-    problem: dict[str, Any]
+    problem: dict[str, Any] | None
+    """The SX expressions {"x", "p", "f", "g"}; None for an NLP read from the disk cache
+    (nlp_cache.py: GaitProblem.expressions builds them when asked)."""
     options: dict[str, Any]
     derivatives: dict[str, ca.Function] = dataclasses.field(default_factory=dict)
     """IPOPT's derivative functions (grad_f, jac_g, hess_lag), shared by both instances."""
     oracle: dict[str, Any] | ca.Function | None = None
     """What both instances are built on: `problem` itself (SxNlp(blocks=False)), or an MX
-    function of (x, p) -> (f, g) over the same SX functions (_oracle)."""
+    function of (x, p) -> (f, g) assembled from the block kinds' values and the rest's
+    (nlp_blocks.block_derivatives)."""
     _warm: ca.Function | None = None
 
     def warm_solver(self) -> ca.Function:
@@ -145,10 +148,11 @@ class CompiledNlp:
             derivatives = self.derivatives or {
                 key: self.solver.get_function(name) for key, name in DERIVATIVES.items()
             }
+            oracle = self.problem if self.oracle is None else self.oracle
+            assert oracle is not None
             self._warm = ca.nlpsol(
-                "gait_warm", "ipopt", self.problem if self.oracle is None else self.oracle,
-                {**self.options, **WARM_START_OPTIONS, **derivatives},
-            )  # fmt: skip
+                "gait_warm", "ipopt", oracle, {**self.options, **WARM_START_OPTIONS, **derivatives}
+            )
         return self._warm
 
     def run(
