@@ -25,8 +25,11 @@ SETTING_LABELS = {
     "vin_V": "Supply [V]",
     "current_limit_A": "Current limit [A]",
     "dead_band_deg": "Dead band [°]",
+    "stiffness_Nm_per_rad": "Stiffness K [N·m/rad]",
 }
-"""The firmware settings' rows, by JointServo field."""
+"""The firmware settings' rows, by JointServo field (the stiffness row in place of kp, for a
+part without a kp law)."""
+STATED = "stiffness_Nm_per_rad"
 NO_PLOT = "Size servos to draw the selected joint's planned torque–speed points here."
 NO_FILE = "(none added)"
 CHOICE_LABELS = {
@@ -91,6 +94,7 @@ class ServosPanel:
                 name: gui.add_number(label, 0.0, min=0.0, step=0.01, disabled=True)
                 for name, label in SETTING_LABELS.items()
             }
+            self.settings[STATED].visible = False
             self.stiffness = gui.add_markdown("")
             self.margin = gui.add_slider(
                 "Margin", min=0.0, max=1.0, step=0.05, initial_value=0.3,
@@ -196,13 +200,14 @@ class ServosPanel:
     def show_joint(
         self, servo: str, settings: dict[str, float], stiffness: str, values: dict[str, float]
     ) -> None:
-        """The selected joint's servo (key, "" ideal), its settings (the values in use) and
-        the stiffness line; `values`: the whole choice's (CHOICE_LABELS' fields)."""
+        """The selected joint's servo (key, "" ideal), its settings (the values in use; a
+        stiffness shows its row in place of kp's) and the stiffness line; `values`: the whole choice's (CHOICE_LABELS' fields)."""
         label = next((lab for lab, key in self._labels.items() if key == servo), IDEAL_LABEL)
         with self._quiet.quietly():
             set_value(self.servo, label)
             for name, handle in self.settings.items():
                 handle.disabled = not servo
+                handle.visible = (name == STATED) == (STATED in settings)  # K or kp
                 set_value(handle, float(settings.get(name, 0.0)))
             for name, handle in self.choice_values.items():
                 set_value(handle, float(values[name]))

@@ -183,11 +183,9 @@ def _catalogue(args: argparse.Namespace) -> tuple[dict[str, ServoRecord], list[s
     check_kp(args.kp)
     if args.servo_toml is None:
         return catalogue, []
-    from app.core.servo.choice import simulatable
+    from app.core.servo.choice import runnable as runnable_records
 
-    runnable = {  # a kp law and firmware, or a continuous point (stiffness stated)
-        k: r for k, r in catalogue.items() if k in simulatable(catalogue) or r.rated is not None
-    }
+    runnable = runnable_records(catalogue)  # a kp law and firmware, or a continuous point
     if not args.servo_toml.resolve().parent.is_dir():
         raise StudioError(f"--servo-toml {args.servo_toml}: its folder does not exist")
     return runnable, sorted(set(catalogue) - set(runnable))

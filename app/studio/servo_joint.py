@@ -1,7 +1,7 @@
 """What the Servos folder shows of the joint selected: its line (the ideal servo's compliance,
 or the part's stiffness K and compliance k = 1/K beside eq 7's k in use), the part's firmware
-settings, and its planned torque–speed points against the servo's envelope with the last
-sizing's verdict. No viser: the servos session hands these to its panel."""
+settings (a part without a kp law: its stated stiffness in place of kp), and its planned
+torque–speed points against the servo's envelope with the last sizing's verdict. No viser: the servos session hands these to its panel."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 from app.core.errors import StudioError
 from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
 from app.core.servo.catalogue import ServoRecord
-from app.core.servo.choice import IDEAL, ServoChoice, choice_parts
+from app.core.servo.choice import IDEAL, ServoChoice, choice_parts, offered_catalogue
 from app.core.servo.sizing import Sizing, check_joint, envelope
 from app.core.servo.sizing_work import Work
 from app.studio.servo_parts import catalogue
@@ -51,16 +51,35 @@ def joint_line(
         "current_limit_A": part.firmware.current_limit_A or 0.0,
         "dead_band_deg": part.dead_band_deg,
     }
+    stated = ""
+    rated = offered_catalogue(one, catalogue())[joint.servo].rated
+    if not part.kp_law and rated is not None:  # a stiffness in place of kp; the register's A
+        del settings["kp"]
+        settings["stiffness_Nm_per_rad"] = part.stiffness_Nm_per_rad
+        settings["current_limit_A"] = joint.current_limit_A or rated.current_limit_A
+        stated = " (stated: no kp law, tune its P gain to give it)"
     k_now = float(coefficients.params.k_deg_per_Nm[i])
     line = (
         f"**{selected}**: {joint.servo}, stiffness K = "
-        f"{part.stiffness_Nm_per_rad:.1f} N·m/rad, compliance **k = 1/K = "
+        f"{part.stiffness_Nm_per_rad:.1f} N·m/rad{stated}, compliance **k = 1/K = "
         f"{part.compliance_deg_per_Nm:.3g} °/(N·m)** (the paper's k: "
         f"{TYPICAL_COMPLIANCE_DEG_PER_NM:g}); stall {part.stall_torque_Nm:.2f} N·m"
     )
     if not np.isclose(k_now, part.compliance_deg_per_Nm, rtol=1e-6):
         line += f"  \n⚠️ eq 7's k is {k_now:.3g} (edited in the Compensation panel)"
     return settings, line
+
+
+def stiffness_now(coefficients: Coefficients | None, joint: str) -> float:
+    """The whole N·m/rad (≥ 1) of `joint`'s compliance in use, 1/k (the paper's k where it is
+    rigid): a part without a kp law starts at the stiffness the joint had; the user types the
+    one its P gain gives."""
+    compliance = TYPICAL_COMPLIANCE_DEG_PER_NM
+    if coefficients is not None:
+        i = coefficients.servo.joint_names.index(joint)
+        now = float(coefficients.servo.compliance_deg_per_Nm[i])
+        compliance = now if math.isfinite(now) and now > 0.0 else compliance
+    return float(max(1, round(1.0 / math.radians(compliance))))
 
 
 def sizing_plot(

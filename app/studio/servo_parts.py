@@ -26,7 +26,7 @@ from app.core.servo.choice import (
     ServoChoice,
     choice_parts,
     offered_catalogue,
-    simulatable,
+    runnable,
 )
 from app.core.servo.model import ServoModel
 from app.core.servo.parts import ServoPartsError
@@ -78,8 +78,9 @@ def energy_line(
         joint = choice.joint(name)
         record = offered.get(joint.servo)
         firmware = record.firmware if record is not None else None
+        rated = record.rated if record is not None else None  # no firmware: its rated voltage
         vin[robot.joint_names.index(name)] = joint.vin_V or (
-            firmware.vin_V if firmware is not None else 1.0
+            firmware.vin_V if firmware is not None else rated.supply_voltage_V if rated else 1.0
         )
     f = run_energy_figures(
         result,
@@ -109,19 +110,19 @@ def added_text(file: UserServoFile, offered: dict[str, ServoRecord]) -> str:
     """What the Servos folder says of a user's file just added (markdown): its servos, and
     those the simulation cannot run, with why."""
     found = records(file)
-    runnable = simulatable({r.key: r for r in found})
+    runs = runnable({r.key: r for r in found})
     lines = [
         f"Added {len(found)} servo(s) from **{file.name}** "
         f"({len(offered)} in the catalogue now): "
         + ", ".join(f"{r.key} ({r.maker} {r.model})" for r in found)
     ]
-    kept_out = [r for r in found if r.key not in runnable]
+    kept_out = [r for r in found if r.key not in runs]
     if kept_out:
         lines.append(
             f"⚠️ not offered in *Servo*: {', '.join(r.key for r in kept_out)}: "
             + why_not_simulated(kept_out[0])
         )
-    derived = [r.key for r in found if r.key in runnable and (f := r.fit("m1")) and f.derived]
+    derived = [r.key for r in found if r.key in runs and (f := r.fit("m1")) and f.derived]
     if derived:
         lines.append(f"{', '.join(derived)}: {DATASHEET_FIT}")
     return "  \n".join(lines)
@@ -181,8 +182,12 @@ def removed_text(name: str, keys: list[str], reset: list[str]) -> str:
 
 
 def _kp_text(joint: JointSizing) -> str:
-    """ ", kp 95 (sag 1.0°)" of the servo chosen, "" where its stiffness was not checked."""
+    """ ", kp 95 (sag 1.0°)" of the servo chosen (a part without a kp law: its stated
+    stiffness), "" where its stiffness was not checked."""
     stiffness = None if joint.choice is None else joint.check(joint.choice).stiffness
+    if stiffness is not None and stiffness.stated and stiffness.sag_deg is not None:
+        k = stiffness.stated_Nm_per_rad
+        return f", stiffness K {k:g} N·m/rad stated (no kp law; sag {stiffness.sag_deg:.2g}°)"
     if stiffness is None or stiffness.kp is None or stiffness.sag_deg is None:
         return ""
     on = "" if stiffness.fit == "m1" else f" on {stiffness.fit}"

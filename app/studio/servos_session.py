@@ -4,7 +4,9 @@ virtual servos that follow from it (app.core.servo.choice.with_parts: the part's
 1/K and dead band for the quick estimate, eq 7's k = 1/K); *Size servos* against the current
 motion's torques and the planned gaits (app.core.servo.sizing_work) on a named thread, with the
 stand margin and largest sag typed beside it (kept in the choice, so in the project) and each
-joint's kp chosen on the fit its part runs (m1, or m6 where the choice says so).
+joint's kp chosen on the fit its part runs (m1, or m6 where the choice says so). A part rated
+by a continuous point (Dynamixel-P: no kp law) takes a stiffness K [N·m/rad] in place of kp:
+picked by hand it starts at the stiffness the joint had; sized, at the one the sizing states.
 
 A joint put back on the ideal servo keeps the compliance and dead band it had (the Compensation
 panel edits them; *Undo* puts the earlier servo and values back).
@@ -33,18 +35,19 @@ from app.core.servo.choice import (
     choice_parts,
     ideal_choice,
     offered_catalogue,
-    simulatable,
+    runnable,
+    sized_servo,
     sizing_fits,
     take_joints,
     with_parts,
 )
-from app.core.servo.kp_sizing import fit_of, kp_of, size_with_kp
+from app.core.servo.kp_sizing import size_with_kp
 from app.core.servo.parts import ServoPartsError
 from app.core.servo.sizing import Sizing
 from app.core.servo.sizing_work import Work, gait_work, motion_work
 from app.core.servo.user_files import UserServoFile, adding, records, user_file
 from app.studio.notifier import Notifier
-from app.studio.servo_joint import joint_line, sizing_plot
+from app.studio.servo_joint import joint_line, sizing_plot, stiffness_now
 from app.studio.servo_parts import (
     added_text,
     catalogue,
@@ -74,9 +77,9 @@ class ServosSession:
     ) -> None:
         """gaits(): the planned gaits to size against too (label → gait or None)."""
         self._state, self._notifier, self._gaits = state, notifier, gaits
-        self.records: dict[str, ServoRecord] = simulatable(catalogue())
-        """The servos offered: those the simulation can run (a motor model and firmware), the
-        user's own files' included."""
+        self.records: dict[str, ServoRecord] = runnable(catalogue())
+        """The servos offered: those the simulation can run (a motor model and firmware, or a
+        continuous point: a stated stiffness), the user's own files' included."""
         self._user_files: tuple[UserServoFile, ...] = ()
         """The user's servo files, kept across robots (the state's parts hold them too)."""
         self.panel = ServosPanel(server.gui, self)
@@ -122,7 +125,7 @@ class ServosSession:
         """Offer the catalogue's servos the simulation can run and the user's `files`'."""
         self._user_files = files
         offered = offered_catalogue(ServoChoice((), (), user_servos=files), catalogue())
-        self.records = simulatable(offered)
+        self.records = runnable(offered)
         self.panel.show_catalogue(
             [(k, f"{k} — {r.maker} {r.model}") for k, r in sorted(self.records.items())],
             not_offered_text(offered),
@@ -146,7 +149,13 @@ class ServosSession:
         choice = self.choice()
         if choice is None or self._selected not in choice.joint_names:
             return
-        self._apply(choice.with_joint(self._selected, JointServo(key)), "parts")
+        record = self.records.get(key)
+        stiffness = None
+        if record is not None and not record.kp_law:  # no kp: the stiffness the joint has now
+            with self._state.lock:
+                stiffness = stiffness_now(self._state.work.coefficients, self._selected)
+        servo = JointServo(key, stiffness_Nm_per_rad=stiffness)
+        self._apply(choice.with_joint(self._selected, servo), "parts")
 
     def set_setting(self, name: str, value: float) -> None:
         choice = self.choice()
@@ -362,10 +371,7 @@ class ServosSession:
         if choice is None or self._state.robot is not robot:
             return
         for joint in sizing.joints:
-            chosen = JointServo()
-            if joint.choice is not None:
-                chosen = JointServo(joint.choice, kp=kp_of(joint), friction_model=fit_of(joint))
-            choice = choice.with_joint(joint.joint, chosen)
+            choice = choice.with_joint(joint.joint, sized_servo(joint))
         self.last = (sizing, works)
         total = len(offered_catalogue(choice, catalogue()))
         self.panel.sizing.content = sizing_text(sizing, works, self.records, total)

@@ -7,7 +7,9 @@ brute force over the servos offered and their kp (tests/kp_brute_force.py); a st
 typed beside *Size servos* and the kp it changes are read in the page against the same brute
 force with that margin (a bad one refused in one line, the last good kept). Last, the user's own servo file is uploaded through the
 folder's upload button (a bad one first: refused in one line, nothing changed), its servo
-picked from the dropdown and its k = 1/K read in the page against the file's own numbers.
+picked from the dropdown and its k = 1/K read in the page against the file's own numbers. A
+Dynamixel-P part picked from the dropdown shows a stiffness input in place of kp's, and the
+stiffness typed there gives the compliance line k = 1/K.
 
 The page is loaded once for the module: run the tests together, in file order.
 """
@@ -111,8 +113,11 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
         expected = expected or ""
         assert (parts.joint(name).servo, parts.joint(name).kp) == (expected, kp), name
         if expected:
+            said = (
+                f"kp {kp:g}" if kp is not None else r"stiffness K \d+ N·m/rad stated"
+            )  # no kp law
             line = re.search(
-                rf"^{re.escape(name)}: {expected}, peak margin ([+-](?:\d+|inf))%.*, kp {kp:g} ",
+                rf"^{re.escape(name)}: {expected}, peak margin ([+-](?:\d+|inf))%.*, {said} ",
                 text,
                 re.M,
             )
@@ -230,3 +235,26 @@ def test_a_user_servo_file_uploaded_is_offered_and_picked(page, studio: Studio) 
     servos.get_by_text(f"k = 1/K = {compliance:.3g} °/(N·m)", exact=False).wait_for(
         state="visible", timeout=UI_TIMEOUT_S * 1000
     )
+
+
+def test_a_p_part_picked_shows_a_stiffness_in_place_of_kp(page, studio: Studio) -> None:
+    """PH54-200 (rated by a continuous point, no kp law): K typed, k = 1/K read in the page."""
+    joint, key = "right_knee", "ph54_200_s500"
+    record = catalogue()[key]
+    select_option(page, "Servo of joint", joint)
+    select_option(page, "Servo", f"{key} — {record.maker} {record.model}")
+    wait_for(
+        f"{key} on {joint} in the studio",
+        lambda: (p := studio.state.work.parts) is not None and p.joint(joint).servo == key,
+        UI_TIMEOUT_S,
+    )
+    servos = folder(page, "Servos")
+    for label, state in (("Stiffness K [N·m/rad]", "visible"), ("kp (firmware)", "hidden")):
+        servos.locator("label", has_text=re.compile(rf"^{re.escape(label)}$")).wait_for(
+            state=state, timeout=UI_TIMEOUT_S * 1000
+        )
+    type_number(page, "Stiffness K [N·m/rad]", 1200.0)
+    servos.get_by_text(f"k = 1/K = {math.degrees(1.0 / 1200.0):.3g} °/(N·m)", exact=False).wait_for(
+        state="visible", timeout=UI_TIMEOUT_S * 1000
+    )
+    assert studio.state.work.parts.joint(joint).stiffness_Nm_per_rad == 1200.0

@@ -107,7 +107,10 @@ def test_size_servos_picks_the_lightest_that_holds_as_a_brute_force_does(studio)
         assert (parts.joint(name).servo, parts.joint(name).kp) == (expected, kp), name
         if expected:
             assert f"{name}: **{expected}**" in session.panel.sizing.content
-            assert f", kp {kp:g} (sag" in session.panel.sizing.content
+            if catalogue()[expected].kp_law:
+                assert f", kp {kp:g} (sag" in session.panel.sizing.content
+            else:  # rated by a continuous point (a PH42-020 hip roll): stiffness stated
+                assert kp is None and parts.joint(name).stiffness_Nm_per_rad is not None
         else:
             assert f"{name}: **no servo holds it**" in session.panel.sizing.content
     # The torque–speed plot of a sized joint: every planned point, over its servo's envelope,

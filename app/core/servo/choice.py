@@ -5,8 +5,9 @@ Only the choice is kept (catalogue keys and settings, None where the record's ow
 taken; the fit each part runs; the battery and *Size servos*' stand margin and sag bound); the
 parts it names are made from the catalogue with the same checks as a servo.toml
 (`app.core.servo.parts.parts_from_mapping`: kp within the firmware's range, positive voltage
-and current limit, a dead band of 0 … 10°, a servo the simulation can run), so a project's
-hostile values are refused with the same one line.
+and current limit, a dead band of 0 … 10°, a servo the simulation can run; a part rated by a
+continuous point, without a kp law, a stiffness K > 0 in place of kp), so a project's hostile
+values are refused with the same one line.
 """
 
 from __future__ import annotations
@@ -21,14 +22,22 @@ import numpy as np
 from app.core.errors import StudioError
 from app.core.servo.catalogue import ServoCatalogueError, ServoRecord
 from app.core.servo.compensation import CompensationParams
-from app.core.servo.kp_sizing import MAX_SAG_DEG, STAND_MARGIN, check_max_sag, check_stand_margin
+from app.core.servo.kp_sizing import (
+    MAX_SAG_DEG,
+    STAND_MARGIN,
+    check_max_sag,
+    check_stand_margin,
+    fit_of,
+    kp_of,
+)
 from app.core.servo.model import ServoModel
 from app.core.servo.parts import ServoParts, ServoPartsError, parts_from_mapping
+from app.core.servo.sizing import JointSizing
 from app.core.servo.user_files import UserServoFile, with_user_files
 
 IDEAL = ""
 """The ideal servo: the virtual compliance and dead band of the Compensation panel."""
-SETTINGS = ("kp", "vin_V", "current_limit_A", "dead_band_deg")
+SETTINGS = ("kp", "vin_V", "current_limit_A", "dead_band_deg", "stiffness_Nm_per_rad")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,6 +52,9 @@ class JointServo:
     current_limit_A: float | None = None
     dead_band_deg: float | None = None
     friction_model: Literal["m1", "m6"] = "m1"
+    stiffness_Nm_per_rad: float | None = None
+    """A part without a kp law (rated by a continuous point): the stiffness K its P loop is
+    tuned to, in place of kp (servo.toml's `stiffness_Nm_per_rad`)."""
 
     @property
     def is_ideal(self) -> bool:
@@ -90,6 +102,25 @@ def ideal_choice(joint_names: Sequence[str]) -> ServoChoice:
 def simulatable(catalogue: dict[str, ServoRecord]) -> dict[str, ServoRecord]:
     """The records the simulation can run as parts: an identified motor model and firmware."""
     return {k: r for k, r in catalogue.items() if r.firmware is not None and r.fit("m1")}
+
+
+def runnable(catalogue: dict[str, ServoRecord]) -> dict[str, ServoRecord]:
+    """The records a joint can run as a part: those `simulatable`, and those rated by a
+    continuous point (no kp law: run at a stated stiffness, app.core.servo.rated_point)."""
+    law = simulatable(catalogue)
+    return {k: r for k, r in catalogue.items() if k in law or r.rated is not None}
+
+
+def sized_servo(joint: JointSizing) -> JointServo:
+    """The servo *Size servos* gives `joint`: the ideal one where no servo holds it, else the
+    servo chosen with its kp on the fit it was chosen on, or, for a part without a kp law,
+    the stiffness stated for it (`KpChoice.stated_Nm_per_rad`)."""
+    if joint.choice is None:
+        return JointServo()
+    stiffness = joint.check(joint.choice).stiffness
+    if stiffness is not None and stiffness.stated:
+        return JointServo(joint.choice, stiffness_Nm_per_rad=stiffness.stated_Nm_per_rad)
+    return JointServo(joint.choice, kp=kp_of(joint), friction_model=fit_of(joint))
 
 
 def joint_mapping(servo: JointServo) -> dict[str, Any]:
