@@ -68,32 +68,33 @@ def test_every_sample_of_the_one_leg_squats_is_placos_own_fixed_point_and_reache
     robot = load_robot("servo_biped")
     plan = MOTIONS["one_leg_squats"].build(robot, **resolve_params("one_leg_squats", {}))
     ik = _Recording(robot, com_in_support=True, posture_weight=MOTION_POSTURE_WEIGHT)
-    planned: list[IkTargets] = []
+    planned: dict[int, IkTargets] = {}
+    made = keyframe_samples._segment
 
-    def recorded(*args, **kwargs):
-        made = segment_targets(*args, **kwargs)
-        planned.extend(made)
-        return made
+    def recorded(robot, keyframes, segment, start, k, *args):
+        targets = made(robot, keyframes, segment, start, k, *args)
+        for i, sample_targets in enumerate(targets):  # a segment's from the sample before it
+            planned.setdefault(k + i, sample_targets)
+        return targets
 
-    segment_targets = keyframe_samples.segment_targets
-    monkeypatch.setattr(keyframe_samples, "segment_targets", recorded)
+    monkeypatch.setattr(keyframe_samples, "_segment", recorded)
     motion = interpolate(robot, plan.keyframes, dt=0.01, ik=ik)
     q, contacts = motion.trajectory.q, motion.trajectory.contacts
     assert motion.warnings == ()
-    assert len(planned) == len(q) - 1 > 900  # the targets of every sample after the first
+    assert sorted(planned) == list(range(len(q))) and len(q) > 900
     # the point of the fill: the IK answers for under half of the samples, each kept as it is
     solved = {}
     for q_start, targets, result in ik.asked:
         k = int(np.flatnonzero((q == result.q).all(axis=1))[0])
         if k > 0:  # from one of the three samples before (the node before, or the sample)
-            assert targets is planned[k - 1], k
+            assert targets is planned[k], k
             assert any(np.array_equal(q_start, q[j]) for j in range(max(k - 3, 0), k)), k
         solved[k] = targets
     assert 0 in solved and len(solved) == len(ik.asked) < 0.5 * len(q)
     wrapper = placo.RobotWrapper("", 0, canonical_urdf(robot.tree))
     data = robot.model.createData()
     for k in range(len(q)):
-        targets = solved[0] if k == 0 else planned[k - 1]
+        targets = solved[0] if k == 0 else planned[k]
         if k > 0:
             fixed, iterations = placo_solve_of(robot, ik, q[k - 1], targets, wrapper)
             assert iterations < 50, k  # no crawl: the comparison holds on every sample

@@ -30,14 +30,14 @@ kinematics as a solved sample's.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
 
 from app.core.motions.continuity import _joint_speeds
-from app.core.motions.keyframe_guards import CONTACT_BAND_M
-from app.core.posing.ik import REACHED_M, REACHED_RAD, IkTargets
+from app.core.motions.keyframe_guards import CONTACT_BAND_M, REPORT_M, REPORT_RAD
+from app.core.posing.ik import REACHED_M, IkTargets
 from app.core.robot.model import RobotModel
 
 FILL_EVERY = 3
@@ -48,9 +48,24 @@ FILL_Q = 1e-6
 """[rad, m] The estimated fill error allowed per configuration entry: below the accuracy of a
 solved sample itself (one Gauss–Newton step leaves up to ~2.4e-6 from placo's fixed point,
 tests/core/test_keyframes_trimmed.py)."""
+FILL_TASK = 2e-6
+"""[m, rad] How far a filled sample's misses of its targets (feet, pelvis, CoM: position and
+sin θ·axis of the turn) may be from the same polynomials through the nodes' misses: the
+IK's answer and the targets are smooth between nodes where this holds, and a fill error within
+FILL_Q moves a foot ~1e-6 m (a target that steps between nodes, put back on the floor, does
+not pass)."""
+CLEAR_OF = 1e-5
+"""[m, rad] A filled sample's misses must be this far inside the thresholds at which a miss is
+reported (REPORT_M, REPORT_RAD; the CoM's REACHED_M): closer, the IK's own answer could fall
+on the other side, and the sample is solved (Roban S14's step in place, whose CoM misses
+hover at 1 mm)."""
 HELD_M = 1e-6
 """[m] How far a filled sample's stance foot may be from where it stands (solved samples: the
 anchor puts it there to ~1e-10; STANCE_SLIDE_M, the guard of solved samples, is 5e-4)."""
+
+LIMIT_SLACK = 1e-9
+"""[rad, m] A filled joint this little beyond its limit is rounding (a joint held at its limit
+at every node is filled with weights that sum to 1 to rounding), not a limit crossed."""
 
 
 def fillable(robot: RobotModel) -> bool:
@@ -70,8 +85,16 @@ def fill(
     """The samples strictly between consecutive `nodes` (sorted sample indices, at least
     FILL_NODES + 1 of them) filled from qs[nodes]. Returns (their indices, their
     configurations, the estimated error of each, the largest over its entries)."""
+    where, q_filled, estimate = fill_values(nodes, qs[nodes])
+    if robot.floating_base:
+        quaternion = q_filled[:, 3:7]
+        quaternion /= np.linalg.norm(quaternion, axis=1)[:, None]
+    return where, q_filled, estimate
+
+
+def fill_values(nodes: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """fill's polynomials on any values (rows: the nodes'): (indices, filled rows, estimates)."""
     count = len(nodes)
-    values = qs[nodes]
     filled, estimates, where = [], [], []
     weights: dict[bytes, np.ndarray] = {}  # by the nodes and samples relative to the interval's
 
@@ -93,11 +116,7 @@ def fill(
         filled.append(q)
         estimates.append(np.abs(q - q_wide).max(axis=1))
         where.append(inside)
-    q_filled = np.concatenate(filled)
-    if robot.floating_base:
-        quaternion = q_filled[:, 3:7]
-        quaternion /= np.linalg.norm(quaternion, axis=1)[:, None]
-    return np.concatenate(where), q_filled, np.concatenate(estimates)
+    return np.concatenate(where), np.concatenate(filled), np.concatenate(estimates)
 
 
 def _lagrange(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -112,74 +131,120 @@ def _lagrange(nodes: np.ndarray, x: np.ndarray) -> np.ndarray:
 def check(
     robot: RobotModel,
     data: pin.Data,
-    q: np.ndarray,
-    before: np.ndarray,
-    after: np.ndarray,
-    targets: Sequence[IkTargets],
+    qs: np.ndarray,
+    nodes: np.ndarray,
+    where: np.ndarray,
+    targets_at: Callable[[int], IkTargets],
     polygon: np.ndarray | None,
     dt: float,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The checks of the filled samples q (m, nq) of one segment (module docstring): `before`
-    (m, nq) the sample before each, `after` (m, nq) the sample after each (for the speed limit
-    into the next node), `targets` theirs, `polygon` the support polygon the CoM must stay in
-    (None: not kept there). Returns (whether each passes, (m, 2) contacts)."""
+    """The checks (module docstring) of the samples `where` of one segment, filled in qs from
+    its `nodes` (both in the order fill gives them); `targets_at(k)`: sample k's targets,
+    `polygon` the support polygon the CoM must stay in (None: not kept there). Returns
+    (whether each passes, (len(where), 2) contacts)."""
     model = robot.model
     ids = robot.link_frame_ids
-    feet = {foot.side: ids[foot.link] for foot in robot.feet}
-    pelvis_id = ids[robot.tree.root]
-    m = len(q)
-    placed = {label: np.empty((m, 4, 4)) for label in ("left", "right", "pelvis")}
-    com = np.empty((m, 2))
+    frames = {
+        "left": ids[robot.foot("left").link],
+        "right": ids[robot.foot("right").link],
+        "pelvis": ids[robot.tree.root],
+    }
+    samples = np.concatenate([nodes, where])
+    count = len(samples)
+    placed = {label: np.empty((count, 4, 4)) for label in frames}
+    com = np.empty((count, 2))
     oMf = data.oMf
-    for k in range(m):  # the only loop over samples: pinocchio's kinematics and CoM
-        pin.framesForwardKinematics(model, data, q[k])
-        placed["left"][k] = oMf[feet["left"]].homogeneous
-        placed["right"][k] = oMf[feet["right"]].homogeneous
-        placed["pelvis"][k] = oMf[pelvis_id].homogeneous
-        com[k] = pin.centerOfMass(model, data, False)[:2]
+    for row, k in enumerate(samples):  # the only loop over samples: pinocchio's FK and CoM
+        pin.framesForwardKinematics(model, data, qs[k])
+        for label, frame in frames.items():
+            placed[label][row] = oMf[frame].homogeneous
+        com[row] = pin.centerOfMass(model, data, False)[:2]
+    targets = [targets_at(int(k)) for k in samples]
+    wanted = _wanted(targets)
+    residuals = np.concatenate(
+        [_residual(placed[label], T) for label, T in wanted.items() if label != "com"]
+        + ([com - wanted["com"][:, :2, 3]] if "com" in wanted else []),
+        axis=1,
+    )
+    first = len(nodes)
+    _, predicted, _ = fill_values(nodes, residuals[:first])
+    ok = np.abs(residuals[first:] - predicted).max(axis=1) <= FILL_TASK
     stance = targets[0].stance
-    ok = np.ones(m, dtype=bool)
-    contacts = np.zeros((m, 2), dtype=bool)
+    contacts = np.ones((len(where), 2), dtype=bool)
     for i, foot in enumerate(robot.feet):
-        T = placed[foot.side]
-        T_target = np.stack(
-            [t.T_world_left if foot.side == "left" else t.T_world_right for t in targets]
-        )
+        T, T_target = placed[foot.side][first:], wanted[foot.side][first:]
         if stance in (foot.side, "both"):
-            contacts[:, i] = True
             ok &= np.abs(T[:, :3, :] - T_target[:, :3, :]).max(axis=(1, 2)) < HELD_M
             continue
         lowest = np.einsum("cj,mj->mc", foot.sole_corners_m, T[:, 2, :3]).min(axis=1) + T[:, 2, 3]
         contacts[:, i] = lowest <= CONTACT_BAND_M
-        ok &= _reached(T, T_target, horizontal=True)
-    if targets[0].T_world_pelvis is not None:
-        T_target = np.stack([t.T_world_pelvis for t in targets])  # type: ignore[misc]
-        ok &= _reached(placed["pelvis"], T_target, horizontal=targets[0].com_xy is None)
-    if targets[0].com_xy is not None:
-        wanted = np.stack([np.asarray(t.com_xy, dtype=float)[:2] for t in targets])
-        ok &= np.linalg.norm(com - wanted, axis=1) < REACHED_M
+        ok &= _reported(T, T_target, horizontal=True)
+    if "pelvis" in wanted:
+        pelvis = placed["pelvis"][first:]
+        ok &= _reported(pelvis, wanted["pelvis"][first:], horizontal="com" not in wanted)
+    if "com" in wanted:
+        miss = np.linalg.norm(com[first:] - wanted["com"][first:, :2, 3], axis=1)
+        ok &= miss < REACHED_M - CLEAR_OF
     if polygon is not None:
-        ok &= _margins(com, polygon) >= 0.0
+        ok &= _margins(com[first:], polygon) >= 0.0
+    return ok & _within_limits(robot, qs, where, dt), contacts
+
+
+def _wanted(targets: Sequence[IkTargets]) -> dict[str, np.ndarray]:
+    """The samples' targets stacked by label, (m, 4, 4) (the CoM's xy in the translation)."""
+    wanted = {
+        "left": np.stack([np.asarray(t.T_world_left) for t in targets]),
+        "right": np.stack([np.asarray(t.T_world_right) for t in targets]),
+    }
+    if targets[0].T_world_pelvis is not None:
+        wanted["pelvis"] = np.stack([np.asarray(t.T_world_pelvis) for t in targets])
+    if targets[0].com_xy is not None:
+        com = np.zeros((len(targets), 4, 4))
+        com[:, :2, 3] = [np.asarray(t.com_xy, dtype=float)[:2] for t in targets]
+        wanted["com"] = com
+    return wanted
+
+
+def _residual(T: np.ndarray, T_target: np.ndarray) -> np.ndarray:
+    """(m, 6) How placements miss their targets: the position, and sin θ·axis of the turn
+    R_targetᵀR (smooth in the configuration, as the IK's own residual is)."""
+    relative = np.einsum("mji,mjk->mik", T_target[:, :3, :3], T[:, :3, :3])
+    turn = 0.5 * np.stack(
+        [
+            relative[:, 2, 1] - relative[:, 1, 2],
+            relative[:, 0, 2] - relative[:, 2, 0],
+            relative[:, 1, 0] - relative[:, 0, 1],
+        ],
+        axis=1,
+    )
+    return np.concatenate([T[:, :3, 3] - T_target[:, :3, 3], turn], axis=1)
+
+
+def _within_limits(robot: RobotModel, qs: np.ndarray, where: np.ndarray, dt: float) -> np.ndarray:
+    """(m,) The samples `where` with every joint within its limits (LIMIT_SLACK) and within its
+    speed limit from the sample before and to the sample after."""
+    model = robot.model
     idx_q = np.array([joint.idx_q for joint in robot.joints], dtype=int)
-    angles = q[:, idx_q]
+    angles = qs[where][:, idx_q]
     lower, upper = model.lowerPositionLimit[idx_q], model.upperPositionLimit[idx_q]
-    ok &= ((angles >= lower) & (angles <= upper)).all(axis=1)
+    ok = ((angles >= lower - LIMIT_SLACK) & (angles <= upper + LIMIT_SLACK)).all(axis=1)
     _, v_max = _joint_speeds(robot)
     limit = v_max * dt * (1.0 + 1e-9)
-    ok &= (np.abs(angles - before[:, idx_q]) <= limit).all(axis=1)
-    ok &= (np.abs(after[:, idx_q] - angles) <= limit).all(axis=1)
-    return ok, contacts
+    ok &= (np.abs(angles - qs[where - 1][:, idx_q]) <= limit).all(axis=1)
+    return ok & (np.abs(qs[where + 1][:, idx_q] - angles) <= limit).all(axis=1)
 
 
-def _reached(T: np.ndarray, T_target: np.ndarray, horizontal: bool) -> np.ndarray:
-    """(m,) Placements within REACHED_M and REACHED_RAD of their targets (the horizontal
-    position left out when not `horizontal`)."""
+def _reported(T: np.ndarray, T_target: np.ndarray, horizontal: bool) -> np.ndarray:
+    """(m,) Placements within REPORT_M and REPORT_RAD of their targets (the horizontal position
+    left out when not `horizontal`): no miss reported (keyframe_guards._shortfalls)."""
     miss = T[:, :3, 3] - T_target[:, :3, 3]
     if not horizontal:
         miss = miss[:, 2:]
     relative = np.einsum("mji,mjk->mik", T_target[:, :3, :3], T[:, :3, :3])
     cos_angle = np.clip((np.trace(relative, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
-    return (np.linalg.norm(miss, axis=1) < REACHED_M) & (cos_angle > np.cos(REACHED_RAD))
+    return (np.linalg.norm(miss, axis=1) < REPORT_M - CLEAR_OF) & (
+        cos_angle > np.cos(REPORT_RAD - CLEAR_OF)
+    )
 
 
 def _margins(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:

@@ -3,8 +3,9 @@ segment: each solved by the IK from the sample before, or (tracking, and a robot
 fill: app.core.motions.keyframe_fill) solved at nodes every few samples, each from the node
 before, the samples between filled from the nodes and checked, an interval that fails a check
 solved sample by sample. The first sample, a segment whose samples are too few to fill, a
-segment from its first node that says anything (a warning, a slide, a jump) and the samples
-after the last keyframe's time are solved sample by sample.
+segment from its first node that says anything (a warning, a slide, a jump) or misses a target
+(where targets compete the IK's answers depend on the path: _Sampler._solve_node) and the
+samples after the last keyframe's time are solved sample by sample.
 """
 
 from __future__ import annotations
@@ -127,9 +128,9 @@ class _Sampler:
         # where it starts: the sample before (the first segment: where the motion started)
         q_before = self.qs[k0 - 1] if q_start is None else q_start
         self.start = _where(self.robot, q_before, self.data)
-        self.first_k = k0
+        self.first_k = k0 - 1  # the targets from the sample before (a node when aligned)
         self.planned = _segment(
-            self.robot, self.keyframes, segment, self.start, k0, self.n, self.dt, self.ends
+            self.robot, self.keyframes, segment, self.start, k0 - 1, self.n, self.dt, self.ends
         )
         k = self._filled(segment, k0, k1, every) if every > 1 and self.can_fill else k0
         for j in range(k, k1 + 1):
@@ -168,17 +169,17 @@ class _Sampler:
         nodes_at = np.array(nodes)
         where, q_filled, estimate = fill(self.robot, nodes_at, self.qs)
         self.qs[where] = q_filled
-        targets = [self.planned[k - self.first_k] for k in where]
         polygon = None
         if self.com_in_support:
-            polygon = self.ik.support_polygon(self.qs[nodes[0]], targets[0].stance)
+            stance = self.planned[-1].stance
+            polygon = self.ik.support_polygon(self.qs[nodes[0]], stance)
         ok, contacts = check(
             self.robot,
             self.scratch,
-            q_filled,
-            self.qs[where - 1],
-            self.qs[where + 1],
-            targets,
+            self.qs,
+            nodes_at,
+            where,
+            lambda k: self.planned[k - self.first_k],
             polygon,
             self.dt,
         )
@@ -193,7 +194,12 @@ class _Sampler:
 
     def _solve_node(self, nodes: list[int], b: int) -> bool:
         """Sample b solved from the last node (its start predicted from up to four nodes
-        before); False (nothing kept) when it says anything or misses a target."""
+        before); False (nothing kept) when it says anything (a warning, a slide, a jump) or
+        misses a target by REACHED_M / REACHED_RAD: where the targets compete, the IK's answer
+        depends on the path it is reached by (Roban S14's step in place: its CoM 1.0, 1.5,
+        0.9, 1.5 mm from its target on consecutive samples solved one by one, ~0.3 mm from
+        nodes solved 30 ms apart), and a fill would smooth over what the samples solved one
+        by one show."""
         robot, ik, model = self.robot, self.ik, self.robot.model
         a = nodes[-1]
         q_from, targets = self.qs[a], self.planned[b - self.first_k]
@@ -211,7 +217,7 @@ class _Sampler:
             max_iterations=SOLVE_ITERATIONS,
             explain=False,
         )
-        if not result.reached or result.warnings:
+        if not result.reached:  # targets that compete: answers that depend on the path
             return False
         result, messages = _keep_stance(ik, q_from, targets, result, self.com_in_support)
         if messages:

@@ -23,7 +23,7 @@ previous keyframe. `interpolate` samples the motion every dt seconds:
   through the nodes around them and checked in one pass (the estimated fill error, the feet,
   pelvis and CoM against their targets, the CoM polygon, joint and speed limits): an
   interval that fails is solved sample by sample, and so is a segment from a node that says
-  anything (app.core.motions.keyframe_samples, keyframe_fill);
+  anything or misses a target (app.core.motions.keyframe_samples, keyframe_fill);
 - when a keyframe gives both the pelvis and the CoM, the CoM's ground projection takes
   precedence over the pelvis's horizontal position (the IK weighs it 10×, and the two are only
   consistent at the keyframes): a horizontal pelvis miss is not reported, its height and
