@@ -18,6 +18,12 @@ previous keyframe. `interpolate` samples the motion every dt seconds:
   `tracking=False` does for every sample; a sample that would still slide one (the IK's
   hold is a heavy soft task, and an unreachable CoM target can pull it) is solved again
   without the CoM target, or keeps the previous pose, and says so;
+- except that, tracking, the IK solves only every FILL_EVERY-th sample of a segment (its
+  nodes, each from the node before) and the samples between are filled by the polynomial
+  through the nodes around them and checked in one pass (the estimated fill error, the feet,
+  pelvis and CoM against their targets, the CoM polygon, joint and speed limits): an
+  interval that fails is solved sample by sample, and so is a segment from a node that says
+  anything or misses a target (app.core.motions.keyframe_samples, keyframe_fill);
 - when a keyframe gives both the pelvis and the CoM, the CoM's ground projection takes
   precedence over the pelvis's horizontal position (the IK weighs it 10×, and the two are only
   consistent at the keyframes): a horizontal pelvis miss is not reported, its height and
@@ -35,7 +41,7 @@ moving feet beyond REPORT_M / REPORT_RAD, the CoM beyond the IK's 1 mm).
 
 The keyframe records and their checks are in app.core.motions.keyframe_records, the targets of
 a segment's samples in keyframe_targets, the checks and guards on each sample in
-keyframe_guards.
+keyframe_guards, the sampling in keyframe_samples and the fill in keyframe_fill.
 """
 
 from __future__ import annotations
@@ -44,18 +50,9 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-import pinocchio as pin
 
 from app.core.budgets import check_dt, check_samples
-from app.core.motions.keyframe_guards import (
-    SOLVE_ITERATIONS,
-    _contacts,
-    _continuous,
-    _keep_stance,
-    _placed,
-    _shortfalls,
-    _where,
-)
+from app.core.motions.keyframe_fill import FILL_EVERY
 from app.core.motions.keyframe_records import (
     Keyframe,
     KeyframeError,
@@ -63,10 +60,10 @@ from app.core.motions.keyframe_records import (
     capture_keyframe,
     validate,
 )
-from app.core.motions.keyframe_targets import on_floor, segment_targets
-from app.core.motions.result import MotionResult, SampleWarning
+from app.core.motions.keyframe_samples import sample_motion
+from app.core.motions.result import MotionResult
 from app.core.motions.trajectory import from_configurations
-from app.core.posing.ik import IkTargets, WholeBodyIK
+from app.core.posing.ik import WholeBodyIK
 from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT, ready_pose
 from app.core.robot.model import RobotModel
 
@@ -80,10 +77,6 @@ __all__ = [
     "validate",
 ]
 
-FIRST_ITERATIONS = 200
-"""For the first sample when the first keyframe has no configuration (solved from the ready
-pose)."""
-
 
 def interpolate(
     robot: RobotModel,
@@ -94,19 +87,23 @@ def interpolate(
     name: str = "keyframes",
     held_joints: Sequence[str] = (),
     tracking: bool = True,
+    fill_every: int = FILL_EVERY,
 ) -> MotionResult:
-    """Sample the keyframed motion every dt [s], solving IK at every sample (module docstring).
+    """Sample the keyframed motion every dt [s] by IK (module docstring).
 
-    Every sample is an IK solution, the first one of the first keyframe's targets, started
-    from its captured configuration, or from the robot's ready pose when it has none
-    (app.core.posing.ready_pose: from straight legs the IK cannot lower the pelvis). The last
+    Every sample is an IK solution (a filled one within the fill's checks of one), the first
+    one of the first keyframe's targets, started from its captured configuration, or from the
+    robot's ready pose when it has none (app.core.posing.ready_pose: from straight legs the IK
+    cannot lower the pelvis). The last
     keyframe is reached at t = Σ durations; samples are at k·dt up to it, and one more
     holding the final targets when the total is not a multiple of dt. Pass `ik` to reuse a
     solver (its own posture weight is then used; see MOTION_POSTURE_WEIGHT). `held_joints`
     stay at their angles of the first sample (a built-in motion's arms: see Plan.held_joints).
     `tracking`: each sample after the first is one QP step from a prediction where that
     converges (WholeBodyIK.track); False solves every sample to convergence (WholeBodyIK.solve:
-    the reference the tracking is tested and timed against).
+    the reference the tracking is tested and timed against). `fill_every`: while tracking, the
+    IK solves every this many samples and the samples between are filled and checked (module
+    docstring); 1 solves every sample.
 
     Returns the trajectory with one SampleWarning per IK shortfall per sample.
     """
@@ -119,126 +116,22 @@ def interpolate(
     ik = ik or WholeBodyIK(
         robot, com_in_support=com_in_support, posture_weight=MOTION_POSTURE_WEIGHT
     )
-    data = robot.model.createData()
-    scratch = robot.model.createData()  # for the stance-slide checks, reused every sample
     ends = np.cumsum([0.0] + [kf.duration_s for kf in keyframes[1:]])
     n = math.ceil(float(ends[-1]) / dt - 1e-9) + 1
     first = keyframes[0]
     q = first.q if first.q is not None else ready_pose(robot, ik).q
     if not held_joints:
-        qs, contacts, warnings = _sample(
-            robot, ik, keyframes, q, dt, n, ends, com_in_support, data, scratch, tracking
+        qs, contacts, warnings = sample_motion(
+            robot, ik, keyframes, q, dt, n, ends, com_in_support, tracking, fill_every
         )
     else:
         joints = {joint.name: joint for joint in robot.joints}
         ik.hold_joints({name: float(q[joints[name].idx_q]) for name in held_joints})
         try:
-            qs, contacts, warnings = _sample(
-                robot, ik, keyframes, q, dt, n, ends, com_in_support, data, scratch, tracking
+            qs, contacts, warnings = sample_motion(
+                robot, ik, keyframes, q, dt, n, ends, com_in_support, tracking, fill_every
             )
         finally:
             ik.hold_joints({})
     trajectory = from_configurations(robot.model, name, robot.joint_names, dt, qs, contacts)
     return MotionResult(trajectory, tuple(warnings))
-
-
-def _sample(
-    robot: RobotModel,
-    ik: WholeBodyIK,
-    keyframes: Sequence[Keyframe],
-    q: np.ndarray,
-    dt: float,
-    n: int,
-    ends: np.ndarray,
-    com_in_support: bool,
-    data: pin.Data,
-    scratch: pin.Data,
-    tracking: bool,
-) -> tuple[np.ndarray, np.ndarray, list[SampleWarning]]:
-    """The samples of `interpolate`: configurations, contacts, warnings."""
-    warnings: list[SampleWarning] = []
-    first = keyframes[0]
-    model = robot.model
-    qs = np.empty((n, robot.model.nq))
-    contacts = np.zeros((n, 2), dtype=bool)
-    segment, started, first_k = 0, -1, 0
-    start: dict[str, np.ndarray] = {}
-    planned: list[IkTargets] = []
-    for k in range(n):
-        t = k * dt
-        while segment + 2 < len(keyframes) and t > ends[segment + 1] + 1e-9:
-            segment += 1
-        after = keyframes[segment + 1]
-        if segment != started:  # where this segment starts: the previous sample
-            started, first_k = segment, k
-            start = _where(robot, q, data)
-            planned = _segment(robot, keyframes, segment, start, k, n, dt, ends)
-        if k == 0:  # every foot to the first keyframe, so that each sample is an IK solution
-            targets = on_floor(
-                robot,
-                IkTargets(
-                    first.T_world_left,
-                    first.T_world_right,
-                    first.T_world_pelvis,
-                    first.com_xy,
-                    after.stance,
-                ),
-            )
-        else:
-            targets = planned[k - first_k]
-        iterations = SOLVE_ITERATIONS if k > 0 or first.q is not None else FIRST_ITERATIONS
-        if k == 0 or not tracking:
-            result = ik.solve(
-                q, targets, com_in_support=com_in_support, max_iterations=iterations, explain=False
-            )
-        else:
-            guess = None if k < 2 else pin.integrate(model, q, pin.difference(model, qs[k - 2], q))
-            result = ik.track(
-                q,
-                targets,
-                guess,
-                com_in_support=com_in_support,
-                max_iterations=iterations,
-                explain=False,
-            )
-        messages: list[str] = []
-        if k > 0:
-            result, messages = _keep_stance(ik, q, targets, result, com_in_support)
-            q_next, jump = _continuous(
-                robot, ik, q, result.q, start, targets, dt, com_in_support, scratch
-            )
-            if jump is not None:
-                messages.append(jump)
-            q = q_next
-        else:
-            q = result.q
-        placed = result.placements if q is result.q and result.placements else None
-        if placed is None:
-            placed = _placed(robot, data, q)
-        contacts[k] = _contacts(robot, placed, after.stance)
-        messages += _shortfalls(robot, placed, targets, result, q)
-        if com_in_support and result.com_margin_m < 0.0:
-            messages.append(f"CoM {-result.com_margin_m * 1000:.1f} mm outside the support polygon")
-        warnings += [SampleWarning(k, t, after.name if k else first.name, m) for m in messages]
-        qs[k] = q
-    return qs, contacts, warnings
-
-
-def _segment(
-    robot: RobotModel,
-    keyframes: Sequence[Keyframe],
-    segment: int,
-    start: dict[str, np.ndarray],
-    k: int,
-    n: int,
-    dt: float,
-    ends: np.ndarray,
-) -> list[IkTargets]:
-    """The targets of the segment's samples from sample k: those up to its end (t ≤ its
-    keyframe's time), all the remaining ones for the last segment."""
-    t = np.arange(k, n) * dt
-    if segment + 2 < len(keyframes):
-        t = t[: int(np.count_nonzero(t <= ends[segment + 1] + 1e-9))]
-    after = keyframes[segment + 1]
-    tau = np.clip((t - float(ends[segment])) / after.duration_s, 0.0, 1.0)
-    return segment_targets(robot, keyframes[segment], after, start, tau)
