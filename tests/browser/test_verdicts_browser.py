@@ -34,6 +34,7 @@ from tests.browser.page_helpers import (
     click_button,
     expand_folder,
     folder,
+    gui_row_input,
     open_studio,
     pause_playback,
     select_option,
@@ -200,8 +201,18 @@ def _check_srs(text: str, run, studio: Studio) -> None:
         assert planned == pytest.approx(planned_sr, rel=0.01), text
 
 
+def _shown_number(page, label: str) -> float | None:
+    """The number the input `label` shows in the page (None while it shows none)."""
+    text = gui_row_input(page, label, "input.mantine-NumberInput-input").first.input_value()
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
 def _set_ankles(page, studio: Studio, value: float) -> None:
     coefficients = studio.state.work
+    label = "servo compliance [°/(N·m)]"
     for joint in ("left_ankle_pitch", "right_ankle_pitch"):
         select_option(page, "Joint", joint)
         wait_for(
@@ -209,8 +220,24 @@ def _set_ankles(page, studio: Studio, value: float) -> None:
             lambda j=joint: studio.servo_rooms.compensation.panel.joint.value == j,
             60,
         )
-        type_number(page, "servo compliance [°/(N·m)]", value)
         i = studio.state.robot.joint_names.index(joint)
+        # As a user does: type once the page shows the selected joint's own value (typed
+        # over the previous joint's equal value, the input would not change and send nothing).
+        now = float(coefficients.coefficients.servo.compliance_deg_per_Nm[i])
+        wait_for(
+            f"{joint}'s compliance shown",
+            lambda now=now: (
+                (shown := _shown_number(page, label)) is not None and abs(shown - now) < 1e-6
+            ),
+            UI_TIMEOUT_S,
+        )
+        # Typed key by key, as a user types: a `fill` of the number last typed into this box
+        # (1.4 into the left ankle, then into the right one) is dropped by the page's number
+        # input (Mantine's: one change to a value it already reported) and nothing is sent.
+        box = gui_row_input(page, label, "input.mantine-NumberInput-input")
+        box.select_text()
+        box.press_sequentially(f"{value:g}")
+        box.press("Enter")
         wait_for(
             f"{joint}'s servo at {value:g} °/(N·m)",
             lambda i=i: coefficients.coefficients.servo.compliance_deg_per_Nm[i] == value,
