@@ -18,11 +18,7 @@ from app.core.errors import StudioError
 
 
 def add_parser(sub) -> None:
-    feedforward = add_motion_command(
-        sub,
-        "feedforward",
-        help="joint torques of a motion CSV by the whole-body QP (LQR CoM, friction pyramids)",
-    )
+    feedforward = add_motion_command(sub, "feedforward")
     feedforward.add_argument(
         "--workers",
         type=int,

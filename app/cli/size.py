@@ -28,12 +28,7 @@ if TYPE_CHECKING:
 
 
 def add_parser(sub) -> None:
-    size = add_motion_command(
-        sub,
-        "size",
-        help="pick per joint the lightest (or cheapest) catalogue servo whose torque–speed "
-        "envelope holds a motion's planned torques with a margin",
-    )
+    size = add_motion_command(sub, "size")
     add_torques_argument(size, "a project's torques, else computed by the whole-body QP")
     size.add_argument(
         "--also",
