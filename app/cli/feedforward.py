@@ -34,15 +34,14 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from app.core.dynamics.peaks import torque_peaks
-    from app.core.dynamics.wbc import torque_feedforward
-    from app.core.servo.files import write_torque_csv
-
-    inputs = motion_inputs(args)
+    inputs = motion_inputs(args)  # a bad input is refused before the QP's libraries load
     robot, traj = inputs.robot, inputs.trajectory
     if args.workers < 0:
         raise StudioError(f"--workers must be 0 (one per core) or more, got {args.workers}")
     from app.core.dynamics.parallel import worth_a_pool
+    from app.core.dynamics.peaks import torque_peaks
+    from app.core.dynamics.wbc import torque_feedforward
+    from app.core.servo.files import write_torque_csv
 
     begin = time.perf_counter()
     if args.workers == 1 or (args.workers == 0 and not worth_a_pool(traj.n_samples)):

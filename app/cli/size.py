@@ -281,6 +281,8 @@ def _torques(args: argparse.Namespace, inputs) -> tuple[np.ndarray, tuple[int, .
 
 def _also(paths: list[Path], robot) -> dict:
     """Each --also motion's work (label: its file name), torques by the whole-body QP."""
+    if not paths:  # the QP's libraries load only for a motion whose torques it computes
+        return {}
     from app.core.dynamics.wbc import torque_feedforward
     from app.core.motions.csv_files import read_trajectory_csv
     from app.core.servo.sizing_work import motion_work
