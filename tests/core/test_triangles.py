@@ -51,6 +51,7 @@ def test_primitives_are_trimesh_s(ours, theirs):
         np.asarray(reference.vertices), np.asarray(reference.faces)
     )
     assert np.array_equal(mesh.bounds, reference.bounds)
+    assert np.array_equal(mesh.extents, reference.extents)
     closed = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     assert closed.is_watertight and closed.volume == pytest.approx(reference.volume, rel=1e-12)
     assert closed.volume > 0  # wound counter-clockwise seen from outside

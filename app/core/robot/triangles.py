@@ -34,6 +34,11 @@ class TriangleMesh:
         """Lowest and highest corner of the axis-aligned box around the vertices [m], (2, 3)."""
         return np.array([self.vertices.min(axis=0), self.vertices.max(axis=0)])
 
+    @property
+    def extents(self) -> np.ndarray:
+        """Side lengths of that box [m], shape (3,)."""
+        return np.ptp(self.vertices, axis=0)
+
 
 # trimesh.creation's reference shapes: a unit cube's corners and triangles, and an
 # icosahedron's (vertices on the unit sphere at (±1, ±φ, 0) and cyclic, normalised).
