@@ -10,13 +10,13 @@ from typing import TYPE_CHECKING
 
 from app.config import StudioConfig
 from app.core.errors import StudioError
-from app.core.robot.model import RobotModel
-from app.core.servo.compensation import CompensationParams
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the libraries behind them load when a command uses them, not to parse
     from app.core.dynamics.wbc import FeedForward
     from app.core.motions.trajectory import Trajectory
     from app.core.projects.project import Project
+    from app.core.robot.model import RobotModel
+    from app.core.servo.compensation import CompensationParams
     from app.core.servo.model import ServoModel
 
 DEFAULTS = StudioConfig()
@@ -43,10 +43,10 @@ def add_robot_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def add_motion_command(sub, name: str, help: str) -> argparse.ArgumentParser:
+def add_motion_command(sub, name: str) -> argparse.ArgumentParser:
     """A command over a motion: `NAME TRAJECTORY` (a motion CSV or a project), --robot with
-    --package-root and --feet."""
-    parser = sub.add_parser(name, help=help)
+    --package-root and --feet (its line in `--help`: app.cli.COMMANDS)."""
+    parser = sub.add_parser(name)
     parser.add_argument("trajectory", type=Path, help=MOTION_HELP)
     add_robot_argument(parser)
     return parser

@@ -27,11 +27,7 @@ PRESET_CHOICES = ("uniform", "table3", "table2")
 
 def add_parser(sub) -> None:
     """The `compensate` and `calibrate` subcommands (servo spring/clearance compensation)."""
-    compensate = add_motion_command(
-        sub,
-        "compensate",
-        help="servo commands q + k·τ (+ φ·sign) for a motion and its torque feed-forward",
-    )
+    compensate = add_motion_command(sub, "compensate")
     add_torques_argument(compensate, "a project's torques")
     add_coefficients_arguments(
         compensate,
@@ -41,9 +37,7 @@ def add_parser(sub) -> None:
         toml_flag="--coeffs",
     )
     add_output_arguments(compensate, "command CSV to write")
-    calibrate = sub.add_parser(
-        "calibrate", help="fit each servo's k from measured commands, angles and torques"
-    )
+    calibrate = sub.add_parser("calibrate")
     calibrate.add_argument(
         "measured", type=Path, help="CSV with header frame,joint,q_cmd_deg,q_meas_deg,tau_Nm"
     )

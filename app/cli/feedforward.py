@@ -18,11 +18,7 @@ from app.core.errors import StudioError
 
 
 def add_parser(sub) -> None:
-    feedforward = add_motion_command(
-        sub,
-        "feedforward",
-        help="joint torques of a motion CSV by the whole-body QP (LQR CoM, friction pyramids)",
-    )
+    feedforward = add_motion_command(sub, "feedforward")
     feedforward.add_argument(
         "--workers",
         type=int,
@@ -38,15 +34,14 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from app.core.dynamics.peaks import torque_peaks
-    from app.core.dynamics.wbc import torque_feedforward
-    from app.core.servo.files import write_torque_csv
-
-    inputs = motion_inputs(args)
+    inputs = motion_inputs(args)  # a bad input is refused before the QP's libraries load
     robot, traj = inputs.robot, inputs.trajectory
     if args.workers < 0:
         raise StudioError(f"--workers must be 0 (one per core) or more, got {args.workers}")
     from app.core.dynamics.parallel import worth_a_pool
+    from app.core.dynamics.peaks import torque_peaks
+    from app.core.dynamics.wbc import torque_feedforward
+    from app.core.servo.files import write_torque_csv
 
     begin = time.perf_counter()
     if args.workers == 1 or (args.workers == 0 and not worth_a_pool(traj.n_samples)):

@@ -8,7 +8,7 @@ import json
 
 
 def add_parser(sub) -> None:
-    limits = sub.add_parser("limits", help="list every limit on files, robots, uploads and runs")
+    limits = sub.add_parser("limits")
     limits.add_argument("--json", action="store_true")
 
 

@@ -20,10 +20,7 @@ from app.core.errors import StudioError
 
 
 def add_parser(sub) -> None:
-    motion = sub.add_parser(
-        "motion",
-        help="make a built-in motion (CoM shift, one-leg squats, swings, steps) and write it as CSV",
-    )
+    motion = sub.add_parser("motion")
     motion.add_argument("name", help="motion name, or 'list' to list the motions and parameters")
     motion.add_argument(
         "--param",

@@ -33,11 +33,7 @@ PLAN_ROBOT = "dircon_biped"
 
 
 def add_parser(sub) -> None:
-    plan = sub.add_parser(
-        "plan",
-        help="plan the gait paper's symmetric walking gait (DIRCON, IPOPT) for a biped, and "
-        "optionally a whole-body walk of N steps",
-    )
+    plan = sub.add_parser("plan")
     add_robot_argument(plan, PLAN_ROBOT)
     plan.add_argument(
         "--config",

@@ -20,9 +20,7 @@ DEFAULT_OPEN_PORT = 8000
 
 
 def add_parser(sub) -> None:
-    replay = sub.add_parser(
-        "replay", help="export a replay of a motion that plays in any browser, or serve one"
-    )
+    replay = sub.add_parser("replay")
     actions = replay.add_subparsers(dest="replay_command", required=True)
     export = actions.add_parser(
         "export",

@@ -14,9 +14,9 @@ from robots.catalogue import BUILTIN_ROBOTS
 
 
 def add_parser(sub) -> None:
-    robots = sub.add_parser("robots", help="list the built-in robots")
+    robots = sub.add_parser("robots")
     robots.add_argument("--json", action="store_true")
-    check = sub.add_parser("check", help="load a robot and print its report")
+    check = sub.add_parser("check")
     check.add_argument("robot", help="built-in name or URDF path")
     check.add_argument("--json", action="store_true")
     add_robot_options(check)

@@ -20,7 +20,7 @@ from app.web.access import check_bind
 
 
 def add_parser(sub) -> None:
-    serve = sub.add_parser("serve", help="start the studio (the default command)")
+    serve = sub.add_parser("serve")
     add_robot_argument(serve)
     serve.set_defaults(robot=None)  # to tell an explicit --robot from the default one
     serve.add_argument(

@@ -10,9 +10,7 @@ from app.core.papers import TYPICAL_COMPLIANCE_DEG_PER_NM
 
 
 def add_parser(sub) -> None:
-    servos = sub.add_parser(
-        "servos", help="list the servo catalogue: datasheet figures, identified models, stiffness"
-    )
+    servos = sub.add_parser("servos")
     servos.add_argument(
         "--servos",
         action="append",

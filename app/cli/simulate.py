@@ -33,11 +33,7 @@ PRESETS = ("plan", "uniform", "table3", "table2", "parts")
 
 
 def add_parser(sub) -> None:
-    simulate = add_motion_command(
-        sub,
-        "simulate",
-        help="simulate a motion on compliant servos with dead bands (MuJoCo): does it stay up?",
-    )
+    simulate = add_motion_command(sub, "simulate")
     source = add_coefficients_arguments(
         simulate,
         PRESETS,

@@ -28,12 +28,7 @@ if TYPE_CHECKING:
 
 
 def add_parser(sub) -> None:
-    size = add_motion_command(
-        sub,
-        "size",
-        help="pick per joint the lightest (or cheapest) catalogue servo whose torque–speed "
-        "envelope holds a motion's planned torques with a margin",
-    )
+    size = add_motion_command(sub, "size")
     add_torques_argument(size, "a project's torques, else computed by the whole-body QP")
     size.add_argument(
         "--also",
@@ -291,6 +286,8 @@ def _torques(args: argparse.Namespace, inputs) -> tuple[np.ndarray, tuple[int, .
 
 def _also(paths: list[Path], robot) -> dict:
     """Each --also motion's work (label: its file name), torques by the whole-body QP."""
+    if not paths:  # the QP's libraries load only for a motion whose torques it computes
+        return {}
     from app.core.dynamics.wbc import torque_feedforward
     from app.core.motions.csv_files import read_trajectory_csv
     from app.core.servo.sizing_work import motion_work

@@ -28,11 +28,7 @@ if TYPE_CHECKING:
 
 
 def add_parser(sub) -> None:
-    sweep = sub.add_parser(
-        "sweep",
-        help="solve a gait at every point of a sweep over robot and gait parameters (Dask), "
-        "and report the Pareto set",
-    )
+    sweep = sub.add_parser("sweep")
     sweep.add_argument("spec", type=Path, help="sweep.toml (see examples/sweep_dircon.toml)")
     sweep.add_argument(
         "--scheduler",

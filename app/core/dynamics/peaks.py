@@ -13,13 +13,16 @@ and the peak over all samples is kept beside it, so nothing is hidden.
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from app.core.dynamics.wbc import FeedForward
 from app.core.motions.continuity import speed_limits
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
+
+if TYPE_CHECKING:  # the QP's stack loads where torques are computed, not to sum them up
+    from app.core.dynamics.wbc import FeedForward
 
 
 @dataclasses.dataclass(frozen=True)

@@ -20,7 +20,6 @@ import dataclasses
 
 import numpy as np
 import pinocchio as pin
-from scipy.optimize import nnls
 
 AT_LIMIT_RAD = np.deg2rad(0.5)
 """A joint this close to a bound counts as at it (the solve stops within a step of it)."""
@@ -127,6 +126,8 @@ def blockers(model: pin.Model, data: pin.Data, q: np.ndarray, situation: Situati
     scale = float(np.linalg.norm(A, axis=0).max())
     if scale == 0.0:
         return []
+    from scipy.optimize import nnls  # scipy loads when a pose falls short, not with the IK
+
     mu, _ = nnls(A / scale, b / scale)
     shares = mu * (A.T @ b) / float(b @ b) / scale
     out: dict[str, float] = {}

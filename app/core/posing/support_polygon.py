@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import placo
-from scipy.spatial import ConvexHull, QhullError
 
 from app.core.posing.ik_records import Stance
 from app.core.robot.model import Foot, RobotModel
@@ -29,18 +28,47 @@ and the polygon is then at most about this far from the exact one."""
 DEGENERATE_PAD_M = 5e-4
 """Half-size of the square put around each point of a sole without area (a foot whose
 geometry is missing, or a line contact): its polygon is then a thin strip, not an error."""
+ON_LINE = 1e-12
+"""A point closer to the line through two corners than this fraction of the points' spread
+lies on it (Qhull's round-off merging does the same): it is not a corner."""
 
 
 def convex_polygon(points_xy: np.ndarray) -> np.ndarray:
-    """Counter-clockwise corners of the convex hull of points (N, 2) [m]; points on a line (or
-    one point) give the hull of small squares around them."""
-    try:
-        hull = ConvexHull(points_xy)
-    except QhullError:
+    """Counter-clockwise corners of the convex hull of points (N, 2) [m], from the leftmost
+    (the corners scipy's ConvexHull finds: tests/core/test_support_polygon_hull.py); points on
+    a line (or one point) give the hull of small squares around them."""
+    points_xy = np.asarray(points_xy, dtype=float)
+    if not np.all(np.isfinite(points_xy)):
+        raise ValueError("the support polygon's points are not all finite")
+    corners = _hull_corners(points_xy)
+    if len(corners) < 3:
         offsets = DEGENERATE_PAD_M * np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]])
         points_xy = (points_xy[:, None, :] + offsets[None]).reshape(-1, 2)
-        hull = ConvexHull(points_xy)
-    return points_xy[hull.vertices]
+        corners = _hull_corners(points_xy)
+    return points_xy[corners]
+
+
+def _hull_corners(points_xy: np.ndarray) -> list[int]:
+    """Indices of the hull's corners, counter-clockwise (Andrew's monotone chain; a few dozen
+    points here, so plain Python: scipy's Qhull costs its import, ~0.7 CPU-s per command)."""
+    order = np.lexsort((points_xy[:, 1], points_xy[:, 0]))
+    xy = points_xy.tolist()
+    spread = float(np.ptp(points_xy, axis=0).max()) if len(xy) else 0.0
+    tolerance = ON_LINE * spread * spread
+
+    def chain(indices) -> list[int]:
+        kept: list[int] = []
+        for i in indices:
+            while len(kept) >= 2:
+                (ax, ay), (bx, by), (px, py) = xy[kept[-2]], xy[kept[-1]], xy[i]
+                if (bx - ax) * (py - ay) - (by - ay) * (px - ax) > tolerance:
+                    break
+                kept.pop()
+            kept.append(int(i))
+        return kept
+
+    lower, upper = chain(order), chain(order[::-1])
+    return lower[:-1] + upper[:-1] if len(lower) + len(upper) > 4 else []
 
 
 class SupportPolygonMixin:

@@ -1,8 +1,9 @@
-"""Geometry of a robot's links as triangle meshes (trimesh), with missing files reported.
+"""Geometry of a robot's links as triangle meshes, with missing files reported.
 
-Primitive shapes are tessellated; mesh files (STL, DAE, OBJ, …) pass the mesh gate
-(app.core.robot.mesh_gate: format, size, triangle count) and are then loaded through trimesh,
-scaled as the URDF says, and cached by path and scale within one load.
+Primitive shapes are tessellated (app.core.robot.triangles, numpy only); mesh files (STL, DAE,
+OBJ, …) pass the mesh gate (app.core.robot.mesh_gate: format, size, triangle count) and are
+then loaded through trimesh, imported only then, scaled as the URDF says, and cached by path
+and scale within one load.
 """
 
 from __future__ import annotations
@@ -13,7 +14,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from app.core.errors import StudioError
 from app.core.robot.mesh_gate import (
@@ -23,6 +23,7 @@ from app.core.robot.mesh_gate import (
     read_mesh_file,
 )
 from app.core.robot.packages import PackageResolver
+from app.core.robot.triangles import TriangleMesh, box, cylinder, icosphere
 from app.core.robot.urdf_xml import Geometry
 
 
@@ -35,7 +36,7 @@ class LinkMesh:
     """"visual" or "collision"."""
     T_link_mesh: np.ndarray
     """Placement of the mesh in its link's frame, 4x4."""
-    mesh: trimesh.Trimesh
+    mesh: TriangleMesh
     rgba: tuple[float, float, float, float] | None
 
 
@@ -56,7 +57,7 @@ def load_link_meshes(
     `progress(done, total)` is told before each mesh file geometry is read (1-based)."""
     meshes: list[LinkMesh] = []
     missing: list[MissingMesh] = []
-    cache: dict[tuple[Path, tuple[float, ...]], trimesh.Trimesh | str] = {}
+    cache: dict[tuple[Path, tuple[float, ...]], TriangleMesh | str] = {}
     budget = _Budget()
     total = sum(geom.kind == "mesh" for geom in geometries)
     done = 0
@@ -91,7 +92,7 @@ class _Budget:
         self.bytes_read = 0
         self.triangles = 0
 
-    def load(self, path: Path, scale: np.ndarray) -> trimesh.Trimesh | str:
+    def load(self, path: Path, scale: np.ndarray) -> TriangleMesh | str:
         try:
             size = path.stat().st_size
         except OSError as exc:
@@ -114,20 +115,22 @@ class _Budget:
         return loaded
 
 
-def primitive_mesh(geom: Geometry) -> trimesh.Trimesh:
+def primitive_mesh(geom: Geometry) -> TriangleMesh:
     if geom.kind == "box":
-        return trimesh.creation.box(extents=geom.size)
+        return box(geom.size)
     if geom.kind == "cylinder":
-        return trimesh.creation.cylinder(radius=geom.size[0], height=geom.size[1], sections=24)
-    return trimesh.creation.icosphere(subdivisions=2, radius=geom.size[0])
+        return cylinder(geom.size[0], geom.size[1])
+    return icosphere(geom.size[0])
 
 
-def _load_file(path: Path, scale: np.ndarray) -> trimesh.Trimesh | str:
+def _load_file(path: Path, scale: np.ndarray) -> TriangleMesh | str:
     """The mesh in the file, scaled; or a one-line reason it cannot be used."""
     try:
         data, file_type = read_mesh_file(path)
     except StudioError as exc:
         return str(exc)
+    import trimesh  # about a CPU-second with scipy: only a robot with mesh files pays it
+
     try:
         loaded = trimesh.load(io.BytesIO(data), file_type=file_type, force="mesh", process=False)
     except (
@@ -138,8 +141,12 @@ def _load_file(path: Path, scale: np.ndarray) -> trimesh.Trimesh | str:
         return f"mesh {path.name} holds no triangles"
     if len(loaded.faces) > MAX_MESH_TRIANGLES:
         return f"mesh {path.name} has {len(loaded.faces)} triangles, over the limit of {MAX_MESH_TRIANGLES}"
-    if not np.all(np.isfinite(loaded.vertices)):
+    vertices = np.array(loaded.vertices, dtype=float)
+    faces = np.array(loaded.faces, dtype=np.int64)
+    if not np.all(np.isfinite(vertices)):
         return f"mesh {path.name} has non-finite vertices"
-    if not np.allclose(scale, 1.0):
-        loaded.apply_transform(np.diag([*scale, 1.0]))
-    return loaded
+    if not np.allclose(scale, 1.0):  # as trimesh's apply_transform: a mirror flips the winding
+        vertices = vertices * scale
+        if np.prod(scale) < 0:
+            faces = np.ascontiguousarray(faces[:, ::-1])
+    return TriangleMesh(vertices, faces)

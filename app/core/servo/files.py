@@ -8,17 +8,19 @@ import dataclasses
 import math
 import os
 from collections.abc import Sequence
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
 import numpy as np
 
 from app.core import input_gate
 from app.core.atomic_write import write_atomically
 from app.core.budgets import MAX_SAMPLES
-from app.core.dynamics.wbc import FeedForward
 from app.core.errors import finite_float, refuse_unknown_joints
 from app.core.file_types import BinaryPathOrFile
 from app.core.servo.compensation import CompensationError, CompensationParams
+
+if TYPE_CHECKING:  # the QP's stack loads where torques are computed, not to read them
+    from app.core.dynamics.wbc import FeedForward
 
 
 def read_coefficients_toml(path_or_file: BinaryPathOrFile) -> CompensationParams:

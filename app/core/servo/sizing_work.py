@@ -17,7 +17,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from app.core.collocation.result import GaitResult
-from app.core.collocation.sampling import sample_gait
 from app.core.dynamics.peaks import over_speed_samples
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
@@ -66,6 +65,8 @@ def gait_work(robot: RobotModel, gait: GaitResult) -> Work | None:
     are not the robot's."""
     if not gait.has_gait or not set(gait.joint_names) <= set(robot.joint_names):
         return None
+    from app.core.collocation.sampling import sample_gait  # casadi: a gait's cost only
+
     samples = sample_gait(gait, np.arange(0.0, gait.duration_s, GAIT_SAMPLE_S))
     columns = [robot.joint_names.index(name) for name in gait.joint_names]
     w = np.zeros((len(samples.u), robot.n_actuated))

@@ -22,12 +22,11 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 import pinocchio as pin
-import trimesh
-from scipy.spatial import QhullError
 
 from app.core.quaternions import matrix_to_wxyz
 from app.core.robot.meshes import LinkMesh
 from app.core.robot.model import RobotModel
+from app.core.robot.triangles import TriangleMesh
 from app.core.robot.urdf_xml import Geometry
 
 CAPSULE_ASPECT = 2.0
@@ -86,9 +85,8 @@ def _collision(
     loaded = _loaded_mesh(robot.meshes, shape)
     if loaded is None:
         return []
-    try:
-        hull = trimesh.convex.convex_hull(loaded.vertices)
-    except (QhullError, ValueError):  # a flat mesh has no hull: the fitted primitive instead
+    hull = convex_hull(loaded.vertices)
+    if hull is None:  # a flat mesh has no hull: the fitted primitive instead
         return _fitted(
             [LinkMesh(shape.link, "collision", shape.T_link_geom, loaded, None)], T_joint_link
         )
@@ -100,7 +98,20 @@ def _collision(
     return [f'<geom type="mesh" mesh={quoteattr(name)} {_pose(T)} {FLOOR_ONLY}/>']
 
 
-def _loaded_mesh(meshes: tuple[LinkMesh, ...], shape: Geometry) -> trimesh.Trimesh | None:
+def convex_hull(points: np.ndarray) -> TriangleMesh | None:
+    """The convex hull of `points` [m], shape (N, 3); None for a flat set, which has none.
+    trimesh and scipy's Qhull are imported here: only a model with hulls pays for them."""
+    import trimesh
+    from scipy.spatial import QhullError
+
+    try:
+        hull = trimesh.convex.convex_hull(points)
+    except (QhullError, ValueError):
+        return None
+    return TriangleMesh(np.asarray(hull.vertices, dtype=float), np.asarray(hull.faces))
+
+
+def _loaded_mesh(meshes: tuple[LinkMesh, ...], shape: Geometry) -> TriangleMesh | None:
     """The mesh loaded for a URDF mesh shape (same link, role and placement), None if it did
     not load."""
     for mesh in meshes:

@@ -34,13 +34,11 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 import pinocchio as pin
-import trimesh
-from scipy.spatial import QhullError
 
 from app.core.quaternions import matrix_to_wxyz
 from app.core.robot.model import RobotModel
 from app.core.simulation.errors import SimulationInputError
-from app.core.simulation.link_geoms import link_geoms
+from app.core.simulation.link_geoms import convex_hull, link_geoms
 from app.core.simulation.servo_law import servo_damping_Nms_per_rad
 from app.core.simulation.sim_model import SimModel
 
@@ -183,9 +181,8 @@ def _hull_geoms(robot: RobotModel, jid: int, name: str) -> tuple[list[str], list
         ]
         if not points:
             continue
-        try:
-            hull = trimesh.convex.convex_hull(np.concatenate(points, axis=1).T)
-        except (QhullError, ValueError):  # flat point sets have no hull: the link gets none
+        hull = convex_hull(np.concatenate(points, axis=1).T)
+        if hull is None:  # flat point sets have no hull: the link gets none
             continue
         mesh_name = f"hull_{len(assets)}_{name}"
         assets.append(

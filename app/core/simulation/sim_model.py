@@ -1,6 +1,6 @@
 """SimModel: a robot's MJCF text and its coordinate maps, all a worker process needs.
 
-Kept apart from `mjcf` (which uses pinocchio and trimesh) so that a spawned worker running
+Kept apart from `mjcf` (which uses pinocchio) so that a spawned worker running
 the step loop imports numpy and mujoco only.
 """
 
