@@ -18,6 +18,7 @@ import numpy as np
 from app.core.dynamics.stand_stiffness import stand_check
 from app.core.servo.catalogue import BAM_PARAMS_DIR, SERVOS_DIR
 from app.core.servo.kp_sizing import MAX_SAG_DEG, STAND_MARGIN
+from app.core.servo.sizing import check_joint
 
 
 def toml_records() -> dict[str, dict]:
@@ -67,3 +68,20 @@ def cheapest_pairs(
         best = min(pairs, default=None, key=lambda p: (p[0], p[1]))
         out.append((None, None) if best is None else (best[1], best[2]))
     return out
+
+
+def studio_sizing_pairs(studio, margin: float, **bounds: float):
+    """`cheapest_pairs` for the motion *Size servos* last sized in `studio` (its works, the
+    servos it offered, held at `margin`), by mass; `bounds`: stand_margin, max_sag_deg."""
+    session = studio.servo_rooms.servos
+    _, works = session.last
+    (work,) = works.values()
+    records = session.records
+    return cheapest_pairs(
+        studio.state.robot, studio.state.trajectory.q[0], work.torque_Nm,
+        {key: record.mass_kg for key, record in records.items()},
+        lambda j, key: check_joint(
+            records[key], work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, margin
+        ).holds,
+        **bounds,
+    )  # fmt: skip

@@ -39,7 +39,7 @@ from tests.browser.page_helpers import (
     wait_for,
     wait_notified,
 )
-from tests.kp_brute_force import cheapest_pairs
+from tests.kp_brute_force import studio_sizing_pairs
 from tests.studio.test_user_servos_in_studio import ERROR_GAIN, KP, KT, VIN, R, servo_toml
 
 MOTION = "one_leg_stand"
@@ -101,14 +101,7 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
     robot = studio.state.robot
     _, works = studio.servo_rooms.servos.last
     (work,) = works.values()
-    records = studio.servo_rooms.servos.records
-    pairs = cheapest_pairs(
-        robot, studio.state.trajectory.q[0], work.torque_Nm,
-        {key: r.mass_kg for key, r in records.items()},
-        lambda j, key: check_joint(
-            records[key], work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, MARGIN
-        ).holds,
-    )  # fmt: skip
+    pairs = studio_sizing_pairs(studio, MARGIN)
     for j, (name, (expected, kp)) in enumerate(zip(robot.joint_names, pairs, strict=True)):
         expected = expected or ""
         assert (parts.joint(name).servo, parts.joint(name).kp) == (expected, kp), name
@@ -155,17 +148,8 @@ def test_a_stand_margin_typed_changes_the_kp_the_sizing_chooses(page, studio: St
         "the sized parts", lambda: (p := studio.state.work.parts) is not before and p, UI_TIMEOUT_S
     )
     text = servos.inner_text()
-    robot, records = studio.state.robot, studio.servo_rooms.servos.records
-    _, works = studio.servo_rooms.servos.last
-    (work,) = works.values()
-    pairs = cheapest_pairs(
-        robot, studio.state.trajectory.q[0], work.torque_Nm,
-        {key: r.mass_kg for key, r in records.items()},
-        lambda j, key: check_joint(
-            records[key], work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, MARGIN
-        ).holds,
-        stand_margin=TYPED_STAND_MARGIN,
-    )  # fmt: skip
+    robot = studio.state.robot
+    pairs = studio_sizing_pairs(studio, MARGIN, stand_margin=TYPED_STAND_MARGIN)
     changed = []
     for name, (servo, kp) in zip(robot.joint_names, pairs, strict=True):
         assert (parts.joint(name).servo or None, parts.joint(name).kp) == (servo, kp), name

@@ -15,10 +15,9 @@ from app.core.projects.files import read_project, write_project
 from app.core.projects.project import check_fits
 from app.core.servo.choice import JointServo
 from app.core.servo.edits import SetK
-from app.core.servo.sizing import check_joint
 from app.core.simulation.part_law import PartLaw
 from app.studio.servo_parts import catalogue
-from tests.kp_brute_force import cheapest_pairs
+from tests.kp_brute_force import studio_sizing_pairs
 from tests.studio.conftest import wait_for_signal, with_stand_torques
 
 
@@ -95,13 +94,7 @@ def test_size_servos_picks_the_lightest_that_holds_as_a_brute_force_does(studio)
     _, works = session.last
     (work,) = works.values()
     parts = studio.state.work.parts
-    pairs = cheapest_pairs(
-        robot, studio.state.trajectory.q[0], work.torque_Nm,
-        {key: record.mass_kg for key, record in session.records.items()},
-        lambda j, key: check_joint(
-            session.records[key], work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, 0.2
-        ).holds,
-    )  # fmt: skip
+    pairs = studio_sizing_pairs(studio, 0.2)
     for name, (expected, kp) in zip(robot.joint_names, pairs, strict=True):
         expected = expected or ""
         assert (parts.joint(name).servo, parts.joint(name).kp) == (expected, kp), name
@@ -277,16 +270,7 @@ def test_size_servos_takes_the_bounds_and_each_joints_fit_and_a_project_keeps_th
     assert not isinstance(sizing, str), sizing
     assert (sizing.stiffness["stand_margin"], sizing.stiffness["max_sag_deg"]) == (1.0, 1.5)
     assert "stand margin 1, sag ≤ 1.5°" in panel.sizing.content
-    _, works = session.last
-    (work,) = works.values()
-    pairs = cheapest_pairs(
-        robot, studio.state.trajectory.q[0], work.torque_Nm,
-        {key: record.mass_kg for key, record in session.records.items()},
-        lambda j, key: check_joint(
-            session.records[key], work.speed_rad_s[:, j], work.torque_Nm[:, j], 1.0, 0.2
-        ).holds,
-        stand_margin=1.0, max_sag_deg=1.5,
-    )  # fmt: skip
+    pairs = studio_sizing_pairs(studio, 0.2, stand_margin=1.0, max_sag_deg=1.5)
     sized = studio.state.work.parts
     assert [(j.servo or None, j.kp) for j in sized.joints] == pairs
     assert (sized.stand_margin, sized.max_sag_deg) == (1.0, 1.5)
