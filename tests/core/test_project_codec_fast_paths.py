@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import re
 
+import numpy as np
 import pytest
 
 from app.core.projects.codec import MAX_TEXT_CHARS, ProjectError, Reader, encode
@@ -56,6 +57,23 @@ def test_encoding_plain_numbers_at_once_equals_item_by_item():
     assert encode(values, "v", {}) == [encode(v, f"v[{i}]", {}) for i, v in enumerate(values)]
     # A non-finite number keeps its tagged form.
     assert encode((1.0, math.nan), "v", {}) == [1.0, {"float": "nan"}]
+
+
+@pytest.mark.parametrize(
+    "values",
+    [
+        ["ok", "ok", "unsolved"],  # a feed-forward's sample statuses
+        [3, True, "a", 0.25, -7],
+        [1.0, np.float64(2.0), np.int64(3), np.bool_(False)],  # numpy scalars: item by item
+        ["a", math.inf],
+        [],
+    ],
+)
+def test_encoding_plain_lists_at_once_equals_item_by_item(values):
+    expected = [encode(v, f"v[{i}]", {}) for i, v in enumerate(values)]
+    got = encode(values, "v", {})
+    assert got == expected
+    assert [type(v) for v in got] == [type(v) for v in expected]  # JSON writes 1 and 1.0 apart
 
 
 def _npy(array, version=None) -> bytes:
