@@ -4,7 +4,7 @@ and on every local core.
 Both runs solve the same points on a fresh LocalCluster, in the same bench run: first one point
 per worker (each builds its NLP: the time to the first result, cluster start included), then the
 timed points on warm workers. Scaling = (points/s on n workers) / (points/s on 1 worker), target
-≥ 0.8 × n. The issue's 200-point estimate is 200 / (points/s on n workers).
+≥ 0.9 × n (issue 28: ≥ 1.8× on 2 workers; 0.8 × n before). The issue's 200-point estimate is 200 / (points/s on n workers).
 
 CPU-time aware: the workers' process CPU seconds over the timed points are read before and after
 (`Client.run(time.process_time)`), so `busy_cores` = CPU s / wall s says how many cores the
@@ -41,8 +41,8 @@ from app.studio import Studio
 from app.sweep_engine import SweepEngine, local_cores
 from panels.quiet import set_value
 
-SCALING_TARGET = 0.8
-"""Scaling ≥ this × workers."""
+SCALING_TARGET = 0.9
+"""Scaling ≥ this × workers (issue 28: 1.8× on this machine's 2 cores)."""
 FIRST_RESULT_TARGET_S = 5.0
 SWEEP_200_TARGET_S = 120.0
 BENCH_KNOTS = 14
