@@ -9,7 +9,10 @@ timed points on warm workers. Scaling = (points/s on n workers) / (points/s on 1
 CPU-time aware: the workers' process CPU seconds over the timed points are read before and after
 (`Client.run(time.process_time)`), so `busy_cores` = CPU s / wall s says how many cores the
 workers actually got; on a shared machine a scaling short of the target with busy_cores < n is
-the other load, not the sweep (`cpu_scaling` is the scaling had each worker had its core). The
+the other load, not the sweep (`cpu_scaling` is the scaling had each worker had its core).
+`scaling_law` writes the scaling for n cores from CPU seconds per point (the scheduler's and the
+client's included), and a run on twice as many workers as cores gives the CPU efficiency there
+(issue 28: the law for N cores, measured beyond the cores as CPU efficiency). The
 first result's time is split into the cluster start, the NLP
 build with its anchor solve on the worker (`build_s`), and the point's own solve.
 
@@ -78,12 +81,14 @@ def _timed(n_workers: int, warmup: list[SweepPoint], points: list[SweepPoint]) -
         # now, so no NLP build or first import lands in the timed points
         late_build_s = sum(engine.prepare(points[0]).values())
         cpu0 = engine.client.run(time.process_time)
+        own0 = time.process_time()  # the scheduler's and the client's threads are ours
         t0 = time.perf_counter()
         results, arrivals = [], []
         for result in engine.start(points).results():
             results.append(result)
             arrivals.append(time.perf_counter() - t0)
         seconds = time.perf_counter() - t0
+        own_cpu = time.process_time() - own0
         cpu1 = engine.client.run(time.process_time)
     assert first_result is not None
     cpu = sum(cpu1[w] - cpu0[w] for w in cpu1 if w in cpu0)
@@ -96,6 +101,7 @@ def _timed(n_workers: int, warmup: list[SweepPoint], points: list[SweepPoint]) -
         "worker_cpu_s": cpu,
         "busy_cores": cpu / seconds,
         "cpu_s_per_point": cpu / max(len(results), 1),
+        "scheduler_cpu_s_per_point": own_cpu / max(len(results), 1),
         "points": len(results),
         "solved": sum(r.solved for r in results),
         "seconds": seconds,
@@ -114,6 +120,7 @@ def bench_sweep(points: int = 40) -> dict:
     timed = sweep_points(_spec(points, seed=101))
     one = _timed(1, warmup, timed)
     many = _timed(cores, warmup, timed)
+    beyond = _timed(2 * cores, sweep_points(_spec(2 * cores, seed=100)), timed)
     scaling = many["points_per_s"] / one["points_per_s"]
     # what the scaling would be if every worker had its core: n × (CPU s per point on 1 worker)
     # / (CPU s per point on n); below n only by the sweep's own overhead (scheduling, copies)
@@ -127,7 +134,22 @@ def bench_sweep(points: int = 40) -> dict:
         "cpu_scaling": cpu_scaling,
         "scaling_target": SCALING_TARGET * cores,
         "sweep_200_estimate_s": 200.0 / many["points_per_s"],
+        "beyond_cores": beyond,
+        "law_scaling": scaling_law(one, many, cores),
+        "cpu_efficiency_beyond": one["cpu_s_per_point"] / beyond["cpu_s_per_point"],
     }
+
+
+def scaling_law(one: dict, many: dict, n: int) -> float:
+    """The scaling n workers on n cores can reach, from CPU seconds per point: one worker
+    leaves the scheduler a core of its own and runs at c₁ per point; n workers share the n
+    cores with the scheduler and the client (their TLS messages, c_s per point, timed in this
+    process) and run at cₙ each, so throughput n / (cₙ + c_s) against 1 / c₁:
+    scaling = n·c₁ / (cₙ + c_s). On more cores, the same law with cₙ measured there; c_s is
+    serial (one event loop), so throughput also stays below 1 / c_s."""
+    return n * one["cpu_s_per_point"] / (
+        many["cpu_s_per_point"] + many["scheduler_cpu_s_per_point"]
+    )
 
 
 def _studio(prepare: bool, data_dir: Path) -> tuple[Studio, float]:
@@ -213,7 +235,11 @@ def _entry_sweep(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             f"scaling {row['scaling']:.2f}×; 200 points ≈ {row['sweep_200_estimate_s']:.0f} s "
             f"(target ≤ {SWEEP_200_TARGET_S:.0f} s); workers got {many['busy_cores']:.2f} of "
             f"{row['cores']} cores (CPU s / wall s), {one['busy_cores']:.2f} of 1; with a core "
-            f"each: {row['cpu_scaling']:.2f}×",
+            f"each: {row['cpu_scaling']:.2f}×; CPU per point {one['cpu_s_per_point'] * 1e3:.0f} "
+            f"ms on 1 worker, {many['cpu_s_per_point'] * 1e3:.0f} ms on {row['cores']}, "
+            f"scheduler + client {many['scheduler_cpu_s_per_point'] * 1e3:.1f} ms: the law "
+            f"n·c₁/(cₙ + c_s) gives {row['law_scaling']:.2f}×; on {2 * row['cores']} workers "
+            f"(beyond the cores) CPU efficiency {row['cpu_efficiency_beyond']:.2f}",
         ),
         Figure.at_most(
             "sweep, first result after start (cluster start and NLP build included)",
