@@ -19,11 +19,8 @@
 
 from __future__ import annotations
 
-import multiprocessing
 import tempfile
 import threading
-from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -31,9 +28,8 @@ import numpy as np
 from app.bench.gait_baseline import ipopt_defaults
 from app.bench.registry import BenchContext, bench_entry, free_port
 from app.bench.report import Figure
-from app.bench.timing import PROCESS_CPU, stopwatch
+from app.bench.timing import PROCESS_CPU, in_single_thread_child, stopwatch
 from app.config import StudioConfig
-from app.core.single_thread import single_thread_environment
 from app.studio import Studio
 from panels.quiet import set_value
 
@@ -85,18 +81,6 @@ def _entry_plan(ctx: BenchContext) -> tuple[dict, list[Figure]]:
             f"without its multipliers {row['primal_warm_s']:.2f} s wall",
         ),
     ]
-
-
-def in_single_thread_child(function: Callable[[], dict]) -> dict:
-    """`function()` run in a child process started with one BLAS/OpenMP thread, as the
-    studio's solver worker and the sweep workers run a solve (app/core/single_thread.py).
-    Timed in the bench's own process, a solve also paid OpenBLAS's spare thread spinning in
-    MUMPS's dense kernels: the paper's cold solve read 0.47-0.90 CPU-s from run to run."""
-    context = multiprocessing.get_context("spawn")
-    with single_thread_environment():
-        pool = ProcessPoolExecutor(max_workers=1, mp_context=context)
-    with pool:
-        return pool.submit(function).result()
 
 
 def _bench_plan() -> dict:

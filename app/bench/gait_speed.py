@@ -20,15 +20,12 @@
 from __future__ import annotations
 
 import dataclasses
-import multiprocessing
 import statistics
-from concurrent.futures import ProcessPoolExecutor
 from typing import TYPE_CHECKING
 
 from app.bench.registry import BenchContext, bench_entry
 from app.bench.report import Figure
-from app.bench.timing import PROCESS_CPU, stopwatch
-from app.core.single_thread import single_thread_environment
+from app.bench.timing import PROCESS_CPU, in_single_thread_child, stopwatch
 
 if TYPE_CHECKING:
     from app.core.sweeps.evaluate import ProblemCache
@@ -66,11 +63,7 @@ def _bench_sweep_point() -> dict:
     from app.bench.gait import compile_derivatives
 
     compile_derivatives()  # in the disk cache the worker loads them from
-    context = multiprocessing.get_context("spawn")
-    with single_thread_environment():
-        pool = ProcessPoolExecutor(max_workers=1, mp_context=context)
-    with pool:
-        return pool.submit(_points_in_worker).result()
+    return in_single_thread_child(_points_in_worker)
 
 
 def _points_in_worker() -> dict:

@@ -1,16 +1,21 @@
-"""The bench's one way of timing: a stopwatch (wall and CPU), calls timed one by one, and
-percentiles in milliseconds. Every entry times its work through these, so that what a figure
-measures (which clock, which calls, which samples left out) reads the same everywhere."""
+"""The bench's one way of timing: a stopwatch (wall and CPU), calls timed one by one,
+percentiles in milliseconds, and a child process with one BLAS thread to time a solve in.
+Every entry times its work through these, so that what a figure measures (which clock, which
+calls, which samples left out, which process) reads the same everywhere."""
 
 from __future__ import annotations
 
 import dataclasses
+import multiprocessing
 import time
 from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
 import numpy as np
+
+from app.core.single_thread import single_thread_environment
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -95,3 +100,15 @@ def laps_each(
             function(item)
         laps.append(lap)
     return laps
+
+
+def in_single_thread_child(function: Callable[[], dict]) -> dict:
+    """`function()` run in a child process started with one BLAS/OpenMP thread, as the
+    studio's solver worker and the sweep workers run a solve (app/core/single_thread.py).
+    Timed in the bench's own process, a solve also paid OpenBLAS's spare thread spinning in
+    MUMPS's dense kernels: the paper's cold solve read 0.47-0.90 CPU-s from run to run."""
+    context = multiprocessing.get_context("spawn")
+    with single_thread_environment():
+        pool = ProcessPoolExecutor(max_workers=1, mp_context=context)
+    with pool:
+        return pool.submit(function).result()

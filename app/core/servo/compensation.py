@@ -23,13 +23,13 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
-from typing import Literal, TypeAlias
+from typing import ClassVar, Literal, TypeAlias
 
 import numpy as np
 
 from app.core.errors import StudioError
 from app.core.papers import PHI_DEG
-from app.core.servo.per_joint import check_range, laid_out, per_joint
+from app.core.servo.per_joint import PerJointRecord, check_range, per_joint
 
 ClearanceSign: TypeAlias = Literal["command", "torque"]
 CLEARANCE_SIGNS: tuple[str, ...] = ("command", "torque")
@@ -46,10 +46,13 @@ class CompensationError(StudioError):
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class CompensationParams:
-    """Per-joint coefficients of eq 7 / eq 23, one entry per joint of `joint_names`."""
+class CompensationParams(PerJointRecord):
+    """Per-joint coefficients of eq 7 / eq 23, one entry per joint of `joint_names`
+    (`for_joints`: joints not named are disabled, k = φ = 0)."""
 
-    joint_names: tuple[str, ...]
+    COLUMNS: ClassVar[tuple[str, ...]] = ("k_deg_per_Nm", "phi_deg", "enabled")
+    ERROR: ClassVar[type[StudioError]] = CompensationError
+
     k_deg_per_Nm: np.ndarray
     """Spring compensation coefficient k [°/(N·m)], shape (n,)."""
     phi_deg: np.ndarray
@@ -116,23 +119,6 @@ class CompensationParams:
     @property
     def n_joints(self) -> int:
         return len(self.joint_names)
-
-    def for_joints(self, joint_names: Sequence[str]) -> CompensationParams:
-        """The same coefficients laid out on `joint_names` (a robot's joints, in its order).
-
-        Joints not named here are disabled (k = φ = 0). A joint named here that the robot lacks
-        is an error, so a typo never silently drops a coefficient.
-        """
-        joint_names = tuple(joint_names)
-        if joint_names == self.joint_names:
-            return self
-        k, phi, on = laid_out(
-            self.joint_names,
-            joint_names,
-            (self.k_deg_per_Nm, self.phi_deg, self.enabled),
-            CompensationError,
-        )
-        return CompensationParams(joint_names, k, phi, on, self.clearance_sign, self.notes)
 
     def to_toml(self) -> str:
         """The coefficients as a k.toml file (see `read_coefficients_toml`)."""

@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
+from typing import ClassVar
 
 import numpy as np
 import pinocchio as pin
@@ -44,7 +45,7 @@ from app.core.servo.compensation import (
     CompensationParams,
     compensated_command,
 )
-from app.core.servo.per_joint import check_range, laid_out, per_joint
+from app.core.servo.per_joint import PerJointRecord, check_range, per_joint
 
 
 class ServoModelError(StudioError):
@@ -52,10 +53,13 @@ class ServoModelError(StudioError):
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class ServoModel:
-    """The true mechanics of each servo, one entry per joint of `joint_names`."""
+class ServoModel(PerJointRecord):
+    """The true mechanics of each servo, one entry per joint of `joint_names` (`for_joints`:
+    joints not named are rigid)."""
 
-    joint_names: tuple[str, ...]
+    COLUMNS: ClassVar[tuple[str, ...]] = ("compliance_deg_per_Nm", "backlash_deg")
+    ERROR: ClassVar[type[StudioError]] = ServoModelError
+
     compliance_deg_per_Nm: np.ndarray
     """The servo's true k: output lag per delivered torque [°/(N·m)], shape (n,)."""
     backlash_deg: np.ndarray
@@ -91,19 +95,6 @@ class ServoModel:
             np.where(on, params.k_deg_per_Nm, 0.0),
             np.where(on, 2.0 * params.phi_deg, 0.0),
         )
-
-    def for_joints(self, joint_names: Sequence[str]) -> ServoModel:
-        """The same servos laid out on `joint_names`; joints not named here are rigid."""
-        joint_names = tuple(joint_names)
-        if joint_names == self.joint_names:
-            return self
-        compliance, backlash = laid_out(
-            self.joint_names,
-            joint_names,
-            (self.compliance_deg_per_Nm, self.backlash_deg),
-            ServoModelError,
-        )
-        return ServoModel(joint_names, compliance, backlash)
 
 
 def servo_response(q_cmd_rad: np.ndarray, tau_Nm: np.ndarray, model: ServoModel) -> np.ndarray:

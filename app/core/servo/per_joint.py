@@ -1,14 +1,42 @@
 """What the per-joint servo records (`CompensationParams`, `ServoModel`) share: one checked,
-read-only value per joint, and the same values laid out on another list of joints."""
+read-only value per joint, and the same values laid out on another list of joints (their base
+record, `PerJointRecord`)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
+from typing import ClassVar, Self
 
 import numpy as np
 
 from app.core.errors import StudioError, refuse_unknown_joints
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class PerJointRecord:
+    """Values per joint of `joint_names`: each field named in `COLUMNS` holds one per joint,
+    shape (n,), checked by the subclass (`per_joint`, `check_range`)."""
+
+    joint_names: tuple[str, ...]
+    COLUMNS: ClassVar[tuple[str, ...]] = ()
+    """The per-joint array fields, in the order the subclass declares them."""
+    ERROR: ClassVar[type[StudioError]] = StudioError
+    """What the subclass refuses values with."""
+
+    def for_joints(self, joint_names: Sequence[str]) -> Self:
+        """The same values laid out on `joint_names` (a robot's joints, in its order), the
+        other fields kept. A joint not named here gets zero (False); a joint named here that
+        the robot lacks is `ERROR`, so a typo never silently drops a value."""
+        joint_names = tuple(joint_names)
+        if joint_names == self.joint_names:
+            return self
+        columns = [getattr(self, name) for name in self.COLUMNS]
+        laid = laid_out(self.joint_names, joint_names, columns, self.ERROR)
+        return dataclasses.replace(
+            self, joint_names=joint_names, **dict(zip(self.COLUMNS, laid, strict=True))
+        )
 
 
 def per_joint(label: str, value: object, n: int, error: type[StudioError]) -> np.ndarray:
