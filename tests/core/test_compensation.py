@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import math
 
@@ -130,6 +131,21 @@ def test_for_joints_reorders_and_refuses_unknown_names(servo_biped):
     assert laid.enabled.sum() == 2
     with pytest.raises(CompensationError, match=r"no joint named 'left_hip_rol'.*left_hip_yaw"):
         params([1.0], names=("left_hip_rol",)).for_joints(servo_biped.joint_names)
+
+
+def test_for_joints_keeps_the_other_fields_and_gives_unnamed_joints_nothing(servo_biped):
+    p = dataclasses.replace(
+        params([2.0, -4.0], phi=[1.0, 8.0], sign="torque", names=("right_knee", "left_hip_roll")),
+        notes=("from a file",),
+    )
+    laid = p.for_joints(servo_biped.joint_names)
+    assert (laid.clearance_sign, laid.notes) == ("torque", ("from a file",))
+    by_name = {"right_knee": (2.0, 1.0), "left_hip_roll": (-4.0, 8.0)}  # the record, by name
+    for j, name in enumerate(servo_biped.joint_names):
+        k, phi = by_name.get(name, (0.0, 0.0))
+        assert (laid.k_deg_per_Nm[j], laid.phi_deg[j], laid.enabled[j]) == (k, phi, name in by_name)
+    assert laid.enabled.dtype == bool
+    assert p.for_joints(p.joint_names) is p  # already laid out: the same record
 
 
 def test_params_are_read_only():
