@@ -77,11 +77,16 @@ WORKER_PRELOAD = "app.core.parent_watch"
 """Run in every local worker process as it starts (its `dask_setup`): it ends with the studio
 even when the studio is killed with SIGKILL mid-solve (Dask's own parent watch is a thread,
 which a solve holding the GIL keeps waiting)."""
-NO_HTTP_CONFIG: dict[str, list[str]] = {
+LOCAL_CLUSTER_CONFIG: dict[str, list[str] | bool] = {
     "distributed.scheduler.http.routes": [],
     "distributed.worker.http.routes": [],
+    # Dask's statistical profiler samples each worker's stack every 10 ms and ships it to the
+    # scheduler: CPU the solves share their cores with, for a dashboard nobody can open
+    # (about 1 of 60 CPU-ms per 14-knot point here, ~2 %: bench --sweep's scaling law).
+    "distributed.worker.profile.enabled": False,
 }
-"""Dask configuration of the local cluster: its HTTP servers serve nothing."""
+"""Dask configuration of the local cluster (the nannies hand it to their workers): its HTTP
+servers serve nothing, its workers do not profile themselves."""
 
 
 def _private_local_cluster(local_cluster: Any, n_workers: int) -> Any:
@@ -96,7 +101,7 @@ def _private_local_cluster(local_cluster: Any, n_workers: int) -> Any:
         "DASK_DISTRIBUTED__WORKER__HTTP__ROUTES": "[]",
         "DASK_DISTRIBUTED__SCHEDULER__HTTP__ROUTES": "[]",
     }
-    with dask.config.set(NO_HTTP_CONFIG):
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):
         return local_cluster(
             n_workers=n_workers,
             threads_per_worker=1,
