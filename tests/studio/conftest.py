@@ -91,3 +91,31 @@ def solve_gait(studio: Studio, button: str = "solve"):
     return wait_for_signal(
         studio.gait.finished, lambda: setattr(getattr(panel, button), "value", True)
     )
+
+
+def set_sweep(
+    panel,
+    a: tuple[str, float, float],
+    b: tuple[str, float, float] | None = None,
+    *,
+    samples: int,
+    knots: int = 14,
+    workers: int = 1,
+) -> None:
+    """Set the Sweep panel as a user does, in its order: the first parameter and its range
+    `a` = (name, min, max), the second `b` (None: "(none)"), the samples, the planner's knots
+    and the workers."""
+    panel.param_a.value = a[0]
+    panel.min_a.value, panel.max_a.value = a[1], a[2]
+    panel.param_b.value = "(none)" if b is None else b[0]
+    if b is not None:
+        panel.min_b.value, panel.max_b.value = b[1], b[2]
+    panel.samples.value, panel.knots.value, panel.workers.value = samples, knots, workers
+
+
+def run_sweep(studio: Studio):
+    """Press the Sweep panel's *Run* and wait for the sweep to end; its outcome."""
+    session = studio.sweep
+    return wait_for_signal(
+        session.on_sweep_done, lambda: setattr(session.panel.run_button, "value", True)
+    )

@@ -16,7 +16,7 @@ from app.core.sweeps.robot_variants import ROBOT_PARAMETERS
 from app.core.sweeps.sampling import sweep_points
 from app.core.sweeps.spec import SweepSpec
 from robots.catalogue import BUILTIN_ROBOTS
-from tests.studio.conftest import GUARD_S, wait_for_signal
+from tests.studio.conftest import GUARD_S, run_sweep, set_sweep, wait_for_signal
 
 STEP = (0.05, 0.07)
 """Step lengths [m] around servo_biped's 0.7 m legs' natural advance (not the panel's)."""
@@ -41,14 +41,9 @@ def test_a_gait_sweep_of_servo_biped_matches_core_point_by_point(studio):
     session, panel = studio.sweep, studio.sweep.panel
     assert studio.state.robot.name == "servo_biped"
     assert "**servo_biped**" in panel.robot_line.content
-    panel.param_a.value = "gait:step_length_m"
-    panel.min_a.value, panel.max_a.value = STEP
-    panel.param_b.value = "(none)"
-    panel.samples.value, panel.knots.value, panel.workers.value = 2, 14, 1
+    set_sweep(panel, ("gait:step_length_m", *STEP), samples=2)
     panel.metric_x.value, panel.metric_y.value = "sr", "max_torque_Nm"
-    outcome = wait_for_signal(
-        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
-    )
+    outcome = run_sweep(studio)
     assert not outcome.error and outcome.spec.robot == "servo_biped"
     by_panel = sorted(outcome.results, key=lambda r: r.index)
     assert any(r.solved for r in by_panel), [r.reason for r in by_panel]
@@ -121,12 +116,8 @@ def test_loading_another_robot_offers_its_choices_and_cancels_the_sweep(studio, 
 
     # its sweep runs on the file, and Load point keeps that robot and plays the point's gait
     robot = studio.state.robot
-    panel.param_a.value, panel.param_b.value = "gait:H_s", "(none)"
-    panel.min_a.value, panel.max_a.value = 0.53, 0.57  # converges on servo_biped's legs
-    panel.samples.value, panel.knots.value = 1, 14
-    outcome = wait_for_signal(
-        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
-    )
+    set_sweep(panel, ("gait:H_s", 0.53, 0.57), samples=1)  # converges on servo_biped's legs
+    outcome = run_sweep(studio)
     assert outcome.spec.robot == str(copy) and not outcome.error
     # the workers load the file as the studio did: its feet, the studio's package folders
     assert outcome.spec.feet == (robot.foot("left").link, robot.foot("right").link)

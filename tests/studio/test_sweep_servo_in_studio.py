@@ -16,7 +16,7 @@ from app.core.sweeps.sampling import sweep_points
 from app.core.sweeps.servo_metrics import SERVO_PARAMETERS
 from app.core.sweeps.spec import SweepSpec
 from app.studio import Studio
-from tests.studio.conftest import GUARD_S, free_port, wait_for_signal
+from tests.studio.conftest import GUARD_S, free_port, run_sweep, set_sweep, wait_for_signal
 
 COMPLIANCE = (0.0, 3.0)
 """The swept servo compliance [°/(N·m)]: rigid to twice the paper's identifiable servos."""
@@ -74,12 +74,7 @@ def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepare
     assert len(workers.prepared_s) == 2 and all(s > 0 for s in workers.prepared_s.values())
     assert "2 workers ready" in panel.status.content
 
-    panel.param_a.value = "servo:compliance_deg_per_Nm"
-    panel.min_a.value, panel.max_a.value = COMPLIANCE
-    panel.param_b.value = "(none)"
-    panel.samples.value = 2
-    panel.knots.value = 14
-    panel.workers.value = 2
+    set_sweep(panel, ("servo:compliance_deg_per_Nm", *COMPLIANCE), samples=2, workers=2)
     panel.walk_steps.value = 1
     panel.metric_x.value, panel.metric_y.value = "sr", "max_torso_error_deg"
     assert "s more per point (1 step;" in panel.cost_line.content
@@ -90,9 +85,7 @@ def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepare
     assert "set simulate = true" in panel.status.content and session.outcome is None
 
     panel.simulate.value = True
-    outcome = wait_for_signal(
-        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
-    )
+    outcome = run_sweep(studio)
     assert not outcome.error and len(outcome.results) == 2
     by_panel = sorted(outcome.results, key=lambda r: r.index)
     # prepared workers: no point paid an NLP build or anchor solve
