@@ -13,7 +13,7 @@ import pytest
 from app.core.projects.files import read_project
 from app.core.projects.robot_files import load_project_robot
 from app.core.sweeps.pareto import pareto_mask
-from tests.studio.conftest import GUARD_S, run_sweep, set_sweep, wait_for_signal
+from tests.studio.conftest import GUARD_S, load_point, run_sweep, set_sweep, wait_for_signal
 
 
 def test_sweep_panel_runs_plots_and_loads_a_point(studio):
@@ -65,11 +65,7 @@ def test_sweep_panel_runs_plots_and_loads_a_point(studio):
     assert "point 99 has no gait" in panel.status.content
 
     best = outcome.pareto[0]
-    panel.point.value = best
-    loaded = wait_for_signal(
-        session.on_point_loaded, lambda: setattr(panel.load_button, "value", True)
-    )
-    assert loaded == best
+    assert load_point(studio, best) == best
     robot = studio.state.robot
     assert robot is not robot_before and robot.name == "dircon_biped"
     point = session.points[best]

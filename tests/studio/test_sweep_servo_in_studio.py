@@ -5,18 +5,20 @@ loaded point brings its servo settings to the Compensation panel."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
 from app.config import StudioConfig
-from app.core.sweeps.evaluate import ProblemCache, evaluate_point
-from app.core.sweeps.sampling import sweep_points
 from app.core.sweeps.servo_metrics import SERVO_PARAMETERS
-from app.core.sweeps.spec import SweepSpec
 from app.studio import Studio
-from tests.studio.conftest import GUARD_S, free_port, run_sweep, set_sweep, wait_for_signal
+from tests.studio.conftest import (
+    GUARD_S,
+    assert_points_match_core,
+    free_port,
+    load_point,
+    run_sweep,
+    set_sweep,
+)
 
 COMPLIANCE = (0.0, 3.0)
 """The swept servo compliance [°/(N·m)]: rigid to twice the paper's identifiable servos."""
@@ -61,10 +63,6 @@ def prepared_studio(tmp_path):
     studio.stop()
 
 
-def _same(a: float, b: float) -> bool:
-    return (math.isnan(a) and math.isnan(b)) or a == pytest.approx(b, rel=1e-6, abs=1e-9)
-
-
 def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepared_studio):
     studio = prepared_studio
     session, panel = studio.sweep, studio.sweep.panel
@@ -92,16 +90,8 @@ def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepare
     assert all(r.build_s == 0.0 for r in by_panel)
 
     # the same points, sampled and evaluated one by one here through app.core
-    points = sweep_points(SweepSpec.from_mapping(SAME))
-    cache = ProblemCache()
-    for point, result in zip(points, by_panel, strict=True):
-        assert result.values == point.values
+    for point in assert_points_match_core(by_panel, SAME, METRICS):
         assert COMPLIANCE[0] <= point.values[0] <= COMPLIANCE[1]
-        here = evaluate_point(point, cache)
-        assert result.solved == here.solved and result.status == here.status
-        assert result.sim_status == here.sim_status
-        for metric in METRICS:
-            assert _same(result.metric(metric), here.metric(metric)), metric
     assert any(np.isfinite(r.fell) for r in by_panel), [r.sim_status for r in by_panel]
 
     # the plot: standing and fallen points in their own series, the progress line counts them
@@ -116,11 +106,7 @@ def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepare
 
     # Load point: the design, its walk, and the servos it was simulated with
     best = next(r for r in by_panel if r.solved)
-    panel.point.value = best.index
-    assert (
-        wait_for_signal(session.on_point_loaded, lambda: setattr(panel.load_button, "value", True))
-        == best.index
-    )
+    assert load_point(studio, best.index) == best.index
     robot = studio.state.robot
     coefficients = studio.state.work.coefficients
     assert robot is not None and coefficients is not None
