@@ -17,7 +17,11 @@ import pytest
 
 from tests.conftest import ROBAN_URDF
 from tests.test_cli import run
-from tests.test_cli_walk_simulate_roban import assert_starts_at_the_gaits_speed, simulated_walk
+from tests.test_cli_walk_simulate_roban import (
+    assert_starts_at_the_gaits_speed,
+    assert_walks_its_planned_distance,
+    planned_walk,
+)
 
 
 @pytest.fixture(scope="module")
@@ -30,14 +34,7 @@ def default_step_m():
 
 @pytest.fixture(scope="module")
 def walk(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("roban_default_walk")
-    out = folder / "walk.csv"
-    result = run(
-        "plan", "--robot", str(ROBAN_URDF), "--steps", "4", "--out", str(out), "--json",
-        timeout_s=600,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
-    return folder, out, json.loads(result.stdout)
+    return planned_walk(tmp_path_factory.mktemp("roban_default_walk"), timeout_s=600)
 
 
 def test_the_default_step_is_shortened_and_plan_says_so(walk, default_step_m):
@@ -59,9 +56,7 @@ def test_the_walk_starts_at_the_gaits_speed(walk):
 
 def test_the_default_walk_stays_up_and_covers_its_distance(walk):
     folder, traj, _ = walk
-    _, planned, covered = simulated_walk(folder, traj)
-    assert planned > 0.25
-    assert 0.9 * planned <= covered <= 1.2 * planned
+    assert_walks_its_planned_distance(folder, traj)
 
 
 def test_a_step_the_user_sets_is_kept(walk, tmp_path, default_step_m):

@@ -5,14 +5,12 @@ from __future__ import annotations
 import csv
 import json
 import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 
 from tests.core.test_sweep_pareto import brute_force
+from tests.test_cli import run as run_cli
 
-REPO = Path(__file__).resolve().parents[1]
 TINY = """
 samples = 3
 seed = 2
@@ -27,10 +25,7 @@ max = 0.28
 
 
 def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "app", "sweep", *args],
-        capture_output=True, text=True, timeout=600, check=False, cwd=REPO,
-    )  # fmt: skip
+    return run_cli("sweep", *args, timeout_s=600)
 
 
 def test_sweep_writes_every_point_and_the_pareto_set_of_its_rows(tmp_path):

@@ -11,33 +11,18 @@ from __future__ import annotations
 import csv
 import json
 import subprocess
-import sys
 
 import pytest
 
 from app.core.servo.catalogue import load_catalogue
-from tests.test_sweep_part_axes import REPO, legs, user_mx106
+from tests.test_cli import run as run_cli
+from tests.test_sweep_part_axes import legs, part_sweep, user_mx106
 
-SWEEP = """
-robot = "dircon_biped"
-sampling = "grid"
-simulate = true
-walk_steps = 1
-pareto = { servo_cost = "min", electrical_energy_J = "min" }
-[gait]
-knots = 14
-[[parameter]]
-name = "servo"
-kind = "part"
-choices = ["mx106", "my106", "my107"]
-"""
+SWEEP = part_sweep(("mx106", "my106", "my107"), "servo_cost")
 
 
 def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "app", "sweep", *args],
-        capture_output=True, text=True, timeout=900, check=False, cwd=REPO,
-    )  # fmt: skip
+    return run_cli("sweep", *args, timeout_s=900)
 
 
 @pytest.fixture(scope="module")

@@ -12,6 +12,7 @@ falls backwards, on rigid servos too. Eq 7 on the servos' drive torque (`--drive
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -23,18 +24,24 @@ STEP_LENGTH_M = 0.1185
 """Two steps' advance [m]: 0.35 of S14's default 0.3386 m (0.26 of its leg length per step)."""
 
 
+def planned_walk(folder: Path, *options: str, timeout_s: float) -> tuple[Path, Path, dict]:
+    """`plan --robot S14 --steps 4 OPTIONS --json` writing folder/walk.csv: (folder, the walk
+    CSV, plan's report)."""
+    out = folder / "walk.csv"
+    result = run(
+        "plan", "--robot", str(ROBAN_URDF), "--steps", "4", *options, "--out", str(out), "--json",
+        timeout_s=timeout_s,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    return folder, out, json.loads(result.stdout)
+
+
 @pytest.fixture(scope="module")
 def walk(tmp_path_factory):
     folder = tmp_path_factory.mktemp("roban_walk")
     config = folder / "plan.toml"
     config.write_text(f"step_length_m = {STEP_LENGTH_M}\n", encoding="utf-8")
-    out = folder / "walk.csv"
-    result = run(
-        "plan", "--robot", str(ROBAN_URDF), "--config", str(config), "--steps", "4",
-        "--out", str(out), "--json", timeout_s=300,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
-    return folder, out, json.loads(result.stdout)
+    return planned_walk(folder, "--config", str(config), timeout_s=300)
 
 
 def assert_starts_at_the_gaits_speed(traj, report) -> None:
@@ -50,10 +57,11 @@ def assert_starts_at_the_gaits_speed(traj, report) -> None:
     assert abs(after - before) < 0.25 * after
 
 
-def simulated_walk(folder, traj) -> tuple[dict, float, float]:
-    """(`simulate --json`'s report, planned distance, distance covered [m]) of the walk on the
-    servos sized to S14, eq 7 on the drive torque; distances from the walk CSV's base x and the
-    simulation CSV's base_x column (MuJoCo's qpos). A run that falls fails here."""
+def assert_walks_its_planned_distance(folder, traj) -> dict:
+    """Simulate the walk on the servos sized to S14, eq 7 on the drive torque: no fall, and the
+    distance covered (the simulation CSV's base_x column, MuJoCo's qpos) within 0.9-1.2 of the
+    planned one (the walk CSV's base x, over 0.25 m: four steps and the start and stop);
+    `simulate --json`'s report."""
     sim = folder / "sim.csv"
     result = run(
         "simulate", str(traj), "--robot", str(ROBAN_URDF), "--preset", "uniform",
@@ -64,7 +72,10 @@ def simulated_walk(folder, traj) -> tuple[dict, float, float]:
     assert not report["fell"], report["verdict"]
     assert report["verdict_kind"] != "falls"
     planned_x, simulated_x = _column(traj, "base_x [m]"), _column(sim, "base_x [m]")
-    return report, planned_x[-1] - planned_x[0], simulated_x[-1] - simulated_x[0]
+    planned, covered = planned_x[-1] - planned_x[0], simulated_x[-1] - simulated_x[0]
+    assert planned > 0.25
+    assert 0.9 * planned <= covered <= 1.2 * planned, (covered, planned)
+    return report
 
 
 def test_the_walk_starts_at_the_gaits_speed(walk):
@@ -75,8 +86,6 @@ def test_the_walk_starts_at_the_gaits_speed(walk):
 
 def test_roban_walks_its_planned_distance_without_a_fall(walk):
     folder, traj, _ = walk
-    report, planned, covered = simulated_walk(folder, traj)
-    assert planned > 0.25  # four 5.9 cm steps and the start and stop
-    assert 0.9 * planned <= covered <= 1.2 * planned
+    report = assert_walks_its_planned_distance(folder, traj)  # four 5.9 cm steps
     assert "covers" in report["verdict"]  # the CLI says how far it walked
     assert "sized to biped_s13" in report["servo_default"]

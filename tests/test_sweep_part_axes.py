@@ -15,8 +15,6 @@ import csv
 import json
 import math
 import pickle
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +27,7 @@ from app.core.sweeps.robot_variants import SweepSpecError
 from app.core.sweeps.sampling import sweep_points
 from app.core.sweeps.spec import SweepSpec, read_sweep_toml
 from tests.core.test_sweep_pareto import brute_force
+from tests.test_cli import run
 
 REPO = Path(__file__).resolve().parents[1]
 MASS_KG, PRICE = 0.2, 99.5
@@ -50,20 +49,29 @@ def user_mx106(key: str = "my106", mass: float = MASS_KG, price: float | None = 
     return text
 
 
-SWEEP = """
+def part_sweep(
+    choices: tuple[str, ...], axis: str = "servo_mass_kg", servo_files: tuple[str, ...] = ()
+) -> str:
+    """A sweep file: dircon_biped over the servo parts `choices` (a grid), each point walked one
+    step in the simulation, traded off on `axis` against the electrical energy; `servo_files`:
+    the user's servo files it names (relative to it)."""
+    files = f"servo_files = {json.dumps(list(servo_files))}\n" if servo_files else ""
+    return f"""
 robot = "dircon_biped"
 sampling = "grid"
 simulate = true
 walk_steps = 1
-servo_files = ["servos/mine.toml"]
-pareto = { servo_mass_kg = "min", electrical_energy_J = "min" }
+{files}pareto = {{ {axis} = "min", electrical_energy_J = "min" }}
 [gait]
 knots = 14
 [[parameter]]
 name = "servo"
 kind = "part"
-choices = ["mx64", "mx106", "my106"]
+choices = {json.dumps(list(choices))}
 """
+
+
+SWEEP = part_sweep(("mx64", "mx106", "my106"), servo_files=("servos/mine.toml",))
 
 
 def write_sweep(folder: Path, sweep: str = SWEEP, servo: str | None = None) -> Path:
@@ -78,11 +86,9 @@ def write_sweep(folder: Path, sweep: str = SWEEP, servo: str | None = None) -> P
 def swept(tmp_path_factory):
     folder = tmp_path_factory.mktemp("part_axes")
     spec_path, out = write_sweep(folder), folder / "results.csv"
-    result = subprocess.run(
-        [sys.executable, "-m", "app", "sweep", str(spec_path), "--workers", "1", "--json",
-         "--out", str(out)],
-        capture_output=True, text=True, timeout=900, check=False, cwd=REPO,
-    )  # fmt: skip
+    result = run(
+        "sweep", str(spec_path), "--workers", "1", "--json", "--out", str(out), timeout_s=900
+    )
     assert result.returncode == 0, result.stderr
     rows = {row["servo"]: row for row in csv.DictReader(out.open())}
     return json.loads(result.stdout), rows
@@ -178,9 +184,7 @@ def test_a_bad_user_servo_file_is_refused_naming_its_field(tmp_path):
 
 
 def test_cost_with_every_servo_priced_is_accepted(tmp_path):
-    sweep = SWEEP.replace('"mx64", "mx106", "my106"', '"my106", "my107"').replace(
-        "servo_mass_kg", "servo_cost"
-    )
+    sweep = part_sweep(("my106", "my107"), "servo_cost", ("servos/mine.toml",))
     servo = "[[servo]]\n" + user_mx106().replace("\n[", "\n[servo.") + "\n[[servo]]\n"
     servo += user_mx106("my107", 0.3, 120.0).replace("\n[", "\n[servo.")
     spec = read_sweep_toml(write_sweep(tmp_path, sweep, servo))

@@ -268,6 +268,52 @@ def generate_motion(page, studio, motion: str, timeout_s: float = UI_TIMEOUT_S):
     )
 
 
+COMPUTE_TORQUES = "Compute torque feed-forward"
+SIMULATE = "Simulate without / with compensation"
+SIMULATE_TIMEOUT_S = 180.0
+"""Bounds *Simulate*: spawn the simulation worker (if the torques did not already), run
+MuJoCo twice."""
+
+
+def compute_torques_in_page(page, studio, what: str = "the quick estimate"):
+    """Open the Compensation folder and press *Compute torque feed-forward*, as a user does;
+    the studio's quick estimate once the torques (computed in a worker) give one."""
+    expand_folder(page, "Compensation", COMPUTE_TORQUES)
+    click_button(page, COMPUTE_TORQUES)
+    return wait_for(what, lambda: studio.state.work.prediction, RENDER_TIMEOUT_S)
+
+
+def simulate_in_page(page, studio):
+    """Press *Simulate without / with compensation*; the run of the studio's next simulation
+    record (not the one before the click)."""
+    before = studio.state.work.simulation
+    click_button(page, SIMULATE)
+    record = wait_for(
+        "the simulation",
+        lambda: (s := studio.state.work.simulation) is not None and s is not before and s,
+        RENDER_TIMEOUT_S * 2,
+    )
+    return record.run
+
+
+def simulate_until_shown(page):
+    """Press *Simulate without / with compensation* and wait until the Compensation folder
+    shows the verdict's first line ("Simulated (MuJoCo) in", case-sensitive: the ghost legend
+    says "simulated" too); the folder."""
+    click_button(page, SIMULATE)
+    compensation = folder(page, "Compensation")
+    compensation.get_by_text(re.compile(r"Simulated \(MuJoCo\) in")).first.wait_for(
+        state="visible", timeout=SIMULATE_TIMEOUT_S * 1000
+    )
+    return compensation
+
+
+def folder_shows(page, label: str, pattern: str) -> str | None:
+    """The text of the GUI folder `label` when `pattern` (a regex) is in it, else None."""
+    text = folder(page, label).inner_text()
+    return text if re.search(pattern, text) else None
+
+
 def page_time_s(page) -> float:
     """The value the page shows in the number box beside the "Time [s]" slider."""
     text = gui_row_input(page, "Time [s]", "input.mantine-NumberInput-input").input_value()

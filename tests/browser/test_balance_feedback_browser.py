@@ -14,31 +14,16 @@ from panels.simulation_panel import BALANCE_FEEDBACK
 from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
-    click_button,
-    expand_folder,
+    compute_torques_in_page,
     folder,
+    folder_shows,
     generate_motion,
     gui_row_input,
+    simulate_in_page,
     wait_for,
 )
 
 SIMULATION = "Simulation (MuJoCo)"
-
-
-def shows(page, folder_label: str, pattern: str) -> str | None:
-    """The folder's text when `pattern` (a regex) is in it."""
-    text = folder(page, folder_label).inner_text()
-    return text if re.search(pattern, text) else None
-
-
-def _simulate(page, studio: Studio):
-    before = studio.state.work.simulation
-    click_button(page, "Simulate without / with compensation")
-    return wait_for(
-        "the simulation",
-        lambda: (s := studio.state.work.simulation) is not None and s is not before and s,
-        RENDER_TIMEOUT_S * 2,
-    ).run
 
 
 def _tick(page, studio: Studio, on: bool) -> None:
@@ -55,21 +40,19 @@ def _tick(page, studio: Studio, on: bool) -> None:
 
 def test_the_balance_feedback_box_shows_its_gains_and_names_it_in_the_verdict(page, studio: Studio):
     generate_motion(page, studio, "com_shift")
-    expand_folder(page, "Compensation", "Compute torque feed-forward")
-    click_button(page, "Compute torque feed-forward")
-    wait_for("the quick estimate", lambda: studio.state.work.prediction, RENDER_TIMEOUT_S)
+    compute_torques_in_page(page, studio)
     gains = wait_for(
         "the feedback's gains in the page",
-        lambda: shows(page, SIMULATION, r"Balance feedback gains: ankles Kp [0-9.]+, Kd"),
+        lambda: folder_shows(page, SIMULATION, r"Balance feedback gains: ankles Kp [0-9.]+, Kd"),
         UI_TIMEOUT_S,
     )
     assert "hips Kp" in gains and "per joint" in gains
 
     _tick(page, studio, True)
-    run = aided = _simulate(page, studio)
+    run = aided = simulate_in_page(page, studio)
     text = wait_for(
         "the verdicts with and without the feedback in the page",
-        lambda: shows(
+        lambda: folder_shows(
             page, SIMULATION, r"with compensation: with balance feedback: stays up · without: "
         ),
         RENDER_TIMEOUT_S,
@@ -84,7 +67,7 @@ def test_the_balance_feedback_box_shows_its_gains_and_names_it_in_the_verdict(pa
         assert shown + short_text(alone.outcome) in text, text
 
     _tick(page, studio, False)
-    run = _simulate(page, studio)
+    run = simulate_in_page(page, studio)
     text = wait_for(
         "the verdicts without the feedback in the page",
         lambda: (

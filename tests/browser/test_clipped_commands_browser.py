@@ -11,13 +11,11 @@ import pytest
 
 from app.studio import Studio
 from tests.browser.page_helpers import (
-    RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
-    click_button,
-    expand_folder,
-    folder,
+    compute_torques_in_page,
     generate_motion,
     select_option,
+    simulate_until_shown,
     type_number,
     wait_for,
 )
@@ -26,15 +24,11 @@ JOINT = "left_hip_roll"
 K_DEG_PER_NM = 20.0
 """The one-leg stand's 3.65 N·m on the stance hip roll times this (the slider's top) is more
 than the room to its limit (about 17.4 °/(N·m) reaches it)."""
-SIMULATE = "Simulate without / with compensation"
-SIMULATE_TIMEOUT_S = 180.0
 
 
 def test_a_command_past_a_limit_is_simulated_clipped_and_said(page, studio: Studio) -> None:
     generate_motion(page, studio, "one_leg_stand")
-    expand_folder(page, "Compensation", "Compute torque feed-forward")
-    click_button(page, "Compute torque feed-forward")
-    wait_for("the prediction", lambda: studio.state.work.prediction, RENDER_TIMEOUT_S)
+    compute_torques_in_page(page, studio, "the prediction")
     select_option(page, "Joint", JOINT)
     wait_for(
         "the Joint pick",
@@ -59,11 +53,7 @@ def test_a_command_past_a_limit_is_simulated_clipped_and_said(page, studio: Stud
     q_cmd = studio.state.work.prediction.q_cmd_rad[:, i]
     assert np.any((q_cmd < joint.lower) | (q_cmd > joint.upper))
 
-    click_button(page, SIMULATE)
-    compensation = folder(page, "Compensation")
-    compensation.get_by_text(re.compile(r"Simulated \(MuJoCo\) in")).first.wait_for(
-        state="visible", timeout=SIMULATE_TIMEOUT_S * 1000
-    )
+    compensation = simulate_until_shown(page)
     note = compensation.get_by_text(re.compile(r"past the joint limits clipped to them"))
     note.first.wait_for(state="visible", timeout=UI_TIMEOUT_S * 1000)
     assert JOINT in note.first.inner_text()

@@ -11,7 +11,6 @@ the previous one: run them together, in file order.
 
 from __future__ import annotations
 
-import re
 import time
 from pathlib import Path
 
@@ -23,10 +22,11 @@ from app.core.motions.library import MOTIONS
 from app.core.simulation.mjcf import SimOptions
 from app.studio import Studio
 from tests.browser.page_helpers import (
-    RENDER_TIMEOUT_S,
+    SIMULATE,
     UI_TIMEOUT_S,
     changed,
     click_button,
+    compute_torques_in_page,
     expand_folder,
     folder,
     folder_title,
@@ -35,6 +35,7 @@ from tests.browser.page_helpers import (
     page_time_s,
     publish,
     select_option,
+    simulate_until_shown,
     type_number,
     wait_for,
     wait_stable,
@@ -106,12 +107,8 @@ def test_generate_a_motion_and_compute_its_torques(
     publish(page, "motion.png")
 
     # Compensation: compute τ (in a worker thread) and wait for the prediction.
-    expand_folder(page, "Compensation", "Compute torque feed-forward")
-    click_button(page, "Compute torque feed-forward")
-    prediction = wait_for(
-        "the prediction after the torque feed-forward",
-        lambda: session.prediction,
-        RENDER_TIMEOUT_S,
+    prediction = compute_torques_in_page(
+        page, studio, "the prediction after the torque feed-forward"
     )
     feedforward = session.torques
     assert feedforward is not None
@@ -261,9 +258,6 @@ CURSOR_TIMES_JS = """() => Object.values(window.__viserTestpoints?.uplots ?? {})
 """The time of each chart's cursor in the page (viser's uPlot testpoints), null without one."""
 
 
-SIMULATE = "Simulate without / with compensation"
-SIMULATE_TIMEOUT_S = 180.0
-"""Spawn the simulation worker (if the torques did not already), run MuJoCo twice."""
 MIN_SIMULATED_GHOSTS_FRACTION = 0.002
 """The two simulated ghosts stand near the quick-estimate ghosts: a smaller change of the view
 than the first ghosts, still 4x the noise allowed between two "stable" shots."""
@@ -277,12 +271,7 @@ def test_simulate_shows_the_verdicts_and_two_more_ghosts(
     expand_folder(page, "Compensation", SIMULATE)
     before = wait_stable(page, "the ghosts before simulating", not_blank)
 
-    click_button(page, SIMULATE)
-    compensation = folder(page, "Compensation")
-    # The verdict's first line, case-sensitive (the ghost legend says "simulated" too).
-    compensation.get_by_text(re.compile(r"Simulated \(MuJoCo\) in")).first.wait_for(
-        state="visible", timeout=SIMULATE_TIMEOUT_S * 1000
-    )
+    compensation = simulate_until_shown(page)
     assert session.simulation is not None
     simulation = session.simulation.run
     assert simulation.error == ""

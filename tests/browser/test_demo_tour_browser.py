@@ -29,6 +29,7 @@ from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
     click_button,
+    compute_torques_in_page,
     expand_folder,
     folder,
     generate_motion,
@@ -38,6 +39,7 @@ from tests.browser.page_helpers import (
     scene_canvas_box,
     screen_point,
     select_option,
+    simulate_until_shown,
     static_server,
     studio_context,
     texts_seen,
@@ -46,7 +48,6 @@ from tests.browser.page_helpers import (
     wait_notified,
     wait_stable,
 )
-from tests.browser.test_compensation_browser import SIMULATE, SIMULATE_TIMEOUT_S
 from tests.browser.test_replay_browser import wait_until_playing
 
 MOTION = "com_shift"
@@ -137,9 +138,7 @@ def test_drag_the_pelvis_down_then_undo(page, studio: Studio) -> None:
 def test_torques_then_the_paper_table3_preset_then_simulate(page, studio: Studio) -> None:
     work = studio.state.work
     generate_motion(page, studio, MOTION)
-    expand_folder(page, "Compensation", "Compute torque feed-forward")
-    click_button(page, "Compute torque feed-forward")
-    wait_for("the torques and the prediction", lambda: work.prediction, RENDER_TIMEOUT_S)
+    compute_torques_in_page(page, studio, "the torques and the prediction")
 
     select_option(page, "Preset", PRESETS["table3"].label)
     params = wait_for(
@@ -154,11 +153,7 @@ def test_torques_then_the_paper_table3_preset_then_simulate(page, studio: Studio
     assert sorted(k / np.max(np.abs(k))) == pytest.approx(sorted(paper / np.max(np.abs(paper))))
 
     started = time.monotonic()
-    click_button(page, SIMULATE)
-    compensation = folder(page, "Compensation")
-    compensation.get_by_text(re.compile(r"Simulated \(MuJoCo\) in")).first.wait_for(
-        state="visible", timeout=SIMULATE_TIMEOUT_S * 1000
-    )
+    compensation = simulate_until_shown(page)
     print(f"Simulate: verdict shown {time.monotonic() - started:.1f} s after the click")
     record = work.simulation
     assert record is not None

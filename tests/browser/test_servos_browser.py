@@ -29,6 +29,7 @@ from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
     click_button,
+    compute_torques_in_page,
     expand_folder,
     folder,
     generate_motion,
@@ -52,9 +53,7 @@ TYPED_STAND_MARGIN = 1.0
 
 def test_pick_a_catalogue_servo_for_a_joint(page, studio: Studio) -> None:
     generate_motion(page, studio, MOTION)
-    expand_folder(page, "Compensation", "Compute torque feed-forward")
-    click_button(page, "Compute torque feed-forward")
-    wait_for("the torques' quick estimate", lambda: studio.state.work.prediction, RENDER_TIMEOUT_S)
+    compute_torques_in_page(page, studio, "the torques' quick estimate")
 
     expand_folder(page, "Servos", "Size servos")
     assert JOINT in studio.state.robot.joint_names

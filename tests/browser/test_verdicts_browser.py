@@ -32,12 +32,14 @@ from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
     click_button,
+    compute_torques_in_page,
     expand_folder,
     folder,
+    folder_shows,
     gui_row_input,
-    open_studio,
     pause_playback,
     select_option,
+    simulate_in_page,
     type_number,
     wait_for,
 )
@@ -52,17 +54,6 @@ SOFT_DEG_PER_NM = 20.0
 
 def page_text(page, folder_label: str) -> str:
     return folder(page, folder_label).inner_text()
-
-
-def shows(page, folder_label: str, pattern: str) -> str | None:
-    """The folder's text when `pattern` (a regex) is in it."""
-    text = page_text(page, folder_label)
-    return text if re.search(pattern, text) else None
-
-
-@pytest.fixture(scope="module")
-def page(browser_page, studio_url: str):
-    return open_studio(browser_page, studio_url)
 
 
 def _walked(text: str, label: str) -> tuple[float, float, int]:
@@ -150,10 +141,10 @@ def test_the_planned_walk_walks_on_the_drive_torque_in_the_page(page, studio: St
     )
     wait_for(
         "the page to mark the walk's simulation stale",
-        lambda: shows(page, "Simulation (MuJoCo)", r"Stale"),
+        lambda: folder_shows(page, "Simulation (MuJoCo)", r"Stale"),
         RENDER_TIMEOUT_S,
     )
-    run = _simulate(page, studio)
+    run = simulate_in_page(page, studio)
     text = _travel_shown(page, run)
     covered, _planned, percent = _walked(text, "with compensation")
     root_covered, _ = _root_covered(run.results["with compensation"], walk)
@@ -250,7 +241,7 @@ def test_the_stand_check_says_when_soft_ankles_cannot_hold_the_robot(page, studi
     expand_folder(page, "Compensation", "Compute torque feed-forward")
     first = wait_for(
         "the stand check's line",
-        lambda: shows(page, "Simulation (MuJoCo)", r"Stand check \(ready pose\): stands"),
+        lambda: folder_shows(page, "Simulation (MuJoCo)", r"Stand check \(ready pose\): stands"),
         RENDER_TIMEOUT_S,
     )
     limit = float(re.search(r"needs ≤ ([0-9.]+) °/\(N·m\) at the ankles", first).group(1))
@@ -258,14 +249,16 @@ def test_the_stand_check_says_when_soft_ankles_cannot_hold_the_robot(page, studi
     _set_ankles(page, studio, SOFT_DEG_PER_NM)
     soft = wait_for(
         "the page to say it cannot stand",
-        lambda: shows(page, "Simulation (MuJoCo)", r"cannot stand: needs ≤ [0-9.]+ °/\(N·m\)"),
+        lambda: folder_shows(
+            page, "Simulation (MuJoCo)", r"cannot stand: needs ≤ [0-9.]+ °/\(N·m\)"
+        ),
         RENDER_TIMEOUT_S,
     )
     assert f"needs ≤ {limit:.2f} °/(N·m) at the ankles to stand" in soft
     _set_ankles(page, studio, 1.4)
     wait_for(
         "the page to say it stands again",
-        lambda: shows(page, "Simulation (MuJoCo)", r"Stand check \(ready pose\): stands"),
+        lambda: folder_shows(page, "Simulation (MuJoCo)", r"Stand check \(ready pose\): stands"),
         RENDER_TIMEOUT_S,
     )
 
@@ -293,28 +286,15 @@ def _generate(page, studio: Studio, motion: str, numbers: dict[str, float]) -> N
         lambda: (t := studio.state.trajectory) is not None and t is not before and t.name == motion,
         UI_TIMEOUT_S,
     )
-    expand_folder(page, "Compensation", "Compute torque feed-forward")
-    click_button(page, "Compute torque feed-forward")
-    wait_for("the quick estimate", lambda: studio.state.work.prediction, RENDER_TIMEOUT_S)
-
-
-def _simulate(page, studio: Studio):
-    before = studio.state.work.simulation
-    click_button(page, "Simulate without / with compensation")
-    record = wait_for(
-        "the simulation",
-        lambda: (s := studio.state.work.simulation) is not None and s is not before and s,
-        RENDER_TIMEOUT_S * 2,
-    )
-    return record.run
+    compute_torques_in_page(page, studio)
 
 
 def test_the_43_mm_one_leg_stand_leans_without_compensation_in_the_page(page, studio: Studio):
     _generate(page, studio, "one_leg_stand", {"shift_m [m]": 0.043})
-    run = _simulate(page, studio)
+    run = simulate_in_page(page, studio)
     text = wait_for(
         "the verdicts in the page",
-        lambda: shows(page, "Simulation (MuJoCo)", r"with compensation: stays up"),
+        lambda: folder_shows(page, "Simulation (MuJoCo)", r"with compensation: stays up"),
         RENDER_TIMEOUT_S,
     )
     assert re.search(r"without compensation: leans on the lifted foot: the right foot", text)

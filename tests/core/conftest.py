@@ -1,7 +1,8 @@
 """Fixtures of the planner tests: dircon_biped, its planar model, and a copy of its pinocchio
 model with frames at the heel and toe mid-points of each sole (the planner's contact points,
 built here independently), and a small solved gait. Modules with their own `robot` fixture
-override this one. For the servo tests: servo_biped and its com_shift motion."""
+override this one. For the servo tests: servo_biped, its com_shift and one-leg stand motions. For
+the paper's motions: servo_biped and Roban S14 by name."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import pytest
 from app.core.collocation.dircon import GaitProblem, GaitSettings, PlanarModel
 from app.core.motions.library import run_motion
 from app.core.robot.loading import load_robot
+from tests.conftest import load_robots
 from tests.sole_frames import model_with_sole_edge_frames
 
 
@@ -47,3 +49,17 @@ def servo_biped():
 def com_shift(servo_biped):
     """servo_biped's CoM shift onto one foot and back, both feet down."""
     return run_motion(servo_biped, "com_shift").trajectory
+
+
+@pytest.fixture(scope="module")
+def one_leg(servo_biped):
+    """servo_biped's one-leg stand (the paper's): both feet down, then the CoM over the left
+    foot and the right foot lifted, held; a sample every 0.02 s."""
+    return run_motion(servo_biped, "one_leg_stand", dt=0.02).trajectory
+
+
+@pytest.fixture(scope="module")
+def robots():
+    """{name: RobotModel} of servo_biped and Roban S14, the robots the paper's motions are
+    checked on; a module that checks more robots overrides this one."""
+    return load_robots("servo_biped", "roban")

@@ -23,7 +23,6 @@ from app.core.motions.keyframes import interpolate
 from app.core.motions.library import MOTIONS, resolve_params
 from app.core.posing.ik import WholeBodyIK
 from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT
-from tests.conftest import load_robots
 
 SAME_Q = 5e-4
 """[rad, m] per configuration entry, where the targets can all be met (measured ≤ 2.3e-4, on
@@ -32,11 +31,6 @@ SAME_Q_COMPROMISE = 5e-3
 NO_LARGER_M = 1e-6
 NO_LARGER_RAD = 1e-6
 COMPROMISE = {("roban", "step_in_place")}
-
-
-@pytest.fixture(scope="module")
-def robots():
-    return load_robots("servo_biped", "roban")
 
 
 def _motion(robot, plan, tracking):

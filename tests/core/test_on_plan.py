@@ -6,20 +6,14 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from app.core.motions.library import run_motion
-from app.core.robot.loading import load_robot
 from app.core.simulation.on_plan import on_plan_stance
 
 
 @pytest.fixture(scope="module")
-def robot():
-    return load_robot("servo_biped")
-
-
-@pytest.fixture(scope="module")
-def one_leg(robot):
-    """Both feet down, then the right foot lifted (the left alone stands)."""
-    return run_motion(robot, "one_leg_stand", dt=0.05).trajectory
+def robot(servo_biped):
+    """servo_biped (the conftest's), under the name the tests here use; `one_leg` is its
+    one-leg stand."""
+    return servo_biped
 
 
 def stance_position(robot, q, contacts):

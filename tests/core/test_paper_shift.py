@@ -10,15 +10,9 @@ import pinocchio as pin
 import pytest
 
 from app.core.motions.library import SHIFT_S, SOLE_MARGIN_M, SQUAT_HALF_S, run_motion
-from tests.conftest import load_robots
 
 DT = 0.02
 LEGS = ("Left leg", "Right leg")
-
-
-@pytest.fixture(scope="module")
-def robots():
-    return load_robots("servo_biped", "roban")
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,6 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from app.core.motions.library import run_motion
 from app.core.motions.trajectory import from_configurations
 from app.core.robot.loading import load_robot
 from app.core.servo.compensation import CompensationParams, disabled_params
@@ -26,14 +25,10 @@ D = math.radians
 
 
 @pytest.fixture(scope="module")
-def robot():
-    return load_robot("servo_biped")
-
-
-@pytest.fixture(scope="module")
-def one_leg(robot):
-    """The paper's one-leg stand: CoM over the left foot, right foot lifted, held."""
-    return run_motion(robot, "one_leg_stand", dt=0.02).trajectory
+def robot(servo_biped):
+    """servo_biped (the conftest's), under the name the tests here use; `one_leg` is its
+    one-leg stand."""
+    return servo_biped
 
 
 def stance_frame(robot, contacts):

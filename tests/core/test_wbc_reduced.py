@@ -26,7 +26,6 @@ from app.core.dynamics.wbc_qp import N_CORNERS, N_EDGES
 from app.core.dynamics.wbc_terms import SampleInput
 from app.core.motions.library import run_motion
 from app.core.robot.loading import load_robot
-from tests.conftest import load_robots
 
 CASES = [
     ("servo_biped", "one_leg_squats"),
@@ -34,11 +33,6 @@ CASES = [
     ("roban", "com_shift"),
     ("roban", "one_leg_stand"),
 ]
-
-
-@pytest.fixture(scope="module")
-def robots():
-    return load_robots("servo_biped", "roban")
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.core.sweeps.outcomes import outcome_of
-from tests.studio.conftest import wait_for_signal
+from tests.studio.conftest import run_sweep, set_sweep, wait_for_signal
 
 
 def test_points_too_fast_for_the_motors_fail_and_are_counted_listed_drawn_and_picked(studio):
@@ -16,16 +16,8 @@ def test_points_too_fast_for_the_motors_fail_and_are_counted_listed_drawn_and_pi
     assert studio.robots.load("dircon_biped")
     # two steps of 0.55-0.6 m in 0.3 s (about 2 m/s on legs of 0.8 m): more than the joints'
     # 13 N·m can drive, so the planner finds no gait
-    panel.param_a.value = "gait:step_length_m"
-    panel.min_a.value, panel.max_a.value = 0.55, 0.6
-    panel.param_b.value = "gait:H_s"
-    panel.min_b.value, panel.max_b.value = 0.3, 0.3
-    panel.samples.value = 2
-    panel.knots.value = 14
-    panel.workers.value = 1
-    outcome = wait_for_signal(
-        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
-    )
+    set_sweep(panel, ("gait:step_length_m", 0.55, 0.6), ("gait:H_s", 0.3, 0.3), samples=2)
+    outcome = run_sweep(studio)
     assert not outcome.error and not outcome.cancelled
     assert sorted(r.index for r in outcome.results) == [0, 1]
     assert not any(r.solved for r in outcome.results), [r.status for r in outcome.results]

@@ -13,7 +13,7 @@ import pytest
 from app.core.projects.files import read_project
 from app.core.projects.robot_files import load_project_robot
 from app.core.sweeps.pareto import pareto_mask
-from tests.studio.conftest import GUARD_S, wait_for_signal
+from tests.studio.conftest import GUARD_S, load_point, run_sweep, set_sweep, wait_for_signal
 
 
 def test_sweep_panel_runs_plots_and_loads_a_point(studio):
@@ -28,16 +28,15 @@ def test_sweep_panel_runs_plots_and_loads_a_point(studio):
     assert "leaves what the planner accepts" in panel.status.content
     assert session.outcome is None and studio.state.robot is robot_before
 
-    panel.min_a.value, panel.max_a.value = 0.14, 0.26
-    panel.param_b.value = "robot:thigh_length_m"
-    panel.min_b.value, panel.max_b.value = 0.37, 0.41
-    panel.samples.value = 3
-    panel.knots.value = 14
-    panel.workers.value = 2
-    panel.metric_x.value, panel.metric_y.value = "sr", "max_torque_Nm"
-    outcome = wait_for_signal(
-        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
+    set_sweep(
+        panel,
+        ("gait:step_length_m", 0.14, 0.26),
+        ("robot:thigh_length_m", 0.37, 0.41),
+        samples=3,
+        workers=2,
     )
+    panel.metric_x.value, panel.metric_y.value = "sr", "max_torque_Nm"
+    outcome = run_sweep(studio)
     assert not outcome.error and not outcome.cancelled
     assert len(outcome.results) == 3
     solved = [r for r in outcome.results if r.solved]
@@ -66,11 +65,7 @@ def test_sweep_panel_runs_plots_and_loads_a_point(studio):
     assert "point 99 has no gait" in panel.status.content
 
     best = outcome.pareto[0]
-    panel.point.value = best
-    loaded = wait_for_signal(
-        session.on_point_loaded, lambda: setattr(panel.load_button, "value", True)
-    )
-    assert loaded == best
+    assert load_point(studio, best) == best
     robot = studio.state.robot
     assert robot is not robot_before and robot.name == "dircon_biped"
     point = session.points[best]

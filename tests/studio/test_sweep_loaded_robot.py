@@ -5,18 +5,19 @@ cancels the sweep under way."""
 
 from __future__ import annotations
 
-import math
 import shutil
 import threading
 
-import pytest
-
-from app.core.sweeps.evaluate import ProblemCache, evaluate_point
 from app.core.sweeps.robot_variants import ROBOT_PARAMETERS
-from app.core.sweeps.sampling import sweep_points
-from app.core.sweeps.spec import SweepSpec
 from robots.catalogue import BUILTIN_ROBOTS
-from tests.studio.conftest import GUARD_S, wait_for_signal
+from tests.studio.conftest import (
+    GUARD_S,
+    assert_points_match_core,
+    load_point,
+    run_sweep,
+    set_sweep,
+    wait_for_signal,
+)
 
 STEP = (0.05, 0.07)
 """Step lengths [m] around servo_biped's 0.7 m legs' natural advance (not the panel's)."""
@@ -33,44 +34,26 @@ SAME = {
 METRICS = ("sr", "sr_incl_impacts", "max_torque_Nm", "max_joint_speed_radps", "energy_J")
 
 
-def _same(a: float, b: float) -> bool:
-    return (math.isnan(a) and math.isnan(b)) or a == pytest.approx(b, rel=1e-6, abs=1e-9)
-
-
 def test_a_gait_sweep_of_servo_biped_matches_core_point_by_point(studio):
-    session, panel = studio.sweep, studio.sweep.panel
+    panel = studio.sweep.panel
     assert studio.state.robot.name == "servo_biped"
     assert "**servo_biped**" in panel.robot_line.content
-    panel.param_a.value = "gait:step_length_m"
-    panel.min_a.value, panel.max_a.value = STEP
-    panel.param_b.value = "(none)"
-    panel.samples.value, panel.knots.value, panel.workers.value = 2, 14, 1
+    set_sweep(panel, ("gait:step_length_m", *STEP), samples=2)
     panel.metric_x.value, panel.metric_y.value = "sr", "max_torque_Nm"
-    outcome = wait_for_signal(
-        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
-    )
+    outcome = run_sweep(studio)
     assert not outcome.error and outcome.spec.robot == "servo_biped"
     by_panel = sorted(outcome.results, key=lambda r: r.index)
     assert any(r.solved for r in by_panel), [r.reason for r in by_panel]
 
-    points = sweep_points(SweepSpec.from_mapping(SAME))  # servo_biped's own planner defaults
-    cache = ProblemCache()
-    for point, result in zip(points, by_panel, strict=True):
+    # the same points evaluated here through app.core, on servo_biped's own planner defaults
+    for point in assert_points_match_core(by_panel, SAME, METRICS):
         assert point.robot.robot == "servo_biped" and not point.robot.values
-        assert result.values == point.values and STEP[0] <= point.values[0] <= STEP[1]
-        here = evaluate_point(point, cache)
-        assert result.solved == here.solved and result.status == here.status
-        for metric in METRICS:
-            assert _same(result.metric(metric), here.metric(metric)), metric
+        assert STEP[0] <= point.values[0] <= STEP[1]
 
     # Load point of a gait sweep: the robot on screen stays, and so do the panel's choices
     robot = studio.state.robot
     best = next(r for r in by_panel if r.solved)
-    panel.point.value = best.index
-    loaded = wait_for_signal(
-        session.on_point_loaded, lambda: setattr(panel.load_button, "value", True)
-    )
-    assert loaded == best.index and studio.state.robot is robot
+    assert load_point(studio, best.index) == best.index and studio.state.robot is robot
     assert f"sweep point #{best.index}" in studio.state.motion.summary
     assert (panel.param_a.value, panel.min_a.value, panel.max_a.value) == (
         "gait:step_length_m",
@@ -121,22 +104,14 @@ def test_loading_another_robot_offers_its_choices_and_cancels_the_sweep(studio, 
 
     # its sweep runs on the file, and Load point keeps that robot and plays the point's gait
     robot = studio.state.robot
-    panel.param_a.value, panel.param_b.value = "gait:H_s", "(none)"
-    panel.min_a.value, panel.max_a.value = 0.53, 0.57  # converges on servo_biped's legs
-    panel.samples.value, panel.knots.value = 1, 14
-    outcome = wait_for_signal(
-        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
-    )
+    set_sweep(panel, ("gait:H_s", 0.53, 0.57), samples=1)  # converges on servo_biped's legs
+    outcome = run_sweep(studio)
     assert outcome.spec.robot == str(copy) and not outcome.error
     # the workers load the file as the studio did: its feet, the studio's package folders
     assert outcome.spec.feet == (robot.foot("left").link, robot.foot("right").link)
     assert outcome.spec.package_roots == tuple(str(p) for p in studio.config.package_roots)
     (result,) = outcome.results
     assert result.solved, result.reason
-    panel.point.value = result.index
-    assert (
-        wait_for_signal(session.on_point_loaded, lambda: setattr(panel.load_button, "value", True))
-        == 0
-    )
+    assert load_point(studio, result.index) == 0
     assert studio.state.robot is robot
     assert f"sweep point #{result.index}" in studio.state.motion.summary

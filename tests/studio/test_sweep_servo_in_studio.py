@@ -5,18 +5,20 @@ loaded point brings its servo settings to the Compensation panel."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
 from app.config import StudioConfig
-from app.core.sweeps.evaluate import ProblemCache, evaluate_point
-from app.core.sweeps.sampling import sweep_points
 from app.core.sweeps.servo_metrics import SERVO_PARAMETERS
-from app.core.sweeps.spec import SweepSpec
 from app.studio import Studio
-from tests.studio.conftest import GUARD_S, free_port, wait_for_signal
+from tests.studio.conftest import (
+    GUARD_S,
+    assert_points_match_core,
+    free_port,
+    load_point,
+    run_sweep,
+    set_sweep,
+)
 
 COMPLIANCE = (0.0, 3.0)
 """The swept servo compliance [°/(N·m)]: rigid to twice the paper's identifiable servos."""
@@ -61,10 +63,6 @@ def prepared_studio(tmp_path):
     studio.stop()
 
 
-def _same(a: float, b: float) -> bool:
-    return (math.isnan(a) and math.isnan(b)) or a == pytest.approx(b, rel=1e-6, abs=1e-9)
-
-
 def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepared_studio):
     studio = prepared_studio
     session, panel = studio.sweep, studio.sweep.panel
@@ -74,12 +72,7 @@ def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepare
     assert len(workers.prepared_s) == 2 and all(s > 0 for s in workers.prepared_s.values())
     assert "2 workers ready" in panel.status.content
 
-    panel.param_a.value = "servo:compliance_deg_per_Nm"
-    panel.min_a.value, panel.max_a.value = COMPLIANCE
-    panel.param_b.value = "(none)"
-    panel.samples.value = 2
-    panel.knots.value = 14
-    panel.workers.value = 2
+    set_sweep(panel, ("servo:compliance_deg_per_Nm", *COMPLIANCE), samples=2, workers=2)
     panel.walk_steps.value = 1
     panel.metric_x.value, panel.metric_y.value = "sr", "max_torso_error_deg"
     assert "s more per point (1 step;" in panel.cost_line.content
@@ -90,25 +83,15 @@ def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepare
     assert "set simulate = true" in panel.status.content and session.outcome is None
 
     panel.simulate.value = True
-    outcome = wait_for_signal(
-        session.on_sweep_done, lambda: setattr(panel.run_button, "value", True)
-    )
+    outcome = run_sweep(studio)
     assert not outcome.error and len(outcome.results) == 2
     by_panel = sorted(outcome.results, key=lambda r: r.index)
     # prepared workers: no point paid an NLP build or anchor solve
     assert all(r.build_s == 0.0 for r in by_panel)
 
     # the same points, sampled and evaluated one by one here through app.core
-    points = sweep_points(SweepSpec.from_mapping(SAME))
-    cache = ProblemCache()
-    for point, result in zip(points, by_panel, strict=True):
-        assert result.values == point.values
+    for point in assert_points_match_core(by_panel, SAME, METRICS):
         assert COMPLIANCE[0] <= point.values[0] <= COMPLIANCE[1]
-        here = evaluate_point(point, cache)
-        assert result.solved == here.solved and result.status == here.status
-        assert result.sim_status == here.sim_status
-        for metric in METRICS:
-            assert _same(result.metric(metric), here.metric(metric)), metric
     assert any(np.isfinite(r.fell) for r in by_panel), [r.sim_status for r in by_panel]
 
     # the plot: standing and fallen points in their own series, the progress line counts them
@@ -123,11 +106,7 @@ def test_a_servo_sweep_with_simulation_matches_core_and_loads_its_servos(prepare
 
     # Load point: the design, its walk, and the servos it was simulated with
     best = next(r for r in by_panel if r.solved)
-    panel.point.value = best.index
-    assert (
-        wait_for_signal(session.on_point_loaded, lambda: setattr(panel.load_button, "value", True))
-        == best.index
-    )
+    assert load_point(studio, best.index) == best.index
     robot = studio.state.robot
     coefficients = studio.state.work.coefficients
     assert robot is not None and coefficients is not None
