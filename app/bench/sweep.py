@@ -147,8 +147,8 @@ def scaling_law(one: dict, many: dict, n: int) -> float:
     process) and run at cₙ each, so throughput n / (cₙ + c_s) against 1 / c₁:
     scaling = n·c₁ / (cₙ + c_s). On more cores, the same law with cₙ measured there; c_s is
     serial (one event loop), so throughput also stays below 1 / c_s."""
-    return n * one["cpu_s_per_point"] / (
-        many["cpu_s_per_point"] + many["scheduler_cpu_s_per_point"]
+    return (
+        n * one["cpu_s_per_point"] / (many["cpu_s_per_point"] + many["scheduler_cpu_s_per_point"])
     )
 
 
