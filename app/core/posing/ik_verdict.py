@@ -37,6 +37,7 @@ class IkVerdictMixin(SupportPolygonMixin):
 
     com_margin_m: float
     _pelvis_frame: str
+    _pelvis_id: int
     _torso_goal: np.ndarray | None
     _ended: _Ended | None
     _bounded_names: tuple[str, ...]
@@ -66,24 +67,22 @@ class IkVerdictMixin(SupportPolygonMixin):
         feet = {side: oMf[frame].homogeneous for side, frame in self._foot_ids.items()}
         placed = dict(feet)
         position_error, orientation_error = {}, {}
+        shortfall = []
         for label, T_target in wanted.items():
             if label == "pelvis":
-                T = placed["pelvis"] = oMf[robot.link_frame_ids[self._pelvis_frame]].homogeneous
+                T = placed["pelvis"] = oMf[self._pelvis_id].homogeneous
             else:
                 T = feet[label]
             delta = T[:3, 3] - T_target[:3, 3]
-            position_error[label] = math.sqrt(float(delta.dot(delta)))
+            distance = position_error[label] = math.sqrt(float(delta.dot(delta)))
             turn = pin.log3(T_target[:3, :3].T.dot(T[:3, :3]))
-            orientation_error[label] = math.sqrt(float(turn.dot(turn)))
-        reached = all(
-            position_error[k] < REACHED_M and orientation_error[k] < REACHED_RAD for k in wanted
-        )
-        shortfall = [
-            f"{k if k == 'pelvis' else k + ' foot'} {position_error[k] * 1000:.1f} mm, "
-            f"{np.rad2deg(orientation_error[k]):.1f}° from its target"
-            for k in wanted
-            if position_error[k] >= REACHED_M or orientation_error[k] >= REACHED_RAD
-        ]
+            angle = orientation_error[label] = math.sqrt(float(turn.dot(turn)))
+            if distance >= REACHED_M or angle >= REACHED_RAD:
+                shortfall.append(
+                    f"{label if label == 'pelvis' else label + ' foot'} {distance * 1000:.1f} "
+                    f"mm, {np.rad2deg(angle):.1f}° from its target"
+                )
+        reached = not shortfall
         if not reached:
             worst = max(wanted, key=lambda k: position_error[k])
             warnings.append(
@@ -91,7 +90,7 @@ class IkVerdictMixin(SupportPolygonMixin):
                 f"{np.rad2deg(orientation_error[worst]):.1f}° away"
             )
         if self._torso_goal is not None:
-            R = oMf[robot.link_frame_ids[self._pelvis_frame]].rotation
+            R = oMf[self._pelvis_id].rotation
             turn = pin.log3(self._torso_goal.T.dot(R))
             orientation_error["torso"] = math.sqrt(float(turn.dot(turn)))
             if orientation_error["torso"] >= TORSO_TURN_RAD:
@@ -139,13 +138,8 @@ class IkVerdictMixin(SupportPolygonMixin):
         """The joints within NEAR_LIMIT_RAD of a limit at q."""
         angles = q[self._bounded_q]
         room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
-        if not (room.size and room.min() < NEAR_LIMIT_RAD):
-            return ()
-        return tuple(
-            name
-            for name, close in zip(self._bounded_names, room < NEAR_LIMIT_RAD, strict=True)
-            if close
-        )
+        names = self._bounded_names
+        return tuple(names[i] for i in np.flatnonzero(room < NEAR_LIMIT_RAD).tolist())
 
     def _blockers(
         self, q: np.ndarray, targets: IkTargets, wanted: dict[str, np.ndarray]
