@@ -31,10 +31,10 @@ SHARE_NAMED = 0.15
 NO_PUSH = 1e-9
 """[m²/rad] A push this small in the free directions: nothing first-order is blocked (a
 singular pose, e.g. a straight leg, where no joint motion brings the target closer)."""
-WELL_CONDITIONED = 1e8
-"""JJᵀ of the held feet's Jacobian J is inverted when max|JJᵀ|·max|(JJᵀ)⁻¹| (an estimate of its
-condition number, within a factor of its size) is below this: the projector from the inverse
-is then within ~1e-8 of the SVD's; else the SVD decides J's rank (_null_space)."""
+WELL_CONDITIONED = 1e-8
+"""JJᵀ of the held feet's Jacobian J is solved by its Cholesky factor when LAPACK's estimate of
+its reciprocal condition number (1-norm) is above this: the projector is then within ~1e-8
+of the SVD's; else the SVD decides J's rank (_null_space)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -162,15 +162,20 @@ def _free(J_held: np.ndarray | None, X: np.ndarray) -> np.ndarray:
 
     Every quantity the diagnosis uses is a norm or an inner product of projected vectors,
     the same from P·x as from Nᵀ·x for an orthonormal basis N of that null space (P = N·Nᵀ).
-    Where JJᵀ is well conditioned (one foot under a floating base: always), J⁺ = Jᵀ(JJᵀ)⁻¹
-    and X·P = X − X·Jᵀ·(JJᵀ)⁻¹·J from a 6 × 6 inverse; otherwise (both feet of legs with
-    fewer than six joints: J rank-deficient) N comes from J's full SVD."""
+    Where JJᵀ is well conditioned (one foot under a floating base: always), P·x = x − Jᵀz
+    with JJᵀz = Jx (LAPACK's Cholesky solve dposv, its condition estimate dpocon: no SVD);
+    otherwise (both feet of legs with fewer than six joints: J rank-deficient) N comes from
+    J's full SVD."""
     if J_held is None:
         return X
+    from scipy.linalg import lapack  # loaded with nnls, when a pose falls short
+
     gram = J_held @ J_held.T
-    inverse = np.linalg.inv(gram)
-    if float(np.abs(inverse).max()) * float(np.abs(gram).max()) < WELL_CONDITIONED:
-        return X - ((X @ J_held.T) @ inverse) @ J_held
+    factor, Z, info = lapack.dposv(gram, J_held @ X.T)
+    if info == 0:
+        rcond, _ = lapack.dpocon(factor, float(np.abs(gram).sum(axis=0).max()))
+        if rcond > WELL_CONDITIONED:
+            return X - (J_held.T @ Z).T
     N = _null_space(J_held)
     return (X @ N) @ N.T
 
