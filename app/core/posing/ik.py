@@ -209,6 +209,10 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
         """Configuration index of each joint with limits (not continuous), in joint order."""
         self._bounded_lower = np.array([joint.lower for joint in bounded], dtype=float)
         self._bounded_upper = np.array([joint.upper for joint in bounded], dtype=float)
+        self._bounded_list = [
+            (joint.name, joint.idx_q, float(joint.lower), float(joint.upper)) for joint in bounded
+        ]
+        """(name, configuration index, lower, upper) of each, for loops over Python floats."""
         self._bounded_info = Bounded(
             self._bounded_names,
             np.array([joint.idx_v for joint in bounded], dtype=int),

@@ -45,6 +45,7 @@ class IkVerdictMixin(SupportPolygonMixin):
     _bounded_lower: np.ndarray
     _bounded_upper: np.ndarray
     _bounded_info: Bounded
+    _bounded_list: list[tuple[str, int, float, float]]
 
     def _result(
         self,
@@ -136,10 +137,12 @@ class IkVerdictMixin(SupportPolygonMixin):
 
     def _near_limits(self, q: np.ndarray) -> tuple[str, ...]:
         """The joints within NEAR_LIMIT_RAD of a limit at q."""
-        angles = q[self._bounded_q]
-        room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
-        names = self._bounded_names
-        return tuple(names[i] for i in np.flatnonzero(room < NEAR_LIMIT_RAD).tolist())
+        angles = q.tolist()  # a few dozen joints: Python floats beat numpy's per-call cost
+        return tuple(
+            name
+            for name, i, lower, upper in self._bounded_list
+            if angles[i] - lower < NEAR_LIMIT_RAD or upper - angles[i] < NEAR_LIMIT_RAD
+        )
 
     def _blockers(
         self, q: np.ndarray, targets: IkTargets, wanted: dict[str, np.ndarray]
