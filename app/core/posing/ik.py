@@ -115,11 +115,8 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
             "left": self._solver.add_frame_task(left, np.eye(4)),
             "right": self._solver.add_frame_task(right, np.eye(4)),
         }
-        self._foot_parts = {
-            side: (task.position(), task.orientation()) for side, task in self._feet.items()
-        }
-        """The position and orientation tasks of each foot's frame task (the goal cost reads
-        their errors)."""
+        self._foot_parts = {side: (t.position(), t.orientation()) for side, t in self._feet.items()}
+        """The position and orientation parts of each foot's task (the goal cost reads them)."""
         self._held_at: dict[str, bytes] = {}
         """The target each held foot's task holds, as bytes (a motion's segment gives the same
         one to every sample: placo is not handed it again)."""
@@ -137,7 +134,6 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
         self._add_loop_tasks(robot)
         self._bound_joints(robot)
         self._foot_ids = {foot.side: robot.link_frame_ids[foot.link] for foot in robot.feet}
-        self._foot_links = {foot.side: foot.link for foot in robot.feet}
         self._stance_feet = {
             stance: tuple(foot for foot in robot.feet if stance in (foot.side, "both"))
             for stance in ("left", "right", "both")
@@ -209,9 +205,7 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
         """Configuration index of each joint with limits (not continuous), in joint order."""
         self._bounded_lower = np.array([joint.lower for joint in bounded], dtype=float)
         self._bounded_upper = np.array([joint.upper for joint in bounded], dtype=float)
-        self._bounded_list = [
-            (joint.name, joint.idx_q, float(joint.lower), float(joint.upper)) for joint in bounded
-        ]
+        self._bounded_list = [(j.name, j.idx_q, float(j.lower), float(j.upper)) for j in bounded]
         """(name, configuration index, lower, upper) of each, for loops over Python floats."""
         self._bounded_info = Bounded(
             self._bounded_names,
@@ -280,7 +274,8 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
             side, T_target = next(iter(stance_targets.items()))
             placed = data.oMf[self._foot_ids[side]]
             if float(np.abs(placed.homogeneous - T_target).max()) > ANCHORED_M:
-                q = anchor_on_foot(self.robot, q, self._foot_links[side], T_target, data, placed)
+                link = self.robot.foot(side).link
+                q = anchor_on_foot(self.robot, q, link, T_target, data, placed)
                 pin.framesForwardKinematics(model, data, q)
         self._placed_q = q
         return q
@@ -295,8 +290,7 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
         step_tolerance: float,
         stop_when_met: bool = False,
     ) -> tuple[np.ndarray, int]:
-        """The iterations from start (again without the polygon when the CoM never got
-        inside it), the loops closed, the first `held` foot put back on its target."""
+        """The iterations (without the polygon if the CoM never got in it), loops, anchor."""
         q, iterations = self._iterate(start, polygon, max_iterations, step_tolerance, stop_when_met)
         if polygon is not None and not self._polygon_on:
             # The CoM never got inside: rather than a contorted compromise, show the pose
@@ -408,7 +402,6 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
             for task, frame, goal in self._soft_goals
         ]
         use_polygon = self.com_in_support if com_in_support is None else com_in_support
-
         held = {side: wanted[side] for side in stance_sides}  # what their tasks hold
 
         def steps() -> tuple[np.ndarray, int]:
