@@ -48,7 +48,7 @@ from app.core.posing.ik_records import (
     Stance,
     _Ended,
 )
-from app.core.posing.ik_steps import IkStepsMixin
+from app.core.posing.ik_steps import GoalPart, IkStepsMixin
 from app.core.posing.ik_track import IkTrackMixin
 from app.core.posing.ik_verdict import OUT_OF_REACH, TORSO_TURN_RAD
 from app.core.posing.shortfall import Bounded
@@ -115,6 +115,8 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
             "left": self._solver.add_frame_task(left, np.eye(4)),
             "right": self._solver.add_frame_task(right, np.eye(4)),
         }
+        self._foot_parts = {side: (t.position(), t.orientation()) for side, t in self._feet.items()}
+        """The position and orientation parts of each foot's task (the goal cost reads them)."""
         self._held_at: dict[str, bytes] = {}
         """The target each held foot's task holds, as bytes (a motion's segment gives the same
         one to every sample: placo is not handed it again)."""
@@ -171,7 +173,7 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
         """(stance, stance-feet placements, polygon) of the last support polygon computed."""
         self._halfplanes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         """(polygon, inward edge normals, offsets) of the last polygon a margin was taken in."""
-        self._goals_here: list[tuple[np.ndarray, np.ndarray, bool]] = []
+        self._goals_here: list[tuple[np.ndarray | None, np.ndarray | None, bool]] = []
         """(frame placement, rotation to the goal, whether the goal is further than a step) of
         each soft goal where the goal cost was last computed: the clamped targets of the next
         step start from them."""
@@ -181,10 +183,10 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
         """(task, frame, target) of soft frame targets, approached at most MAX_STEP per step."""
         self._aimed: list[np.ndarray] = []
         """The target each soft goal's task holds now (its goal, or a clamped one)."""
-        self._goal_parts: list[tuple[str, np.ndarray, np.ndarray]] = []
-        """(frame, position, rotation) of each soft goal, contiguous."""
-        self._held_parts: list[tuple[str, np.ndarray, np.ndarray]] = []
-        """(frame, position, rotation) of each held foot's target (in the goal cost with
+        self._goal_parts: list[GoalPart] = []
+        """(frame, target, position task, orientation task) of each soft goal."""
+        self._held_parts: list[tuple[placo.PositionTask, placo.OrientationTask]] = []
+        """The tasks of each held foot, aimed at its target (its drift is in the goal cost with
         HELD_MERIT_WEIGHT while a torso is held)."""
 
     def _add_loop_tasks(self, robot: RobotModel) -> None:
@@ -203,6 +205,8 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
         """Configuration index of each joint with limits (not continuous), in joint order."""
         self._bounded_lower = np.array([joint.lower for joint in bounded], dtype=float)
         self._bounded_upper = np.array([joint.upper for joint in bounded], dtype=float)
+        self._bounded_list = [(j.name, j.idx_q, float(j.lower), float(j.upper)) for j in bounded]
+        """(name, configuration index, lower, upper) of each, for loops over Python floats."""
         self._bounded_info = Bounded(
             self._bounded_names,
             np.array([joint.idx_v for joint in bounded], dtype=int),
@@ -268,9 +272,9 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
         pin.framesForwardKinematics(model, data, q)
         if self.robot.floating_base and stance_targets:
             side, T_target = next(iter(stance_targets.items()))
-            link = self.robot.foot(side).link
-            placed = data.oMf[self.robot.link_frame_ids[link]]
+            placed = data.oMf[self._foot_ids[side]]
             if float(np.abs(placed.homogeneous - T_target).max()) > ANCHORED_M:
+                link = self.robot.foot(side).link
                 q = anchor_on_foot(self.robot, q, link, T_target, data, placed)
                 pin.framesForwardKinematics(model, data, q)
         self._placed_q = q
@@ -280,12 +284,13 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
         self,
         start: np.ndarray,
         polygon: np.ndarray | None,
-        stance_sides: tuple[str, ...],
+        held: dict[str, np.ndarray],
         warnings: list[str],
         max_iterations: int,
         step_tolerance: float,
         stop_when_met: bool = False,
     ) -> tuple[np.ndarray, int]:
+        """The iterations (without the polygon if the CoM never got in it), loops, anchor."""
         q, iterations = self._iterate(start, polygon, max_iterations, step_tolerance, stop_when_met)
         if polygon is not None and not self._polygon_on:
             # The CoM never got inside: rather than a contorted compromise, show the pose
@@ -299,7 +304,7 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
             )
         if self.robot.tree.loops:
             q = close_loops(self.robot, q, self._data).q
-        q = self._anchor(q, {side: self._feet[side].T_world_frame for side in stance_sides})
+        q = self._anchor(q, held)
         return q, iterations
 
     def _set_tasks(
@@ -390,22 +395,21 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
             polygon = self._polygon_here(targets.stance, placements)
             self._inside_at_start = None
         wanted, stance_sides, warnings, held_in_place = self._set_tasks(targets, placements)
-        self._held_parts = [
-            (robot.foot(side).link, wanted[side][:3, 3].copy(), wanted[side][:3, :3].copy())
-            for side in stance_sides
-        ]
+        self._held_parts = [self._foot_parts[side] for side in stance_sides]
         self._aimed = [goal for _, _, goal in self._soft_goals]
         self._goal_parts = [
-            (frame, goal[:3, 3].copy(), goal[:3, :3].copy()) for _, frame, goal in self._soft_goals
+            (frame, goal, task.position(), task.orientation())
+            for task, frame, goal in self._soft_goals
         ]
         use_polygon = self.com_in_support if com_in_support is None else com_in_support
+        held = {side: wanted[side] for side in stance_sides}  # what their tasks hold
 
         def steps() -> tuple[np.ndarray, int]:
             chosen = polygon if use_polygon else None
             return self._solve_steps(
                 start,
                 chosen,
-                stance_sides,
+                held,
                 warnings,
                 max_iterations,
                 step_tolerance,

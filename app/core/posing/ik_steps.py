@@ -20,6 +20,7 @@ ROTATION_WEIGHT = 0.01
 """[m²/rad²] in the goal cost used to accept steps: 0.1 rad counts like 1 cm."""
 MAX_STEP_M = 0.03
 MAX_STEP_RAD = 0.3
+MAX_STEP_M2, MAX_STEP_RAD2 = MAX_STEP_M**2, MAX_STEP_RAD**2
 """A soft target further than this is approached through intermediate targets (one per QP
 step): a far, unreachable target otherwise asks for huge steps at a stretched, near-singular
 leg, and the iterations jump between configurations instead of settling."""
@@ -44,16 +45,26 @@ reach centimetres; the rigid correction of the base (_anchor) would then swing t
 robot by that much."""
 
 
+_Here = tuple[np.ndarray | None, np.ndarray | None, bool]
+"""Where a soft goal's frame is, its turn to the goal (log3), whether the goal is further
+than a step; the first two only when it is."""
+_NEAR = (None, None, False)
+
+GoalPart = tuple[str, np.ndarray, placo.PositionTask, placo.OrientationTask]
+"""A soft goal in the goal cost: its frame, its 4x4 target, and the position and orientation
+parts of the frame task aimed at it."""
+
+
 class IkStepsMixin(SupportPolygonMixin):
     """The iterations' part of WholeBodyIK."""
 
     _pelvis_frame: str
-    _torso_goal: np.ndarray | None
+    _torso: placo.OrientationTask | None
     _soft_goals: list[tuple[placo.FrameTask, str, np.ndarray]]
     _aimed: list[np.ndarray]
-    _goal_parts: list[tuple[str, np.ndarray, np.ndarray]]
-    _held_parts: list[tuple[str, np.ndarray, np.ndarray]]
-    _goals_here: list[tuple[np.ndarray, np.ndarray, bool]]
+    _goal_parts: list[GoalPart]
+    _held_parts: list[tuple[placo.PositionTask, placo.OrientationTask]]
+    _goals_here: list[_Here]
 
     def _iterate(
         self,
@@ -155,7 +166,10 @@ class IkStepsMixin(SupportPolygonMixin):
         for i, ((task, _, goal), (current, turn, far)) in enumerate(
             zip(goals, self._goals_here, strict=True)
         ):
-            aim = _clamped_towards(current, goal, turn) if far else goal
+            aim = goal
+            if far:
+                assert current is not None  # measured where the goal is far
+                aim = _clamped_towards(current, goal, turn)
             if aim is not aimed[i]:
                 task.T_world_frame = aim
                 aimed[i] = aim
@@ -164,27 +178,43 @@ class IkStepsMixin(SupportPolygonMixin):
         """Weighted distance of the soft goals: Σ |Δp|² [m²] + ROTATION_WEIGHT·|Δθ|² [rad²];
         while a torso is held, its turn from the hold (TORSO_WEIGHT·|Δθ|², as in the QP: a
         step that straightens the torso while the foot lags is a step forward) and the held
-        feet's drift (HELD_MERIT_WEIGHT)."""
+        feet's drift (HELD_MERIT_WEIGHT).
+
+        Each distance is the error placo's own task measures at the wrapper's kinematics
+        (PositionTask: target − current; OrientationTask: |log3| of the turn to the target,
+        the same angle as log3(R_currentᵀ·R_goal)) wherever that task holds the goal itself:
+        one C++ call per task instead of a dozen small numpy operations. A goal whose task
+        holds a clamped aim, or that is further than a step (whose placement and turn _aim
+        then needs), is measured here from its frame's placement."""
         cost = 0.0
-        here = []
-        get = self._wrapper.get_T_world_frame
-        for frame, position, rotation in self._goal_parts:
-            current = get(frame)
-            delta = position - current[:3, 3]
-            turn = pin.log3(current[:3, :3].T.dot(rotation))
+        here: list[_Here] = []
+        for part, aim in zip(self._goal_parts, self._aimed, strict=True):
+            frame, T_goal, along, turning = part
+            if aim is T_goal:  # the task holds the goal: its error is the goal's
+                along.update()
+                turning.update()
+                distance, angle = along.error_norm(), turning.error_norm()
+                squared, turned = distance * distance, angle * angle
+                if squared <= MAX_STEP_M2 and turned <= MAX_STEP_RAD2:
+                    cost += squared + ROTATION_WEIGHT * turned
+                    here.append(_NEAR)
+                    continue
+            current = self._wrapper.get_T_world_frame(frame)
+            delta = T_goal[:3, 3] - current[:3, 3]
+            turn = pin.log3(current[:3, :3].T.dot(T_goal[:3, :3]))
             squared, turned = float(delta.dot(delta)), float(turn.dot(turn))
             cost += squared + ROTATION_WEIGHT * turned
-            here.append((current, turn, squared > MAX_STEP_M**2 or turned > MAX_STEP_RAD**2))
+            here.append((current, turn, squared > MAX_STEP_M2 or turned > MAX_STEP_RAD2))
         self._goals_here = here
-        if self._torso_goal is not None:
-            turn = pin.log3(get(self._pelvis_frame)[:3, :3].T.dot(self._torso_goal))
-            cost += TORSO_WEIGHT * float(turn.dot(turn))
-            for frame, position, rotation in self._held_parts:
-                current = get(frame)
-                delta = position - current[:3, 3]
-                turn = pin.log3(current[:3, :3].T.dot(rotation))
-                drift = float(delta.dot(delta)) + ROTATION_WEIGHT * float(turn.dot(turn))
-                cost += HELD_MERIT_WEIGHT * drift
+        if self._torso is not None:  # held at self._torso_goal
+            self._torso.update()
+            angle = self._torso.error_norm()
+            cost += TORSO_WEIGHT * angle * angle
+            for along, turning in self._held_parts:  # each task holds its foot's target
+                along.update()
+                turning.update()
+                distance, angle = along.error_norm(), turning.error_norm()
+                cost += HELD_MERIT_WEIGHT * (distance * distance + ROTATION_WEIGHT * angle * angle)
         return cost
 
 

@@ -37,6 +37,7 @@ class IkVerdictMixin(SupportPolygonMixin):
 
     com_margin_m: float
     _pelvis_frame: str
+    _pelvis_id: int
     _torso_goal: np.ndarray | None
     _ended: _Ended | None
     _bounded_names: tuple[str, ...]
@@ -44,6 +45,7 @@ class IkVerdictMixin(SupportPolygonMixin):
     _bounded_lower: np.ndarray
     _bounded_upper: np.ndarray
     _bounded_info: Bounded
+    _bounded_list: list[tuple[str, int, float, float]]
 
     def _result(
         self,
@@ -66,24 +68,22 @@ class IkVerdictMixin(SupportPolygonMixin):
         feet = {side: oMf[frame].homogeneous for side, frame in self._foot_ids.items()}
         placed = dict(feet)
         position_error, orientation_error = {}, {}
+        shortfall = []
         for label, T_target in wanted.items():
             if label == "pelvis":
-                T = placed["pelvis"] = oMf[robot.link_frame_ids[self._pelvis_frame]].homogeneous
+                T = placed["pelvis"] = oMf[self._pelvis_id].homogeneous
             else:
                 T = feet[label]
             delta = T[:3, 3] - T_target[:3, 3]
-            position_error[label] = math.sqrt(float(delta.dot(delta)))
+            distance = position_error[label] = math.sqrt(float(delta.dot(delta)))
             turn = pin.log3(T_target[:3, :3].T.dot(T[:3, :3]))
-            orientation_error[label] = math.sqrt(float(turn.dot(turn)))
-        reached = all(
-            position_error[k] < REACHED_M and orientation_error[k] < REACHED_RAD for k in wanted
-        )
-        shortfall = [
-            f"{k if k == 'pelvis' else k + ' foot'} {position_error[k] * 1000:.1f} mm, "
-            f"{np.rad2deg(orientation_error[k]):.1f}° from its target"
-            for k in wanted
-            if position_error[k] >= REACHED_M or orientation_error[k] >= REACHED_RAD
-        ]
+            angle = orientation_error[label] = math.sqrt(float(turn.dot(turn)))
+            if distance >= REACHED_M or angle >= REACHED_RAD:
+                shortfall.append(
+                    f"{label if label == 'pelvis' else label + ' foot'} {distance * 1000:.1f} "
+                    f"mm, {np.rad2deg(angle):.1f}° from its target"
+                )
+        reached = not shortfall
         if not reached:
             worst = max(wanted, key=lambda k: position_error[k])
             warnings.append(
@@ -91,7 +91,7 @@ class IkVerdictMixin(SupportPolygonMixin):
                 f"{np.rad2deg(orientation_error[worst]):.1f}° away"
             )
         if self._torso_goal is not None:
-            R = oMf[robot.link_frame_ids[self._pelvis_frame]].rotation
+            R = oMf[self._pelvis_id].rotation
             turn = pin.log3(self._torso_goal.T.dot(R))
             orientation_error["torso"] = math.sqrt(float(turn.dot(turn)))
             if orientation_error["torso"] >= TORSO_TURN_RAD:
@@ -137,14 +137,11 @@ class IkVerdictMixin(SupportPolygonMixin):
 
     def _near_limits(self, q: np.ndarray) -> tuple[str, ...]:
         """The joints within NEAR_LIMIT_RAD of a limit at q."""
-        angles = q[self._bounded_q]
-        room = np.minimum(angles - self._bounded_lower, self._bounded_upper - angles)
-        if not (room.size and room.min() < NEAR_LIMIT_RAD):
-            return ()
+        angles = q.tolist()  # a few dozen joints: Python floats beat numpy's per-call cost
         return tuple(
             name
-            for name, close in zip(self._bounded_names, room < NEAR_LIMIT_RAD, strict=True)
-            if close
+            for name, i, lower, upper in self._bounded_list
+            if angles[i] - lower < NEAR_LIMIT_RAD or upper - angles[i] < NEAR_LIMIT_RAD
         )
 
     def _blockers(

@@ -17,6 +17,7 @@ Computed only for a result that missed a target (one Jacobian pass, an SVD, a sm
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pinocchio as pin
@@ -30,6 +31,10 @@ SHARE_NAMED = 0.15
 NO_PUSH = 1e-9
 """[m²/rad] A push this small in the free directions: nothing first-order is blocked (a
 singular pose, e.g. a straight leg, where no joint motion brings the target closer)."""
+WELL_CONDITIONED = 1e-8
+"""JJᵀ of the held feet's Jacobian J is solved by its Cholesky factor when LAPACK's estimate of
+its reciprocal condition number (1-norm) is above this: the projector is then within ~1e-8
+of the SVD's; else the SVD decides J's rank (_null_space)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,46 +89,19 @@ def blockers(model: pin.Model, data: pin.Data, q: np.ndarray, situation: Situati
         push += goal.position_weight * J[:3].T @ delta + goal.orientation_weight * J[3:].T @ turn
     J_com = None
     if situation.com_target_xy is not None or situation.polygon_edges is not None:
-        J_com = pin.jacobianCenterOfMass(model, data, q, False)[:2]
+        J_com = pin.jacobianCenterOfMass(model, data, False)[:2]  # the kinematics at q: above
         if situation.com_target_xy is not None:
             miss = situation.com_target_xy - data.com[0][:2]
             push += situation.com_target_weight * J_com.T @ miss
+    labels, rows = _candidates(model, data, q, situation, J_com)
     held = [pin.getFrameJacobian(model, data, fid, pin.LOCAL) for fid in situation.held_frame_ids]
-    N = _null_space(np.vstack(held)) if held else np.eye(model.nv)
-    b = N.T @ push
+    projected = _free(np.vstack(held) if held else None, np.array([push, *rows]))
+    b, A = projected[0], projected[1:].T
     if float(b @ b) < NO_PUSH**2:
         return ["no joint motion brings the target closer from here (a straight leg?)"]
-    labels: list[str] = []
-    columns: list[np.ndarray] = []
-    bounded = situation.bounded
-    angles = q[bounded.idx_q]
-    for name, iv, angle, lower, upper in zip(
-        bounded.names, bounded.idx_v, angles, bounded.lower, bounded.upper, strict=True
-    ):
-        for bound, sign, word in ((upper, 1.0, "upper"), (lower, -1.0, "lower")):
-            if abs(angle - bound) < AT_LIMIT_RAD:
-                column = np.zeros(model.nv)
-                column[iv] = sign  # the gradient of sign·(q_i − bound) ≤ 0
-                columns.append(N.T @ column)
-                labels.append(f"{name} at its {word} limit ({np.rad2deg(bound):.1f}°)")
-    if situation.polygon_edges is not None and J_com is not None:
-        normals, offsets = situation.polygon_edges
-        on_edge = offsets - normals @ data.com[0][:2] < ON_EDGE_M
-        if np.any(on_edge):
-            for normal in normals[on_edge]:
-                columns.append(N.T @ (J_com.T @ normal))
-                labels.append("the CoM kept over the support polygon")
-    if situation.torso is not None:
-        frame_id, R_held, weight = situation.torso
-        R = data.oMf[frame_id].rotation
-        turn = R @ pin.log3(R.T @ R_held)
-        J = pin.getFrameJacobian(model, data, frame_id, pin.LOCAL_WORLD_ALIGNED)
-        columns.append(N.T @ (-weight * J[3:].T @ turn))  # ∇c_torso
-        labels.append("the torso kept as it was (drag the pelvis to lean it)")
-    if not columns:
+    if not rows:
         return []
-    A = np.column_stack(columns)
-    scale = float(np.linalg.norm(A, axis=0).max())
+    scale = math.sqrt(float((A * A).sum(axis=0).max()))
     if scale == 0.0:
         return []
     from scipy.optimize import nnls  # scipy loads when a pose falls short, not with the IK
@@ -131,11 +109,75 @@ def blockers(model: pin.Model, data: pin.Data, q: np.ndarray, situation: Situati
     mu, _ = nnls(A / scale, b / scale)
     shares = mu * (A.T @ b) / float(b @ b) / scale
     out: dict[str, float] = {}
-    for label, share in zip(labels, shares, strict=True):
-        out[label] = out.get(label, 0.0) + float(share)  # several edges: one reason
+    for label, share in zip(labels, shares.tolist(), strict=True):
+        out[label] = out.get(label, 0.0) + share  # several edges: one reason
     return [
         label for label, share in sorted(out.items(), key=lambda x: -x[1]) if share >= SHARE_NAMED
     ]
+
+
+def _candidates(
+    model: pin.Model,
+    data: pin.Data,
+    q: np.ndarray,
+    situation: Situation,
+    J_com: np.ndarray | None,
+) -> tuple[list[str], list[np.ndarray]]:
+    """The active inequalities and the torso hold at q, each with the gradient [nv] of its
+    constraint (g_i ≤ 0) or cost, not yet projected (the frames and Jacobians at q)."""
+    labels: list[str] = []
+    rows: list[np.ndarray] = []
+    bounded = situation.bounded
+    angles = q[bounded.idx_q]
+    at_upper = np.abs(angles - bounded.upper) < AT_LIMIT_RAD
+    at_lower = np.abs(angles - bounded.lower) < AT_LIMIT_RAD
+    sides = ((at_upper, bounded.upper, 1.0, "upper"), (at_lower, bounded.lower, -1.0, "lower"))
+    for i in np.flatnonzero(at_upper | at_lower).tolist():  # few: the joints at a limit
+        for at, bounds, sign, word in sides:
+            if at[i]:
+                row = np.zeros(model.nv)
+                row[bounded.idx_v[i]] = sign  # the gradient of sign·(q_i − bound) ≤ 0
+                rows.append(row)
+                degrees = np.rad2deg(bounds[i])
+                labels.append(f"{bounded.names[i]} at its {word} limit ({degrees:.1f}°)")
+    if situation.polygon_edges is not None and J_com is not None:
+        normals, offsets = situation.polygon_edges
+        on_edge = offsets - normals @ data.com[0][:2] < ON_EDGE_M
+        if on_edge.any():
+            rows.extend(normals[on_edge] @ J_com)
+            labels.extend(["the CoM kept over the support polygon"] * int(on_edge.sum()))
+    if situation.torso is not None:
+        frame_id, R_held, weight = situation.torso
+        R = data.oMf[frame_id].rotation
+        turn = R @ pin.log3(R.T @ R_held)
+        J = pin.getFrameJacobian(model, data, frame_id, pin.LOCAL_WORLD_ALIGNED)
+        rows.append(-weight * (turn @ J[3:]))  # ∇c_torso
+        labels.append("the torso kept as it was (drag the pelvis to lean it)")
+    return labels, rows
+
+
+def _free(J_held: np.ndarray | None, X: np.ndarray) -> np.ndarray:
+    """The rows of X (k × nv) projected onto the motions that keep the held feet in place,
+    the null space of J_held: X·P with P = I − J⁺J, the orthogonal projector.
+
+    Every quantity the diagnosis uses is a norm or an inner product of projected vectors,
+    the same from P·x as from Nᵀ·x for an orthonormal basis N of that null space (P = N·Nᵀ).
+    Where JJᵀ is well conditioned (one foot under a floating base: always), P·x = x − Jᵀz
+    with JJᵀz = Jx (LAPACK's Cholesky solve dposv, its condition estimate dpocon: no SVD);
+    otherwise (both feet of legs with fewer than six joints: J rank-deficient) N comes from
+    J's full SVD."""
+    if J_held is None:
+        return X
+    from scipy.linalg import lapack  # loaded with nnls, when a pose falls short
+
+    gram = J_held @ J_held.T
+    factor, Z, info = lapack.dposv(gram, J_held @ X.T)
+    if info == 0:
+        rcond, _ = lapack.dpocon(factor, float(np.abs(gram).sum(axis=0).max()))
+        if rcond > WELL_CONDITIONED:
+            return X - (J_held.T @ Z).T
+    N = _null_space(J_held)
+    return (X @ N) @ N.T
 
 
 def _null_space(A: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
