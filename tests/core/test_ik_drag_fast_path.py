@@ -194,10 +194,9 @@ def _held_back(robot, q: np.ndarray, target: np.ndarray, R_torso: np.ndarray, ed
     labels.append("the torso kept as it was (drag the pelvis to lean it)")
     A, b = np.column_stack(columns), N.T @ push
     mu, _ = nnls(A, b)
-    # The module's share: μ_i·(a_i·b)/(b·b), divided by the largest column norm of A.
-    scale = float(np.linalg.norm(A, axis=0).max())
+    # A reason's share: μ_i·(a_i·b)/(b·b), its part of the push.
     shares: dict[str, float] = {}
-    for label, share in zip(labels, mu * (A.T @ b) / float(b @ b) / scale, strict=True):
+    for label, share in zip(labels, mu * (A.T @ b) / float(b @ b), strict=True):
         shares[label] = shares.get(label, 0.0) + float(share)
     named = [label for label in shares if shares[label] >= SHARE_NAMED]
     return sorted(named, key=lambda label: -shares[label])
@@ -232,3 +231,40 @@ def test_held_back_lines_are_those_of_the_analysis_written_out():
         assert said == expected
         compared += 1
     assert compared > 10
+
+
+def test_held_back_reasons_do_not_depend_on_the_units_of_their_constraints(monkeypatch):
+    """A reason's share of the push is a fraction (the shares sum to at most 1): written in
+    other units (every candidate's gradient × 10, as a limit in other units would be), the
+    same reasons are named. Before, the shares were divided by the largest gradient's norm, so
+    the 0.15 threshold named more or fewer reasons with the units."""
+    import app.core.posing.shortfall as shortfall
+
+    robot = _robot("roban")
+    q0 = robot.q_neutral.copy()
+    start = robot.link_placements(q0, robot.model.createData())[robot.feet[0].link]
+    events = [e for e in drag_events(robot, q0, start, 60)]
+    candidates = shortfall._candidates
+    seen: list[dict[str, float]] = []
+    reason_shares = shortfall.reason_shares
+
+    def kept(*args):
+        shares = reason_shares(*args)
+        if isinstance(shares, dict):
+            seen.append(shares)
+        return shares
+
+    def lines(factor: float) -> list[tuple[str, ...]]:
+        def scaled(*args):
+            labels, rows = candidates(*args)
+            return labels, [factor * row for row in rows]
+
+        monkeypatch.setattr(shortfall, "_candidates", scaled)
+        posing = Posing(robot)
+        return [tuple(posing.drag(e.q_before, "left", e.target).shortfall) for e in events]
+
+    monkeypatch.setattr(shortfall, "reason_shares", kept)
+    plain = lines(1.0)
+    assert sum(any(line.startswith("held back by") for line in said) for said in plain) > 10
+    assert seen and all(sum(s.values()) <= 1.0 + 1e-9 for s in seen)
+    assert lines(10.0) == plain

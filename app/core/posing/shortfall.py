@@ -77,6 +77,19 @@ class Situation:
 def blockers(model: pin.Model, data: pin.Data, q: np.ndarray, situation: Situation) -> list[str]:
     """What holds the pose back from its targets, most pushed first, one line each (empty:
     nothing is pushed against, e.g. the iterations stopped early)."""
+    shares = reason_shares(model, data, q, situation)
+    if isinstance(shares, str):
+        return [shares]
+    return [label for label, share in shares.items() if share >= SHARE_NAMED]
+
+
+def reason_shares(
+    model: pin.Model, data: pin.Data, q: np.ndarray, situation: Situation
+) -> dict[str, float] | str:
+    """Each candidate reason's part of the targets' push at q, largest first: the push's
+    component along what the non-negative combination of the reasons' gradients (NNLS)
+    gives it, over the push's squared norm (the parts sum to at most 1, whatever the units of
+    the constraints); or one line when nothing pushes."""
     pin.computeJointJacobians(model, data, q)
     pin.updateFramePlacements(model, data)
     push = np.zeros(model.nv)
@@ -98,22 +111,20 @@ def blockers(model: pin.Model, data: pin.Data, q: np.ndarray, situation: Situati
     projected = _free(np.vstack(held) if held else None, np.array([push, *rows]))
     b, A = projected[0], projected[1:].T
     if float(b @ b) < NO_PUSH**2:
-        return ["no joint motion brings the target closer from here (a straight leg?)"]
+        return "no joint motion brings the target closer from here (a straight leg?)"
     if not rows:
-        return []
+        return {}
     scale = math.sqrt(float((A * A).sum(axis=0).max()))
     if scale == 0.0:
-        return []
+        return {}
     from scipy.optimize import nnls  # scipy loads when a pose falls short, not with the IK
 
     mu, _ = nnls(A / scale, b / scale)
-    shares = mu * (A.T @ b) / float(b @ b) / scale
+    shares = mu * (A.T @ b) / float(b @ b)  # each reason's part of the push (sum ≤ 1)
     out: dict[str, float] = {}
     for label, share in zip(labels, shares.tolist(), strict=True):
         out[label] = out.get(label, 0.0) + share  # several edges: one reason
-    return [
-        label for label, share in sorted(out.items(), key=lambda x: -x[1]) if share >= SHARE_NAMED
-    ]
+    return dict(sorted(out.items(), key=lambda x: -x[1]))
 
 
 def _candidates(
