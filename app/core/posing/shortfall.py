@@ -8,10 +8,13 @@ with c_goals the soft targets' squared errors (moving foot, pelvis, CoM target; 
 weights), c_torso the soft torso hold, g_i ≤ 0 the inequalities that are active there (a joint
 at a limit, the CoM on an edge of the shrunk support polygon) and J_held the held feet's
 Jacobian. Projected onto the null space N of J_held, λ drops out, and the non-negative least
-squares fit of −Nᵀ∇c_goals by the candidates' columns gives each one's share of the push:
-a joint at a limit the targets do not push against gets μ = 0 and is not named.
+squares fit of −Nᵀ∇c_goals by the candidates' columns gives each one's share of the push,
+μ_i·(a_i·b)/(b·b) with b the projected push and a_i a candidate's column (the shares sum to
+at most 1, whatever the constraints' units): a joint at a limit the targets do not push
+against gets μ = 0 and is not named.
 
-Computed only for a result that missed a target (one Jacobian pass, an SVD, a small NNLS).
+Computed only for a result that missed a target (one Jacobian pass, a Cholesky solve — an SVD
+where J_held is ill-conditioned — and a small NNLS).
 """
 
 from __future__ import annotations
