@@ -65,7 +65,8 @@ log = logging.getLogger(__name__)
 RETRIES = 2
 """Times a task that raised is run again."""
 CHUNK_POINTS = 3
-"""Points per task before the sweep's tail (bench --sweep: see `plan_tasks`)."""
+"""Points per task before the sweep's tail (`plan_tasks`): bench --sweep scaled best with 3,
+against 2 and 4 (docs/sweeps.md, "A few points per Dask task")."""
 CHUNK_FROM_PER_WORKER = 8
 """Points per worker from which a sweep's points are grouped into tasks (below: one each)."""
 TAIL_PER_WORKER = 2
