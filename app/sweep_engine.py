@@ -27,12 +27,18 @@ the TCP connect, so a peer that accepted and stayed silent kept the client waiti
 The local workers end with the studio however it ends, `kill -9` and a
 solve holding the GIL included: each runs `app.core.parent_watch` as a preload.
 
-Each point is one task, `app.core.sweeps.evaluate.evaluate_point`; the process's cache of built
-NLPs survives between tasks, so a worker builds each structure once. A worker that dies
-mid-point (killed, out of memory) loses only its running points: the scheduler hands them to
-another worker (up to `distributed.scheduler.allowed-failures` deaths per point), and a point
-whose task raised is retried `RETRIES` times. A point that still fails is reported as failed, not
-dropped.
+A task evaluates a few points in turn (`evaluate_points`, `plan_tasks`): the scheduler, the
+client and each worker spend CPU per Dask task (messages over TLS, bookkeeping; a few ms
+against a 14-knot point's ~57 ms), and on n workers over n cores that CPU is taken from the
+solves (bench --sweep's scaling law). The last 2 × workers points go one per task, so the end
+of a sweep, when fewer tasks than workers are left, is as fine-grained as before; a sweep of
+fewer than `CHUNK_FROM_PER_WORKER` points per worker is all single points. The process's cache
+of built NLPs survives between tasks, so a worker builds each structure once. A worker that
+dies mid-task (killed, out of memory) loses only its running tasks: the scheduler hands them to
+another worker (up to `distributed.scheduler.allowed-failures` deaths per task), and a task that
+raised is retried `RETRIES` times. A task of several points that still fails is split, its
+points resubmitted one per task, so a point that kills its worker every time takes no other
+point down with it; a single point that still fails is reported as failed, not dropped.
 """
 
 from __future__ import annotations
@@ -50,14 +56,21 @@ from typing import Any
 
 from app.core.errors import StudioError
 from app.core.parent_watch import PARENT_ENV
-from app.core.sweeps.evaluate import PointResult, evaluate_point, failed_point
+from app.core.sweeps.evaluate import PointResult, evaluate_points, failed_point
 from app.core.sweeps.sampling import SweepPoint
 from app.scheduler_probe import CONNECT_TIMEOUT_S, SchedulerProbeError, probe_scheduler
 
 log = logging.getLogger(__name__)
 
 RETRIES = 2
-"""Times a point whose task raised is run again."""
+"""Times a task that raised is run again."""
+CHUNK_POINTS = 3
+"""Points per task before the sweep's tail (`plan_tasks`): bench --sweep scaled best with 3,
+against 2 and 4 (docs/sweeps.md, "A few points per Dask task")."""
+CHUNK_FROM_PER_WORKER = 8
+"""Points per worker from which a sweep's points are grouped into tasks (below: one each)."""
+TAIL_PER_WORKER = 2
+"""The sweep's last TAIL_PER_WORKER × workers points go one per task."""
 SINGLE_THREAD_ENV = {
     name: "1"
     for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
@@ -128,6 +141,20 @@ def _stop_worker_http(dask_worker: Any) -> None:
     http = getattr(dask_worker, "http_server", None)
     if http is not None:
         http.stop()
+
+
+def plan_tasks(
+    points: Sequence[SweepPoint], workers: int, chunk_points: int = CHUNK_POINTS
+) -> list[tuple[SweepPoint, ...]]:
+    """The points grouped into Dask tasks, in submission order (the scheduler runs them in
+    that order): runs of `chunk_points`, then the last `TAIL_PER_WORKER` × workers points one
+    each; all one each when there are fewer than `CHUNK_FROM_PER_WORKER` points per worker."""
+    workers = max(workers, 1)
+    if chunk_points <= 1 or len(points) < CHUNK_FROM_PER_WORKER * workers:
+        return [(point,) for point in points]
+    head = len(points) - TAIL_PER_WORKER * workers
+    chunks = [tuple(points[i : min(i + chunk_points, head)]) for i in range(0, head, chunk_points)]
+    return chunks + [(point,) for point in points[head:]]
 
 
 class SweepEngine:
@@ -209,9 +236,11 @@ class SweepEngine:
         """Worker address → its process id (for tests and diagnostics)."""
         return self.client.run(os.getpid)
 
-    def start(self, points: Sequence[SweepPoint]) -> SweepRun:
-        """Submit every point; iterate `results()` of the returned run for them."""
-        return SweepRun(self.client, points)
+    def start(self, points: Sequence[SweepPoint], *, chunk_points: int = CHUNK_POINTS) -> SweepRun:
+        """Submit every point (`chunk_points` a task before the tail: `plan_tasks`); iterate
+        `results()` of the returned run for them."""
+        workers = self.local_size or self.n_workers
+        return SweepRun(self.client, plan_tasks(points, workers, chunk_points))
 
     def prepare(self, point: SweepPoint) -> dict[str, float]:
         """Have every worker build the NLP of `point`'s structure and solve its anchor gait now,
@@ -251,23 +280,43 @@ class SweepEngine:
 class SweepRun:
     """The submitted points of one sweep: results as they finish, cancel from any thread."""
 
-    def __init__(self, client: Any, points: Sequence[SweepPoint]) -> None:
+    def __init__(self, client: Any, tasks: Sequence[Sequence[SweepPoint]]) -> None:
+        """`tasks`: the points, grouped into the Dask tasks that evaluate them (`plan_tasks`)."""
         from distributed import as_completed
 
-        self.points = {p.index: p for p in points}
+        self.points = {p.index: p for task in tasks for p in task}
         self.started_s = time.perf_counter()
         self._client = client
         self._cancelled = threading.Event()
-        run_id = uuid.uuid4().hex[:12]
-        self._futures = client.map(
-            evaluate_point,
-            list(points),
-            key=[f"sweep-{run_id}-point-{p.index}" for p in points],
-            retries=RETRIES,
-            pure=False,
-        )
-        self._index = {f.key: p.index for f, p in zip(self._futures, points, strict=True)}
+        self._lock = threading.Lock()  # a failed task's resubmission against cancel()
+        self._run_id = uuid.uuid4().hex[:12]
+        self._index: dict[str, tuple[int, ...]] = {}
+        """Task key → the indices of the points it evaluates."""
+        self._futures = self._submit([tuple(task) for task in tasks], priority=0)
         self._completed = as_completed(self._futures)
+
+    def _submit(self, tasks: list[tuple[SweepPoint, ...]], priority: int) -> list[Any]:
+        keys = [
+            f"sweep-{self._run_id}-point-{task[0].index}"
+            if len(task) == 1
+            else f"sweep-{self._run_id}-points-{task[0].index}-{task[-1].index}"
+            for task in tasks
+        ]
+        futures = self._client.map(
+            evaluate_points, tasks, key=keys, retries=RETRIES, pure=False, priority=priority
+        )
+        self._index.update({k: tuple(p.index for p in t) for k, t in zip(keys, tasks, strict=True)})
+        return futures
+
+    def _split(self, indices: tuple[int, ...]) -> None:
+        """Resubmit the points of a task that failed every retry one per task, ahead of the
+        points not yet started, into the same iteration (unless cancelled)."""
+        with self._lock:
+            if self._cancelled.is_set():
+                return
+            futures = self._submit([(self.points[i],) for i in indices], priority=1)
+            self._futures.extend(futures)
+            self._completed.update(futures)
 
     @property
     def cancelled(self) -> bool:
@@ -276,29 +325,41 @@ class SweepRun:
     def cancel(self) -> None:
         """Stop the sweep: unfinished points are dropped (running solves are abandoned on their
         workers), and `results()` ends after at most the result it is delivering."""
-        self._cancelled.set()
-        self._completed.clear()  # ends the iteration in `results`
-        with contextlib.suppress(Exception):
-            self._client.cancel(self._futures)
+        with self._lock:
+            self._cancelled.set()
+            self._completed.clear()  # ends the iteration in `results`
+            with contextlib.suppress(Exception):
+                self._client.cancel(self._futures)
 
     def results(self) -> Iterator[PointResult]:
-        """Each point's result as soon as it is known, in finishing order; a point that failed
-        every retry comes back as a failed result. Ends when all are in or on cancel."""
+        """Each point's result as soon as its task is done, in finishing order (a task's points
+        one after the other); a point that failed every retry on its own comes back as a failed
+        result. Ends when all are in or on cancel."""
         for future in self._completed:
             if self._cancelled.is_set():
                 return
-            index = self._index[future.key]
+            indices = self._index[future.key]
             if future.status == "finished":
                 try:
-                    result = future.result()
+                    results = future.result()
                 except CancelledError:  # cancel() ran between the status and the result
                     if self._cancelled.is_set():
                         return
                     continue
-                yield result
+                for result in results:
+                    yield result
+                    if self._cancelled.is_set():
+                        return
             elif future.status == "cancelled":
                 continue
+            elif len(indices) > 1:
+                error = future.exception()
+                log.warning(
+                    "sweep task %s failed (%s: %s): its %d points are run one by one",
+                    future.key, type(error).__name__, error, len(indices),
+                )  # fmt: skip
+                self._split(indices)
             else:
                 error = future.exception()
-                yield failed_point(self.points[index], f"{type(error).__name__}: {error}")
+                yield failed_point(self.points[indices[0]], f"{type(error).__name__}: {error}")
             future.release()

@@ -1,17 +1,27 @@
 """Sweeps on a real Dask LocalCluster (2 worker processes): same metrics as in-process, results
-streamed, cancel, a killed worker's points retried, an unreachable scheduler refused."""
+streamed, cancel, a killed worker's points retried, points grouped into tasks before the sweep's
+tail and a point that kills every worker failing alone, an unreachable scheduler refused."""
 
 from __future__ import annotations
 
 import os
 import signal
 
+import dask
 import pytest
 
 from app.core.sweeps.evaluate import ProblemCache, evaluate_point
 from app.core.sweeps.sampling import sweep_points
 from app.core.sweeps.spec import SweepSpec
-from app.sweep_engine import SweepEngine, SweepEngineError
+from app.sweep_engine import (
+    CHUNK_FROM_PER_WORKER,
+    CHUNK_POINTS,
+    TAIL_PER_WORKER,
+    SweepEngine,
+    SweepEngineError,
+    plan_tasks,
+)
+from tests.sweep_fixtures import poisoned
 
 KNOTS = 14
 """Few knots: a cheap NLP (about 1 s a cold solve)."""
@@ -73,7 +83,7 @@ def test_prepared_workers_pay_only_a_solve_for_their_first_point():
 
 
 def test_cancel_stops_the_sweep_and_the_engine_runs_the_next(engine):
-    points = sweep_points(small_spec(10, seed=5))
+    points = sweep_points(small_spec(CHUNK_FROM_PER_WORKER * 2, seed=5))  # tasks of a few points
     run = engine.start(points)
     received = []
     for result in run.results():
@@ -85,7 +95,8 @@ def test_cancel_stops_the_sweep_and_the_engine_runs_the_next(engine):
 
 
 def test_a_killed_worker_loses_only_its_points_which_are_retried(engine):
-    points = sweep_points(small_spec(6, seed=7))
+    # enough points for tasks of several (the killed worker's task may hold a few)
+    points = sweep_points(small_spec(CHUNK_FROM_PER_WORKER * 2 + 2, seed=7))
     run = engine.start(points)
     received = {}
     killed: tuple[int, set[int]] | None = None
@@ -96,7 +107,7 @@ def test_a_killed_worker_loses_only_its_points_which_are_retried(engine):
             if processing:
                 worker, keys = next(iter(processing.items()))
                 pid = engine.worker_pids()[worker]
-                lost = {run._index[k] for k in keys}
+                lost = {index for k in keys for index in run._index[k]}
                 os.kill(pid, signal.SIGKILL)
                 killed = (pid, lost)
     assert killed is not None, "no point was running when a result came back"
@@ -108,6 +119,75 @@ def test_a_killed_worker_loses_only_its_points_which_are_retried(engine):
     # The nanny starts a new worker in the killed one's place (seconds on a busy machine): the
     # module's cluster is handed on as it was found, two workers.
     engine.client.wait_for_workers(2, timeout=300)
+
+
+def test_points_grouped_into_tasks_give_each_point_alone_in_process_results(engine):
+    points = sweep_points(small_spec(CHUNK_FROM_PER_WORKER * 2, seed=10))
+    chunked_run = engine.start(points)
+    assert max(len(indices) for indices in chunked_run._index.values()) > 1  # grouped
+    chunked = {r.index: r for r in chunked_run.results()}
+    single_run = engine.start(points, chunk_points=1)
+    assert all(len(indices) == 1 for indices in single_run._index.values())
+    single = {r.index: r for r in single_run.results()}
+    assert sorted(chunked) == sorted(single) == [p.index for p in points]
+    cache = ProblemCache()  # the oracle: each point evaluated alone, here
+    for point in points:
+        alone = evaluate_point(point, cache)
+        for remote in (chunked[point.index], single[point.index]):
+            assert remote.solved == alone.solved and remote.status == alone.status
+            assert remote.iterations == alone.iterations
+            assert remote.sr == pytest.approx(alone.sr, rel=1e-9, abs=1e-12)  # the objective's
+            for metric in METRICS:
+                assert remote.metric(metric) == pytest.approx(
+                    alone.metric(metric), rel=1e-6, abs=1e-9
+                ), metric
+    assert sum(r.solved for r in single.values()) >= len(points) // 2  # not a sweep of failures
+
+
+def test_the_last_two_points_per_worker_run_one_per_task(engine):
+    workers = 2
+    points = sweep_points(small_spec(CHUNK_FROM_PER_WORKER * workers + 5, seed=11))
+    run = engine.start(points)
+    tasks = list(run._index.items())  # in submission order, the scheduler's order
+    tail = TAIL_PER_WORKER * workers
+    assert [indices for _key, indices in tasks[-tail:]] == [(p.index,) for p in points[-tail:]]
+    assert all(key.endswith(f"-point-{i}") for key, (i,) in tasks[-tail:])
+    head = [indices for _key, indices in tasks[:-tail]]
+    assert all(1 <= len(indices) <= CHUNK_POINTS for indices in head)
+    assert max(len(indices) for indices in head) == CHUNK_POINTS
+    # every point in exactly one task, in the sweep's order
+    assert [i for _key, indices in tasks for i in indices] == [p.index for p in points]
+    assert sorted(r.index for r in run.results()) == [p.index for p in points]
+    # fewer points than CHUNK_FROM_PER_WORKER per worker: one per task throughout
+    few = points[: CHUNK_FROM_PER_WORKER * workers - 1]
+    assert all(len(task) == 1 for task in plan_tasks(few, workers))
+    assert any(len(task) > 1 for task in plan_tasks(points[: len(few) + 1], workers))
+
+
+def test_a_point_that_kills_every_worker_fails_alone_and_its_task_mates_are_solved():
+    # Dask counts a worker's death against every task it held, the running one and the one
+    # queued behind it; with one task per worker at a time (saturation 1.0) only the poisoned
+    # task is charged, and with one death allowed the test pays four worker restarts, not eight.
+    config = {
+        "distributed.scheduler.allowed-failures": 1,
+        "distributed.scheduler.worker-saturation": 1.0,
+    }
+    workers = 2
+    points = sweep_points(small_spec(CHUNK_FROM_PER_WORKER * workers, seed=12))
+    points[1] = poisoned(points[1])  # the middle of the first task: a mate before and after
+    with dask.config.set(config), SweepEngine(n_workers=workers) as fresh:
+        before = set(fresh.worker_pids().values())
+        run = fresh.start(points)
+        first_task = next(iter(run._index.values()))
+        assert first_task == (0, 1, 2)
+        results = {r.index: r for r in run.results()}
+        fresh.client.wait_for_workers(workers, timeout=300)  # the nannies restarted them
+        assert set(fresh.worker_pids().values()) != before  # the point did kill workers
+    assert sorted(results) == [p.index for p in points]  # every point reported once
+    assert not results[1].solved and results[1].status == "failed"
+    assert "KilledWorker" in results[1].reason, results[1].reason
+    innocent = [r for index, r in results.items() if index != 1]
+    assert all(r.solved for r in innocent), [(r.index, r.status, r.reason) for r in innocent]
 
 
 def test_an_unreachable_scheduler_is_a_clear_error():

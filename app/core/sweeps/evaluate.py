@@ -17,7 +17,7 @@ import os
 import socket
 import time
 from collections import OrderedDict
-from collections.abc import Hashable
+from collections.abc import Hashable, Sequence
 from typing import Any
 
 import numpy as np
@@ -177,6 +177,12 @@ def evaluate_point(point: SweepPoint, cache: ProblemCache | None = None) -> Poin
     else:
         sim = simulation_metrics(problem.model, result, point.simulation)
     return dataclasses.replace(out, **dataclasses.asdict(sim))
+
+
+def evaluate_points(points: Sequence[SweepPoint]) -> list[PointResult]:
+    """`evaluate_point` of each point in turn, in this process's cache: one Dask task for a few
+    points (app/sweep_engine.py), so that the per-task cost of Dask is paid once for them."""
+    return [evaluate_point(point) for point in points]
 
 
 def metrics_of(point: SweepPoint, result: GaitResult, build_s: float, worker: str) -> PointResult:
