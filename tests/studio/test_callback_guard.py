@@ -88,7 +88,9 @@ def test_loading_from_a_tab_shows_the_robot_and_clears_the_loading_note(studio, 
         for m in tab.received
         if m.get("type") == "NotificationShowMessage" and m["props"]["loading"]
     }
-    assert loading and loading <= removed, "a loading notification was left in the tab"
+    # Shown and removed within one flush of the tab's messages (a fast load), viser sends the
+    # tab neither: a loading note is cosmetic, so none at all is fine; one left is not.
+    assert loading <= removed, "a loading notification was left in the tab"
     assert shown - loading, "no result notification"
     assert studio.state.robot.name == "dircon_biped"
     assert "dircon_biped" in panel.status.content and "Loading" not in panel.status.content
