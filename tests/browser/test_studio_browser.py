@@ -7,6 +7,8 @@ the studio's state; nothing sleeps for a fixed time beyond a short polling inter
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -127,6 +129,33 @@ def test_robot_renders_and_a_joint_slider_moves_it(page, studio: Studio, tmp_pat
     Image.fromarray(after.astype(np.uint8)).save(tmp_path / "studio_moved.png")
 
 
+LOST_CLICK_S = 20.0
+"""A box that still shows its old state this long after a click, while the studio has not
+moved, lost the click (seen once in a clean-clone run: 120 s and nothing): click again."""
+
+
+def tick(box, checked: bool, what: str, followed: Callable[[], bool]) -> None:
+    """Tick (checked) or untick the box as a user does, and wait for the studio to follow; a
+    click the page lost is clicked again, as a user clicks again (at most three times). The
+    page shows a click at once (the box's own state), so a box still showing its old state
+    after LOST_CLICK_S was not clicked; one that shows the new state and a studio that does
+    not follow fails after UI_TIMEOUT_S."""
+    for _attempt in range(3):
+        box.click()
+        deadline = time.monotonic() + LOST_CLICK_S
+        while time.monotonic() < deadline and not followed():
+            if box.is_checked() == checked:
+                break
+            time.sleep(0.2)
+        else:
+            if followed():
+                return
+            continue  # the page did not take the click
+        wait_for(what, followed, UI_TIMEOUT_S)
+        return
+    pytest.fail(f"three clicks on the box and the page never showed it {checked=}", pytrace=False)
+
+
 def test_detailed_lighting_is_one_tick_away_and_fast_lighting_comes_back(
     page, studio: Studio
 ) -> None:
@@ -141,16 +170,14 @@ def test_detailed_lighting_is_one_tick_away_and_fast_lighting_comes_back(
     checkbox = gui_row_input(page, "Detailed lighting", "input")
     if not checkbox.is_visible():
         expand_folder(page, "Display", "Frame robot")
-    checkbox.click()
-    wait_for("the studio to switch the lighting", lambda: lighting.detailed, UI_TIMEOUT_S)
+    tick(checkbox, True, "the studio to switch the lighting", lambda: lighting.detailed)
     detailed = wait_stable(
         page,
         "the scene in the detailed lighting",
         lambda image: changed(image, fast).mean() > MIN_ROBOT_FRACTION,
     )
     detailed_ms = frame_interval_ms(page)
-    checkbox.click()
-    wait_for("the studio to switch back", lambda: not lighting.detailed, UI_TIMEOUT_S)
+    tick(checkbox, False, "the studio to switch back", lambda: not lighting.detailed)
     back = wait_stable(
         page,
         "the scene in the fast lighting again",
