@@ -165,6 +165,14 @@ def test_detailed_lighting_is_one_tick_away_and_fast_lighting_comes_back(
     lighting = studio.robots.lighting
     assert not lighting.detailed
     dismiss_software_webgl_warning(page)
+    # A notification still up from an earlier test (they close after 8 s) is masked black in
+    # one shot and gone from the next: that alone would read as a change of the picture.
+    notes = page.locator(".mantine-Notification-root")
+    wait_for(
+        "the notifications to close",
+        lambda: not any(note.is_visible() for note in notes.all()),
+        UI_TIMEOUT_S,
+    )
     fast = wait_stable(page, "the scene in the fast lighting", not_blank)
     fast_ms = frame_interval_ms(page)
     checkbox = gui_row_input(page, "Detailed lighting", "input")
