@@ -49,3 +49,9 @@ class Coalescer(Generic[K, V]):
             with self._lock:
                 self._busy = False
             raise
+
+    @property
+    def idle(self) -> bool:
+        """No request pending and none being handled."""
+        with self._lock:
+            return not self._busy and not self._pending

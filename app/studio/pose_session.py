@@ -5,6 +5,10 @@ Gizmo drags arrive on viser's thread pool, at most every 50 ms per tab, possibly
 tabs at once. Only the latest target per handle matters: a Coalescer keeps it, and a target
 that has not been solved yet is replaced by a newer one, so a backlog of stale drags is never
 worked through and no callback waits behind another tab's solve.
+
+A drag out of reach says what holds the pose back on its first miss, every few events and at
+the release (app.core.posing.drag.EXPLAIN_EVERY); between them the status keeps the last
+"held back by" lines beside the fresh misses.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import viser
 from app.core.errors import StudioError
 from app.core.posing.drag import Posing
 from app.core.posing.ik import OUT_OF_REACH, IkResult
+from app.core.posing.ik_verdict import HELD_BACK_BY
 from app.core.posing.ready_pose import ready_pose
 from app.core.robot.model import RobotModel
 from app.studio.coalesce import Coalescer
@@ -37,13 +42,15 @@ class PoseSession:
         self.handles: DragHandles | None = None
         self.balance: BalanceView | None = None
         self.last_result: IkResult | None = None
+        self._held_back: tuple[str, ...] = ()
+        """The "held back by" lines of the last result that looked for them (module docstring)."""
         self._data: pin.Data | None = None
         """Pinocchio data of the loaded robot, for the handles' placements."""
         self._handle_links: tuple[str, ...] = ()
         """The links the drag handles sit on."""
         self._hidden_for_playback = False
         self._roots = AlternatingRoot("/pose")
-        self._drags: Coalescer[str, np.ndarray] = Coalescer(self._solve_drag)
+        self._drags: Coalescer[str, tuple[np.ndarray, bool]] = Coalescer(self._solve_drag)
         state.on_robot.connect(self._on_robot)
         state.on_pose.connect(self._on_pose)
         state.on_display.connect(self._on_display)
@@ -109,30 +116,41 @@ class PoseSession:
 
     # --- dragging ---------------------------------------------------------------------------
 
-    def request_drag(self, which: str, T_world: np.ndarray) -> None:
-        """A handle ("left", "right", "pelvis") moved to T_world: solve IK and show the pose.
-        NaN targets or an unknown handle (a crafted client) are ignored."""
+    def request_drag(self, which: str, T_world: np.ndarray, released: bool = False) -> None:
+        """A handle ("left", "right", "pelvis") moved to T_world (released: the drag ends
+        there): solve IK and show the pose. NaN targets or an unknown handle (a crafted
+        client) are ignored."""
         if which not in ("left", "right", "pelvis"):
             return
         T_world = np.asarray(T_world, dtype=float)
         if T_world.shape != (4, 4) or not np.all(np.isfinite(T_world)):
             return
-        self._drags.submit(which, T_world)
+        self._drags.submit(which, (T_world, bool(released)))
 
-    def _solve_drag(self, which: str, T_world: np.ndarray) -> None:
+    @property
+    def drags_idle(self) -> bool:
+        """No drag waiting to be solved, none being solved."""
+        return self._drags.idle
+
+    def _solve_drag(self, which: str, request: tuple[np.ndarray, bool]) -> None:
+        T_world, released = request
         state = self._state
         with state.lock:
             posing, pose = self.posing, state.pose
             if posing is None or pose is None or posing.robot is not state.robot:
                 return
             posing.stance = pose.stance
-            result = posing.drag(pose.q, which, T_world)
+            result = posing.drag(pose.q, which, T_world, explain=True if released else None)
             self._apply(posing.robot, result, posing.stance, f"drag:{which}")
 
     def _apply(self, robot: RobotModel, result: IkResult, stance: Stance, origin: str) -> None:
         with self._server.atomic():
             # Known before the pose is shown, so that _on_pose writes the status once.
             self.last_result = result
+            if result.explained:
+                self._held_back = tuple(
+                    line for line in result.shortfall if line.startswith(HELD_BACK_BY)
+                )
             self._state.set_pose(result.q, stance, origin, robot)
             if self.last_result is not result:  # not a drag: _on_pose cleared it
                 self.last_result = result
@@ -215,7 +233,9 @@ class PoseSession:
                 lines.append("Target reached ✓")
             else:  # what is missed by how much, and what holds the pose back
                 lines.append("**Closest reachable pose** (target not reached):")
-                lines.extend(f"- {reason}" for reason in result.shortfall)
+                # a drag event between explanations: the last ones stand
+                held_back = () if result.explained else self._held_back
+                lines.extend(f"- {reason}" for reason in result.shortfall + held_back)
             lines.append(f"CoM margin in support: {result.com_margin_m * 1000:.0f} mm")
             if result.joints_near_limit:
                 lines.append("Near a limit: " + ", ".join(result.joints_near_limit))

@@ -1,6 +1,7 @@
 """Transform gizmos on the feet and the pelvis: drag them and the robot follows (IK).
 
-The overlay only reports where the user dragged a handle (`on_drag(which, T_world)`) and is
+The overlay only reports where the user dragged a handle (`on_drag(which, T_world, released)`:
+released on the event that ends the drag, at the pose of the last move) and is
 told where to sit afterwards (`place`). It owns its scene nodes under one root.
 """
 
@@ -24,7 +25,7 @@ class DragHandles:
         server: viser.ViserServer,
         frames: dict[str, str],
         scale_m: float,
-        on_drag: Callable[[str, np.ndarray], None],
+        on_drag: Callable[[str, np.ndarray, bool], None],
         root: str = "/drag",
     ) -> None:
         """frames maps "left"/"right"/"pelvis" to the link each handle sits on."""
@@ -46,7 +47,8 @@ class DragHandles:
                 self.held.add(which)
             elif phase == "end":
                 self.held.discard(which)
-            on_drag(which, transform_of(np.asarray(control.position), np.asarray(control.wxyz)))
+            T = transform_of(np.asarray(control.position), np.asarray(control.wxyz))
+            on_drag(which, T, phase == "end")
 
         return callback
 

@@ -115,3 +115,56 @@ def test_dragging_a_foot_arrow_up_lifts_it_with_the_knees(page, studio: Studio) 
         f"{angles[robot.joint_names.index('right_knee')]:.0f}°, reached={reached}"
     )
     assert reached == (miss < 1e-3), f"status says reached={reached}, foot {miss * 1000:.1f} mm off"
+
+
+def test_a_foot_dragged_out_of_reach_and_released_says_what_holds_it_back(
+    page, studio: Studio
+) -> None:
+    """The same arrow taken again and pulled far up, out of the leg's reach, then released:
+    the release (viser's "end" event) is the event that works out what holds the pose back
+    (app.core.posing.drag), and the tab shows it: a "held back by" line naming a joint that
+    pinocchio finds at its URDF bound in the studio's pose."""
+    robot = studio.state.robot
+    assert robot is not None and studio.pose.handles is not None
+    (client,) = studio.web.server.get_clients().values()
+    control = studio.pose.handles.handle("left")
+    box = page.locator("canvas").first.bounding_box()
+    assert box is not None
+    handle_at = np.asarray(control.position, dtype=float)
+    grab = pixel_of(client.camera, box, handle_at + np.array([0.0, 0.0, ON_ARROW * control.scale]))
+    rise_px = min(250.0, grab[1] - box["y"] - 10.0)
+    page.mouse.move(*grab)
+    page.mouse.down()
+    for k in range(1, MOVES + 1):
+        page.mouse.move(grab[0], grab[1] - rise_px * k / MOVES)
+    page.mouse.up()
+    handles = studio.pose.handles
+
+    def released():  # the "end" event arrived and its solve is done
+        result = studio.pose.last_result
+        idle = not handles.held and studio.pose.drags_idle
+        return idle and result is not None and not result.reached and result.explained
+
+    wait_for("the release's verdict", released, UI_TIMEOUT_S)
+    said = [
+        line.removeprefix("- ")
+        for line in studio.pose.panel.status.content.split("  \n")
+        if line.startswith("- held back by")
+    ]
+    assert said, studio.pose.panel.status.content
+    wait_for(
+        "the tab to show them",
+        lambda: all(page.get_by_text(line).count() for line in said),
+        UI_TIMEOUT_S,
+    )
+    lines = page.get_by_text("held back by").all_inner_texts()
+    angles = robot.joint_angles(studio.state.q)
+    at_bound = {
+        joint.name
+        for joint, angle in zip(robot.joints, angles, strict=True)
+        if joint.kind != "continuous"
+        and min(abs(angle - joint.lower), abs(angle - joint.upper)) < np.deg2rad(0.5)
+    }
+    named = {name for line in lines for name in at_bound if f"held back by {name} at its" in line}
+    print(f"released out of reach: {lines}; at a bound: {sorted(at_bound)}")
+    assert named, f"no joint at its bound named: {lines}, at a bound {sorted(at_bound)}"

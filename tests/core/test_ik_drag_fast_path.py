@@ -213,7 +213,7 @@ def test_held_back_lines_are_those_of_the_analysis_written_out():
     data = robot.model.createData()
     compared = 0
     for event in drag_events(robot, q0, start, 60):
-        result = posing.drag(event.q_before, "left", event.target)
+        result = posing.drag(event.q_before, "left", event.target, explain=True)
         if result.reached:
             continue
         # The stance sole's polygon where the event started, shrunk by the IK's margin.
@@ -261,7 +261,9 @@ def test_held_back_reasons_do_not_depend_on_the_units_of_their_constraints(monke
 
         monkeypatch.setattr(shortfall, "_candidates", scaled)
         posing = Posing(robot)
-        return [tuple(posing.drag(e.q_before, "left", e.target).shortfall) for e in events]
+        return [
+            tuple(posing.drag(e.q_before, "left", e.target, explain=True).shortfall) for e in events
+        ]
 
     monkeypatch.setattr(shortfall, "reason_shares", kept)
     plain = lines(1.0)

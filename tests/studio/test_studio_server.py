@@ -253,12 +253,12 @@ def test_two_tabs_dragging_at_once_latest_target_wins(studio):
     first_started, release = threading.Event(), threading.Event()
     original = studio.pose.posing.drag
 
-    def recording_drag(q, which, T):
+    def recording_drag(q, which, T, **options):
         solved.append(T[2, 3])
         if len(solved) == 1:
             first_started.set()
             assert release.wait(60.0)
-        return original(q, which, T)
+        return original(q, which, T, **options)
 
     studio.pose.posing.drag = recording_drag
     first = threading.Thread(target=studio.pose.request_drag, args=("left", targets[0]))

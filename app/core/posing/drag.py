@@ -18,7 +18,13 @@ new one. Through a gesture:
 Each event's IK stops at the first step that meets the goals to within what is visible
 (WholeBodyIK.solve's stop_when_met: the foot within 0.1 mm of its target, the torso hold within
 0.1 mrad): one QP per event on a smooth drag instead of two or three to see the steps vanish.
-A target out of reach is iterated as before, to its closest pose.
+A target out of reach is iterated as before, to its closest pose. What holds such a pose back
+(the "held back by" lines: Jacobians, a projection, a small NNLS; ~0.1 ms on Roban S14, half
+the IK's own Python on an event out of reach) is worked out on the gesture's first event short
+of the target, on every EXPLAIN_EVERY-th one after, and whenever the caller asks (the studio:
+when the handle is released); the events between list the misses alone (IkResult.explained
+is False) and the studio keeps the last lines: rewritten at the pointer's 20 Hz they are not
+read, and the poses are the same either way.
 """
 
 from __future__ import annotations
@@ -34,6 +40,9 @@ from app.core.posing.ik import IkResult, IkTargets, Stance, WholeBodyIK
 from app.core.posing.ready_pose import MOTION_POSTURE_WEIGHT, crouch, leg_is_straight
 from app.core.robot.model import RobotModel
 
+EXPLAIN_EVERY = 4
+"""A drag out of reach says what holds it back on every 4th event (5 Hz at viser's 20 Hz
+pointer events) besides its first miss and the release (module docstring)."""
 MAX_DRAG_DISTANCE_M = 100.0
 """A drag target further than this from the origin is refused (a crafted client, not a hand)."""
 
@@ -97,6 +106,9 @@ class _Gesture:
     q_last: bytes
     """The configuration its last event returned (exact bytes): the next event continues the
     gesture only from there."""
+    since_explained: int | None = None
+    """Events short of the target since the last one explained (None: the next one is
+    explained, at the gesture's start and after an event that reached its target)."""
 
 
 class Posing:
@@ -121,8 +133,19 @@ class Posing:
     def com_in_support(self, on: bool) -> None:
         self.ik.com_in_support = on
 
-    def drag(self, q: np.ndarray, which: str, T_world_target: np.ndarray) -> IkResult:
-        """Solve for a dragged handle ("left", "right" or "pelvis") reaching T_world_target."""
+    def drag(
+        self,
+        q: np.ndarray,
+        which: str,
+        T_world_target: np.ndarray,
+        *,
+        explain: bool | None = None,
+    ) -> IkResult:
+        """Solve for a dragged handle ("left", "right" or "pelvis") reaching T_world_target.
+
+        explain: True, a result short of its target says what holds it back (the handle was
+        released); None, on the gesture's cadence (module docstring: its first miss and every
+        EXPLAIN_EVERY-th event); False, never."""
         T = np.asarray(T_world_target, dtype=float)
         if T.shape != (4, 4) or not math.isfinite(float(T.sum())):  # any NaN or inf: not finite
             raise DragTargetError("the drag target is not a finite placement; drag again")
@@ -144,9 +167,16 @@ class Posing:
             )
         else:
             targets = IkTargets(T_world_pelvis=T, stance=self.stance, posture_q=gesture.q_start)
-        result = self.ik.solve(q, targets, stop_when_met=True)
+        since = gesture.since_explained
+        if explain is None:
+            explain = since is None or since >= EXPLAIN_EVERY - 1
+        result = self.ik.solve(q, targets, stop_when_met=True, explain=explain)
         self._gesture = _Gesture(
-            gesture.which, gesture.q_start, gesture.R_world_torso, result.q.tobytes()
+            gesture.which,
+            gesture.q_start,
+            gesture.R_world_torso,
+            result.q.tobytes(),
+            None if result.reached else 0 if result.explained else (since or 0) + 1,
         )
         return result
 

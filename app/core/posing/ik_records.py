@@ -67,6 +67,10 @@ class IkResult:
     placements: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
     """Where the feet ("left", "right") and a pelvis with a target ("pelvis") are at q, 4x4
     [m] (from the forward kinematics the errors were measured with; not to be modified)."""
+    explained: bool = True
+    """Whether `shortfall` went through what holds the pose back (always when reached: there is
+    nothing to explain; a solve with explain=False, or a drag event between explanations
+    (app.core.posing.drag.EXPLAIN_EVERY), lists only the misses)."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -30,6 +30,8 @@ TORSO_TURN_RAD = np.deg2rad(5.0)
 not ask for: the result is not `reached`."""
 OUT_OF_REACH = " target out of reach: closest pose is "
 """The words of the warning a missed target gives (its distance follows)."""
+HELD_BACK_BY = "held back by "
+"""The words a shortfall's line on what holds the pose back starts with."""
 
 
 class IkVerdictMixin(SupportPolygonMixin):
@@ -133,6 +135,7 @@ class IkVerdictMixin(SupportPolygonMixin):
             tuple(warnings),
             tuple(shortfall),
             placed,
+            explain or reached,
         )
 
     def _near_limits(self, q: np.ndarray) -> tuple[str, ...]:
@@ -173,6 +176,4 @@ class IkVerdictMixin(SupportPolygonMixin):
             edges,
             torso,
         )
-        return [
-            f"held back by {reason}" for reason in blockers(robot.model, self._data, q, situation)
-        ]
+        return [HELD_BACK_BY + reason for reason in blockers(robot.model, self._data, q, situation)]
