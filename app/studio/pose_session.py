@@ -8,7 +8,8 @@ worked through and no callback waits behind another tab's solve.
 
 A drag out of reach says what holds the pose back on its first miss, every few events and at
 the release (app.core.posing.drag.EXPLAIN_EVERY); between them the status keeps the last
-"held back by" lines beside the fresh misses.
+"held back by" lines beside the fresh misses. Let go, a handle goes back onto its link (out of
+reach it would otherwise hang where the hand left it, away from the foot it moves).
 """
 
 from __future__ import annotations
@@ -100,12 +101,7 @@ class PoseSession:
         if pose.dragged is None:
             self.last_result = None
         posing.stance = pose.stance
-        robot = posing.robot
-        pin.framesForwardKinematics(robot.model, data, pose.q)  # only the handles' links
-        handles.place(
-            {link: data.oMf[robot.link_frame_ids[link]].homogeneous for link in self._handle_links},
-            skip=pose.dragged,
-        )
+        self._place_handles(pose.q, skip=pose.dragged)
         balance.update(posing.balance(pose.q))
         self.panel.show_stance(pose.stance)
         self._show_status(self._status(pose.stance))
@@ -113,6 +109,18 @@ class PoseSession:
         if playing != self._hidden_for_playback:  # no gizmos over a motion being played
             self._hidden_for_playback = playing
             handles.set_visible(self.panel.handles.value and not playing)
+
+    def _place_handles(self, q: np.ndarray, skip: str | None) -> None:
+        """The handles onto their links at q, but the one a drag holds (`skip`)."""
+        posing, handles, data = self.posing, self.handles, self._data
+        if posing is None or handles is None or data is None:
+            return
+        robot = posing.robot
+        pin.framesForwardKinematics(robot.model, data, q)  # only the handles' links
+        handles.place(
+            {link: data.oMf[robot.link_frame_ids[link]].homogeneous for link in self._handle_links},
+            skip=skip,
+        )
 
     # --- dragging ---------------------------------------------------------------------------
 
@@ -142,6 +150,8 @@ class PoseSession:
             posing.stance = pose.stance
             result = posing.drag(pose.q, which, T_world, explain=True if released else None)
             self._apply(posing.robot, result, posing.stance, f"drag:{which}")
+            if released:  # let go out of reach: the handle goes back onto its link
+                self._place_handles(result.q, skip=None)
 
     def _apply(self, robot: RobotModel, result: IkResult, stance: Stance, origin: str) -> None:
         with self._server.atomic():

@@ -123,9 +123,11 @@ def test_a_foot_dragged_out_of_reach_and_released_says_what_holds_it_back(
     """The same arrow taken again and pulled far up, out of the leg's reach, then released:
     the release (viser's "end" event) is the event that works out what holds the pose back
     (app.core.posing.drag), and the tab shows it: a "held back by" line naming a joint that
-    pinocchio finds at its URDF bound in the studio's pose."""
+    pinocchio finds at its URDF bound in the studio's pose; let go, the gizmo is back on the
+    foot (taken there again, the foot follows it down)."""
     robot = studio.state.robot
     assert robot is not None and studio.pose.handles is not None
+    wait_for("the tab to register", lambda: studio.web.server.get_clients() or None, UI_TIMEOUT_S)
     (client,) = studio.web.server.get_clients().values()
     control = studio.pose.handles.handle("left")
     box = page.locator("canvas").first.bounding_box()
@@ -168,3 +170,26 @@ def test_a_foot_dragged_out_of_reach_and_released_says_what_holds_it_back(
     named = {name for line in lines for name in at_bound if f"held back by {name} at its" in line}
     print(f"released out of reach: {lines}; at a bound: {sorted(at_bound)}")
     assert named, f"no joint at its bound named: {lines}, at a bound {sorted(at_bound)}"
+    # let go, the gizmo is back on the foot where pinocchio places it: the tab's arrow is
+    # taken there again and pulled down, and the foot comes down with it
+    data = robot.model.createData()
+    foot = robot.link_placements(studio.state.q, data)[handles.frames["left"]][:3, 3]
+    wait_for(
+        "the gizmo back on the foot",
+        lambda: np.linalg.norm(np.asarray(control.position) - foot) < 1e-4 or None,
+        UI_TIMEOUT_S,
+    )
+    q_released = studio.state.q.copy()
+    grab = pixel_of(client.camera, box, foot + np.array([0.0, 0.0, ON_ARROW * control.scale]))
+    page.mouse.move(*grab)
+    page.mouse.down()
+    for k in range(1, MOVES + 1):
+        page.mouse.move(grab[0], grab[1] + 0.5 * rise_px * k / MOVES)
+    page.mouse.up()
+    wait_for(
+        "the foot to come down",
+        lambda: not np.array_equal(studio.state.q, q_released) and studio.pose.drags_idle,
+        UI_TIMEOUT_S,
+    )
+    fall = foot[2] - robot.link_placements(studio.state.q, data)[handles.frames["left"]][2, 3]
+    assert fall > 0.03, f"the foot came down {fall * 1000:.0f} mm"

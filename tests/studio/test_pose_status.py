@@ -87,8 +87,13 @@ def test_events_between_explanations_keep_the_last_reasons_with_their_own_miss(s
         shown = re.search(r"left foot ([\d.]+) mm", status)
         miss_mm = 1000 * np.linalg.norm(foot[:3, 3] - target[:3, 3])
         assert shown and abs(float(shown.group(1)) - miss_mm) < 0.06, status
+    handle = studio.pose.handles.handle("left")
+    assert np.linalg.norm(np.asarray(handle.position) - seen[-1][2][:3, 3]) > 0.05  # held
     studio.pose.request_drag("left", seen[-1][3], released=True)
     assert studio.pose.last_result.explained
+    # let go, the handle is back on the foot (pinocchio's placement), not left in the air
+    foot = robot.link_placements(studio.state.q, data)[robot.feet[0].link]
+    assert np.linalg.norm(np.asarray(handle.position) - foot[:3, 3]) < 1e-4
     knee = robot.joint_names.index("left_knee")
     upper = robot.joints[knee].upper
     assert abs(robot.joint_angles(studio.state.q)[knee] - upper) < 1e-2
