@@ -25,15 +25,16 @@ def placement(bot: RobotModel, q: np.ndarray, link: str) -> pin.SE3:
 
 
 def drag_up(bot: RobotModel, lift_m: float, events: int = 30) -> tuple[IkResult, np.ndarray]:
-    """The left foot dragged straight up by `lift_m` from standing in `events` gizmo events:
-    the last drag's result and its target (4 × 4)."""
+    """The left foot dragged straight up by `lift_m` from standing in `events` gizmo events,
+    let go at the last (explained, as the studio's release is: app.core.posing.drag): the
+    last drag's result and its target (4 × 4)."""
     posing = Posing(bot)
     q = bot.q_neutral.copy()
     start = placement(bot, q, bot.foot("left").link).homogeneous
     for k in range(1, events + 1):
         target = start.copy()
         target[2, 3] += lift_m * k / events
-        result = posing.drag(q, "left", target)
+        result = posing.drag(q, "left", target, explain=True if k == events else None)
         q = result.q
     return result, target
 
