@@ -168,3 +168,8 @@ def test_a_foot_dragged_out_of_reach_and_released_says_what_holds_it_back(
     named = {name for line in lines for name in at_bound if f"held back by {name} at its" in line}
     print(f"released out of reach: {lines}; at a bound: {sorted(at_bound)}")
     assert named, f"no joint at its bound named: {lines}, at a bound {sorted(at_bound)}"
+    # The lines after the reasons are the pose's, not reasons: not drawn inside the list
+    # (markdown took them as its last item's continuation, "CoM margin" under a bullet).
+    pose_folder = page.locator(".mantine-Paper-root", has=page.get_by_text("held back by"))
+    items = pose_folder.last.locator("li").all_inner_texts()
+    assert items and not [item for item in items if "CoM margin" in item], items
