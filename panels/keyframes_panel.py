@@ -56,6 +56,19 @@ class KeyframesPanel:
                     "Delete", icon=viser.Icon.TRASH, color="red", hint="Click twice to delete"
                 )
             self.build = gui.add_button("Build motion", icon=viser.Icon.PLAYER_PLAY)
+        self._edits = (
+            self.selected,
+            self.go_to,
+            self.replace,
+            self.rename,
+            self.up,
+            self.down,
+            self.set_duration,
+            self.delete,
+        )
+        """What acts on the selected keyframe: disabled while there is none (their clicks did
+        nothing, or asked for a name for no keyframe)."""
+        self._enable_edits(False)
         self._armed_delete = -1
         """The keyframe a first click on Delete armed (a second click deletes it)."""
         self.capture.on_click(lambda _: actions.capture(float(self.duration.value)))
@@ -95,8 +108,14 @@ class KeyframesPanel:
         self._armed_delete = -1
         self.delete.label = "Delete"
 
+    def _enable_edits(self, enabled: bool) -> None:
+        for handle in self._edits:
+            if handle.disabled == enabled:  # a set is a message to every tab: on a change only
+                handle.disabled = not enabled
+
     def show(self, keyframes: list[Keyframe], selected: int) -> None:
         self._disarm()
+        self._enable_edits(bool(keyframes))
         if not keyframes:
             self.list.content = "No keyframes yet."
             self.selected.options = ("—",)
