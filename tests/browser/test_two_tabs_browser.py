@@ -1,13 +1,16 @@
-"""An upload in one tab, seen from two others in a real Chromium: the tab open beside it and a
-tab opened after it show no upload notification of theirs.
+"""What one tab does, seen from the others in a real Chromium: its upload's progress and its
+refusals are said in that tab only.
 
 viser 1.1.1 sent an upload's receipts to every tab and kept them for tabs opened later: each
-showed "Uploading undefined (9.9K) — File uploaded successfully" for a file it never sent.
+showed "Uploading undefined (9.9K) — File uploaded successfully" for a file it never sent. A
+keyframe refused (an empty name, a bad duration) was told to every tab.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+
+from playwright.sync_api import expect
 
 from app.studio import Studio
 from tests.browser.conftest import VIEWPORT
@@ -16,6 +19,7 @@ from tests.browser.page_helpers import (
     click_button,
     expand_folder,
     folder,
+    gui_row_input,
     notifications_seen,
     open_studio,
     studio_context,
@@ -59,3 +63,37 @@ def test_an_upload_is_announced_in_the_uploading_tab_only(
     finally:
         uploader_context.close()
         later_context.close()
+
+
+def test_a_refused_rename_is_said_in_the_tab_that_clicked_only(page, studio: Studio, chromium):
+    other_context = studio_context(chromium, viewport=VIEWPORT)
+    try:
+        other = open_studio(other_context.new_page(), studio.web.url)
+        expand_folder(other, "Keyframes", "Capture pose")
+        click_button(other, "Capture pose")
+        name = gui_row_input(other, "Name", "input")
+        rename = other.get_by_role("button", name="Rename", exact=True)
+        expect(rename).to_be_enabled(timeout=UI_TIMEOUT_S * 1000)
+        name.fill("")
+        wait_for(
+            "the empty name", lambda: studio.motions.keyframes_panel.name.value == "", UI_TIMEOUT_S
+        )
+        rename.click()
+        wait_notified(other, "Name refused", "give the keyframe a name", UI_TIMEOUT_S)
+
+        # A change every tab sees, made after the refusal (see the test above).
+        name.fill("lean")
+        wait_for(
+            "the typed name",
+            lambda: studio.motions.keyframes_panel.name.value == "lean",
+            UI_TIMEOUT_S,
+        )
+        rename.click()
+        expand_folder(page, "Keyframes", "Capture pose")
+        wait_for(
+            "the rename", lambda: "lean" in folder(page, "Keyframes").inner_text(), UI_TIMEOUT_S
+        )
+        seen = [n for n in notifications_seen(page) if "refused" in n]
+        assert not seen, f"the other tab was told of a refusal it did not cause: {seen}"
+    finally:
+        other_context.close()
