@@ -13,14 +13,16 @@ from panels.quiet import set_value
 class KeyframeActions(Protocol):
     """What the Keyframes panel asks for."""
 
-    def capture(self, duration_s: float) -> None: ...
+    def capture(self, duration_s: float, client: viser.ClientHandle | None = None) -> None: ...
     def move(self, index: int, offset: int) -> None: ...
     def delete(self, index: int) -> None: ...
-    def set_duration(self, index: int, duration_s: float) -> None: ...
+    def set_duration(
+        self, index: int, duration_s: float, client: viser.ClientHandle | None = None
+    ) -> None: ...
     def build(self, client: viser.ClientHandle | None) -> bool: ...
     def go_to(self, index: int) -> None: ...
     def replace(self, index: int) -> None: ...
-    def rename(self, index: int, name: str) -> None: ...
+    def rename(self, index: int, name: str, client: viser.ClientHandle | None = None) -> None: ...
 
 
 class KeyframesPanel:
@@ -56,12 +58,26 @@ class KeyframesPanel:
                     "Delete", icon=viser.Icon.TRASH, color="red", hint="Click twice to delete"
                 )
             self.build = gui.add_button("Build motion", icon=viser.Icon.PLAYER_PLAY)
+        self._edits = (
+            self.selected,
+            self.go_to,
+            self.replace,
+            self.rename,
+            self.up,
+            self.down,
+            self.set_duration,
+            self.delete,
+        )
+        """What acts on the selected keyframe: disabled while there is none (their clicks did
+        nothing, or asked for a name for no keyframe)."""
+        self._enable_edits(False)
         self._armed_delete = -1
         """The keyframe a first click on Delete armed (a second click deletes it)."""
-        self.capture.on_click(lambda _: actions.capture(float(self.duration.value)))
+        # A refusal (a bad duration, an empty name) is said in the tab that clicked.
+        self.capture.on_click(lambda e: actions.capture(float(self.duration.value), e.client))
         self.go_to.on_click(lambda _: actions.go_to(self.index()))
         self.replace.on_click(lambda _: actions.replace(self.index()))
-        self.rename.on_click(lambda _: actions.rename(self.index(), str(self.name.value)))
+        self.rename.on_click(lambda e: actions.rename(self.index(), str(self.name.value), e.client))
         self.up.on_click(lambda _: actions.move(self.index(), -1))
         self.down.on_click(lambda _: actions.move(self.index(), +1))
 
@@ -78,7 +94,7 @@ class KeyframesPanel:
             self.delete.label = f"Click again to delete keyframe {index + 1}"
 
         self.set_duration.on_click(
-            lambda _: actions.set_duration(self.index(), float(self.duration.value))
+            lambda e: actions.set_duration(self.index(), float(self.duration.value), e.client)
         )
 
         @self.build.on_click
@@ -95,8 +111,14 @@ class KeyframesPanel:
         self._armed_delete = -1
         self.delete.label = "Delete"
 
+    def _enable_edits(self, enabled: bool) -> None:
+        for handle in self._edits:
+            if handle.disabled == enabled:  # a set is a message to every tab: on a change only
+                handle.disabled = not enabled
+
     def show(self, keyframes: list[Keyframe], selected: int) -> None:
         self._disarm()
+        self._enable_edits(bool(keyframes))
         if not keyframes:
             self.list.content = "No keyframes yet."
             self.selected.options = ("—",)

@@ -47,7 +47,12 @@ class PosePanel:
                 hint="Straight legs are singular: from them the pelvis cannot be lowered by dragging",
             )
             self.snap = gui.add_button("Snap feet to ground", icon=viser.Icon.ARROW_BAR_TO_DOWN)
-            self.swap = gui.add_button("Swap stance foot", icon=viser.Icon.ARROWS_EXCHANGE)
+            self.swap = gui.add_button(
+                "Swap stance foot",
+                icon=viser.Icon.ARROWS_EXCHANGE,
+                disabled=True,  # the stance starts as "both": no one held foot to swap
+                hint="The held foot becomes the free one; with Stance both there is none to swap",
+            )
             self.status = gui.add_markdown("")
         self._quiet = Quiet()
         self.com_in_support.on_update(
@@ -74,6 +79,10 @@ class PosePanel:
         """Reflect a stance changed by the studio (e.g. by a foot drag) without calling back."""
         with self._quiet.quietly():
             set_value(self.stance, stance)
+        # Enabled only when it can act: with both feet held a click did nothing, silently.
+        # Set on a change only: this runs on every drag event, and each set is a message.
+        if self.swap.disabled != (stance == "both"):
+            self.swap.disabled = stance == "both"
 
     def show_toggles(self, handles: bool, keep_com: bool) -> None:
         """Reflect an opened project's Pose toggles without calling back."""

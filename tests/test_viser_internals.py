@@ -144,6 +144,7 @@ def test_every_reach_works_on_the_installed_viser(server: viser.ViserServer) -> 
     assert viser_internals.upload_states(server) == {}
     assert callable(viser_internals.websock_server(server).register_handler)
     assert callable(viser_internals.viser_websockets().asyncio.server.serve)
+    viser_internals.send_upload_receipts_to_their_tab(server)  # reads viser's private names
 
     a, b = server.gui.add_checkbox("a", False), server.gui.add_checkbox("b", True)
     ids = {viser_internals.gui_input_id(a), viser_internals.gui_input_id(b)}

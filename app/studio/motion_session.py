@@ -104,9 +104,9 @@ class MotionSession:
 
     # --- keyframes (KeyframeActions) ------------------------------------------------------------
 
-    def capture(self, duration_s: float) -> None:
+    def capture(self, duration_s: float, client: viser.ClientHandle | None = None) -> None:
         if not _valid_duration(duration_s):
-            self._fail("Keyframe refused", _duration_message(duration_s), None)
+            self._fail("Keyframe refused", _duration_message(duration_s), client)
             return
         current = self._current_pose()
         if current is None:
@@ -165,19 +165,21 @@ class MotionSession:
                 self.keyframes[index] = capture_keyframe(robot, q, stance, old.name, old.duration_s)
                 self._show(index)
 
-    def rename(self, index: int, name: str) -> None:
+    def rename(self, index: int, name: str, client: viser.ClientHandle | None = None) -> None:
         name = " ".join(str(name).split())[:MAX_NAME]
         if not name:
-            self._fail("Name refused", "give the keyframe a name", None)
+            self._fail("Name refused", "give the keyframe a name", client)
             return
         with self._lock:
             if 0 <= index < len(self.keyframes):
                 self.keyframes[index] = dataclasses.replace(self.keyframes[index], name=name)
                 self._show(index)
 
-    def set_duration(self, index: int, duration_s: float) -> None:
+    def set_duration(
+        self, index: int, duration_s: float, client: viser.ClientHandle | None = None
+    ) -> None:
         if not _valid_duration(duration_s):
-            self._fail("Duration refused", _duration_message(duration_s), None)
+            self._fail("Duration refused", _duration_message(duration_s), client)
             return
         with self._lock:
             if 0 <= index < len(self.keyframes):

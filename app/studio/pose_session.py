@@ -246,6 +246,9 @@ class PoseSession:
                 # a drag event between explanations: the last ones stand
                 held_back = () if result.explained else self._held_back
                 lines.extend(f"- {reason}" for reason in result.shortfall + held_back)
+                # A blank line ends the list: markdown would take the lines below as a
+                # continuation of its last item (the CoM margin shown as a held-back reason).
+                lines.append("")
             lines.append(f"CoM margin in support: {result.com_margin_m * 1000:.0f} mm")
             if result.joints_near_limit:
                 lines.append("Near a limit: " + ", ".join(result.joints_near_limit))

@@ -8,7 +8,8 @@ Host / Origin / token checks of `app.web.access` before viser sees it (hooked by
 `app.web.hook`), whose pages cannot be framed, and whose uploads are bounded while
 they stream (`app.web.upload_limits`). viser's share-tunnel request (a client asking the
 server to publish itself on share.viser.studio) is unregistered: no client can put the
-studio on the internet. `token=None` turns the token off; that is
+studio on the internet. An upload's progress goes to the tab that uploads, not to every tab
+(`send_upload_receipts_to_their_tab`). `token=None` turns the token off; that is
 refused on any non-loopback bind (`app.web.access.InsecureServeError`).
 """
 
@@ -23,7 +24,7 @@ import viser
 from app.web.access import AccessPolicy, check_bind, studio_url
 from app.web.hook import guard_requests, hooked_viser_server
 from app.web.upload_limits import MAX_UNFINISHED_UPLOADS, UploadGuard, UploadLimits
-from app.web.viser_internals import refuse_share_tunnel
+from app.web.viser_internals import refuse_share_tunnel, send_upload_receipts_to_their_tab
 
 __all__ = ["GuardedServer", "guarded_server"]
 
@@ -68,5 +69,6 @@ def guarded_server(
             guard_requests(policy),
         )
     refuse_share_tunnel(server)
+    send_upload_receipts_to_their_tab(server)
     uploads = UploadGuard(server, UploadLimits(max_upload_bytes, max_unfinished_uploads))
     return GuardedServer(server, policy, uploads)

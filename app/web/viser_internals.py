@@ -38,6 +38,8 @@ FileTransferPart = _messages.FileTransferPart
 """One part of an upload (transfer_uuid, part, content)."""
 CommandTriggerMessage = _messages.CommandTriggerMessage
 """A keyboard command from a tab."""
+FileTransferPartAck = _messages.FileTransferPartAck
+"""The server's receipt of an upload's bytes so far (the uploading tab's progress)."""
 
 _GATED_GUI_HANDLERS: tuple[tuple[type, str], ...] = (
     (GuiUpdateMessage, "_handle_gui_updates"),
@@ -164,6 +166,29 @@ def upload_states(server: viser.ViserServer) -> dict[str, dict[str, Any]]:
     {"client_id", "filename", "parts", "part_count", "total_bytes", ...}} (a live dict)."""
     gui: Any = server.gui
     return gui._current_file_upload_states
+
+
+def send_upload_receipts_to_their_tab(server: viser.ViserServer) -> None:
+    """From now on an upload's receipts (FileTransferPartAck) go to the tab that uploads only.
+
+    viser 1.1.1 queues them on the server-wide interface: every other open tab, and every tab
+    opened later (the server-wide buffer keeps them), showed a notification "Uploading
+    undefined (9.9K) — File uploaded successfully" for a file it never sent."""
+    gui: Any = server.gui
+    interface = gui._websock_interface
+    states: dict[str, dict[str, Any]] = gui._current_file_upload_states
+    broadcast = interface.queue_message
+
+    def queue_message(message: Any) -> None:
+        if not isinstance(message, FileTransferPartAck):
+            broadcast(message)
+            return
+        state = states.get(message.transfer_uuid)  # viser drops it after the last receipt
+        client = server.get_clients().get(state["client_id"]) if state is not None else None
+        if client is not None:
+            client._websock_connection.queue_message(message)
+
+    interface.queue_message = queue_message
 
 
 # --- the scene -------------------------------------------------------------------------------

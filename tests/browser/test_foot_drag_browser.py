@@ -1,6 +1,7 @@
 """A foot's gizmo arrow dragged 60 px up in a real Chromium tab (issue 23, defect 1): the robot
 lifts the foot with its knees, torso upright, and the Pose panel's status says what pinocchio
-finds (reached only when the foot is on the target the gizmo sent).
+finds (reached only when the foot is on the target the gizmo sent); *Swap stance foot* is
+enabled only when one foot is held.
 
 The arrow is found on the screen by projecting the foot's world position (and a point up its
 z arrow) through the tab's own camera (position, look-at, fov as the client reports them) onto
@@ -14,13 +15,17 @@ import contextlib
 import numpy as np
 import pinocchio as pin
 import pytest
+from playwright.sync_api import expect
 
 from app.studio import Studio
 from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
+    click_button,
     dismiss_software_webgl_warning,
+    gui_row_input,
     not_blank,
+    select_option,
     wait_for,
     wait_stable,
 )
@@ -170,6 +175,12 @@ def test_a_foot_dragged_out_of_reach_and_released_says_what_holds_it_back(
     named = {name for line in lines for name in at_bound if f"held back by {name} at its" in line}
     print(f"released out of reach: {lines}; at a bound: {sorted(at_bound)}")
     assert named, f"no joint at its bound named: {lines}, at a bound {sorted(at_bound)}"
+    # The lines after the reasons are the pose's, not reasons: not drawn inside the list
+    # (markdown took them as its last item's continuation, "CoM margin" under a bullet).
+    pose_folder = page.locator(".mantine-Paper-root", has=page.get_by_text("held back by"))
+    items = pose_folder.last.locator("li").all_inner_texts()
+    assert items and not [item for item in items if "CoM margin" in item], items
+
     # let go, the gizmo is back on the foot where pinocchio places it: the tab's arrow is
     # taken there again and pulled down, and the foot comes down with it
     data = robot.model.createData()
@@ -193,3 +204,19 @@ def test_a_foot_dragged_out_of_reach_and_released_says_what_holds_it_back(
     )
     fall = foot[2] - robot.link_placements(studio.state.q, data)[handles.frames["left"]][2, 3]
     assert fall > 0.03, f"the foot came down {fall * 1000:.0f} mm"
+
+
+def test_swap_stance_is_enabled_only_when_one_foot_is_held(page, studio: Studio) -> None:
+    """With Stance both (after *Reset pose*) *Swap stance foot* had nothing to swap and a click
+    did nothing, silently: it is disabled then, and enabled once a stance foot is picked, when
+    a click swaps it (the Stance dropdown shows the other foot)."""
+    swap = page.get_by_role("button", name="Swap stance foot", exact=True)
+    stance = gui_row_input(page, "Stance", "input.mantine-Select-input")
+    click_button(page, "Reset pose")
+    expect(stance).to_have_value("both", timeout=UI_TIMEOUT_S * 1000)
+    expect(swap).to_be_disabled(timeout=UI_TIMEOUT_S * 1000)
+    select_option(page, "Stance", "left")
+    expect(swap).to_be_enabled(timeout=UI_TIMEOUT_S * 1000)
+    swap.click()
+    expect(stance).to_have_value("right", timeout=UI_TIMEOUT_S * 1000)
+    assert studio.state.pose is not None and studio.state.pose.stance == "right"

@@ -18,6 +18,7 @@ import re
 
 import numpy as np
 import pytest
+from playwright.sync_api import expect
 
 from app.studio import Studio
 from tests.browser.page_helpers import (
@@ -44,6 +45,16 @@ SECOND_DURATION_S = 2.0
 # two "stable" shots (STABLE_FRACTION). Mid-motion the robot leans over its right foot (the CoM
 # is kept over the support) and 1-4 % of the view changes (measured with servo_biped).
 MIN_PLAY_FRACTION = 0.01
+EDIT_BUTTONS = (
+    "Go to",
+    "Replace with current pose",
+    "Rename",
+    "Move up",
+    "Move down",
+    "Set duration",
+    "Delete",
+)
+"""The Keyframes folder's buttons that act on the selected keyframe."""
 
 
 def lifted_left_foot(studio: Studio) -> np.ndarray:
@@ -60,11 +71,18 @@ def test_capture_two_keyframes_and_build_a_motion(page, studio: Studio) -> None:
     assert studio.state.trajectory is None and not motions.keyframes
     expand_folder(page, "Keyframes", "Capture pose")
     keyframes = folder(page, "Keyframes")
+    # With no keyframe, what edits the selected one is disabled (clicks did nothing or asked
+    # for a name for no keyframe); a capture enables it.
+    edits = [keyframes.get_by_role("button", name=n, exact=True) for n in EDIT_BUTTONS]
+    for button in edits:
+        expect(button).to_be_disabled(timeout=UI_TIMEOUT_S * 1000)
 
     # Keyframe 1: the neutral pose, with the default duration (unused for a first keyframe).
     click_button(page, "Capture pose")
     wait_for("the first keyframe", lambda: len(motions.keyframes) == 1, UI_TIMEOUT_S)
     keyframes.get_by_text("pose 1 — start", exact=False).wait_for(state="visible")
+    for button in edits:
+        expect(button).to_be_enabled(timeout=UI_TIMEOUT_S * 1000)
 
     # Lift the left foot 3 cm (in place of a gizmo drag, see the module docstring).
     studio.pose.request_drag("left", lifted_left_foot(studio))

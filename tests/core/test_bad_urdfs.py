@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from app.core.errors import NoFeetFound, RobotLoadError, UrdfStructureError, UrdfSyntaxError
@@ -166,6 +168,25 @@ def test_nan_in_numbers(write_urdf):
     text = tiny_biped_urdf().replace('<origin xyz="0 0 -0.2"/>', '<origin xyz="0 nan -0.2"/>', 1)
     with pytest.raises(UrdfStructureError, match="finite number"):
         load_robot(write_urdf(text))
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "named"),
+    [
+        ('<origin xyz="0 0 -0.2"/>', '<origin xyz="0 nan -0.2"/>', "joint 'left_knee' origin xyz"),
+        ('<origin xyz="0 0 -0.2"/>', '<origin xyz="0 0 0" rpy="inf 0 0"/>', "origin rpy"),
+        ('<box size="0.1 0.2 0.1"/>', '<box size="0.1 nan 0.1"/>', "'pelvis' visual size"),
+        ('radius="0.02"', 'radius="nan"', "'left_thigh' visual cylinder radius"),
+        ('length="0.2"', 'length="x"', "'left_thigh' visual cylinder length"),
+    ],
+)
+def test_a_bad_number_is_named_by_its_attribute(write_urdf, old, new, named):
+    """The message says which attribute holds the bad number: "joint 'left_knee' is 'nan'"
+    (what a NaN in a joint's origin gave) sends the user looking at the joint's limits."""
+    text = tiny_biped_urdf()
+    assert old in text
+    with pytest.raises(UrdfStructureError, match=re.escape(named)):
+        load_robot(write_urdf(text.replace(old, new, 1)))
 
 
 def test_missing_file_and_unknown_name():

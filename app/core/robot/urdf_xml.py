@@ -288,12 +288,12 @@ def _geometry(
         return Geometry(link, role, "box", T, _sizes(size, what, source), rgba=rgba)
     if shape.tag == "cylinder":
         size = (
-            _float(shape.get("radius", ""), what, source),
-            _float(shape.get("length", ""), what, source),
+            _float(shape.get("radius", ""), f"{what} cylinder radius", source),
+            _float(shape.get("length", ""), f"{what} cylinder length", source),
         )
         return Geometry(link, role, "cylinder", T, _sizes(size, what, source), rgba=rgba)
     if shape.tag == "sphere":
-        size = (_float(shape.get("radius", ""), what, source),)
+        size = (_float(shape.get("radius", ""), f"{what} sphere radius", source),)
         return Geometry(link, role, "sphere", T, _sizes(size, what, source), rgba=rgba)
     if shape.tag == "mesh":
         uri = shape.get("filename", "")
@@ -357,8 +357,8 @@ def _rgba(
 
 def _origin(element: ET.Element, what: str, source: str) -> np.ndarray:
     origin = element.find("origin")
-    xyz = _floats(origin, "xyz", (0.0, 0.0, 0.0), what, source)
-    rpy = _floats(origin, "rpy", (0.0, 0.0, 0.0), what, source)
+    xyz = _floats(origin, "xyz", (0.0, 0.0, 0.0), f"{what} origin", source)
+    rpy = _floats(origin, "rpy", (0.0, 0.0, 0.0), f"{what} origin", source)
     if len(xyz) != 3 or len(rpy) != 3:
         raise UrdfStructureError(f"{source}: {what} origin needs three xyz and three rpy values")
     for value in xyz:
@@ -381,11 +381,13 @@ def _required(element: ET.Element, key: str, what: str, source: str) -> str:
 def _floats(
     element: ET.Element | None, key: str, default, what: str, source: str
 ) -> tuple[float, ...]:
+    """The numbers of attribute `key`; a bad one is named with its attribute ("joint 'hip'
+    origin xyz is 'nan'"), not only with its element."""
     if element is None or element.get(key) is None:
         if default is None:
             raise UrdfStructureError(f"{source}: {what} has no {key}")
         return tuple(default)
-    return tuple(_float(v, what, source) for v in element.get(key, "").split())
+    return tuple(_float(v, f"{what} {key}", source) for v in element.get(key, "").split())
 
 
 def _float(text: str, what: str, source: str) -> float:
