@@ -21,7 +21,7 @@ import viser
 from app.core.errors import StudioError
 from app.core.posing.drag import Posing
 from app.core.posing.ik import OUT_OF_REACH, IkResult
-from app.core.posing.ik_verdict import HELD_BACK_BY
+from app.core.posing.ik_verdict import explains
 from app.core.posing.ready_pose import ready_pose
 from app.core.robot.model import RobotModel
 from app.studio.coalesce import Coalescer
@@ -158,9 +158,7 @@ class PoseSession:
             # Known before the pose is shown, so that _on_pose writes the status once.
             self.last_result = result
             if result.explained:
-                self._held_back = tuple(
-                    line for line in result.shortfall if line.startswith(HELD_BACK_BY)
-                )
+                self._held_back = tuple(line for line in result.shortfall if explains(line))
             self._state.set_pose(result.q, stance, origin, robot)
             if self.last_result is not result:  # not a drag: _on_pose cleared it
                 self.last_result = result

@@ -296,8 +296,8 @@ class WholeBodyIK(IkStepsMixin, IkTrackMixin):
             # The CoM never got inside: rather than a contorted compromise, show the pose
             # without the polygon and say so.
             warnings.append(
-                "the CoM cannot be brought over the support polygon from here "
-                "(a leg without ankle roll cannot shift it over one flat foot): shown without it"
+                "the CoM cannot be brought over the support polygon from here (the joints "
+                "cannot shift it over the stance sole from this pose): shown without it"
             )
             q, iterations = self._iterate(
                 start, None, max_iterations, step_tolerance, stop_when_met

@@ -21,7 +21,7 @@ from app.core.posing.ik_records import (
     IkTargets,
     _Ended,
 )
-from app.core.posing.shortfall import Bounded, Goal, Situation, blockers
+from app.core.posing.shortfall import NOTHING_PUSHED, Bounded, Goal, Situation, blockers
 from app.core.posing.support_polygon import OFF_POLYGON, SupportPolygonMixin
 
 NEAR_LIMIT_RAD = np.deg2rad(3.0)
@@ -32,6 +32,11 @@ OUT_OF_REACH = " target out of reach: closest pose is "
 """The words of the warning a missed target gives (its distance follows)."""
 HELD_BACK_BY = "held back by "
 """The words a shortfall's line on what holds the pose back starts with."""
+
+
+def explains(line: str) -> bool:
+    """Whether a shortfall's line says what holds the pose back (not how far a target is)."""
+    return line.startswith(HELD_BACK_BY) or line == NOTHING_PUSHED
 
 
 class IkVerdictMixin(SupportPolygonMixin):
@@ -176,4 +181,7 @@ class IkVerdictMixin(SupportPolygonMixin):
             edges,
             torso,
         )
-        return [HELD_BACK_BY + reason for reason in blockers(robot.model, self._data, q, situation)]
+        return [
+            reason if reason == NOTHING_PUSHED else HELD_BACK_BY + reason
+            for reason in blockers(robot.model, self._data, q, situation)
+        ]

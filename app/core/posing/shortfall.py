@@ -34,6 +34,12 @@ SHARE_NAMED = 0.15
 NO_PUSH = 1e-9
 """[m²/rad] A push this small in the free directions: nothing first-order is blocked (a
 singular pose, e.g. a straight leg, where no joint motion brings the target closer)."""
+NOTHING_PUSHED = (
+    "no joint motion brings the target closer from here: a straight leg cannot bend by a "
+    "small step (Ready pose bends the knees)"
+)
+"""The shortfall's line where the push vanishes in the free directions (NO_PUSH): said as it
+is, not as a "held back by" reason."""
 WELL_CONDITIONED = 1e-8
 """JJᵀ of the held feet's Jacobian J is solved by its Cholesky factor when LAPACK's estimate of
 its reciprocal condition number (1-norm) is above this: the projector is then within ~1e-8
@@ -114,7 +120,7 @@ def reason_shares(
     projected = _free(np.vstack(held) if held else None, np.array([push, *rows]))
     b, A = projected[0], projected[1:].T
     if float(b @ b) < NO_PUSH**2:
-        return "no joint motion brings the target closer from here (a straight leg?)"
+        return NOTHING_PUSHED
     if not rows:
         return {}
     scale = math.sqrt(float((A * A).sum(axis=0).max()))
