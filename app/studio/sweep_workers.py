@@ -137,6 +137,9 @@ class SweepWorkers:
         except CancelledError as error:  # the engine was replaced or closed meanwhile
             log.info("preparing the sweep workers was interrupted: %s", type(error).__name__)
             return
+        except StudioError as error:  # this robot cannot be swept (said again by Run)
+            log.info("the sweep workers are not prepared: %s", error)
+            return
         except Exception:  # background work: the first sweep will build what it needs
             if not self._closed:
                 log.exception("preparing the sweep workers failed")

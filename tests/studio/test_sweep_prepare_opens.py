@@ -7,6 +7,7 @@ tests/conftest.py fails this test on any logged traceback."""
 from __future__ import annotations
 
 import threading
+import time
 
 from app.config import StudioConfig
 from app.core.projects.files import project_bytes
@@ -53,5 +54,28 @@ def test_many_project_opens_prepare_quietly_for_the_last_robot(tmp_path):
             assert done.wait(GUARD_S), studio.sweep.panel.status.content
         finally:
             disconnect()
+    finally:
+        studio.stop()
+
+
+def test_a_robot_the_planner_cannot_walk_is_not_prepared_and_logs_one_line(tmp_path, caplog):
+    """hybrid_leg_biped (its gait defaults admit no walk: sweep_choices) loaded in a studio that
+    prepares its workers: the preparer says in one info line that it did not prepare, with no
+    traceback (the autouse fixture), instead of logging the StudioError as a failure."""
+    config = StudioConfig(
+        port=free_port(), data_dir=tmp_path / "data", prepare_sweep=True, autosave=False
+    )
+    studio = Studio(config)
+    try:
+        with caplog.at_level("INFO", logger="app.studio.sweep_workers"):
+            studio.robots.load("hybrid_leg_biped")
+            deadline = time.monotonic() + GUARD_S
+            said = []
+            while not said and time.monotonic() < deadline:
+                said = [r for r in caplog.records if "not prepared" in r.getMessage()]
+                time.sleep(0.2)
+        assert said, "the preparer never said it did not prepare"
+        assert "cannot walk it" in said[0].getMessage()
+        assert said[0].exc_info is None
     finally:
         studio.stop()
