@@ -452,3 +452,12 @@ def publish(page, name: str) -> None:
     if os.environ.get("BIPED_STUDIO_SCREENSHOT") == "1":
         STATIC.mkdir(parents=True, exist_ok=True)
         page.screenshot(path=str(STATIC / name))
+
+
+def chart_pixels(page, label: str, colours: tuple[tuple[int, int, int], ...]) -> list[int]:
+    """How many pixels of each of `colours` (RGB) the first chart (uPlot canvas) of the GUI
+    folder `label` shows: what the chart drew, not what the server sent it."""
+    canvas = folder(page, label).locator(".uplot canvas").first
+    canvas.scroll_into_view_if_needed()
+    image = np.asarray(Image.open(io.BytesIO(canvas.screenshot())).convert("RGB"), dtype=int)
+    return [int((np.abs(image - np.array(rgb)).max(axis=2) < 40).sum()) for rgb in colours]

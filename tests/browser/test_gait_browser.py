@@ -14,7 +14,6 @@ the previous one: run them together, in file order.
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +25,7 @@ from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
     changed,
+    chart_pixels,
     click_button,
     dismiss_software_webgl_warning,
     expand_folder,
@@ -274,14 +274,6 @@ MIN_STROKE_PIXELS = 30
 iterations of a warm or cold solve is hundreds of pixels long; an empty chart has none)."""
 
 
-def stroke_pixels(page) -> list[int]:
-    """How many pixels of each series' colour the Gait folder's chart canvas shows."""
-    canvas = folder(page, GAIT).locator(".uplot canvas").first
-    canvas.scroll_into_view_if_needed()
-    image = np.asarray(Image.open(io.BytesIO(canvas.screenshot())).convert("RGB"), dtype=int)
-    return [int((np.abs(image - rgb).max(axis=2) < 40).sum()) for rgb in SERIES_RGB]
-
-
 def test_convergence_chart_draws_again_after_a_cancel_before_any_iteration(
     page, studio: Studio
 ) -> None:
@@ -322,7 +314,11 @@ def test_convergence_chart_draws_again_after_a_cancel_before_any_iteration(
     assert len(session.solves.history[0]) >= 2
     drawn = wait_for(
         "the convergence chart to draw both series",
-        lambda: (counts := stroke_pixels(page)) and min(counts) >= MIN_STROKE_PIXELS and counts,
+        lambda: (
+            (counts := chart_pixels(page, GAIT, SERIES_RGB))
+            and min(counts) >= MIN_STROKE_PIXELS
+            and counts
+        ),
         UI_TIMEOUT_S,
     )
     print(f"\nconvergence chart: {drawn} pixels of the objective / violation strokes")
