@@ -33,6 +33,7 @@ from app.core.servo.presets import PRESETS, preset_params
 from app.core.servo.scaling import scaled_servo_model
 from app.core.simulation.drive import COMPENSATED_TORQUES, compensated_torque_Nm
 from app.studio.coalesce import Coalescer
+from app.studio.file_names import file_slug
 from app.studio.notifier import Notifier
 from app.studio.servo_parts import simulation_law
 from app.studio.state import LoadedRobot, StudioState
@@ -255,7 +256,7 @@ class CompensationSession:
             return None
         content = buffer.getvalue().encode()
         if client is not None:
-            client.send_file_download(f"{trajectory.name}_servo_commands.csv", content)
+            client.send_file_download(f"{file_slug(trajectory.name)}_servo_commands.csv", content)
         return content
 
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:

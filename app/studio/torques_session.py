@@ -22,6 +22,7 @@ from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
 from app.core.servo.files import write_torque_csv
+from app.studio.file_names import file_slug
 from app.studio.notifier import Notifier, failure_told
 from app.studio.signals import Signal
 from app.studio.state import Motion, StudioState
@@ -114,7 +115,7 @@ class TorquesSession:
         write_torque_csv(buffer, feedforward)
         content = buffer.getvalue().encode()
         if client is not None:
-            client.send_file_download(f"{feedforward.trajectory_name}_tau.csv", content)
+            client.send_file_download(f"{file_slug(feedforward.trajectory_name)}_tau.csv", content)
         return content
 
     # --- the pool ------------------------------------------------------------------------------
