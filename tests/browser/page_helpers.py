@@ -456,8 +456,16 @@ def publish(page, name: str) -> None:
 
 def chart_pixels(page, label: str, colours: tuple[tuple[int, int, int], ...]) -> list[int]:
     """How many pixels of each of `colours` (RGB) the first chart (uPlot canvas) of the GUI
-    folder `label` shows: what the chart drew, not what the server sent it."""
+    folder `label` shows: what the chart drew, not what the server sent it. A chart the panel
+    replaced while it was read (a new plot rebuilt in place) counts as nothing drawn yet, so
+    that a `wait_for` on it reads the new one at its next poll."""
     canvas = folder(page, label).locator(".uplot canvas").first
-    canvas.scroll_into_view_if_needed()
-    image = np.asarray(Image.open(io.BytesIO(canvas.screenshot())).convert("RGB"), dtype=int)
+    try:
+        canvas.scroll_into_view_if_needed()
+        png = canvas.screenshot()
+    except PlaywrightError as error:
+        if "not attached" not in str(error):
+            raise
+        return [0] * len(colours)
+    image = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=int)
     return [int((np.abs(image - np.array(rgb)).max(axis=2) < 40).sum()) for rgb in colours]
