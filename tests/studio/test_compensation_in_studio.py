@@ -287,3 +287,17 @@ def test_the_files_of_a_motion_named_in_words_are_named_alike_without_spaces(stu
     assert (tau_csv, commands_csv) == (f"{stem}_tau.csv", f"{stem}_servo_commands.csv")
     for name in tab.names:
         assert re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", name), name
+
+
+def test_a_warning_of_the_quick_estimate_goes_once_it_no_longer_holds(studio):
+    """Table 2 on the one-leg stand predicts a fall; "none" then commands the plan itself, the
+    no-compensation estimate (which stands): the warning must not stay in the status."""
+    session = studio.servo_rooms.compensation
+    session.apply_preset("table2")
+    assert "would fall" in session.panel.status.content
+    session.apply_preset("none")
+    params = studio.state.work.coefficients.params
+    assert not np.any(params.k_deg_per_Nm[params.enabled])
+    status = session.panel.status.content
+    assert "would fall" not in status and "⚠️" not in status
+    assert status.startswith("τ of **one_leg_stand**: max |τ|")
