@@ -38,7 +38,7 @@ from app.studio.file_names import file_slug
 from app.studio.notifier import Notifier
 from app.studio.servo_parts import simulation_law
 from app.studio.state import LoadedRobot, StudioState
-from app.studio.torques_session import torque_summary
+from app.studio.torque_text import torque_summary
 from app.studio.work import Coefficients
 from panels.compensation_folder import CompensationFolder
 from panels.compensation_panel import CompensationPanel
