@@ -146,7 +146,14 @@ class GaitPanel:
     def show_convergence(
         self, iterations: list[int], objective: list[float], violation: list[float]
     ) -> None:
-        """Objective and constraint violation (log scale) per IPOPT iteration."""
+        """Objective and constraint violation (log scale) per IPOPT iteration. A solve that
+        ended before its first iteration (cancelled while the worker built the NLP) hides the
+        chart instead: uPlot in the page never draws again once handed empty series, so every
+        open tab's chart stayed blank for all later solves until the page was reloaded."""
+        if not iterations:
+            if self.convergence is not None:
+                self.convergence.visible = False
+            return
         data = (
             np.asarray(iterations, dtype=float),
             np.log10(np.maximum(np.abs(objective), 1e-12)),
@@ -154,6 +161,7 @@ class GaitPanel:
         )
         if self.convergence is not None:
             self.convergence.data = data
+            self.convergence.visible = True
             return
         series = (
             uplot.Series(label="iteration"),

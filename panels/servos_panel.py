@@ -18,6 +18,7 @@ import viser.uplot as uplot
 
 from app.core.servo.kp_sizing import MAX_SAG_DEG, MAX_STAND_MARGIN, STAND_MARGIN
 from panels.quiet import Quiet, set_value
+from panels.uplot_scale import scales_for
 
 IDEAL_LABEL = "ideal servo"
 SETTING_LABELS = {
@@ -267,5 +268,5 @@ class ServosPanel:
                 tuple(series),
                 title=title,
                 aspect=1.4,
-                scales={"x": uplot.Scale(time=False)},
+                scales=scales_for(x, *lines, points),
             )

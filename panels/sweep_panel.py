@@ -20,6 +20,7 @@ import viser
 import viser.uplot as uplot
 
 from panels.quiet import Quiet, set_value
+from panels.uplot_scale import scales_for
 
 NONE = "(none)"
 ALL_COLOUR = "#4c72b0"
@@ -272,6 +273,7 @@ class SweepPanel:
         )
         title = f"{labels[1]} vs {labels[0]}"
         if self.plot is not None and self._plot_title == title:
+            self.plot.scales = scales_for(*data)
             self.plot.data = data
             return
         if self.plot is not None:
@@ -300,7 +302,7 @@ class SweepPanel:
                 series,
                 title=title,
                 aspect=1.4,
-                scales={"x": uplot.Scale(time=False)},
+                scales=scales_for(*data),
             )
         self._plot_title = title
 

@@ -19,6 +19,7 @@ import logging
 import numpy as np
 import viser
 
+from app.core.dynamics.peaks import torque_peaks
 from app.core.dynamics.wbc import FeedForward
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
@@ -33,9 +34,11 @@ from app.core.servo.presets import PRESETS, preset_params
 from app.core.servo.scaling import scaled_servo_model
 from app.core.simulation.drive import COMPENSATED_TORQUES, compensated_torque_Nm
 from app.studio.coalesce import Coalescer
+from app.studio.file_names import file_slug
 from app.studio.notifier import Notifier
 from app.studio.servo_parts import simulation_law
 from app.studio.state import LoadedRobot, StudioState
+from app.studio.torque_text import torque_summary
 from app.studio.work import Coefficients
 from panels.compensation_folder import CompensationFolder
 from panels.compensation_panel import CompensationPanel
@@ -58,6 +61,9 @@ class CompensationSession:
         """The current torques, the torque compensated and its predictor: what the coefficients
         do not change, computed once per motion and compensated torque."""
         self._torque: tuple[tuple[object, ...], str, ServoModel, np.ndarray] | None = None
+        self._warned = ""
+        """The warning this session last put in the status (a preset scaled, an absurd quick
+        estimate): taken back, for the torques' summary, once it no longer holds."""
         """What the compensated torque was computed from (robot, motion, torques and parts,
         torque kind, servos) and the torque (`_compensated_torque`)."""
         state.on_robot.connect(self._on_robot)
@@ -105,8 +111,10 @@ class CompensationSession:
                 params, joint_angles(robot, trajectory.q), tau_Nm, lower, upper
             )
             if scale < 1.0:
-                self.panel.status.content = f"⚠️ {params.notes[-1]}"
+                self._warn(params.notes[-1])
                 self._notifier.notify("Preset scaled", params.notes[-1], None, "yellow")
+            else:
+                self._unwarn(robot, trajectory, feedforward)
         self._state.work.set_coefficients(params, current.servo, "preset")
 
     def set_servos(self, params: CompensationParams, servo: ServoModel) -> None:
@@ -195,8 +203,22 @@ class CompensationSession:
                 return
             absurd = implausible_prediction(prediction)
             if absurd:
-                self.panel.status.content = "⚠️ " + "; ".join(absurd) + " (quick estimate)"
+                self._warn("; ".join(absurd) + " (quick estimate)")
+            elif self._warned.endswith("(quick estimate)"):
+                self._unwarn(robot, trajectory, feedforward)
             self._state.work.set_prediction(prediction, feedforward, coefficients)
+
+    def _warn(self, text: str) -> None:
+        self._warned = f"⚠️ {text}"
+        self.panel.status.content = self._warned
+
+    def _unwarn(self, robot: RobotModel, trajectory: Trajectory, feedforward: FeedForward) -> None:
+        """The status's warning no longer holds (k back within the limits, a plausible quick
+        estimate): the torques' summary again, unless something else has spoken since."""
+        if self._warned and self.panel.status.content == self._warned:
+            peaks = torque_peaks(robot, trajectory, feedforward)
+            self.panel.status.content = torque_summary(peaks, trajectory)
+        self._warned = ""
 
     def cached_predictor(self) -> Predictor | None:
         """The predictor of the last quick estimate (the bench times it alone)."""
@@ -255,7 +277,7 @@ class CompensationSession:
             return None
         content = buffer.getvalue().encode()
         if client is not None:
-            client.send_file_download(f"{trajectory.name}_servo_commands.csv", content)
+            client.send_file_download(f"{file_slug(trajectory.name)}_servo_commands.csv", content)
         return content
 
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import dataclasses
 import io
 import math
-import re
 import tempfile
 import threading
 from pathlib import Path
@@ -31,6 +30,7 @@ from app.core.motions.library import run_motion
 from app.core.projects.project import Project
 from app.core.robot.model import RobotModel
 from app.studio.admission import Admission, Busy
+from app.studio.file_names import file_slug
 from app.studio.notifier import Notifier
 from app.studio.state import LoadedRobot, Stance, StudioState
 from panels.keyframes_panel import KeyframesPanel
@@ -216,7 +216,7 @@ class MotionSession:
         write_trajectory_csv(trajectory, buffer, robot)
         content = buffer.getvalue().encode()
         if client is not None:
-            client.send_file_download(f"{_slug(trajectory.name)}.csv", content)
+            client.send_file_download(f"{file_slug(trajectory.name)}.csv", content)
         return content
 
     def import_file(
@@ -237,7 +237,7 @@ class MotionSession:
                 client,
             )
         with tempfile.TemporaryDirectory() as folder:
-            path = Path(folder) / _slug(Path(filename).name)
+            path = Path(folder) / file_slug(Path(filename).name)
             path.write_bytes(content)
             try:
                 if content[:1].isalpha():
@@ -295,7 +295,3 @@ def _valid_duration(duration_s: float) -> bool:
 
 def _duration_message(duration_s: object) -> str:
     return f"a keyframe duration of {duration_s!r} s: give a time in (0, {MAX_KEYFRAME_S:g}] s"
-
-
-def _slug(name: str) -> str:
-    return re.sub(r"[^A-Za-z0-9._-]+", "_", name).strip("._") or "motion"

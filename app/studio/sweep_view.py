@@ -31,6 +31,8 @@ class SweepView:
         self.panel = panel
         self.picker = SweepPicker(server, panel)
         """The plots (the panel's and the clickable one in the 3D view) and the picked point."""
+        self._starting = ""
+        """The status line of the sweep starting (replaced, not kept, if it ends at once)."""
 
     def say(self, line: str) -> None:
         self.panel.status.content = line
@@ -41,7 +43,8 @@ class SweepView:
     def starting(self, points: int, workers: int) -> None:
         self.picker.clear()
         self.panel.running(True)
-        self.say(f"Starting {points} points on {workers} workers…")
+        self._starting = f"Starting {points} points on {workers} worker{'s' * (workers != 1)}…"
+        self.say(self._starting)
 
     def progress(
         self, spec: SweepSpec, results: list[PointResult], total: int, seconds: float
@@ -66,10 +69,12 @@ class SweepView:
     ) -> None:
         """The sweep ended (`done`: "done", "cancelled…"), with `error` where it failed."""
         counts = tally(results, total, spec.simulate, finished=True).line()
-        line = f"Sweep {done}: {counts}; Pareto points: {list(front)}."
+        line = f"Sweep {done}: {counts}; Pareto points: {_numbers(front)}."
         if error:
             self.say(f"⚠️ {error}  \n{line}")
-        else:
+        elif self.panel.status.content == self._starting:  # ended before its first result
+            self.say(line)
+        else:  # below the last progress line (its speed)
             self.say(f"{self.panel.status.content}  \n{line}")
         self.panel.running(False)
         self.picker.show(spec, results, final=True)
@@ -92,7 +97,7 @@ class SweepView:
         counts = tally(results, spec.n_points, spec.simulate, finished=True).line()
         self.say(
             f"From the project{' (cancelled)' if record.cancelled else ''}: {counts}; "
-            f"Pareto points: {list(front)}."
+            f"Pareto points: {_numbers(front)}."
         )
         self.picker.show(spec, results, final=True)
         self.picker.pick_first(front, self.panel.point.value)
@@ -107,3 +112,8 @@ class SweepView:
             f"No sweep yet; {workers} workers ready with {Path(robot).name}'s "
             f"{point.settings.knots}-knot gait problem built."
         )
+
+
+def _numbers(front: tuple[int, ...]) -> str:
+    """The Pareto points' numbers as the panel's Point # box takes them: "#3, #7", or "none"."""
+    return ", ".join(f"#{i}" for i in front) or "none"

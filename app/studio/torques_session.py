@@ -12,19 +12,20 @@ import io
 import logging
 import threading
 
-import numpy as np
 import viser
 
 from app.core.dynamics.parallel import MIN_POOL_SAMPLES, FeedForwardPool
-from app.core.dynamics.peaks import TorquePeaks, torque_peaks
+from app.core.dynamics.peaks import torque_peaks
 from app.core.dynamics.wbc import FeedForward, torque_feedforward
 from app.core.errors import StudioError
 from app.core.motions.trajectory import Trajectory
 from app.core.robot.model import RobotModel
 from app.core.servo.files import write_torque_csv
+from app.studio.file_names import file_slug
 from app.studio.notifier import Notifier, failure_told
 from app.studio.signals import Signal
 from app.studio.state import Motion, StudioState
+from app.studio.torque_text import torque_summary
 from panels.compensation_folder import CompensationFolder
 from panels.torques_panel import TorquesPanel
 
@@ -114,7 +115,7 @@ class TorquesSession:
         write_torque_csv(buffer, feedforward)
         content = buffer.getvalue().encode()
         if client is not None:
-            client.send_file_download(f"{feedforward.trajectory_name}_tau.csv", content)
+            client.send_file_download(f"{file_slug(feedforward.trajectory_name)}_tau.csv", content)
         return content
 
     # --- the pool ------------------------------------------------------------------------------
@@ -143,27 +144,3 @@ class TorquesSession:
     def _fail(self, title: str, body: str, client: viser.ClientHandle | None) -> None:
         self.panel.status.content = f"⚠️ {body}"
         self._notifier.error(title, body, client)
-
-
-def torque_summary(peaks: TorquePeaks, trajectory: Trajectory) -> str:
-    """Peak torque over the samples the QP and the joints' speed limits can follow; flagged
-    samples named apart (their torques are not peaks: the robot cannot do them)."""
-    worst = int(np.argmax(peaks.max_abs_tau_Nm)) if len(peaks.joint_names) else 0
-    lines = [
-        f"τ of **{trajectory.name}**: max |τ| {peaks.max_abs_tau_Nm[worst]:.2f} N·m "
-        f"({peaks.joint_names[worst]}) over the samples the robot can follow."
-    ]
-    for what, samples in (
-        ("the whole-body QP cannot follow", peaks.infeasible_samples),
-        ("ask a joint to move faster than its limit", peaks.over_speed_samples),
-    ):
-        if samples:
-            first = trajectory.t[samples[0]]
-            lines.append(
-                f"⚠️ **{len(samples)} sample(s) {what}** (first at t = {first:.2f} s); their "
-                "torques are left out of the peak."
-            )
-    if peaks.flagged_samples:
-        everything = float(np.max(peaks.max_abs_tau_all_samples_Nm))
-        lines.append(f"Peak over every sample, flagged ones included: {everything:.2f} N·m.")
-    return "  \n".join(lines)

@@ -452,3 +452,20 @@ def publish(page, name: str) -> None:
     if os.environ.get("BIPED_STUDIO_SCREENSHOT") == "1":
         STATIC.mkdir(parents=True, exist_ok=True)
         page.screenshot(path=str(STATIC / name))
+
+
+def chart_pixels(page, label: str, colours: tuple[tuple[int, int, int], ...]) -> list[int]:
+    """How many pixels of each of `colours` (RGB) the first chart (uPlot canvas) of the GUI
+    folder `label` shows: what the chart drew, not what the server sent it. A chart the panel
+    replaced while it was read (a new plot rebuilt in place) counts as nothing drawn yet, so
+    that a `wait_for` on it reads the new one at its next poll."""
+    canvas = folder(page, label).locator(".uplot canvas").first
+    try:
+        canvas.scroll_into_view_if_needed()
+        png = canvas.screenshot()
+    except PlaywrightError as error:
+        if "not attached" not in str(error):
+            raise
+        return [0] * len(colours)
+    image = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=int)
+    return [int((np.abs(image - np.array(rgb)).max(axis=2) < 40).sum()) for rgb in colours]

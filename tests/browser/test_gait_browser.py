@@ -25,6 +25,7 @@ from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
     changed,
+    chart_pixels,
     click_button,
     dismiss_software_webgl_warning,
     expand_folder,
@@ -49,6 +50,9 @@ while it runs. At 80 knots (~4 s) a busy CI machine once let the solve finish be
 # Fraction of the view that must change when the walk's footprints appear on the floor:
 # 10x the noise allowed between two "stable" shots.
 MIN_FOOTPRINTS_CHANGE_FRACTION = 0.005
+NEW_STRUCTURE_KNOTS = 150
+"""A mesh no earlier test built: its solve first spends seconds building the NLP (and a coarse
+solve), so a Cancel right after "Solving…" shows lands before IPOPT's first iteration."""
 MARKERS = ("Solving", "Solved in", "Cancelled")
 
 # Records, on the page's clock (performance.now(), ms), when each marker text appears in the
@@ -261,3 +265,60 @@ def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio, st
     wait_for("the studio to be idle", lambda: session.solves.running is None, UI_TIMEOUT_S)
     assert session.results.symmetric is good
     assert not page.get_by_role("button", name="Cancel", exact=True).is_enabled()
+
+
+SERIES_RGB = ((0x1F, 0x77, 0xB4), (0xD6, 0x27, 0x28))
+"""The convergence chart's two strokes (objective, violation), as GaitPanel draws them."""
+MIN_STROKE_PIXELS = 30
+"""Pixels of a series' colour that make a drawn line across the chart (a line over the 5-30
+iterations of a warm or cold solve is hundreds of pixels long; an empty chart has none)."""
+
+
+def test_convergence_chart_draws_again_after_a_cancel_before_any_iteration(
+    page, studio: Studio
+) -> None:
+    """A solve cancelled while the worker still builds its NLP ends with no iteration; the next
+    solve's convergence must still be drawn in the page (it stayed blank until a reload)."""
+    session = studio.gait
+    expand_folder(page, GAIT, "Solve")
+    type_number(page, "knots", NEW_STRUCTURE_KNOTS)
+    wait_for(
+        f"the studio to receive {NEW_STRUCTURE_KNOTS} knots",
+        lambda: session.panel.sliders["knots"].value == NEW_STRUCTURE_KNOTS,
+        UI_TIMEOUT_S,
+    )
+    clicked_ms = click_solve(page)
+    click_button(page, "Cancel")
+    wait_for(
+        'the page to show "Cancelled" (or the solve\'s end)',
+        lambda: any(seen_at(page, m, clicked_ms) is not None for m in ("Cancelled", "Solved in")),
+        UI_TIMEOUT_S,
+    )
+    wait_for("the studio to be idle", lambda: session.solves.running is None, UI_TIMEOUT_S)
+    assert session.solves.history == ([], [], []), (
+        "the solve reached IPOPT before the Cancel: this test needs a cancel during the NLP build"
+    )
+
+    type_number(page, "knots", 38)
+    wait_for(
+        "the studio to receive 38 knots",
+        lambda: session.panel.sliders["knots"].value == 38,
+        UI_TIMEOUT_S,
+    )
+    clicked_ms = click_solve(page)
+    wait_for(
+        'the page to show "Solved in"',
+        lambda: seen_at(page, "Solved in", clicked_ms) is not None,
+        SOLVE_TIMEOUT_S,
+    )
+    assert len(session.solves.history[0]) >= 2
+    drawn = wait_for(
+        "the convergence chart to draw both series",
+        lambda: (
+            (counts := chart_pixels(page, GAIT, SERIES_RGB))
+            and min(counts) >= MIN_STROKE_PIXELS
+            and counts
+        ),
+        UI_TIMEOUT_S,
+    )
+    print(f"\nconvergence chart: {drawn} pixels of the objective / violation strokes")

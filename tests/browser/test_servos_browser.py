@@ -28,6 +28,7 @@ from app.studio.servo_parts import catalogue
 from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
+    chart_pixels,
     click_button,
     compute_torques_in_page,
     expand_folder,
@@ -44,6 +45,10 @@ from tests.kp_brute_force import studio_sizing_pairs
 from tests.studio.test_user_servos_in_studio import ERROR_GAIN, KP, KT, VIN, R, servo_toml
 
 MOTION = "one_leg_stand"
+ENVELOPE_RGB, POINTS_RGB = (0x1F, 0x77, 0xB4), (0xD6, 0x27, 0x28)
+"""The torque-speed chart's envelope and planned points (panels.servos_panel)."""
+MIN_CHART_PIXELS = 20
+"""Envelope lines span the chart and a planned point is 4 px across; an empty chart has none."""
 JOINT = "left_knee"
 SERVO = "mx64"
 MARGIN = 0.2
@@ -94,6 +99,13 @@ def test_size_servos_shows_the_choice_and_its_margins(page, studio: Studio) -> N
     )
     parts = wait_for(
         "the sized parts", lambda: (p := studio.state.work.parts) is not before and p, UI_TIMEOUT_S
+    )
+    # The selected joint's torque-speed chart draws its envelope and planned points (it drew
+    # nothing while the points' column held gaps at the envelope's speeds).
+    wait_for(
+        "the torque-speed chart drawn",
+        lambda: min(chart_pixels(page, "Servos", (ENVELOPE_RGB, POINTS_RGB))) >= MIN_CHART_PIXELS,
+        UI_TIMEOUT_S,
     )
     text = servos.inner_text()
     assert f"margin {MARGIN:.0%}" in text

@@ -23,6 +23,7 @@ from app.studio import Studio
 from tests.browser.page_helpers import (
     RENDER_TIMEOUT_S,
     UI_TIMEOUT_S,
+    chart_pixels,
     click_button,
     dismiss_software_webgl_warning,
     expand_folder,
@@ -39,6 +40,10 @@ from tests.browser.page_helpers import (
 )
 
 SWEEP = "Sweep"
+FRONT_RGB = (0xD6, 0x27, 0x28)
+"""The Pareto front's colour in the panel's chart (panels.sweep_panel.FRONT_COLOUR)."""
+MIN_CHART_PIXELS = 20
+"""A drawn point of the front (8 px across) covers about 50 pixels; an empty chart none."""
 SWEEP_TIMEOUT_S = 600.0
 """Start a 2-worker cluster, build a 14-knot NLP in each, solve 3 points (a shared machine)."""
 
@@ -74,6 +79,12 @@ def test_run_a_sweep_and_load_a_pareto_point(page, studio: Studio) -> None:
     outcome = session.outcome
     assert outcome is not None and len(outcome.results) == 3 and outcome.pareto
     sweep.locator(".uplot canvas").first.wait_for(state="visible")
+    # The panel's chart draws the Pareto front (it drew nothing while a series held a gap).
+    wait_for(
+        "the panel's chart to draw the Pareto front",
+        lambda: chart_pixels(page, SWEEP, (FRONT_RGB,))[0] >= MIN_CHART_PIXELS,
+        UI_TIMEOUT_S,
+    )
     solved = sum(r.solved for r in outcome.results)
     counts = f"3 / 3 done: {solved} solved, {3 - solved} failed, 0 cancelled"
     sweep.get_by_text(counts, exact=False).wait_for(state="visible")

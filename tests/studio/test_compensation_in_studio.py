@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
+import re
 
 import numpy as np
 import pytest
@@ -257,3 +259,45 @@ def test_the_feedforward_pool_closes_with_the_studio(tmp_path):
     finally:
         studio.stop()
     assert studio.servo_rooms.torques.feedforward_pool is None
+
+
+class DownloadingTab:
+    """Stands for a tab: records the names of the files the studio sends it."""
+
+    def __init__(self) -> None:
+        self.names: list[str] = []
+
+    def send_file_download(self, name: str, content: bytes, **_: object) -> None:
+        self.names.append(name)
+
+
+def test_the_files_of_a_motion_named_in_words_are_named_alike_without_spaces(studio):
+    """A gait's walk is named "walk of 4 steps": its τ and servo-command CSVs must be named
+    like its motion CSV (no spaces, nothing a shell or a path would split on)."""
+    state = studio.state
+    trajectory = dataclasses.replace(state.trajectory, name="walk of 4 steps / ../x")
+    state.set_motion(trajectory, state.motion.summary, state.robot)
+    compute_torques(studio)
+    tab = DownloadingTab()
+    studio.motions.export(tab)
+    studio.servo_rooms.torques.export_torques(tab)
+    studio.servo_rooms.compensation.export_commands(tab)
+    motion_csv, tau_csv, commands_csv = tab.names
+    stem = motion_csv.removesuffix(".csv")
+    assert (tau_csv, commands_csv) == (f"{stem}_tau.csv", f"{stem}_servo_commands.csv")
+    for name in tab.names:
+        assert re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", name), name
+
+
+def test_a_warning_of_the_quick_estimate_goes_once_it_no_longer_holds(studio):
+    """Table 2 on the one-leg stand predicts a fall; "none" then commands the plan itself, the
+    no-compensation estimate (which stands): the warning must not stay in the status."""
+    session = studio.servo_rooms.compensation
+    session.apply_preset("table2")
+    assert "would fall" in session.panel.status.content
+    session.apply_preset("none")
+    params = studio.state.work.coefficients.params
+    assert not np.any(params.k_deg_per_Nm[params.enabled])
+    status = session.panel.status.content
+    assert "would fall" not in status and "⚠️" not in status
+    assert status.startswith("τ of **one_leg_stand**: max |τ|")

@@ -104,3 +104,25 @@ def test_sweep_panel_runs_plots_and_loads_a_point(studio):
     ) in panel.status.content
     assert "Sweep cancelled" in panel.status.content and not panel.run_button.disabled
     assert studio.state.robot is robot
+
+
+def test_a_sweep_cancelled_before_its_first_result_says_so_in_words(studio):
+    """Cancel at once: the status ends on the cancel's line alone, not below a stale
+    "Starting … points…", and names no Pareto point as a Python list."""
+    session, panel = studio.sweep, studio.sweep.panel
+    set_sweep(panel, ("gait:step_length_m", 0.1, 0.2), samples=40)
+    done = threading.Event()
+    ends: list = []
+    disconnect = session.on_sweep_done.connect(lambda o: (ends.append(o), done.set()))
+    try:
+        panel.run_button.value = True
+        panel.cancel_button.value = True
+        assert done.wait(GUARD_S)
+    finally:
+        disconnect()
+    assert ends[0].cancelled
+    assert not ends[0].results, "a result came before the Cancel: this test needs none"
+    status = panel.status.content
+    assert status.startswith("Sweep cancelled: 40 / 40 done: 0 solved, 0 failed, 40 cancelled")
+    assert "Starting" not in status and "[" not in status
+    assert "Pareto points: none." in status
