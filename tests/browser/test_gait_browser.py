@@ -224,13 +224,7 @@ def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio, st
     dismiss_software_webgl_warning(other)
     expand_folder(other, GAIT, "Cancel")
 
-    # Type the knots into the box beside the "knots" slider.
-    type_number(page, "knots", BIG_KNOTS)
-    wait_for(
-        f"the studio to receive {BIG_KNOTS} knots",
-        lambda: session.panel.sliders["knots"].value == BIG_KNOTS,
-        UI_TIMEOUT_S,
-    )
+    type_knots(page, session, BIG_KNOTS)
 
     # What the second tab shows while the solve runs is recorded in that tab as it happens:
     # waiting on it before the Cancel let a fast machine finish the solve first (~7 CPU-s).
@@ -281,12 +275,7 @@ def test_convergence_chart_draws_again_after_a_cancel_before_any_iteration(
     solve's convergence must still be drawn in the page (it stayed blank until a reload)."""
     session = studio.gait
     expand_folder(page, GAIT, "Solve")
-    type_number(page, "knots", NEW_STRUCTURE_KNOTS)
-    wait_for(
-        f"the studio to receive {NEW_STRUCTURE_KNOTS} knots",
-        lambda: session.panel.sliders["knots"].value == NEW_STRUCTURE_KNOTS,
-        UI_TIMEOUT_S,
-    )
+    type_knots(page, session, NEW_STRUCTURE_KNOTS)
     clicked_ms = click_solve(page)
     click_button(page, "Cancel")
     wait_for(
@@ -322,3 +311,13 @@ def test_convergence_chart_draws_again_after_a_cancel_before_any_iteration(
         UI_TIMEOUT_S,
     )
     print(f"\nconvergence chart: {drawn} pixels of the objective / violation strokes")
+
+
+def type_knots(page, session, knots: int) -> None:
+    """Type `knots` into the box beside the "knots" slider, until the studio has them."""
+    type_number(page, "knots", knots)
+    wait_for(
+        f"the studio to receive {knots} knots",
+        lambda: session.panel.sliders["knots"].value == knots,
+        UI_TIMEOUT_S,
+    )
