@@ -229,22 +229,18 @@ def test_cancel_a_larger_solve_keeps_the_last_good_gait(page, studio: Studio, st
     # What the second tab shows while the solve runs is recorded in that tab as it happens:
     # waiting on it before the Cancel let a fast machine finish the solve first (~7 CPU-s).
     other.evaluate(WATCHER_JS)
-    clicked_ms = click_solve(page)
-    assert session.solves.running is not None and session.solves.running.settings.knots == BIG_KNOTS
-    click_button(page, "Cancel")  # waits until the page has enabled it
-    wait_for(
-        'the page to show "Cancelled" (or the solve\'s end)',
-        lambda: any(seen_at(page, m, clicked_ms) is not None for m in ("Cancelled", "Solved in")),
-        UI_TIMEOUT_S,
-    )
+    clicked_ms = solve_then_cancel(page)
+    assert session.solves.running is None or session.solves.running.settings.knots == BIG_KNOTS
     assert seen_at(page, "Solved in", clicked_ms) is None, (
         f"the {BIG_KNOTS}-knot solve finished before the Cancel reached the studio"
     )
     rec = recorded(page)
     assert rec["cancelClicks"], "the page did not see the click on Cancel"
-    click_ms = rec["cancelClicks"][-1]
     cancelled_ms = seen_at(page, "Cancelled", clicked_ms)
-    assert cancelled_ms is not None and cancelled_ms > click_ms
+    assert cancelled_ms is not None
+    before = [ms for ms in rec["cancelClicks"] if ms < cancelled_ms]
+    assert before, "the page showed Cancelled before any click on Cancel"
+    click_ms = before[0]  # the first click the enabled button took
     # Measured, not asserted (a busy machine only makes it slower): SIGTERM, SIGKILL after 0.5 s.
     latency_s = (cancelled_ms - click_ms) / 1000.0
     print(f"\ncancel latency seen in the page (click → 'Cancelled'): {latency_s:.3f} s")
@@ -275,17 +271,16 @@ def test_convergence_chart_draws_again_after_a_cancel_before_any_iteration(
     solve's convergence must still be drawn in the page (it stayed blank until a reload)."""
     session = studio.gait
     expand_folder(page, GAIT, "Solve")
-    type_knots(page, session, NEW_STRUCTURE_KNOTS)
-    clicked_ms = click_solve(page)
-    click_button(page, "Cancel")
-    wait_for(
-        'the page to show "Cancelled" (or the solve\'s end)',
-        lambda: any(seen_at(page, m, clicked_ms) is not None for m in ("Cancelled", "Solved in")),
-        UI_TIMEOUT_S,
-    )
-    wait_for("the studio to be idle", lambda: session.solves.running is None, UI_TIMEOUT_S)
+    # a structure new to the worker, cancelled as soon as it can be: built from the disk cache
+    # it may still reach IPOPT first (then the next knot count is tried)
+    for knots in range(NEW_STRUCTURE_KNOTS, NEW_STRUCTURE_KNOTS - 3, -1):
+        type_knots(page, session, knots)
+        solve_then_cancel(page)
+        wait_for("the studio to be idle", lambda: session.solves.running is None, UI_TIMEOUT_S)
+        if session.solves.history == ([], [], []):
+            break
     assert session.solves.history == ([], [], []), (
-        "the solve reached IPOPT before the Cancel: this test needs a cancel during the NLP build"
+        "each solve reached IPOPT before the Cancel: this test needs a cancel during the NLP build"
     )
 
     type_number(page, "knots", 38)
@@ -311,6 +306,27 @@ def test_convergence_chart_draws_again_after_a_cancel_before_any_iteration(
         UI_TIMEOUT_S,
     )
     print(f"\nconvergence chart: {drawn} pixels of the objective / violation strokes")
+
+
+def solve_then_cancel(page) -> float:
+    """Click *Solve*, then *Cancel* as a quick hand does, again until the page says the solve
+    ended (cancelled, or solved first); when Solve was clicked (page ms). On this machine the
+    160-knot solve takes ~3.5 s from warm caches: a click that first waits for the button to
+    be scrolled to and stable (Playwright's) came after it."""
+    cancel = page.get_by_role("button", name="Cancel", exact=True)
+    cancel.scroll_into_view_if_needed()
+    box = cancel.bounding_box()
+    assert box is not None
+    clicked_ms = click_solve(page)
+
+    def ended() -> bool:
+        if any(seen_at(page, m, clicked_ms) is not None for m in ("Cancelled", "Solved in")):
+            return True
+        page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+        return False
+
+    wait_for('the page to show "Cancelled" (or the solve\'s end)', ended, UI_TIMEOUT_S)
+    return clicked_ms
 
 
 def type_knots(page, session, knots: int) -> None:
